@@ -1,0 +1,4 @@
+//! Files written by `cargo xtask vuids`; do not edit them by hand.
+
+pub mod catalog;
+pub mod khr;

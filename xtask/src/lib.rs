@@ -1,0 +1,126 @@
+//! Project automation behind `cargo xtask`: code generation from the Vulkan
+//! registry and the test driver. A library so that tests can call the
+//! generators directly.
+
+pub mod ash_names;
+pub mod catalog;
+pub mod khr;
+pub mod registry;
+pub mod testing;
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("registry: {0}")]
+    Registry(String),
+    #[error("{0}")]
+    Tool(String),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Stale(String),
+}
+
+pub fn read(path: &Path) -> Result<String, Error> {
+    std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The workspace root (the parent of `xtask/`).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives inside the workspace")
+        .to_path_buf()
+}
+
+/// `../shared/vulkan-registry` beside the workspace, where the project keeps
+/// the registry of Vulkan 1.4.360.
+pub fn default_registry() -> PathBuf {
+    workspace_root().join("../shared/vulkan-registry")
+}
+
+/// Formats generated source with the toolchain's rustfmt, so generated files
+/// pass `cargo fmt --check` and regenerate byte for byte.
+pub fn rustfmt(source: &str) -> Result<String, Error> {
+    let mut child = Command::new("rustfmt")
+        .args(["--edition", "2021", "--emit", "stdout", "--quiet"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| {
+            Error::Tool(format!(
+                "rustfmt: {e} (install it with `rustup component add rustfmt`)"
+            ))
+        })?;
+    child
+        .stdin
+        .take()
+        .expect("piped stdin")
+        .write_all(source.as_bytes())
+        .map_err(|e| Error::Tool(format!("rustfmt stdin: {e}")))?;
+    let output = child
+        .wait_with_output()
+        .map_err(|e| Error::Tool(format!("rustfmt: {e}")))?;
+    if !output.status.success() {
+        return Err(Error::Tool(format!(
+            "rustfmt rejected generated code: {}",
+            String::from_utf8_lossy(&output.stderr)
+        )));
+    }
+    String::from_utf8(output.stdout).map_err(|e| Error::Tool(format!("rustfmt output: {e}")))
+}
+
+/// Paths (relative to the workspace root) and contents of every generated file.
+pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, Error> {
+    let catalog = catalog::select(registry)?;
+    let vk = registry::VkXml::load(&registry.join("vk.xml"))?;
+    let ash = ash_names::AshNames::load(root)?;
+    Ok(vec![
+        (
+            PathBuf::from("vuids/src/generated/catalog.rs"),
+            rustfmt(&catalog::render(&catalog)?)?,
+        ),
+        (
+            PathBuf::from("vuids/src/generated/khr.rs"),
+            rustfmt(&khr::render(&vk, &ash)?)?,
+        ),
+    ])
+}
+
+/// Compares generated files with the committed ones; names each stale file.
+pub fn check_generated(registry: &Path, root: &Path) -> Result<(), Error> {
+    let mut stale = Vec::new();
+    for (path, content) in generate(registry, root)? {
+        let committed = std::fs::read_to_string(root.join(&path)).unwrap_or_default();
+        if committed != content {
+            let line = committed
+                .lines()
+                .zip(content.lines())
+                .position(|(a, b)| a != b)
+                .unwrap_or_else(|| committed.lines().count().min(content.lines().count()))
+                + 1;
+            stale.push(format!(
+                "{} (first difference at line {line})",
+                path.display()
+            ));
+        }
+    }
+    if stale.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Stale(format!(
+            "generated files are stale; run `cargo xtask vuids`: {}",
+            stale.join(", ")
+        )))
+    }
+}

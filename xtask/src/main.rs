@@ -1,0 +1,64 @@
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Project automation for ommcheck.
+#[derive(Parser)]
+#[command(name = "cargo xtask")]
+struct Cli {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Subcommand)]
+enum Task {
+    /// Generate the VUID catalog and the KHR declarations from the Vulkan registry.
+    Vuids {
+        /// Directory with vk.xml and validusage.json (a Vulkan SDK has them in
+        /// $VULKAN_SDK/share/vulkan/registry).
+        #[arg(long, default_value_os_t = xtask::default_registry())]
+        registry: PathBuf,
+        /// Fail if the committed files differ from what the registry generates.
+        #[arg(long)]
+        check: bool,
+    },
+    /// Install what the tests need, then run fmt, clippy and the whole test suite.
+    Test {
+        /// Do not install missing prerequisites; report them.
+        #[arg(long)]
+        no_install: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let root = xtask::workspace_root();
+    let result = match cli.command {
+        Task::Vuids { registry, check } => {
+            if check {
+                xtask::check_generated(&registry, &root).map(|()| {
+                    println!("generated files are up to date with {}", registry.display());
+                })
+            } else {
+                xtask::generate(&registry, &root).and_then(|files| {
+                    for (path, content) in files {
+                        let full = root.join(&path);
+                        std::fs::write(&full, content)
+                            .map_err(|source| xtask::Error::Io { path: full, source })?;
+                        println!("wrote {}", path.display());
+                    }
+                    Ok(())
+                })
+            }
+        }
+        Task::Test { no_install } => xtask::testing::run(&root, !no_install),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,199 @@
+//! `cargo xtask test`: install what the tests need, then fmt, clippy, tests.
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+use crate::Error;
+
+/// True when running under CI (`CI=true`), where a missing prerequisite is a
+/// failure rather than a skipped test.
+pub fn in_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0")
+}
+
+/// A system prerequisite of the test suite.
+struct Prerequisite {
+    what: &'static str,
+    /// Debian packages that provide it.
+    debian_packages: &'static [&'static str],
+    present: fn() -> bool,
+}
+
+fn vulkan_loader_present() -> bool {
+    Command::new("ldconfig")
+        .arg("-p")
+        .output()
+        .is_ok_and(|out| String::from_utf8_lossy(&out.stdout).contains("libvulkan.so.1"))
+}
+
+const PREREQUISITES: &[Prerequisite] = &[Prerequisite {
+    what: "the Vulkan loader (libvulkan.so.1)",
+    debian_packages: &["libvulkan1"],
+    present: vulkan_loader_present,
+}];
+
+fn run_step(description: &str, command: &mut Command) -> Result<(), Error> {
+    eprintln!("xtask: {description}: {command:?}");
+    let status = command
+        .status()
+        .map_err(|e| Error::Tool(format!("{description}: could not start: {e}")))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(Error::Tool(format!("{description} failed ({status})")))
+    }
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|out| String::from_utf8_lossy(&out.stdout).trim() == "0")
+}
+
+fn apt_install(packages: &[&str]) -> Result<(), Error> {
+    let sudo: &[&str] = if is_root() { &[] } else { &["sudo"] };
+    let mut update = Command::new(sudo.first().copied().unwrap_or("apt-get"));
+    if !sudo.is_empty() {
+        update.arg("apt-get");
+    }
+    update.arg("update");
+    run_step("apt-get update", &mut update)?;
+    let mut install = Command::new(sudo.first().copied().unwrap_or("apt-get"));
+    if !sudo.is_empty() {
+        install.arg("apt-get");
+    }
+    install
+        .env("DEBIAN_FRONTEND", "noninteractive")
+        .args(["install", "-y", "--no-install-recommends"])
+        .args(packages);
+    run_step("apt-get install", &mut install)
+}
+
+/// Makes sure every prerequisite is present, installing with apt where it can.
+fn ensure_prerequisites(install: bool) -> Result<(), Error> {
+    let missing: Vec<&Prerequisite> = PREREQUISITES.iter().filter(|p| !(p.present)()).collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let has_apt = Command::new("apt-get").arg("--version").output().is_ok();
+    if install && has_apt {
+        let packages: Vec<&str> = missing
+            .iter()
+            .flat_map(|p| p.debian_packages.iter().copied())
+            .collect();
+        apt_install(&packages)?;
+    }
+    let still_missing: Vec<String> = PREREQUISITES
+        .iter()
+        .filter(|p| !(p.present)())
+        .map(|p| format!("{} (Debian: {})", p.what, p.debian_packages.join(" ")))
+        .collect();
+    if still_missing.is_empty() {
+        return Ok(());
+    }
+    let message = format!(
+        "missing test prerequisites: {}{}",
+        still_missing.join("; "),
+        if has_apt {
+            ""
+        } else {
+            " — this system has no apt-get; install them with its package manager"
+        }
+    );
+    if in_ci() {
+        Err(Error::Tool(message))
+    } else {
+        eprintln!("xtask: warning: {message}; tests that need them will be skipped");
+        Ok(())
+    }
+}
+
+fn ensure_components() -> Result<(), Error> {
+    for (component, probe) in [
+        ("rustfmt", ["fmt", "--version"]),
+        ("clippy", ["clippy", "--version"]),
+    ] {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let ok = Command::new(&cargo)
+            .args(probe)
+            .output()
+            .is_ok_and(|o| o.status.success());
+        if !ok {
+            run_step(
+                &format!("install the {component} component"),
+                Command::new("rustup").args(["component", "add", component]),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The whole test run.
+pub fn run(root: &Path, install: bool) -> Result<(), Error> {
+    ensure_prerequisites(install)?;
+    ensure_components()?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    run_step(
+        "formatting",
+        Command::new(&cargo)
+            .current_dir(root)
+            .args(["fmt", "--all", "--", "--check"]),
+    )?;
+    run_step(
+        "clippy",
+        Command::new(&cargo).current_dir(root).args([
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ]),
+    )?;
+    run_tests(
+        Command::new(&cargo)
+            .current_dir(root)
+            .args(["test", "--workspace"]),
+    )
+}
+
+/// Runs `cargo test`, passing its output through, and closes with the
+/// totals over every test binary on one line: `xtask: N passed, M failed`.
+fn run_tests(command: &mut Command) -> Result<(), Error> {
+    eprintln!("xtask: tests: {command:?}");
+    let mut child = command
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| Error::Tool(format!("tests: could not start: {e}")))?;
+    let stdout = child.stdout.take().expect("piped stdout");
+    let (mut passed, mut failed, mut ignored) = (0u64, 0u64, 0u64);
+    for line in BufReader::new(stdout).lines() {
+        let line = line.map_err(|e| Error::Tool(format!("tests: reading output: {e}")))?;
+        println!("{line}");
+        if let Some(counts) = line.strip_prefix("test result: ") {
+            for part in counts.split([';', '.']) {
+                let mut words = part.split_whitespace();
+                if let (Some(n), Some(what)) = (words.next(), words.next()) {
+                    let n: u64 = n.parse().unwrap_or(0);
+                    match what {
+                        "passed" => passed += n,
+                        "failed" => failed += n,
+                        "ignored" => ignored += n,
+                        _ => {}
+                    }
+                }
+            }
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|e| Error::Tool(format!("tests: {e}")))?;
+    println!("xtask: {passed} passed, {failed} failed, {ignored} skipped");
+    if status.success() {
+        Ok(())
+    } else {
+        Err(Error::Tool(format!("tests failed ({status})")))
+    }
+}
