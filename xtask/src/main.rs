@@ -23,6 +23,8 @@ enum Task {
         #[arg(long)]
         check: bool,
     },
+    /// Write VUID-COVERAGE.md: every catalog VUID's status.
+    Coverage,
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
         /// Do not install missing prerequisites; report them.
@@ -51,6 +53,12 @@ fn main() -> ExitCode {
                     Ok(())
                 })
             }
+        }
+        Task::Coverage => {
+            let path = root.join("VUID-COVERAGE.md");
+            std::fs::write(&path, ommcheck::coverage::render())
+                .map(|()| println!("wrote VUID-COVERAGE.md"))
+                .map_err(|source| xtask::Error::Io { path, source })
         }
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };

@@ -1,0 +1,182 @@
+//! Checks many commands share: command-buffer state, device addresses,
+//! buffer usage, alignment, and a cap on repeated content findings.
+
+use std::collections::BTreeMap;
+
+use ommcheck_vuids::Vuid;
+
+use crate::model::command::queue;
+use crate::model::CommandBuffer;
+use crate::report::RuleId;
+use crate::state::Handle;
+use crate::validator::Ctx;
+
+/// The implicit command-buffer VUIDs of one `vkCmd*` command.
+pub(crate) struct CommandBufferVuids {
+    pub parameter: Vuid,
+    pub recording: Vuid,
+    pub cmdpool: Vuid,
+    /// Present for commands that must be outside a render pass.
+    pub renderpass: Option<Vuid>,
+    pub videocoding: Option<Vuid>,
+    pub suspended: Option<Vuid>,
+}
+
+/// Checks the command buffer of a command that needs a compute-capable queue.
+pub(crate) fn command_buffer(ctx: &mut Ctx<'_>, cb: &CommandBuffer, vuids: &CommandBufferVuids) {
+    let handle = cb.handle;
+    ctx.require(
+        handle != 0,
+        vuids.parameter,
+        || "commandBuffer".into(),
+        || "commandBuffer is VK_NULL_HANDLE".into(),
+    );
+    if !cb.recording {
+        ctx.error(
+            vuids.recording,
+            "commandBuffer",
+            "the command buffer is not in the recording state",
+        )
+        .objects
+        .push(crate::report::ObjectRef {
+            ty: "VkCommandBuffer",
+            handle,
+        });
+    }
+    ctx.require(
+        cb.queue_flags & queue::COMPUTE != 0,
+        vuids.cmdpool,
+        || "commandBuffer".into(),
+        || {
+            format!(
+                "the command pool's queue family supports {:#x}, not VK_QUEUE_COMPUTE_BIT",
+                cb.queue_flags
+            )
+        },
+    );
+    if let Some(vuid) = vuids.renderpass {
+        ctx.require(
+            !cb.in_render_pass,
+            vuid,
+            || "commandBuffer".into(),
+            || "called inside a render pass instance".into(),
+        );
+    }
+    if let Some(vuid) = vuids.videocoding {
+        ctx.require(
+            !cb.in_video_coding,
+            vuid,
+            || "commandBuffer".into(),
+            || "called inside a video coding scope".into(),
+        );
+    }
+    if let Some(vuid) = vuids.suspended {
+        ctx.require(
+            !cb.suspended,
+            vuid,
+            || "commandBuffer".into(),
+            || "called inside a suspended render pass instance".into(),
+        );
+    }
+}
+
+/// A device address must be a valid `VkDeviceAddress`: non-zero, and inside
+/// a buffer when the checker knows buffer addresses.
+pub(crate) fn valid_device_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) {
+    if address == 0 {
+        ctx.error(vuid, location, "the address is 0");
+    } else if ctx.state.knows_addresses() && ctx.state.buffers_at(address).next().is_none() {
+        ctx.error(
+            vuid,
+            location,
+            format!("{address:#x} is inside no buffer's device-address range"),
+        );
+    }
+}
+
+/// The buffer(s) a device address was queried from must have `usage`.
+/// Unknown addresses are left to the address checks.
+pub(crate) fn device_address_usage(
+    ctx: &mut Ctx<'_>,
+    address: u64,
+    usage: u64,
+    usage_name: &str,
+    vuid: Vuid,
+    location: &str,
+) {
+    let buffers: Vec<(Handle, u64)> = ctx
+        .state
+        .buffers_at(address)
+        .map(|(h, b)| (h, b.usage))
+        .collect();
+    if !buffers.is_empty() && !buffers.iter().any(|(_, u)| u & usage != 0) {
+        let handle = buffers[0].0;
+        ctx.error(vuid, location, format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
+            .objects
+            .push(crate::report::ObjectRef { ty: "VkBuffer", handle });
+    }
+}
+
+/// `value` must be a multiple of `alignment` (a power of two or any non-zero).
+pub(crate) fn aligned(ctx: &mut Ctx<'_>, value: u64, alignment: u64, vuid: Vuid, location: &str) {
+    if alignment != 0 && value % alignment != 0 {
+        ctx.error(
+            vuid,
+            location,
+            format!("{value:#x} is not a multiple of {alignment}"),
+        );
+    }
+}
+
+/// Caps how often one rule is reported for the elements of one array, so a
+/// million bad triangles give a few findings and a total, not a million.
+pub(crate) struct Tally {
+    counts: BTreeMap<&'static str, (RuleId, u64, String)>,
+}
+
+impl Tally {
+    /// Findings reported in full per rule before the rest are only counted.
+    pub const SHOWN: u64 = 8;
+
+    pub fn new() -> Self {
+        Self {
+            counts: BTreeMap::new(),
+        }
+    }
+
+    /// Reports the first [`Self::SHOWN`] failures of `rule` in full.
+    pub fn error(
+        &mut self,
+        ctx: &mut Ctx<'_>,
+        rule: impl Into<RuleId>,
+        location: String,
+        message: impl FnOnce() -> String,
+        array: &str,
+    ) {
+        let rule = rule.into();
+        let entry = self
+            .counts
+            .entry(rule.as_str())
+            .or_insert((rule, 0, array.to_string()));
+        entry.1 += 1;
+        if entry.1 <= Self::SHOWN {
+            ctx.error(rule, location, message());
+        }
+    }
+
+    /// Adds one finding per rule that failed more often than it was shown.
+    pub fn finish(self, ctx: &mut Ctx<'_>) {
+        for (_, (rule, count, array)) in self.counts {
+            if count > Self::SHOWN {
+                ctx.error(
+                    rule,
+                    array.clone(),
+                    format!(
+                        "{} more elements of {array} fail this rule ({count} in all)",
+                        count - Self::SHOWN
+                    ),
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,761 @@
+//! `VkMicromapBuildInfoEXT`, `vkCmdBuildMicromapsEXT` and `vkBuildMicromapsEXT`.
+
+use std::collections::BTreeMap;
+
+use ommcheck_vuids::vuid::{
+    vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd, VkMicromapBuildInfoEXT as info_vuid,
+};
+
+use crate::checks::common::{self, CommandBufferVuids, Tally};
+use crate::checks::Coverage;
+use crate::model::micromap::opacity_triangle_bytes;
+use crate::model::values::*;
+use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
+use crate::report::Report;
+use crate::rules;
+use crate::state::{BuildRecord, Handle};
+use crate::validator::{Ctx, Validator};
+
+pub const COVERAGE: Coverage = Coverage {
+    module: "micromap_build",
+    enforced: &[
+        info_vuid::sType_sType,
+        info_vuid::pNext_pNext,
+        info_vuid::type_parameter,
+        info_vuid::flags_parameter,
+        info_vuid::pUsageCounts_07516,
+        info_vuid::pUsageCounts_parameter,
+        info_vuid::ppUsageCounts_parameter,
+        info_vuid::format_11652,
+        info_vuid::format_11653,
+        info_vuid::subdivisionLevel_11654,
+        info_vuid::subdivisionLevel_11655,
+        info_vuid::subdivisionLevel_11656,
+        info_vuid::format_11657,
+        info_vuid::format_11658,
+        info_vuid::subdivisionLevel_11659,
+        info_vuid::subdivisionLevel_11660,
+        info_vuid::subdivisionLevel_11661,
+        cmd::commandBuffer_parameter,
+        cmd::commandBuffer_recording,
+        cmd::commandBuffer_cmdpool,
+        cmd::renderpass,
+        cmd::videocoding,
+        cmd::suspended,
+        cmd::infoCount_arraylength,
+        cmd::micromap_11648,
+        cmd::mode_07462,
+        cmd::dstMicromap_07463,
+        cmd::pInfos_07464,
+        cmd::pInfos_07508,
+        cmd::data_07510,
+        cmd::pInfos_07511,
+        cmd::pInfos_07512,
+        cmd::pInfos_07514,
+        cmd::pInfos_07515,
+        cmd::pInfos_10896,
+        cmd::pInfos_10897,
+        cmd::dstMicromap_11649,
+        cmd::dstMicromap_11650,
+        cmd::scratchData_11651,
+        host::infoCount_arraylength,
+        host::micromapHostCommands_07555,
+        host::mode_07462,
+        host::dstMicromap_07463,
+        host::pInfos_07464,
+        host::pInfos_07552,
+        host::pInfos_07553,
+        host::pInfos_07554,
+        host::pInfos_07556,
+        host::pInfos_07557,
+        host::dstMicromap_11667,
+        host::scratchData_11669,
+    ],
+    not_decidable: &[
+        (cmd::pInfos_07461, "needs the implementation's build size from vkGetMicromapBuildSizesEXT, which only the driver computes"),
+        (host::pInfos_07461, "needs the implementation's build size from vkGetMicromapBuildSizesEXT, which only the driver computes"),
+        (cmd::pInfos_07509, "needs the implementation's buildScratchSize, which only the driver computes"),
+        (host::dstMicromap_11668, "the destination is device memory the host reaches through a mapping; the scratch size is the implementation's"),
+    ],
+};
+
+/// Whether the command reads device or host memory.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Side {
+    Device,
+    Host,
+}
+
+impl Validator {
+    /// `vkCmdBuildMicromapsEXT(commandBuffer, infoCount, pInfos)`.
+    pub fn cmd_build_micromaps(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[MicromapBuildInfo],
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdBuildMicromapsEXT");
+        common::command_buffer(
+            &mut ctx,
+            command_buffer,
+            &CommandBufferVuids {
+                parameter: cmd::commandBuffer_parameter,
+                recording: cmd::commandBuffer_recording,
+                cmdpool: cmd::commandBuffer_cmdpool,
+                renderpass: Some(cmd::renderpass),
+                videocoding: Some(cmd::videocoding),
+                suspended: Some(cmd::suspended),
+            },
+        );
+        ctx.require(
+            !infos.is_empty(),
+            cmd::infoCount_arraylength,
+            || "infoCount".into(),
+            || "infoCount is 0".into(),
+        );
+        ctx.require(
+            ctx.device.features.micromap_ext,
+            cmd::micromap_11648,
+            String::new,
+            || {
+                "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled"
+                    .into()
+            },
+        );
+        for (i, info) in infos.iter().enumerate() {
+            build_info(&mut ctx, i, info, Side::Device);
+            let at = format!("pInfos[{i}]");
+            ctx.require(
+                info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
+                cmd::mode_07462,
+                || format!("{at}.mode"),
+                || format!("{} is not a VkBuildMicromapModeEXT value", info.mode),
+            );
+            if let Some(micromap) =
+                dst_micromap(&mut ctx, i, info, cmd::dstMicromap_07463, cmd::pInfos_07464)
+            {
+                let bound = ctx
+                    .state
+                    .buffers
+                    .get(&micromap)
+                    .is_some_and(|b| b.memory.is_some());
+                ctx.require(bound, cmd::pInfos_07508, || format!("{at}.dstMicromap"), || format!("the buffer VkBuffer {micromap:#x} of dstMicromap is not bound to device memory"));
+            }
+            common::valid_device_address(
+                &mut ctx,
+                info.data,
+                cmd::pInfos_10896,
+                &format!("{at}.data.deviceAddress"),
+            );
+            common::valid_device_address(
+                &mut ctx,
+                info.triangle_array,
+                cmd::pInfos_10897,
+                &format!("{at}.triangleArray.deviceAddress"),
+            );
+            common::aligned(
+                &mut ctx,
+                info.data,
+                256,
+                cmd::pInfos_07515,
+                &format!("{at}.data.deviceAddress"),
+            );
+            common::aligned(
+                &mut ctx,
+                info.triangle_array,
+                256,
+                cmd::pInfos_07515,
+                &format!("{at}.triangleArray.deviceAddress"),
+            );
+            for (address, member) in [(info.data, "data"), (info.triangle_array, "triangleArray")] {
+                common::device_address_usage(
+                    &mut ctx,
+                    address,
+                    BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT,
+                    "VK_BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT",
+                    cmd::data_07510,
+                    &format!("{at}.{member}.deviceAddress"),
+                );
+            }
+            if info.scratch_data != 0 {
+                if ctx.state.knows_addresses()
+                    && ctx.state.buffers_at(info.scratch_data).next().is_none()
+                {
+                    ctx.error(
+                        cmd::pInfos_07512,
+                        format!("{at}.scratchData.deviceAddress"),
+                        format!(
+                            "{:#x} is inside no buffer's device-address range",
+                            info.scratch_data
+                        ),
+                    );
+                }
+                common::device_address_usage(
+                    &mut ctx,
+                    info.scratch_data,
+                    BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                    "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
+                    cmd::pInfos_07511,
+                    &format!("{at}.scratchData.deviceAddress"),
+                );
+            }
+            let alignment = u64::from(
+                ctx.device
+                    .limits
+                    .min_acceleration_structure_scratch_offset_alignment,
+            );
+            common::aligned(
+                &mut ctx,
+                info.scratch_data,
+                alignment,
+                cmd::pInfos_07514,
+                &format!("{at}.scratchData.deviceAddress"),
+            );
+        }
+        overlaps(&mut ctx, infos, Side::Device);
+        let report = ctx.finish();
+        self.record_builds(infos);
+        report
+    }
+
+    /// `vkBuildMicromapsEXT(device, deferredOperation, infoCount, pInfos)`: a
+    /// build on the host; every address is a host address.
+    pub fn build_micromaps(&mut self, infos: &[MicromapBuildInfo]) -> Report {
+        let mut ctx = self.ctx("vkBuildMicromapsEXT");
+        ctx.require(
+            !infos.is_empty(),
+            host::infoCount_arraylength,
+            || "infoCount".into(),
+            || "infoCount is 0".into(),
+        );
+        ctx.require(
+            ctx.device.features.micromap_host_commands,
+            host::micromapHostCommands_07555,
+            String::new,
+            || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
+        );
+        for (i, info) in infos.iter().enumerate() {
+            build_info(&mut ctx, i, info, Side::Host);
+            let at = format!("pInfos[{i}]");
+            ctx.require(
+                info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
+                host::mode_07462,
+                || format!("{at}.mode"),
+                || format!("{} is not a VkBuildMicromapModeEXT value", info.mode),
+            );
+            if let Some(buffer) = dst_micromap(
+                &mut ctx,
+                i,
+                info,
+                host::dstMicromap_07463,
+                host::pInfos_07464,
+            ) {
+                let memory = ctx.state.buffers.get(&buffer).and_then(|b| b.memory);
+                ctx.require(
+                    memory.is_some_and(|m| m.host_visible),
+                    host::pInfos_07552,
+                    || format!("{at}.dstMicromap"),
+                    || format!("the buffer VkBuffer {buffer:#x} of dstMicromap is not bound to host-visible memory"),
+                );
+                ctx.require(
+                    !memory.is_some_and(|m| m.multi_instance),
+                    host::pInfos_07557,
+                    || format!("{at}.dstMicromap"),
+                    || format!("the buffer VkBuffer {buffer:#x} of dstMicromap is bound to memory allocated with multiple instances"),
+                );
+            }
+            for (address, member, vuid) in [
+                (info.data, "data", host::pInfos_07553),
+                (info.triangle_array, "triangleArray", host::pInfos_07554),
+            ] {
+                let needed = info.usage_counts.total() > 0;
+                if needed && address == 0 {
+                    ctx.error(
+                        vuid,
+                        format!("{at}.{member}.hostAddress"),
+                        "the host address is NULL, but the build has triangles",
+                    );
+                } else if needed
+                    && !ctx.state.host_memory.is_empty()
+                    && ctx.state.host_bytes_from(address).is_none()
+                {
+                    ctx.error(
+                        vuid,
+                        format!("{at}.{member}.hostAddress"),
+                        format!(
+                            "{address:#x} is outside the host memory the application described"
+                        ),
+                    );
+                }
+            }
+            if info.usage_counts.total() > 0 && info.scratch_data == 0 {
+                ctx.error(
+                    host::pInfos_07556,
+                    format!("{at}.scratchData.hostAddress"),
+                    "the scratch host address is NULL for a build with triangles",
+                );
+            }
+        }
+        overlaps(&mut ctx, infos, Side::Host);
+        let report = ctx.finish();
+        self.record_builds(infos);
+        report
+    }
+
+    /// Remembers what each build made of its destination micromap.
+    fn record_builds(&mut self, infos: &[MicromapBuildInfo]) {
+        for info in infos {
+            if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
+                micromap.built = Some(BuildRecord {
+                    flags: info.flags,
+                    ty: info.ty,
+                    triangle_count: info.usage_counts.total(),
+                });
+            }
+        }
+    }
+}
+
+/// Looks up `dstMicromap` (07463) and checks the build type matches its
+/// creation type (07464). Returns the buffer backing it.
+fn dst_micromap(
+    ctx: &mut Ctx<'_>,
+    i: usize,
+    info: &MicromapBuildInfo,
+    valid: ommcheck_vuids::Vuid,
+    same_type: ommcheck_vuids::Vuid,
+) -> Option<Handle> {
+    let at = format!("pInfos[{i}].dstMicromap");
+    let Some(micromap) = ctx.state.micromaps.get(&info.dst_micromap) else {
+        ctx.error(
+            valid,
+            at,
+            format!(
+                "{:#x} is not a VkMicromapEXT created on this device",
+                info.dst_micromap
+            ),
+        )
+        .objects
+        .push(crate::report::ObjectRef {
+            ty: "VkMicromapEXT",
+            handle: info.dst_micromap,
+        });
+        return None;
+    };
+    let (ty, buffer) = (micromap.ty, micromap.buffer);
+    ctx.require(
+        ty == info.ty,
+        same_type,
+        || format!("pInfos[{i}].type"),
+        || {
+            format!(
+                "the build's type {} differs from the type {ty} dstMicromap was created with",
+                info.ty
+            )
+        },
+    );
+    Some(buffer)
+}
+
+/// Memory ranges `[start, end)` the builds write: each dstMicromap's backing
+/// memory (when its buffer's address is known) and each scratch start.
+fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
+    let (dst_dst, dst_scratch, scratch_scratch) = match side {
+        Side::Device => (
+            cmd::dstMicromap_11649,
+            cmd::dstMicromap_11650,
+            cmd::scratchData_11651,
+        ),
+        // Host scratch is host memory; the destination is device memory
+        // reached through a mapping, so 11668 is not decided (see COVERAGE).
+        Side::Host => (
+            host::dstMicromap_11667,
+            host::dstMicromap_11668,
+            host::scratchData_11669,
+        ),
+    };
+    let dst_range = |info: &MicromapBuildInfo| -> Option<(u64, u64)> {
+        let micromap = ctx.state.micromaps.get(&info.dst_micromap)?;
+        let (start, _) = ctx.state.buffers.get(&micromap.buffer)?.address_range()?;
+        let begin = start.checked_add(micromap.offset)?;
+        Some((begin, begin.checked_add(micromap.size)?))
+    };
+    let ranges: Vec<Option<(u64, u64)>> = infos.iter().map(dst_range).collect();
+    for (i, a) in ranges.iter().enumerate() {
+        for (j, b) in ranges.iter().enumerate().skip(i + 1) {
+            if let (Some(a), Some(b)) = (a, b) {
+                if a.0 < b.1 && b.0 < a.1 {
+                    ctx.error(dst_dst, format!("pInfos[{j}].dstMicromap"), format!("its memory [{:#x}, {:#x}) overlaps that of pInfos[{i}].dstMicromap [{:#x}, {:#x})", b.0, b.1, a.0, a.1));
+                }
+            }
+        }
+    }
+    // The scratch size is the implementation's; a scratch start inside a
+    // destination is an overlap whatever that size is.
+    for (j, info) in infos.iter().enumerate() {
+        if info.scratch_data == 0 || side == Side::Host {
+            continue;
+        }
+        for (i, range) in ranges.iter().enumerate() {
+            if let Some((start, end)) = range {
+                if (*start..*end).contains(&info.scratch_data) {
+                    ctx.error(
+                        dst_scratch,
+                        format!("pInfos[{j}].scratchData"),
+                        format!(
+                            "{:#x} lies inside the memory of pInfos[{i}].dstMicromap",
+                            info.scratch_data
+                        ),
+                    );
+                }
+            }
+        }
+    }
+    for (j, b) in infos.iter().enumerate() {
+        for (i, a) in infos.iter().enumerate().take(j) {
+            if b.scratch_data != 0
+                && a.scratch_data == b.scratch_data
+                && a.usage_counts.total() > 0
+                && b.usage_counts.total() > 0
+            {
+                ctx.error(
+                    scratch_scratch,
+                    format!("pInfos[{j}].scratchData"),
+                    format!(
+                        "pInfos[{i}] and pInfos[{j}] use the same scratch memory {:#x}",
+                        a.scratch_data
+                    ),
+                );
+            }
+        }
+    }
+}
+
+/// `VkMicromapBuildInfoEXT` itself, the usage counts, and (when the checker
+/// can read them) the triangle array's entries.
+fn build_info(ctx: &mut Ctx<'_>, i: usize, info: &MicromapBuildInfo, side: Side) {
+    let at = format!("pInfos[{i}]");
+    ctx.require(
+        info.s_type == STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
+        info_vuid::sType_sType,
+        || format!("{at}.sType"),
+        || {
+            format!(
+                "{} is not VK_STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT",
+                info.s_type
+            )
+        },
+    );
+    if let Some(s_type) = info.next.first() {
+        ctx.error(
+            info_vuid::pNext_pNext,
+            format!("{at}.pNext"),
+            format!(
+                "VkMicromapBuildInfoEXT extends with no structure, but pNext has sType {s_type}"
+            ),
+        );
+    }
+    let opacity = info.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
+    let displacement = info.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
+    ctx.require(
+        opacity || displacement,
+        info_vuid::type_parameter,
+        || format!("{at}.type"),
+        || format!("{} is not a VkMicromapTypeEXT value", info.ty),
+    );
+    ctx.require(
+        info.flags & !BUILD_MICROMAP_FLAGS_ALL == 0,
+        info_vuid::flags_parameter,
+        || format!("{at}.flags"),
+        || {
+            format!(
+                "{:#x} has bits outside VkBuildMicromapFlagBitsEXT",
+                info.flags
+            )
+        },
+    );
+
+    let counts = &info.usage_counts;
+    ctx.require(
+        !(counts.array.is_some() && counts.pointers.is_some()),
+        info_vuid::pUsageCounts_07516,
+        || at.clone(),
+        || "both pUsageCounts and ppUsageCounts are set".into(),
+    );
+    if counts.count != 0 {
+        if let Some(array) = &counts.array {
+            ctx.require(
+                array.len() as u64 == u64::from(counts.count),
+                info_vuid::pUsageCounts_parameter,
+                || format!("{at}.pUsageCounts"),
+                || {
+                    format!(
+                        "points to {} elements, not usageCountsCount = {}",
+                        array.len(),
+                        counts.count
+                    )
+                },
+            );
+        }
+        if let Some(pointers) = &counts.pointers {
+            if pointers.len() as u64 != u64::from(counts.count) {
+                ctx.error(
+                    info_vuid::ppUsageCounts_parameter,
+                    format!("{at}.ppUsageCounts"),
+                    format!(
+                        "points to {} pointers, not usageCountsCount = {}",
+                        pointers.len(),
+                        counts.count
+                    ),
+                );
+            } else if let Some(null) = pointers.iter().position(Option::is_none) {
+                ctx.error(
+                    info_vuid::ppUsageCounts_parameter,
+                    format!("{at}.ppUsageCounts[{null}]"),
+                    "the pointer is NULL",
+                );
+            }
+        }
+    }
+
+    let limits = &ctx.device.limits;
+    let (max2, max4, max_nv) = (
+        limits.max_opacity2_state_subdivision_level,
+        limits.max_opacity4_state_subdivision_level,
+        limits.max_displacement_micromap_subdivision_level,
+    );
+    let (member, entries) = counts.entries();
+    for (k, usage) in &entries {
+        let loc = format!("{at}.{member}[{k}]");
+        if opacity {
+            match usage.format {
+                OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
+                    usage.subdivision_level <= max2,
+                    info_vuid::subdivisionLevel_11654,
+                    || format!("{loc}.subdivisionLevel"),
+                    || {
+                        format!(
+                            "{} exceeds maxOpacity2StateSubdivisionLevel = {max2}",
+                            usage.subdivision_level
+                        )
+                    },
+                ),
+                OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
+                    usage.subdivision_level <= max4,
+                    info_vuid::subdivisionLevel_11655,
+                    || format!("{loc}.subdivisionLevel"),
+                    || {
+                        format!(
+                            "{} exceeds maxOpacity4StateSubdivisionLevel = {max4}",
+                            usage.subdivision_level
+                        )
+                    },
+                ),
+                other => {
+                    ctx.error(
+                        info_vuid::format_11652,
+                        format!("{loc}.format"),
+                        format!("{other} is not a VkOpacityMicromapFormatEXT value"),
+                    );
+                }
+            }
+        } else if displacement {
+            ctx.require(
+                DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
+                info_vuid::format_11653,
+                || format!("{loc}.format"),
+                || {
+                    format!(
+                        "{} is not a VkDisplacementMicromapFormatNV value",
+                        usage.format
+                    )
+                },
+            );
+            ctx.require(
+                usage.subdivision_level <= max_nv,
+                info_vuid::subdivisionLevel_11656,
+                || format!("{loc}.subdivisionLevel"),
+                || {
+                    format!(
+                        "{} exceeds maxDisplacementMicromapSubdivisionLevel = {max_nv}",
+                        usage.subdivision_level
+                    )
+                },
+            );
+        }
+    }
+    if opacity || displacement {
+        triangle_array(ctx, i, info, side, opacity);
+    }
+}
+
+/// The triangle array's entries, when the checker can read them: each entry's
+/// format and level (11657-11661), its data inside `data`, and the usage
+/// counts against the entries.
+fn triangle_array(
+    ctx: &mut Ctx<'_>,
+    i: usize,
+    info: &MicromapBuildInfo,
+    side: Side,
+    opacity: bool,
+) {
+    let at = format!("pInfos[{i}]");
+    let triangles = info.usage_counts.total();
+    if triangles == 0 {
+        return;
+    }
+    // The bytes borrow the tracked state, not the context, so findings can
+    // be reported while reading.
+    let state = ctx.state;
+    let read_from = |address: u64| match side {
+        Side::Device => state.device_bytes_from(address),
+        Side::Host => state.host_bytes_from(address),
+    };
+    let Some(array) = read_from(info.triangle_array) else {
+        return; // Contents not available to the checker.
+    };
+    let data = read_from(info.data);
+    let stride = info.triangle_array_stride;
+    if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
+        ctx.report(
+            &rules::EXT_TRIANGLE_ARRAY_STRIDE,
+            crate::report::Severity::Warning,
+            format!("{at}.triangleArrayStride"),
+            format!("{stride} is below 8 or not a multiple of 4, so the {triangles} entries overlap or are misaligned"),
+        );
+    }
+    let limits = ctx.device.limits.clone();
+    let mut tally = Tally::new();
+    let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    for m in 0..triangles {
+        let loc = format!("{at}.triangleArray[{m}]");
+        let entry = m
+            .checked_mul(stride)
+            .and_then(|offset| usize::try_from(offset).ok())
+            .and_then(|offset| array.get(offset..offset.checked_add(8)?));
+        let Some(bytes) = entry else {
+            ctx.error(
+                &rules::TRIANGLE_ARRAY_RANGE,
+                loc,
+                format!("entry {m} of {triangles} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
+            );
+            break;
+        };
+        let triangle = MicromapTriangle::from_bytes(bytes.try_into().expect("8 bytes"));
+        let (format, level) = (
+            u32::from(triangle.format),
+            u32::from(triangle.subdivision_level),
+        );
+        *histogram.entry((format, level)).or_default() += 1;
+        if opacity {
+            match format {
+                OPACITY_MICROMAP_FORMAT_2_STATE => {
+                    if level > limits.max_opacity2_state_subdivision_level {
+                        tally.error(
+                            ctx,
+                            info_vuid::subdivisionLevel_11659,
+                            format!("{loc}.subdivisionLevel"),
+                            || {
+                                format!(
+                                    "{level} exceeds maxOpacity2StateSubdivisionLevel = {}",
+                                    limits.max_opacity2_state_subdivision_level
+                                )
+                            },
+                            "triangleArray",
+                        );
+                    }
+                }
+                OPACITY_MICROMAP_FORMAT_4_STATE => {
+                    if level > limits.max_opacity4_state_subdivision_level {
+                        tally.error(
+                            ctx,
+                            info_vuid::subdivisionLevel_11660,
+                            format!("{loc}.subdivisionLevel"),
+                            || {
+                                format!(
+                                    "{level} exceeds maxOpacity4StateSubdivisionLevel = {}",
+                                    limits.max_opacity4_state_subdivision_level
+                                )
+                            },
+                            "triangleArray",
+                        );
+                    }
+                }
+                _ => {
+                    tally.error(
+                        ctx,
+                        info_vuid::format_11657,
+                        format!("{loc}.format"),
+                        || format!("{format} is not a VkOpacityMicromapFormatEXT value"),
+                        "triangleArray",
+                    );
+                    continue;
+                }
+            }
+            if let (Some(data), Some(size)) = (data, opacity_triangle_bytes(format, level)) {
+                let end = u64::from(triangle.data_offset).checked_add(size);
+                if end.is_none_or(|end| end > data.len() as u64) {
+                    tally.error(
+                        ctx,
+                        &rules::TRIANGLE_DATA_RANGE,
+                        format!("{loc}.dataOffset"),
+                        || format!("[{}, {}) is past the end of the memory data points into ({} bytes)", triangle.data_offset, u64::from(triangle.data_offset) + size, data.len()),
+                        "triangleArray",
+                    );
+                }
+            }
+        } else {
+            if !DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&format) {
+                tally.error(
+                    ctx,
+                    info_vuid::format_11658,
+                    format!("{loc}.format"),
+                    || format!("{format} is not a VkDisplacementMicromapFormatNV value"),
+                    "triangleArray",
+                );
+            }
+            if level > limits.max_displacement_micromap_subdivision_level {
+                tally.error(
+                    ctx,
+                    info_vuid::subdivisionLevel_11661,
+                    format!("{loc}.subdivisionLevel"),
+                    || {
+                        format!(
+                            "{level} exceeds maxDisplacementMicromapSubdivisionLevel = {}",
+                            limits.max_displacement_micromap_subdivision_level
+                        )
+                    },
+                    "triangleArray",
+                );
+            }
+        }
+    }
+    tally.finish(ctx);
+
+    // The usage counts must describe the array: per (format, level), the sum
+    // of the counts equals the number of entries.
+    let mut declared: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    for (_, usage) in info.usage_counts.entries().1 {
+        *declared
+            .entry((usage.format, usage.subdivision_level))
+            .or_default() += u64::from(usage.count);
+    }
+    declared.retain(|_, count| *count != 0);
+    let read_all = histogram.values().sum::<u64>() == triangles;
+    if read_all && declared != histogram {
+        let keys: std::collections::BTreeSet<_> =
+            declared.keys().chain(histogram.keys()).copied().collect();
+        for (format, level) in keys {
+            let (said, found) = (
+                declared.get(&(format, level)).copied().unwrap_or(0),
+                histogram.get(&(format, level)).copied().unwrap_or(0),
+            );
+            if said != found {
+                ctx.error(
+                    &rules::HISTOGRAM_MISMATCH,
+                    format!("{at}.{}", info.usage_counts.entries().0),
+                    format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {found}"),
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,23 @@
+//! The checks, one module per API object or command family, mirroring the
+//! specification's structure. Each module lists the VUIDs it enforces and
+//! those it cannot decide at the API boundary (with the reason), which the
+//! coverage report and its tests read.
+
+use ommcheck_vuids::Vuid;
+
+pub(crate) mod common;
+pub mod micromap_build;
+
+/// A module's coverage declaration.
+pub struct Coverage {
+    pub module: &'static str,
+    /// VUIDs the module's checks enforce, each with failing and passing tests.
+    pub enforced: &'static [Vuid],
+    /// VUIDs that cannot be decided at the API boundary, with the reason.
+    pub not_decidable: &'static [(Vuid, &'static str)],
+}
+
+/// Every module's declaration.
+pub fn coverage() -> Vec<Coverage> {
+    vec![micromap_build::COVERAGE]
+}

@@ -1,0 +1,231 @@
+//! `VK_EXT_opacity_micromap` micromap builds.
+
+use serde::{Deserialize, Serialize};
+
+use crate::model::values::*;
+use crate::state::Handle;
+
+/// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct MicromapUsage {
+    pub count: u32,
+    pub subdivision_level: u32,
+    pub format: u32,
+}
+
+/// A `usageCountsCount` with its `pUsageCounts` and `ppUsageCounts`, as the
+/// call gave them. `None` is a NULL pointer; an element of `pointers` that is
+/// `None` is a NULL element.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct UsageCounts {
+    pub count: u32,
+    pub array: Option<Vec<MicromapUsage>>,
+    pub pointers: Option<Vec<Option<MicromapUsage>>>,
+}
+
+impl UsageCounts {
+    /// `pUsageCounts` pointing at `usages`.
+    pub fn array(usages: Vec<MicromapUsage>) -> Self {
+        Self {
+            count: usages.len() as u32,
+            array: Some(usages),
+            pointers: None,
+        }
+    }
+
+    /// `ppUsageCounts` pointing at pointers to `usages`.
+    pub fn pointers(usages: Vec<MicromapUsage>) -> Self {
+        Self {
+            count: usages.len() as u32,
+            array: None,
+            pointers: Some(usages.into_iter().map(Some).collect()),
+        }
+    }
+
+    /// The member name and the usages the implementation reads: from
+    /// `pUsageCounts` when it is set, else from `ppUsageCounts` (skipping NULL
+    /// elements), each with its index.
+    pub fn entries(&self) -> (&'static str, Vec<(usize, MicromapUsage)>) {
+        if let Some(array) = &self.array {
+            ("pUsageCounts", array.iter().copied().enumerate().collect())
+        } else if let Some(pointers) = &self.pointers {
+            (
+                "ppUsageCounts",
+                pointers
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, p)| p.map(|u| (i, u)))
+                    .collect(),
+            )
+        } else {
+            ("pUsageCounts", Vec::new())
+        }
+    }
+
+    /// Σ count over the entries, in 64 bits (it cannot overflow: at most
+    /// 2^32 entries of at most 2^32 - 1 each do not fit what we hold).
+    pub fn total(&self) -> u64 {
+        self.entries()
+            .1
+            .iter()
+            .map(|(_, u)| u64::from(u.count))
+            .sum()
+    }
+}
+
+/// `VkMicromapBuildInfoEXT`. Addresses are device or host addresses,
+/// depending on the command.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct MicromapBuildInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    #[serde(rename = "type")]
+    pub ty: i32,
+    pub flags: u32,
+    pub mode: i32,
+    pub dst_micromap: Handle,
+    pub usage_counts: UsageCounts,
+    pub data: u64,
+    pub scratch_data: u64,
+    pub triangle_array: u64,
+    pub triangle_array_stride: u64,
+}
+
+impl Default for MicromapBuildInfo {
+    fn default() -> Self {
+        Self {
+            s_type: STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
+            next: Vec::new(),
+            ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
+            flags: 0,
+            mode: BUILD_MICROMAP_MODE_BUILD_EXT,
+            dst_micromap: 0,
+            usage_counts: UsageCounts::default(),
+            data: 0,
+            scratch_data: 0,
+            triangle_array: 0,
+            triangle_array_stride: 0,
+        }
+    }
+}
+
+/// `VkMicromapTriangleEXT` / `VkMicromapTriangleKHR`: 8 bytes, little-endian.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct MicromapTriangle {
+    pub data_offset: u32,
+    pub subdivision_level: u16,
+    pub format: u16,
+}
+
+impl MicromapTriangle {
+    pub const SIZE: u64 = 8;
+
+    pub fn from_bytes(bytes: [u8; 8]) -> Self {
+        Self {
+            data_offset: u32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]),
+            subdivision_level: u16::from_le_bytes([bytes[4], bytes[5]]),
+            format: u16::from_le_bytes([bytes[6], bytes[7]]),
+        }
+    }
+
+    pub fn to_bytes(self) -> [u8; 8] {
+        let mut out = [0u8; 8];
+        out[..4].copy_from_slice(&self.data_offset.to_le_bytes());
+        out[4..6].copy_from_slice(&self.subdivision_level.to_le_bytes());
+        out[6..].copy_from_slice(&self.format.to_le_bytes());
+        out
+    }
+}
+
+/// Bytes of one opacity micromap triangle's data: `ceil(4^level * bits / 8)`
+/// with `bits` = 1 (2-state) or 2 (4-state); `None` for an unknown format or
+/// a level whose size does not fit 64 bits.
+pub fn opacity_triangle_bytes(format: u32, level: u32) -> Option<u64> {
+    let bits: u32 = match format {
+        OPACITY_MICROMAP_FORMAT_2_STATE => 1,
+        OPACITY_MICROMAP_FORMAT_4_STATE => 2,
+        _ => return None,
+    };
+    // 4^level * bits = 2^(2 level + bits - 1); in bytes, at least 1.
+    let exponent = level.checked_mul(2)?.checked_add(bits - 1)?;
+    if exponent >= 64 + 3 {
+        return None;
+    }
+    Some(if exponent <= 3 {
+        1
+    } else {
+        1u64.checked_shl(exponent - 3)?
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triangle_sizes_match_the_table() {
+        // (level, 2-state bytes, 4-state bytes) from the spec's packing rule.
+        for (level, two, four) in [
+            (0, 1, 1),
+            (1, 1, 1),
+            (2, 2, 4),
+            (3, 8, 16),
+            (4, 32, 64),
+            (12, 2_097_152, 4_194_304),
+        ] {
+            assert_eq!(
+                opacity_triangle_bytes(OPACITY_MICROMAP_FORMAT_2_STATE, level),
+                Some(two),
+                "level {level}"
+            );
+            assert_eq!(
+                opacity_triangle_bytes(OPACITY_MICROMAP_FORMAT_4_STATE, level),
+                Some(four),
+                "level {level}"
+            );
+        }
+        assert_eq!(opacity_triangle_bytes(3, 1), None);
+        assert_eq!(
+            opacity_triangle_bytes(OPACITY_MICROMAP_FORMAT_4_STATE, 40),
+            None
+        );
+        assert_eq!(
+            opacity_triangle_bytes(OPACITY_MICROMAP_FORMAT_4_STATE, u32::MAX),
+            None
+        );
+    }
+
+    #[test]
+    fn triangle_round_trips() {
+        let t = MicromapTriangle {
+            data_offset: 0x0102_0304,
+            subdivision_level: 5,
+            format: 2,
+        };
+        assert_eq!(t.to_bytes(), [4, 3, 2, 1, 5, 0, 2, 0]);
+        assert_eq!(MicromapTriangle::from_bytes(t.to_bytes()), t);
+    }
+
+    #[test]
+    fn usage_entries_prefer_the_array_and_skip_null_pointers() {
+        let u = |count| MicromapUsage {
+            count,
+            subdivision_level: 1,
+            format: 2,
+        };
+        let counts = UsageCounts {
+            count: 3,
+            array: None,
+            pointers: Some(vec![Some(u(1)), None, Some(u(u32::MAX))]),
+        };
+        let (name, entries) = counts.entries();
+        assert_eq!(name, "ppUsageCounts");
+        assert_eq!(entries.iter().map(|(i, _)| *i).collect::<Vec<_>>(), [0, 2]);
+        assert_eq!(counts.total(), 1 + u64::from(u32::MAX));
+    }
+}

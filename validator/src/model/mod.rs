@@ -1,0 +1,11 @@
+//! Owned types mirroring the Vulkan API. Enum and flag members keep their raw
+//! values, pointer members say whether they were NULL, and counts are kept
+//! beside the arrays they describe, so that every invalid input the API can
+//! express can be expressed here and checked.
+
+pub mod command;
+pub mod micromap;
+pub mod values;
+
+pub use command::CommandBuffer;
+pub use micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};

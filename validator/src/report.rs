@@ -1,0 +1,290 @@
+//! Findings and reports, and their text in the Khronos validation layer's style.
+
+use std::fmt;
+
+use ommcheck_vuids::Vuid;
+use serde::Serialize;
+
+use crate::rules::OwnRule;
+
+/// How bad a finding is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// Hygiene or portability information.
+    Info,
+    /// Legal per the specification but known to misbehave (for example on drivers).
+    Warning,
+    /// A Valid Usage violation.
+    Error,
+}
+
+impl Severity {
+    /// The prefix the Khronos layer prints.
+    pub fn label(self) -> &'static str {
+        match self {
+            Severity::Error => "Validation Error",
+            Severity::Warning => "Validation Warning",
+            Severity::Info => "Validation Information",
+        }
+    }
+}
+
+/// What a finding enforces: a catalog VUID, or a rule of ours for spec prose
+/// that has no VUID.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RuleId {
+    Vuid(Vuid),
+    Own(&'static OwnRule),
+}
+
+impl RuleId {
+    /// The id string users filter on.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RuleId::Vuid(v) => v.id(),
+            RuleId::Own(rule) => rule.id,
+        }
+    }
+
+    /// The specification statement the rule enforces.
+    pub fn statement(self) -> &'static str {
+        match self {
+            RuleId::Vuid(v) => v.info().text,
+            RuleId::Own(rule) => rule.statement,
+        }
+    }
+
+    /// Where that statement is published.
+    pub fn link(self) -> String {
+        match self {
+            RuleId::Vuid(v) => v.link(),
+            RuleId::Own(rule) => rule.link.to_string(),
+        }
+    }
+
+    /// The Khronos layer's MessageID: XXH32 of the id string with seed 8.
+    pub fn message_id(self) -> u32 {
+        message_id(self.as_str())
+    }
+}
+
+impl From<Vuid> for RuleId {
+    fn from(v: Vuid) -> Self {
+        RuleId::Vuid(v)
+    }
+}
+
+impl From<&'static OwnRule> for RuleId {
+    fn from(rule: &'static OwnRule) -> Self {
+        RuleId::Own(rule)
+    }
+}
+
+impl Serialize for RuleId {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.as_str())
+    }
+}
+
+impl fmt::Display for RuleId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// `messageIdNumber` as the Khronos validation layer computes it (XXH32 of
+/// the VUID string, seed 8), so filters written for that layer match ours.
+pub fn message_id(id: &str) -> u32 {
+    xxhash_rust::xxh32::xxh32(id.as_bytes(), 8)
+}
+
+/// A Vulkan object a finding involves.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize)]
+pub struct ObjectRef {
+    /// `VkMicromapEXT`, `VkBuffer`, ...
+    #[serde(rename = "type")]
+    pub ty: &'static str,
+    pub handle: u64,
+}
+
+/// One problem found.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Finding {
+    #[serde(rename = "id")]
+    pub rule: RuleId,
+    pub severity: Severity,
+    /// The command or entry point checked, e.g. `vkCmdBuildMicromapsEXT`.
+    pub function: &'static str,
+    /// The place inside its parameters, e.g. `pInfos[1].pUsageCounts[3].subdivisionLevel`.
+    pub location: String,
+    pub objects: Vec<ObjectRef>,
+    pub message: String,
+    #[serde(rename = "messageId")]
+    pub message_id: u32,
+    #[serde(rename = "specText")]
+    pub spec_text: &'static str,
+    #[serde(rename = "specUrl")]
+    pub spec_url: String,
+}
+
+impl Finding {
+    pub fn new(
+        rule: impl Into<RuleId>,
+        severity: Severity,
+        function: &'static str,
+        location: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        let rule = rule.into();
+        Self {
+            rule,
+            severity,
+            function,
+            location: location.into(),
+            objects: Vec::new(),
+            message: message.into(),
+            message_id: rule.message_id(),
+            spec_text: rule.statement(),
+            spec_url: rule.link(),
+        }
+    }
+
+    pub fn with_object(mut self, ty: &'static str, handle: u64) -> Self {
+        self.objects.push(ObjectRef { ty, handle });
+        self
+    }
+}
+
+impl fmt::Display for Finding {
+    /// `Validation Error: [ VUID ] | MessageID = 0x... | vkFn(): location: message. The Vulkan spec states: ... (link)`
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}: [ {} ] | MessageID = {:#010x} | {}(): ",
+            self.severity.label(),
+            self.rule,
+            self.message_id,
+            self.function
+        )?;
+        if !self.location.is_empty() {
+            write!(f, "{}: ", self.location)?;
+        }
+        let message = self.message.trim_end_matches('.');
+        write!(
+            f,
+            "{message}. The Vulkan spec states: {} ({})",
+            self.spec_text, self.spec_url
+        )?;
+        for (i, object) in self.objects.iter().enumerate() {
+            write!(f, "\n    Objects[{i}]: {} {:#x}", object.ty, object.handle)?;
+        }
+        Ok(())
+    }
+}
+
+/// The findings of one or more checked calls, in the order they were found.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Report {
+    pub findings: Vec<Finding>,
+}
+
+impl Report {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn push(&mut self, finding: Finding) {
+        self.findings.push(finding);
+    }
+
+    pub fn extend(&mut self, other: Report) {
+        self.findings.extend(other.findings);
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.findings.is_empty()
+    }
+
+    pub fn len(&self) -> usize {
+        self.findings.len()
+    }
+
+    /// Findings of at least error severity.
+    pub fn errors(&self) -> impl Iterator<Item = &Finding> {
+        self.findings
+            .iter()
+            .filter(|f| f.severity == Severity::Error)
+    }
+
+    pub fn has_errors(&self) -> bool {
+        self.errors().next().is_some()
+    }
+
+    /// Whether any finding enforces `rule`.
+    pub fn contains(&self, rule: impl Into<RuleId>) -> bool {
+        let rule = rule.into();
+        self.findings.iter().any(|f| f.rule == rule)
+    }
+
+    /// The findings that enforce `rule`.
+    pub fn with_rule(&self, rule: impl Into<RuleId>) -> impl Iterator<Item = &Finding> {
+        let rule = rule.into();
+        self.findings.iter().filter(move |f| f.rule == rule)
+    }
+
+    /// The ids of all findings, in order (handy in test assertions).
+    pub fn ids(&self) -> Vec<&'static str> {
+        self.findings.iter().map(|f| f.rule.as_str()).collect()
+    }
+}
+
+impl fmt::Display for Report {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for finding in &self.findings {
+            writeln!(f, "{finding}\n")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ommcheck_vuids::vuid;
+
+    #[test]
+    fn message_id_matches_xxh32_seed_8() {
+        // XXH32 reference value of the empty input with seed 8.
+        assert_eq!(message_id(""), xxhash_rust::xxh32::xxh32(b"", 8));
+        assert_ne!(message_id("VUID-a"), message_id("VUID-b"));
+        let f = Finding::new(
+            vuid::VkMicromapBuildInfoEXT::pUsageCounts_07516,
+            Severity::Error,
+            "vkCmdBuildMicromapsEXT",
+            "pInfos[0]",
+            "both pUsageCounts and ppUsageCounts are set",
+        );
+        assert_eq!(
+            f.message_id,
+            message_id("VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516")
+        );
+    }
+
+    #[test]
+    fn text_follows_the_khronos_layout() {
+        let f = Finding::new(
+            vuid::VkMicromapBuildInfoEXT::pUsageCounts_07516,
+            Severity::Error,
+            "vkCmdBuildMicromapsEXT",
+            "pInfos[0]",
+            "both pUsageCounts and ppUsageCounts are set.",
+        );
+        let text = f.to_string();
+        assert!(text.starts_with(
+            "Validation Error: [ VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516 ] | MessageID = 0x"
+        ));
+        assert!(text.contains("| vkCmdBuildMicromapsEXT(): pInfos[0]: both pUsageCounts and ppUsageCounts are set. The Vulkan spec states: Only one of pUsageCounts"));
+        assert!(text.ends_with("#VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516)"));
+    }
+}

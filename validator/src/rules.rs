@@ -1,0 +1,72 @@
+//! Rules of ours, `OMMCHECK-<area>-<name>`, for what the specification states
+//! in prose without a VUID, and for driver hazards with no VUID at all.
+//! Each quotes the sentence it enforces; the README lists them.
+
+/// A rule without a VUID.
+#[derive(Debug, PartialEq, Eq, Hash)]
+pub struct OwnRule {
+    /// `OMMCHECK-<area>-<name>`
+    pub id: &'static str,
+    /// The specification sentence (or the hazard) the rule enforces.
+    pub statement: &'static str,
+    /// Where that sentence is published.
+    pub link: &'static str,
+}
+
+const MICROMAPS: &str =
+    "https://docs.vulkan.org/spec/latest/chapters/VK_KHR_opacity_micromap/micromaps.html";
+
+/// EXT micromap builds: the usage counts must describe the triangle array.
+pub static HISTOGRAM_MISMATCH: OwnRule = OwnRule {
+    id: "OMMCHECK-build-usage-counts-match-triangles",
+    statement: "Each element of pUsageCounts or ppUsageCounts contains a count which is the number of micromap triangles of that format and subdivisionLevel contained in the micromap",
+    link: MICROMAPS,
+};
+
+/// EXT micromap builds: each triangle's data lies inside the data the build reads.
+pub static TRIANGLE_DATA_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-build-triangle-data-in-range",
+    statement: "Each micromap triangle refers to one element in triangleArray which contains ... a dataOffset in bytes which is the location relative to data where that triangle's micromap data begins (the triangle's data, ceil(4^subdivisionLevel * bits per state / 8) bytes from dataOffset, must lie inside the memory data points to)",
+    link: MICROMAPS,
+};
+
+/// EXT micromap builds: every triangle-array entry lies inside the memory the build reads.
+pub static TRIANGLE_ARRAY_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-build-triangle-array-in-range",
+    statement: "triangleArray is the address of memory containing the VkMicromapTriangleEXT data, one entry per micromap triangle at triangleArrayStride intervals (the sum of the usage counts gives the number of entries, all of which must lie inside that memory)",
+    link: MICROMAPS,
+};
+
+/// EXT micromap builds: the stride rule KHR states as 11646/11647.
+pub static EXT_TRIANGLE_ARRAY_STRIDE: OwnRule = OwnRule {
+    id: "OMMCHECK-build-triangle-array-stride",
+    statement: "The data at triangleArray is laid out as a 4 byte unsigned integer for the dataOffset followed by a 2 byte unsigned integer for the subdivision level then a 2 byte unsigned integer for the format (a stride below 8 bytes, other than 0 for a single triangle, makes entries overlap; KHR requires >= 8 and a multiple of 4)",
+    link: MICROMAPS,
+};
+
+/// Every own rule, for the README and the coverage report.
+pub static ALL: &[&OwnRule] = &[
+    &HISTOGRAM_MISMATCH,
+    &TRIANGLE_DATA_RANGE,
+    &TRIANGLE_ARRAY_RANGE,
+    &EXT_TRIANGLE_ARRAY_STRIDE,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_unique_and_well_formed() {
+        let mut ids: Vec<&str> = ALL.iter().map(|r| r.id).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        assert_eq!(ids.len(), ALL.len());
+        for id in ids {
+            assert!(
+                id.starts_with("OMMCHECK-") && id.split('-').count() >= 3,
+                "{id}"
+            );
+        }
+    }
+}

@@ -1,0 +1,229 @@
+//! Objects the checks track across calls: buffers and their memory,
+//! micromaps, acceleration structures and query pools.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+/// A Vulkan handle's value; 0 is VK_NULL_HANDLE.
+pub type Handle = u64;
+
+/// The memory a buffer is bound to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct MemoryBinding {
+    /// Allocated from a memory type with VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT.
+    pub host_visible: bool,
+    /// Allocated with multiple instances (device groups).
+    pub multi_instance: bool,
+}
+
+/// A `VkBuffer`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Buffer {
+    pub size: u64,
+    /// `VkBufferUsageFlags2` bits (a superset of `VkBufferUsageFlags`).
+    pub usage: u64,
+    /// `VkBufferCreateFlags` bits.
+    pub create_flags: u32,
+    /// What `vkGetBufferDeviceAddress` returned, if it was queried.
+    pub device_address: Option<u64>,
+    /// Set once the buffer is bound to memory.
+    pub memory: Option<MemoryBinding>,
+    /// The buffer's bytes where the checker can read them (a host-visible
+    /// mapping, or the contents a scene or test supplied).
+    pub contents: Option<Arc<[u8]>>,
+}
+
+impl Buffer {
+    /// The device-address range `[start, end)`, if the address is known.
+    pub fn address_range(&self) -> Option<(u64, u64)> {
+        let start = self.device_address?;
+        Some((start, start.saturating_add(self.size)))
+    }
+}
+
+/// What a completed build recorded about a micromap or acceleration structure.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BuildRecord {
+    /// The build's `flags`.
+    pub flags: u32,
+    /// The build's `type`.
+    pub ty: i32,
+    /// Sum of the build's usage counts: the number of micromap triangles.
+    pub triangle_count: u64,
+}
+
+/// A `VkMicromapEXT`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Micromap {
+    pub buffer: Handle,
+    pub offset: u64,
+    pub size: u64,
+    /// `VkMicromapTypeEXT` it was created with.
+    pub ty: i32,
+    pub create_flags: u32,
+    pub device_address: u64,
+    /// Whether `VkAllocationCallbacks` were given at creation.
+    pub allocator: bool,
+    /// Set by a build the checker saw.
+    pub built: Option<BuildRecord>,
+}
+
+/// A `VkAccelerationStructureKHR` (KHR opacity micromaps are acceleration
+/// structures of type OPACITY_MICROMAP).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct AccelerationStructure {
+    /// `VkAccelerationStructureTypeKHR` it was created with.
+    pub ty: i32,
+    /// Created with `vkCreateAccelerationStructure2KHR` (address range) rather
+    /// than `vkCreateAccelerationStructureKHR` (buffer + offset).
+    pub created_with_2: bool,
+    pub buffer: Handle,
+    pub offset: u64,
+    pub size: u64,
+    /// The device-address range `[start, end)` backing it, when known.
+    pub address_range: Option<(u64, u64)>,
+    pub built: Option<BuildRecord>,
+}
+
+/// A `VkQueryPool`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct QueryPool {
+    pub query_type: i32,
+    pub query_count: u32,
+}
+
+/// Host memory an application described to a host command (`hostAddress`
+/// ranges), with the bytes the checker may read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HostRange {
+    pub address: u64,
+    pub bytes: Arc<[u8]>,
+}
+
+/// Everything tracked.
+#[derive(Clone, Debug, Default)]
+pub struct State {
+    pub buffers: BTreeMap<Handle, Buffer>,
+    pub micromaps: BTreeMap<Handle, Micromap>,
+    pub acceleration_structures: BTreeMap<Handle, AccelerationStructure>,
+    pub query_pools: BTreeMap<Handle, QueryPool>,
+    pub host_memory: Vec<HostRange>,
+}
+
+impl State {
+    /// Buffers whose device-address range contains `address`, lowest handle first.
+    pub fn buffers_at(&self, address: u64) -> impl Iterator<Item = (Handle, &Buffer)> {
+        self.buffers.iter().filter_map(move |(handle, buffer)| {
+            let (start, end) = buffer.address_range()?;
+            (start <= address && address < end).then_some((*handle, buffer))
+        })
+    }
+
+    /// Whether some buffer holds all of `[address, address + len)`.
+    pub fn range_in_one_buffer(&self, address: u64, len: u64) -> bool {
+        let Some(end) = address.checked_add(len) else {
+            return false;
+        };
+        self.buffers_at(address)
+            .any(|(_, b)| b.address_range().is_some_and(|(_, e)| end <= e))
+    }
+
+    /// Whether the checker knows the buffers behind device addresses at all
+    /// (no buffer has a known address: address rules cannot be decided).
+    pub fn knows_addresses(&self) -> bool {
+        self.buffers.values().any(|b| b.device_address.is_some())
+    }
+
+    /// The bytes `[address, address + len)` of device memory, if one buffer
+    /// with readable contents holds them all.
+    pub fn read_device(&self, address: u64, len: u64) -> Option<&[u8]> {
+        let end = address.checked_add(len)?;
+        self.buffers_at(address).find_map(|(_, b)| {
+            let (start, _) = b.address_range()?;
+            let contents = b.contents.as_ref()?;
+            let from = usize::try_from(address - start).ok()?;
+            let to = usize::try_from(end - start).ok()?;
+            contents.get(from..to)
+        })
+    }
+
+    /// The bytes `[address, address + len)` of host memory the application described.
+    pub fn read_host(&self, address: u64, len: u64) -> Option<&[u8]> {
+        let end = address.checked_add(len)?;
+        self.host_memory.iter().find_map(|r| {
+            let r_end = r.address.checked_add(r.bytes.len() as u64)?;
+            if address < r.address || end > r_end {
+                return None;
+            }
+            let from = usize::try_from(address - r.address).ok()?;
+            let to = usize::try_from(end - r.address).ok()?;
+            r.bytes.get(from..to)
+        })
+    }
+
+    /// The whole host range that contains `address`: `(bytes from address on)`.
+    pub fn host_bytes_from(&self, address: u64) -> Option<&[u8]> {
+        self.host_memory.iter().find_map(|r| {
+            let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
+            // An address one past the end belongs to no range.
+            (offset < r.bytes.len()).then(|| &r.bytes[offset..])
+        })
+    }
+
+    /// The device bytes from `address` to the end of the buffer holding it.
+    pub fn device_bytes_from(&self, address: u64) -> Option<&[u8]> {
+        self.buffers_at(address).find_map(|(_, b)| {
+            let (start, _) = b.address_range()?;
+            b.contents
+                .as_ref()?
+                .get(usize::try_from(address - start).ok()?..)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state_with_buffer() -> State {
+        let mut state = State::default();
+        state.buffers.insert(
+            1,
+            Buffer {
+                size: 16,
+                device_address: Some(0x1000),
+                contents: Some(Arc::from((0u8..16).collect::<Vec<u8>>())),
+                ..Default::default()
+            },
+        );
+        state
+    }
+
+    #[test]
+    fn device_reads_stay_inside_one_buffer() {
+        let state = state_with_buffer();
+        assert_eq!(state.read_device(0x1004, 4), Some(&[4u8, 5, 6, 7][..]));
+        assert_eq!(state.read_device(0x100c, 8), None);
+        assert_eq!(state.read_device(u64::MAX - 1, 4), None);
+        assert!(state.range_in_one_buffer(0x1000, 16));
+        assert!(!state.range_in_one_buffer(0x1000, 17));
+        assert!(!state.range_in_one_buffer(u64::MAX, 2));
+    }
+
+    #[test]
+    fn host_reads_stay_inside_the_described_range() {
+        let mut state = State::default();
+        state.host_memory.push(HostRange {
+            address: 0x50,
+            bytes: Arc::from(vec![9u8; 8]),
+        });
+        assert_eq!(state.read_host(0x52, 4), Some(&[9u8; 4][..]));
+        assert_eq!(state.read_host(0x56, 4), None);
+        assert_eq!(state.read_host(0x40, 4), None);
+        assert_eq!(state.host_bytes_from(0x57).map(<[u8]>::len), Some(1));
+        assert_eq!(state.host_bytes_from(0x58), None);
+    }
+}

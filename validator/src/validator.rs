@@ -1,0 +1,105 @@
+//! The stateful checker: a device, tracked objects, and one method per API
+//! call (defined next to their checks in `checks/`).
+
+use crate::device::Device;
+use crate::report::{Finding, Report, RuleId, Severity};
+use crate::state::State;
+
+/// Checks calls against a device and the objects earlier calls created.
+///
+/// Each `vk*` method checks one call, returns its findings, and records what
+/// the call did (a created object, a build) so later calls are checked
+/// against it.
+#[derive(Clone, Debug, Default)]
+pub struct Validator {
+    pub(crate) device: Device,
+    pub(crate) state: State,
+}
+
+impl Validator {
+    pub fn new(device: Device) -> Self {
+        Self {
+            device,
+            state: State::default(),
+        }
+    }
+
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// Direct access to tracked objects, for tests and adaptors that learn of
+    /// objects by other means.
+    pub fn state_mut(&mut self) -> &mut State {
+        &mut self.state
+    }
+
+    pub(crate) fn ctx(&self, function: &'static str) -> Ctx<'_> {
+        Ctx {
+            device: &self.device,
+            state: &self.state,
+            function,
+            report: Report::new(),
+        }
+    }
+}
+
+/// What one check runs with: the device, the tracked state, the function
+/// being checked, and the findings so far.
+pub(crate) struct Ctx<'a> {
+    pub device: &'a Device,
+    pub state: &'a State,
+    pub function: &'static str,
+    pub report: Report,
+}
+
+impl Ctx<'_> {
+    /// Reports a finding of `severity`.
+    pub fn report(
+        &mut self,
+        rule: impl Into<RuleId>,
+        severity: Severity,
+        location: impl Into<String>,
+        message: impl Into<String>,
+    ) -> &mut Finding {
+        self.report.findings.push(Finding::new(
+            rule,
+            severity,
+            self.function,
+            location,
+            message,
+        ));
+        self.report.findings.last_mut().expect("just pushed")
+    }
+
+    /// Reports an error.
+    pub fn error(
+        &mut self,
+        rule: impl Into<RuleId>,
+        location: impl Into<String>,
+        message: impl Into<String>,
+    ) -> &mut Finding {
+        self.report(rule, Severity::Error, location, message)
+    }
+
+    /// Reports an error unless `ok`; location and message are built only on failure.
+    pub fn require(
+        &mut self,
+        ok: bool,
+        rule: impl Into<RuleId>,
+        location: impl FnOnce() -> String,
+        message: impl FnOnce() -> String,
+    ) {
+        if !ok {
+            self.error(rule, location(), message());
+        }
+    }
+
+    pub fn finish(self) -> Report {
+        self.report
+    }
+}
