@@ -5,8 +5,11 @@
 
 use ommcheck_vuids::Vuid;
 
+pub mod accel_build;
 pub(crate) mod common;
 pub mod micromap_build;
+pub mod micromap_objects;
+pub mod pipeline_sync;
 
 /// A module's coverage declaration.
 pub struct Coverage {
@@ -19,5 +22,10 @@ pub struct Coverage {
 
 /// Every module's declaration.
 pub fn coverage() -> Vec<Coverage> {
-    vec![micromap_build::COVERAGE]
+    vec![
+        micromap_build::COVERAGE,
+        micromap_objects::COVERAGE,
+        accel_build::COVERAGE,
+        pipeline_sync::COVERAGE,
+    ]
 }

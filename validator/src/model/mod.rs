@@ -3,8 +3,11 @@
 //! beside the arrays they describe, so that every invalid input the API can
 //! express can be expressed here and checked.
 
+pub mod accel;
 pub mod command;
 pub mod micromap;
+pub mod micromap_objects;
+pub mod pipeline;
 pub mod values;
 
 pub use command::CommandBuffer;

@@ -3,8 +3,11 @@
 //! an error). The coverage test fails when a rule a check module declares
 //! enforced has no case here.
 
+mod accel_build;
 mod fixtures;
 mod micromap_build;
+mod micromap_objects;
+mod pipeline_sync;
 
 use std::collections::BTreeSet;
 
@@ -29,6 +32,9 @@ pub fn case(rule: impl Into<RuleId>, failing: fn() -> Report, passing: fn() -> R
 fn all_cases() -> Vec<Case> {
     let mut cases = Vec::new();
     cases.extend(micromap_build::cases());
+    cases.extend(micromap_objects::cases());
+    cases.extend(accel_build::cases());
+    cases.extend(pipeline_sync::cases());
     cases
 }
 
