@@ -5,6 +5,7 @@
 
 use ommcheck_vuids::Vuid;
 
+pub mod accel_attach;
 pub mod accel_build;
 pub(crate) mod common;
 pub mod micromap_build;
@@ -26,6 +27,7 @@ pub fn coverage() -> Vec<Coverage> {
         micromap_build::COVERAGE,
         micromap_objects::COVERAGE,
         accel_build::COVERAGE,
+        accel_attach::COVERAGE,
         pipeline_sync::COVERAGE,
     ]
 }

@@ -3,6 +3,7 @@
 //! an error). The coverage test fails when a rule a check module declares
 //! enforced has no case here.
 
+mod accel_attach;
 mod accel_build;
 mod fixtures;
 mod micromap_build;
@@ -34,6 +35,7 @@ fn all_cases() -> Vec<Case> {
     cases.extend(micromap_build::cases());
     cases.extend(micromap_objects::cases());
     cases.extend(accel_build::cases());
+    cases.extend(accel_attach::cases());
     cases.extend(pipeline_sync::cases());
     cases
 }
