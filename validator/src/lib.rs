@@ -16,6 +16,7 @@ pub mod checks;
 pub mod coverage;
 pub mod device;
 pub mod model;
+pub mod raw;
 pub mod report;
 pub mod rules;
 pub mod state;

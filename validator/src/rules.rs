@@ -44,12 +44,28 @@ pub static EXT_TRIANGLE_ARRAY_STRIDE: OwnRule = OwnRule {
     link: MICROMAPS,
 };
 
+/// A pNext chain must end: no loops, and no longer than the reader walks.
+pub static PNEXT_CHAIN: OwnRule = OwnRule {
+    id: "OMMCHECK-reader-pnext-chain",
+    statement: "Each pNext member of any structure (including this one) in the pNext chain must be either NULL or a pointer to a valid instance of a structure extending it (a chain that loops back is not such a chain)",
+    link: "https://docs.vulkan.org/spec/latest/chapters/fundamentals.html#fundamentals-validusage-pNext",
+};
+
+/// ommcheck reads a bounded number of elements of any application array.
+pub static READ_BOUND: OwnRule = OwnRule {
+    id: "OMMCHECK-reader-bounded",
+    statement: "ommcheck reads at most 2^20 elements of one application array and 256 MiB of one host array; elements past that bound are not checked",
+    link: "https://docs.vulkan.org/spec/latest/chapters/fundamentals.html#fundamentals-validusage",
+};
+
 /// Every own rule, for the README and the coverage report.
 pub static ALL: &[&OwnRule] = &[
     &HISTOGRAM_MISMATCH,
     &TRIANGLE_DATA_RANGE,
     &TRIANGLE_ARRAY_RANGE,
     &EXT_TRIANGLE_ARRAY_STRIDE,
+    &PNEXT_CHAIN,
+    &READ_BOUND,
 ];
 
 #[cfg(test)]

@@ -9,6 +9,7 @@ mod fixtures;
 mod micromap_build;
 mod micromap_objects;
 mod pipeline_sync;
+mod raw;
 
 use std::collections::BTreeSet;
 
@@ -37,6 +38,7 @@ fn all_cases() -> Vec<Case> {
     cases.extend(accel_build::cases());
     cases.extend(accel_attach::cases());
     cases.extend(pipeline_sync::cases());
+    cases.extend(raw::cases());
     cases
 }
 

@@ -1,0 +1,439 @@
+//! Reading the structures an application hands the driver (ash structs with
+//! raw pointers) into the owned model. This is the one module that reads
+//! raw pointers; every read is bounded and explained by a SAFETY comment.
+//!
+//! What it tolerates without crashing or allocating without bound: NULL
+//! pointers with non-zero counts (kept as NULL: the checks report them),
+//! absurd counts (at most [`MAX_ELEMENTS`] elements are read; a warning says
+//! so), and unknown, long or cyclic pNext chains (at most [`MAX_CHAIN`]
+//! structures are walked, each address once).
+
+#![allow(unsafe_code)]
+
+use std::collections::HashSet;
+use std::ffi::c_void;
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
+use crate::report::{Finding, Report, Severity};
+use crate::rules;
+use crate::state::HostRange;
+use crate::Validator;
+
+/// The most elements read from one application array.
+pub const MAX_ELEMENTS: usize = 1 << 20;
+/// The most structures walked in one pNext chain.
+pub const MAX_CHAIN: usize = 64;
+/// The most bytes of host memory read for one array of a host command.
+pub const MAX_HOST_BYTES: u64 = 1 << 28;
+
+/// Reads the sTypes of a pNext chain, stopping at NULL, after
+/// [`MAX_CHAIN`] structures, or at an address already visited (a cycle).
+///
+/// # Safety
+/// Every non-NULL `pNext` in the chain must point to a readable structure
+/// that starts with `sType` and `pNext`, as the Vulkan API requires.
+unsafe fn chain_s_types(
+    mut next: *const c_void,
+    function: &'static str,
+    location: &str,
+    findings: &mut Vec<Finding>,
+) -> Vec<i32> {
+    let mut s_types = Vec::new();
+    let mut visited = HashSet::new();
+    while !next.is_null() {
+        if !visited.insert(next as usize) || s_types.len() >= MAX_CHAIN {
+            findings.push(Finding::new(
+                &rules::PNEXT_CHAIN,
+                Severity::Error,
+                function,
+                format!("{location}.pNext"),
+                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {} of it", s_types.len()),
+            ));
+            break;
+        }
+        // SAFETY: the caller guarantees `next` points to a Vulkan structure,
+        // whose first members are sType and pNext (VkBaseInStructure).
+        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+        s_types.push(base.s_type.as_raw());
+        next = base.p_next.cast();
+    }
+    s_types
+}
+
+/// Copies up to [`MAX_ELEMENTS`] elements of an application array; `None`
+/// for a NULL pointer.
+///
+/// # Safety
+/// A non-NULL `pointer` must point to `count` readable, initialised `T`s.
+unsafe fn read_array<T: Copy>(
+    pointer: *const T,
+    count: u32,
+    function: &'static str,
+    location: &str,
+    findings: &mut Vec<Finding>,
+) -> Option<Vec<T>> {
+    if pointer.is_null() {
+        return None;
+    }
+    let len = bounded_len(count, function, location, findings);
+    // SAFETY: the caller guarantees `count` elements are readable, and `len`
+    // is at most `count`.
+    Some(unsafe { std::slice::from_raw_parts(pointer, len) }.to_vec())
+}
+
+/// `count` bounded by [`MAX_ELEMENTS`], with a warning when it is cut.
+fn bounded_len(
+    count: u32,
+    function: &'static str,
+    location: &str,
+    findings: &mut Vec<Finding>,
+) -> usize {
+    let len = usize::try_from(count).unwrap_or(usize::MAX);
+    if len > MAX_ELEMENTS {
+        findings.push(Finding::new(
+            &rules::READ_BOUND,
+            Severity::Warning,
+            function,
+            location.to_string(),
+            format!("the count {count} exceeds what ommcheck reads ({MAX_ELEMENTS}); the rest is not checked"),
+        ));
+    }
+    len.min(MAX_ELEMENTS)
+}
+
+fn usage(u: vk::MicromapUsageEXT) -> MicromapUsage {
+    MicromapUsage {
+        count: u.count,
+        subdivision_level: u.subdivision_level,
+        format: u.format,
+    }
+}
+
+/// Reads a `usageCountsCount` / `pUsageCounts` / `ppUsageCounts` triple.
+///
+/// # Safety
+/// The pointers must be NULL or valid for `count` elements, as the API requires.
+unsafe fn usage_counts(
+    count: u32,
+    array: *const vk::MicromapUsageEXT,
+    pointers: *const *const vk::MicromapUsageEXT,
+    function: &'static str,
+    location: &str,
+    findings: &mut Vec<Finding>,
+) -> UsageCounts {
+    // SAFETY: forwarded from the caller.
+    let array = unsafe {
+        read_array(
+            array,
+            count,
+            function,
+            &format!("{location}.pUsageCounts"),
+            findings,
+        )
+    };
+    // SAFETY: forwarded from the caller.
+    let pointers = unsafe {
+        read_array(
+            pointers,
+            count,
+            function,
+            &format!("{location}.ppUsageCounts"),
+            findings,
+        )
+    };
+    let pointers = pointers.map(|list| {
+        list.into_iter()
+            // SAFETY: each non-NULL element points to one VkMicromapUsageEXT.
+            .map(|p| (!p.is_null()).then(|| usage(unsafe { *p })))
+            .collect::<Vec<_>>()
+    });
+    let read = array
+        .as_ref()
+        .map(Vec::len)
+        .or(pointers.as_ref().map(Vec::len));
+    UsageCounts {
+        // A count cut to the bound is reported above; the model holds what was read.
+        count: read.map_or(count, |n| n as u32),
+        array: array.map(|list| list.into_iter().map(usage).collect()),
+        pointers,
+    }
+}
+
+/// Reads a `VkMicromapBuildInfoEXT`. Addresses become plain numbers: device
+/// addresses for device commands, host pointers' values for host commands.
+///
+/// # Safety
+/// `info` must be a structure an application could pass to
+/// `vkCmdBuildMicromapsEXT` or `vkBuildMicromapsEXT`: its pointers NULL or
+/// valid for the counts beside them, its pNext chain well formed (cycles and
+/// length are tolerated).
+pub unsafe fn micromap_build_info(
+    info: &vk::MicromapBuildInfoEXT<'_>,
+    function: &'static str,
+    location: &str,
+    findings: &mut Vec<Finding>,
+) -> MicromapBuildInfo {
+    // SAFETY: both union members are 64-bit integers or pointers on the
+    // targets we support; reading either gives the address bits.
+    let (data, scratch_data, triangle_array) = unsafe {
+        (
+            info.data.device_address,
+            info.scratch_data.device_address,
+            info.triangle_array.device_address,
+        )
+    };
+    MicromapBuildInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, location, findings) },
+        ty: info.ty.as_raw(),
+        flags: info.flags.as_raw(),
+        mode: info.mode.as_raw(),
+        dst_micromap: vk::Handle::as_raw(info.dst_micromap),
+        // SAFETY: forwarded from the caller.
+        usage_counts: unsafe {
+            usage_counts(
+                info.usage_counts_count,
+                info.p_usage_counts,
+                info.pp_usage_counts,
+                function,
+                location,
+                findings,
+            )
+        },
+        data,
+        scratch_data,
+        triangle_array,
+        triangle_array_stride: info.triangle_array_stride,
+    }
+}
+
+/// Reads `infos` (NULL with a non-zero count reads as empty).
+///
+/// # Safety
+/// As [`micromap_build_info`] for each of `count` elements at `infos`.
+unsafe fn micromap_build_infos(
+    infos: *const vk::MicromapBuildInfoEXT<'_>,
+    count: u32,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> Vec<MicromapBuildInfo> {
+    if infos.is_null() {
+        return Vec::new();
+    }
+    let len = bounded_len(count, function, "pInfos", findings);
+    // SAFETY: the caller guarantees `count` readable elements; `len <= count`.
+    let list = unsafe { std::slice::from_raw_parts(infos, len) };
+    list.iter()
+        .enumerate()
+        // SAFETY: forwarded from the caller.
+        .map(|(i, info)| unsafe {
+            micromap_build_info(info, function, &format!("pInfos[{i}]"), findings)
+        })
+        .collect()
+}
+
+impl Validator {
+    /// Checks `vkCmdBuildMicromapsEXT` called with the ash structures a
+    /// program would hand the driver. Device memory contents are read only
+    /// from buffers whose contents the validator was given.
+    ///
+    /// # Safety
+    /// `infos` must be valid as for [`micromap_build_info`].
+    pub unsafe fn cmd_build_micromaps_ash(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[vk::MicromapBuildInfoEXT<'_>],
+    ) -> Report {
+        let mut findings = Vec::new();
+        let count = u32::try_from(infos.len()).unwrap_or(u32::MAX);
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            micromap_build_infos(
+                infos.as_ptr(),
+                count,
+                "vkCmdBuildMicromapsEXT",
+                &mut findings,
+            )
+        };
+        let mut report = Report { findings };
+        report.extend(self.cmd_build_micromaps(command_buffer, &model));
+        report
+    }
+
+    /// Checks `vkBuildMicromapsEXT` called with ash structures whose
+    /// addresses are host pointers. The triangle array (whose extent the
+    /// usage counts and stride describe) is read so its entries can be
+    /// checked; micromap data is read only where the validator was given
+    /// host ranges for it, because its extent comes from those entries,
+    /// which may be wrong.
+    ///
+    /// # Safety
+    /// `infos` must be valid as for [`micromap_build_info`], and each
+    /// triangleArray host address must be readable for
+    /// `(Σ usage counts − 1) × triangleArrayStride + 8` bytes, as the API requires.
+    pub unsafe fn build_micromaps_ash(&mut self, infos: &[vk::MicromapBuildInfoEXT<'_>]) -> Report {
+        let mut findings = Vec::new();
+        let count = u32::try_from(infos.len()).unwrap_or(u32::MAX);
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            micromap_build_infos(infos.as_ptr(), count, "vkBuildMicromapsEXT", &mut findings)
+        };
+        for (i, info) in model.iter().enumerate() {
+            let triangles = info.usage_counts.total();
+            let extent = triangles
+                .checked_sub(1)
+                .and_then(|n| n.checked_mul(info.triangle_array_stride))
+                .and_then(|n| n.checked_add(8));
+            let Some(extent) = extent.filter(|_| info.triangle_array != 0) else {
+                continue;
+            };
+            if extent > MAX_HOST_BYTES {
+                findings.push(Finding::new(
+                    &rules::READ_BOUND,
+                    Severity::Warning,
+                    "vkBuildMicromapsEXT",
+                    format!("pInfos[{i}].triangleArray"),
+                    format!("the triangle array spans {extent} bytes, more than ommcheck reads ({MAX_HOST_BYTES}); its entries are not checked"),
+                ));
+                continue;
+            }
+            if self.state.read_host(info.triangle_array, extent).is_none() {
+                // SAFETY: the caller guarantees the triangle array is readable
+                // for `extent` bytes; `extent` fits in memory (bounded above).
+                let bytes = unsafe {
+                    std::slice::from_raw_parts(
+                        info.triangle_array as usize as *const u8,
+                        extent as usize,
+                    )
+                };
+                self.state.host_memory.push(HostRange {
+                    address: info.triangle_array,
+                    bytes: Arc::from(bytes),
+                });
+            }
+        }
+        let mut report = Report { findings };
+        report.extend(self.build_micromaps(&model));
+        report
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Device, Profile};
+    use ommcheck_vuids::vuid;
+
+    fn usage_ext(count: u32) -> vk::MicromapUsageEXT {
+        vk::MicromapUsageEXT {
+            count,
+            subdivision_level: 1,
+            format: 2,
+        }
+    }
+
+    #[test]
+    fn null_usage_pointer_with_a_count_reads_as_null() {
+        let info = vk::MicromapBuildInfoEXT {
+            usage_counts_count: 3,
+            ..Default::default()
+        };
+        let mut findings = Vec::new();
+        // SAFETY: both usage pointers are NULL.
+        let model = unsafe { micromap_build_info(&info, "f", "pInfos[0]", &mut findings) };
+        assert_eq!(model.usage_counts.count, 3);
+        assert!(model.usage_counts.array.is_none() && model.usage_counts.pointers.is_none());
+        assert!(findings.is_empty());
+    }
+
+    #[test]
+    fn both_usage_pointers_are_reported() {
+        let usages = [usage_ext(2)];
+        let pointer: *const vk::MicromapUsageEXT = &usages[0];
+        let pointers = [pointer];
+        let info = vk::MicromapBuildInfoEXT {
+            usage_counts_count: 1,
+            p_usage_counts: usages.as_ptr(),
+            pp_usage_counts: pointers.as_ptr(),
+            ..Default::default()
+        };
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        // SAFETY: every pointer in `info` points to one live element.
+        let report = unsafe { v.cmd_build_micromaps_ash(&CommandBuffer::default(), &[info]) };
+        assert!(
+            report.contains(vuid::VkMicromapBuildInfoEXT::pUsageCounts_07516),
+            "{report}"
+        );
+    }
+
+    #[test]
+    fn cyclic_pnext_chain_is_cut_and_reported() {
+        let mut a = vk::BaseInStructure {
+            s_type: vk::StructureType::from_raw(1),
+            ..Default::default()
+        };
+        let b = vk::BaseInStructure {
+            s_type: vk::StructureType::from_raw(2),
+            p_next: &a,
+            ..Default::default()
+        };
+        a.p_next = &b;
+        let mut findings = Vec::new();
+        // SAFETY: `a` and `b` are live structures pointing at each other.
+        let s_types = unsafe {
+            chain_s_types(
+                (&a as *const vk::BaseInStructure<'_>).cast(),
+                "f",
+                "x",
+                &mut findings,
+            )
+        };
+        assert_eq!(s_types, [1, 2]);
+        assert_eq!(findings.len(), 1);
+        assert_eq!(findings[0].rule.as_str(), rules::PNEXT_CHAIN.id);
+    }
+
+    #[test]
+    fn absurd_counts_are_bounded() {
+        let mut findings = Vec::new();
+        assert_eq!(bounded_len(u32::MAX, "f", "x", &mut findings), MAX_ELEMENTS);
+        assert_eq!(findings[0].rule.as_str(), rules::READ_BOUND.id);
+        assert_eq!(bounded_len(7, "f", "x", &mut findings), 7);
+        assert_eq!(findings.len(), 1);
+    }
+
+    #[test]
+    fn host_build_reads_the_described_triangle_array() {
+        let triangles: [u8; 16] = [0, 0, 0, 0, 1, 0, 9, 0, 1, 0, 0, 0, 1, 0, 2, 0];
+        let usages = [usage_ext(2)];
+        let scratch = [0u8; 64];
+        let data = [0u8; 8];
+        let info = vk::MicromapBuildInfoEXT {
+            usage_counts_count: 1,
+            p_usage_counts: usages.as_ptr(),
+            triangle_array: vk::DeviceOrHostAddressConstKHR {
+                host_address: triangles.as_ptr().cast(),
+            },
+            data: vk::DeviceOrHostAddressConstKHR {
+                host_address: data.as_ptr().cast(),
+            },
+            scratch_data: vk::DeviceOrHostAddressKHR {
+                host_address: scratch.as_ptr() as *mut c_void,
+            },
+            triangle_array_stride: 8,
+            ..Default::default()
+        };
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        // SAFETY: the triangle array holds the 2 entries the usage counts describe.
+        let report = unsafe { v.build_micromaps_ash(&[info]) };
+        // Entry 0 has format 9: found by reading the host triangle array.
+        assert!(
+            report.contains(vuid::VkMicromapBuildInfoEXT::format_11657),
+            "{report}"
+        );
+    }
+}
