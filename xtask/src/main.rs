@@ -23,7 +23,7 @@ enum Task {
         #[arg(long)]
         check: bool,
     },
-    /// Write VUID-COVERAGE.md: every catalog VUID's status.
+    /// Write VUID-COVERAGE.md (every catalog VUID's status) and README.md's table of our rules.
     Coverage,
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
@@ -56,9 +56,16 @@ fn main() -> ExitCode {
         }
         Task::Coverage => {
             let path = root.join("VUID-COVERAGE.md");
+            let readme_path = root.join("README.md");
             std::fs::write(&path, ommcheck::coverage::render())
-                .map(|()| println!("wrote VUID-COVERAGE.md"))
                 .map_err(|source| xtask::Error::Io { path, source })
+                .and_then(|()| xtask::read(&readme_path))
+                .and_then(|readme| {
+                    let updated = ommcheck::coverage::update_readme(&readme)
+                        .ok_or_else(|| xtask::Error::Tool("README.md lacks the ommcheck-rules markers".into()))?;
+                    std::fs::write(&readme_path, updated).map_err(|source| xtask::Error::Io { path: readme_path, source })
+                })
+                .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
         }
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };
