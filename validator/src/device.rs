@@ -157,6 +157,11 @@ pub struct Device {
     pub limits: Limits,
     /// Physical devices in the device group (more than one: multi-device rules apply).
     pub physical_device_count: u32,
+    /// The `VkDevice` handle calls must name; 0 when unknown (then any
+    /// non-NULL handle is taken to be this device).
+    pub handle: u64,
+    /// Queues the device was created with (Σ `VkDeviceQueueCreateInfo::queueCount`).
+    pub queue_count: u32,
 }
 
 impl Default for Device {
@@ -166,6 +171,8 @@ impl Default for Device {
             features: Features::default(),
             limits: Limits::default(),
             physical_device_count: 1,
+            handle: 0,
+            queue_count: 1,
         }
     }
 }
@@ -194,6 +201,8 @@ impl Device {
             features: Features::all(),
             limits: profile.limits(),
             physical_device_count: 1,
+            handle: 0,
+            queue_count: 1,
         }
     }
 

@@ -1,7 +1,7 @@
 //! Objects the checks track across calls: buffers and their memory,
 //! micromaps, acceleration structures and query pools.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
@@ -111,6 +111,19 @@ pub struct State {
     pub acceleration_structures: BTreeMap<Handle, AccelerationStructure>,
     pub query_pools: BTreeMap<Handle, QueryPool>,
     pub host_memory: Vec<HostRange>,
+    /// `VkDeferredOperationKHR` handles the application created
+    /// (`vkCreateDeferredOperationKHR`) and has not destroyed.
+    pub deferred_operations: BTreeSet<Handle>,
+    /// Pipelines created through the checker: their flags and what their
+    /// shaders declare (pipeline and draw/dispatch/trace checks).
+    pub pipelines: BTreeMap<Handle, crate::model::pipeline::PipelineRecord>,
+    /// `VkShaderEXT` objects created through the checker.
+    pub shader_objects: BTreeMap<Handle, crate::model::pipeline::ShaderObjectRecord>,
+    /// The SPIR-V words of `VkShaderModule`s created through the checker.
+    pub shader_modules: BTreeMap<Handle, Arc<[u32]>>,
+    /// What each acceleration structure's known build put in it that the
+    /// draw, dispatch and trace-rays micromap rules ask about.
+    pub micromap_geometry: BTreeMap<Handle, crate::model::pipeline::MicromapGeometry>,
 }
 
 impl State {

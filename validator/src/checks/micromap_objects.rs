@@ -1,9 +1,1453 @@
-//! (being written)
+//! `VK_EXT_opacity_micromap` micromap objects: `vkCreateMicromapEXT`,
+//! `vkDestroyMicromapEXT`, the copies and (de)serializations on the device
+//! and on the host, the property queries, `vkGetMicromapBuildSizesEXT`,
+//! `vkGetDeviceMicromapCompatibilityEXT`, and the micromap rules of
+//! `vkCmdBeginQuery*`.
 
+use ommcheck_vuids::vuid::{
+    vkCmdBeginQuery as begin_query, vkCmdBeginQueryIndexedEXT as begin_query_indexed,
+    vkCmdCopyMemoryToMicromapEXT as cmd_from_memory, vkCmdCopyMicromapEXT as cmd_copy,
+    vkCmdCopyMicromapToMemoryEXT as cmd_to_memory, vkCmdWriteMicromapsPropertiesEXT as cmd_write,
+    vkCopyMemoryToMicromapEXT as host_from_memory, vkCopyMicromapEXT as host_copy,
+    vkCopyMicromapToMemoryEXT as host_to_memory, vkCreateMicromapEXT as create,
+    vkDestroyMicromapEXT as destroy, vkGetDeviceMicromapCompatibilityEXT as compatibility,
+    vkGetMicromapBuildSizesEXT as build_sizes, vkWriteMicromapsPropertiesEXT as host_write,
+    VkCopyMemoryToMicromapInfoEXT as from_memory_info, VkCopyMicromapInfoEXT as copy_info,
+    VkCopyMicromapToMemoryInfoEXT as to_memory_info, VkMicromapBuildSizesInfoEXT as sizes_info,
+    VkMicromapCreateInfoEXT as create_info, VkMicromapVersionInfoEXT as version_info,
+};
+use ommcheck_vuids::Vuid;
+
+use crate::checks::common::{self, CommandBufferVuids};
 use crate::checks::Coverage;
+use crate::model::micromap_objects::*;
+use crate::model::values::*;
+use crate::model::{CommandBuffer, MicromapBuildInfo};
+use crate::report::{ObjectRef, Report};
+use crate::state::{Handle, MemoryBinding, Micromap};
+use crate::validator::{Ctx, Validator};
+
+const EXECUTION: &str = "whether the micromap was built before this command executes is GPU execution order (submissions, semaphores, fences), not visible at the API boundary";
+const HOST_EXECUTION: &str = "whether the build completed before this host command runs depends on deferred operations and other threads finishing, not visible at the API boundary";
+const DEFERRED_COMPLETE: &str = "completion of a deferred operation is known only from vkDeferredOperationJoinKHR / vkGetDeferredOperationResultKHR results, outside these calls";
+const OTHER_DEVICE: &str = "one Validator tracks one device's objects: a handle of another device is unknown to it and reported under the -parameter rule";
+const SERIALIZED_SIZE: &str = "the serialization size is the implementation's, returned only through a query the GPU or driver writes";
+const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "micromap_objects",
-    enforced: &[],
-    not_decidable: &[],
+    enforced: &[
+        create_info::buffer_07435,
+        create_info::buffer_07436,
+        create_info::buffer_parameter,
+        create_info::bufferDeviceAddressMultiDevice_11617,
+        create_info::createFlags_parameter,
+        create_info::deviceAddress_07433,
+        create_info::deviceAddress_parameter,
+        create_info::micromapCaptureReplay_11616,
+        create_info::offset_07437,
+        create_info::offset_07438,
+        create_info::pNext_pNext,
+        create_info::sType_sType,
+        create_info::type_parameter,
+        create::device_parameter,
+        create::device_queuecount,
+        create::micromap_11615,
+        create::pAllocator_parameter,
+        create::pCreateInfo_parameter,
+        create::pMicromap_parameter,
+        destroy::device_parameter,
+        destroy::micromap_07442,
+        destroy::micromap_07443,
+        destroy::micromap_11619,
+        destroy::micromap_parameter,
+        destroy::pAllocator_parameter,
+        copy_info::dst_parameter,
+        copy_info::mode_07531,
+        copy_info::mode_07533,
+        copy_info::pNext_pNext,
+        copy_info::sType_sType,
+        copy_info::src_parameter,
+        to_memory_info::mode_07542,
+        to_memory_info::mode_parameter,
+        to_memory_info::pNext_pNext,
+        to_memory_info::sType_sType,
+        to_memory_info::src_parameter,
+        from_memory_info::dst_parameter,
+        from_memory_info::mode_07548,
+        from_memory_info::mode_parameter,
+        from_memory_info::pNext_pNext,
+        from_memory_info::sType_sType,
+        cmd_copy::buffer_07529,
+        cmd_copy::buffer_07530,
+        cmd_copy::commandBuffer_cmdpool,
+        cmd_copy::commandBuffer_parameter,
+        cmd_copy::commandBuffer_recording,
+        cmd_copy::pInfo_parameter,
+        cmd_copy::renderpass,
+        cmd_copy::suspended,
+        cmd_copy::videocoding,
+        cmd_to_memory::buffer_07539,
+        cmd_to_memory::commandBuffer_cmdpool,
+        cmd_to_memory::commandBuffer_parameter,
+        cmd_to_memory::commandBuffer_recording,
+        cmd_to_memory::pInfo_07536,
+        cmd_to_memory::pInfo_07537,
+        cmd_to_memory::pInfo_parameter,
+        cmd_to_memory::renderpass,
+        cmd_to_memory::suspended,
+        cmd_to_memory::videocoding,
+        cmd_from_memory::buffer_07546,
+        cmd_from_memory::commandBuffer_cmdpool,
+        cmd_from_memory::commandBuffer_parameter,
+        cmd_from_memory::commandBuffer_recording,
+        cmd_from_memory::pInfo_07543,
+        cmd_from_memory::pInfo_07544,
+        cmd_from_memory::pInfo_parameter,
+        cmd_from_memory::renderpass,
+        cmd_from_memory::suspended,
+        cmd_from_memory::videocoding,
+        host_copy::buffer_07558,
+        host_copy::buffer_07559,
+        host_copy::buffer_07561,
+        host_copy::buffer_07562,
+        host_copy::deferredOperation_parameter,
+        host_copy::device_parameter,
+        host_copy::micromapHostCommands_07560,
+        host_copy::pInfo_parameter,
+        host_to_memory::buffer_07568,
+        host_to_memory::buffer_07572,
+        host_to_memory::deferredOperation_parameter,
+        host_to_memory::device_parameter,
+        host_to_memory::micromapHostCommands_07571,
+        host_to_memory::pInfo_07569,
+        host_to_memory::pInfo_07570,
+        host_to_memory::pInfo_parameter,
+        host_from_memory::buffer_07565,
+        host_from_memory::buffer_07567,
+        host_from_memory::deferredOperation_parameter,
+        host_from_memory::device_parameter,
+        host_from_memory::micromapHostCommands_07566,
+        host_from_memory::pInfo_07563,
+        host_from_memory::pInfo_07564,
+        host_from_memory::pInfo_parameter,
+        cmd_write::buffer_07527,
+        cmd_write::commandBuffer_cmdpool,
+        cmd_write::commandBuffer_parameter,
+        cmd_write::commandBuffer_recording,
+        cmd_write::micromapCount_arraylength,
+        cmd_write::pMicromaps_07502,
+        cmd_write::pMicromaps_parameter,
+        cmd_write::query_07528,
+        cmd_write::queryPool_07525,
+        cmd_write::queryPool_parameter,
+        cmd_write::queryType_07503,
+        cmd_write::renderpass,
+        cmd_write::suspended,
+        cmd_write::videocoding,
+        host_write::buffer_07577,
+        host_write::buffer_07579,
+        host_write::dataSize_07576,
+        host_write::dataSize_arraylength,
+        host_write::device_parameter,
+        host_write::micromapCount_arraylength,
+        host_write::micromapHostCommands_07578,
+        host_write::pData_parameter,
+        host_write::pMicromaps_07502,
+        host_write::pMicromaps_parameter,
+        host_write::queryType_07503,
+        host_write::queryType_10071,
+        host_write::queryType_10072,
+        host_write::queryType_parameter,
+        build_sizes::buildType_parameter,
+        build_sizes::device_07440,
+        build_sizes::device_parameter,
+        build_sizes::micromap_11618,
+        build_sizes::pBuildInfo_parameter,
+        build_sizes::pSizeInfo_parameter,
+        sizes_info::pNext_pNext,
+        sizes_info::sType_sType,
+        compatibility::device_parameter,
+        compatibility::micromap_11666,
+        compatibility::pCompatibility_parameter,
+        compatibility::pVersionInfo_parameter,
+        version_info::pNext_pNext,
+        version_info::pVersionData_parameter,
+        version_info::sType_sType,
+        begin_query::queryType_08972,
+        begin_query_indexed::queryType_08972,
+    ],
+    not_decidable: &[
+        (copy_info::commonparent, OTHER_DEVICE),
+        (destroy::micromap_parent, OTHER_DEVICE),
+        (host_write::pMicromaps_parent, OTHER_DEVICE),
+        (cmd_write::commonparent, OTHER_DEVICE),
+        (host_copy::deferredOperation_parent, OTHER_DEVICE),
+        (host_to_memory::deferredOperation_parent, OTHER_DEVICE),
+        (host_from_memory::deferredOperation_parent, OTHER_DEVICE),
+        (host_copy::deferredOperation_03678, DEFERRED_COMPLETE),
+        (host_to_memory::deferredOperation_03678, DEFERRED_COMPLETE),
+        (host_from_memory::deferredOperation_03678, DEFERRED_COMPLETE),
+        (destroy::micromap_07441, "completion of submitted commands is GPU execution state (fences, semaphores, vkQueueWaitIdle), not visible at the API boundary"),
+        (cmd_copy::src_07532, EXECUTION),
+        (cmd_write::pMicromaps_11662, EXECUTION),
+        (to_memory_info::src_07540, EXECUTION),
+        (host_copy::src_11670, HOST_EXECUTION),
+        (host_write::pMicromaps_11671, HOST_EXECUTION),
+        (to_memory_info::dst_07541, SERIALIZED_SIZE),
+        (from_memory_info::dst_07550, SERIALIZED_SIZE),
+        (from_memory_info::src_07547, SERIALIZED_DATA),
+        (from_memory_info::src_07549, "compatibility of serialized data with a device is what vkGetDeviceMicromapCompatibilityEXT reports, which only the driver decides"),
+        (cmd_write::None_12417, "query availability changes when commands execute (writes, vkCmdResetQueryPool in other command buffers, vkResetQueryPool on the host), in submission order rather than recording order"),
+    ],
 };
+
+/// The alignment of a device address that serialized data is read from or written to.
+const SERIALIZED_DEVICE_ALIGNMENT: u64 = 256;
+/// The alignment of a host address that serialized data is read from or written to.
+const SERIALIZED_HOST_ALIGNMENT: u64 = 16;
+/// The alignment `VkMicromapCreateInfoEXT::offset` needs.
+const MICROMAP_OFFSET_ALIGNMENT: u64 = 256;
+/// `sizeof(VkDeviceSize)`.
+const DEVICE_SIZE_BYTES: u64 = 8;
+
+/// The rules one host copy command states about the micromaps it touches.
+struct HostMemoryVuids {
+    host_visible: Vuid,
+    single_instance: Vuid,
+}
+
+/// The implicit rules every host command states about its handles.
+struct HostCallVuids {
+    device: Vuid,
+    deferred_operation: Vuid,
+    host_commands: Vuid,
+    info: Vuid,
+}
+
+impl Validator {
+    /// `vkCreateMicromapEXT(device, pCreateInfo, pAllocator, pMicromap)`;
+    /// `micromap` is `None` for a NULL `pMicromap`, else the handle the call
+    /// returned, which is then tracked.
+    pub fn create_micromap(
+        &mut self,
+        device: Handle,
+        info: Option<&MicromapCreateInfo>,
+        allocator: Option<&AllocationCallbacks>,
+        micromap: Option<Handle>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCreateMicromapEXT");
+        device_handle(&mut ctx, device, create::device_parameter);
+        ctx.require(
+            ctx.device.queue_count > 0,
+            create::device_queuecount,
+            || "device".into(),
+            || "the device was created with no queues".into(),
+        );
+        micromap_feature(&mut ctx, create::micromap_11615);
+        allocation_callbacks(&mut ctx, allocator, create::pAllocator_parameter);
+        ctx.require(
+            micromap.is_some(),
+            create::pMicromap_parameter,
+            || "pMicromap".into(),
+            || "pMicromap is NULL".into(),
+        );
+        let Some(info) = info else {
+            ctx.error(
+                create::pCreateInfo_parameter,
+                "pCreateInfo",
+                "pCreateInfo is NULL",
+            );
+            return ctx.finish();
+        };
+        micromap_create_info(&mut ctx, info);
+        let report = ctx.finish();
+        if let Some(handle) = micromap.filter(|h| *h != 0) {
+            let record = self.created_micromap(info, allocator.is_some());
+            self.state.micromaps.insert(handle, record);
+        }
+        report
+    }
+
+    /// What the checker remembers of a micromap `info` created.
+    fn created_micromap(&self, info: &MicromapCreateInfo, allocator: bool) -> Micromap {
+        let buffer_address = self
+            .state
+            .buffers
+            .get(&info.buffer)
+            .and_then(|b| b.device_address)
+            .and_then(|start| start.checked_add(info.offset));
+        let device_address = if info.device_address != 0 {
+            info.device_address
+        } else {
+            buffer_address.unwrap_or(0)
+        };
+        Micromap {
+            buffer: info.buffer,
+            offset: info.offset,
+            size: info.size,
+            ty: info.ty,
+            create_flags: info.create_flags,
+            device_address,
+            allocator,
+            built: None,
+        }
+    }
+
+    /// `vkDestroyMicromapEXT(device, micromap, pAllocator)`; stops tracking
+    /// the micromap.
+    pub fn destroy_micromap(
+        &mut self,
+        device: Handle,
+        micromap: Handle,
+        allocator: Option<&AllocationCallbacks>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkDestroyMicromapEXT");
+        device_handle(&mut ctx, device, destroy::device_parameter);
+        micromap_feature(&mut ctx, destroy::micromap_11619);
+        allocation_callbacks(&mut ctx, allocator, destroy::pAllocator_parameter);
+        if micromap != 0 {
+            if let Some(tracked) =
+                tracked_micromap(&mut ctx, micromap, destroy::micromap_parameter, "micromap")
+            {
+                match (tracked.allocator, allocator.is_some()) {
+                    (true, false) => {
+                        ctx.error(
+                            destroy::micromap_07442,
+                            "pAllocator",
+                            "the micromap was created with VkAllocationCallbacks, but pAllocator is NULL",
+                        );
+                    }
+                    (false, true) => {
+                        ctx.error(
+                            destroy::micromap_07443,
+                            "pAllocator",
+                            "the micromap was created without VkAllocationCallbacks, but pAllocator is not NULL",
+                        );
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let report = ctx.finish();
+        self.state.micromaps.remove(&micromap);
+        report
+    }
+
+    /// `vkCmdCopyMicromapEXT(commandBuffer, pInfo)`; `None` is a NULL `pInfo`.
+    pub fn cmd_copy_micromap(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMicromapInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdCopyMicromapEXT");
+        common::command_buffer(
+            &mut ctx,
+            command_buffer,
+            &CommandBufferVuids {
+                parameter: cmd_copy::commandBuffer_parameter,
+                recording: cmd_copy::commandBuffer_recording,
+                cmdpool: cmd_copy::commandBuffer_cmdpool,
+                renderpass: Some(cmd_copy::renderpass),
+                videocoding: Some(cmd_copy::videocoding),
+                suspended: Some(cmd_copy::suspended),
+            },
+        );
+        if let Some(info) = required_info(&mut ctx, info, cmd_copy::pInfo_parameter) {
+            let (src, dst) = copy_micromap_info(&mut ctx, info);
+            bound_to_device_memory(&mut ctx, src, cmd_copy::buffer_07529, "pInfo->src");
+            bound_to_device_memory(&mut ctx, dst, cmd_copy::buffer_07530, "pInfo->dst");
+        }
+        ctx.finish()
+    }
+
+    /// `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`: `dst` is a device address.
+    pub fn cmd_copy_micromap_to_memory(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMicromapToMemoryInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdCopyMicromapToMemoryEXT");
+        common::command_buffer(
+            &mut ctx,
+            command_buffer,
+            &CommandBufferVuids {
+                parameter: cmd_to_memory::commandBuffer_parameter,
+                recording: cmd_to_memory::commandBuffer_recording,
+                cmdpool: cmd_to_memory::commandBuffer_cmdpool,
+                renderpass: Some(cmd_to_memory::renderpass),
+                videocoding: Some(cmd_to_memory::videocoding),
+                suspended: Some(cmd_to_memory::suspended),
+            },
+        );
+        if let Some(info) = required_info(&mut ctx, info, cmd_to_memory::pInfo_parameter) {
+            let src = copy_micromap_to_memory_info(&mut ctx, info);
+            bound_to_device_memory(&mut ctx, src, cmd_to_memory::buffer_07539, "pInfo->src");
+            serialized_device_address(
+                &mut ctx,
+                info.dst,
+                cmd_to_memory::pInfo_07536,
+                cmd_to_memory::pInfo_07537,
+                "pInfo->dst.deviceAddress",
+            );
+        }
+        ctx.finish()
+    }
+
+    /// `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`: `src` is a device address.
+    pub fn cmd_copy_memory_to_micromap(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMemoryToMicromapInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdCopyMemoryToMicromapEXT");
+        common::command_buffer(
+            &mut ctx,
+            command_buffer,
+            &CommandBufferVuids {
+                parameter: cmd_from_memory::commandBuffer_parameter,
+                recording: cmd_from_memory::commandBuffer_recording,
+                cmdpool: cmd_from_memory::commandBuffer_cmdpool,
+                renderpass: Some(cmd_from_memory::renderpass),
+                videocoding: Some(cmd_from_memory::videocoding),
+                suspended: Some(cmd_from_memory::suspended),
+            },
+        );
+        if let Some(info) = required_info(&mut ctx, info, cmd_from_memory::pInfo_parameter) {
+            let dst = copy_memory_to_micromap_info(&mut ctx, info);
+            bound_to_device_memory(&mut ctx, dst, cmd_from_memory::buffer_07546, "pInfo->dst");
+            serialized_device_address(
+                &mut ctx,
+                info.src,
+                cmd_from_memory::pInfo_07543,
+                cmd_from_memory::pInfo_07544,
+                "pInfo->src.deviceAddress",
+            );
+        }
+        ctx.finish()
+    }
+
+    /// `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
+    pub fn copy_micromap(
+        &mut self,
+        device: Handle,
+        deferred_operation: Handle,
+        info: Option<&CopyMicromapInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCopyMicromapEXT");
+        let vuids = HostCallVuids {
+            device: host_copy::device_parameter,
+            deferred_operation: host_copy::deferredOperation_parameter,
+            host_commands: host_copy::micromapHostCommands_07560,
+            info: host_copy::pInfo_parameter,
+        };
+        if let Some(info) = host_call(&mut ctx, device, deferred_operation, info, &vuids) {
+            let (src, dst) = copy_micromap_info(&mut ctx, info);
+            let src_vuids = HostMemoryVuids {
+                host_visible: host_copy::buffer_07558,
+                single_instance: host_copy::buffer_07561,
+            };
+            let dst_vuids = HostMemoryVuids {
+                host_visible: host_copy::buffer_07559,
+                single_instance: host_copy::buffer_07562,
+            };
+            host_accessible(&mut ctx, src, &src_vuids, "pInfo->src");
+            host_accessible(&mut ctx, dst, &dst_vuids, "pInfo->dst");
+        }
+        ctx.finish()
+    }
+
+    /// `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`: `dst`
+    /// is a host address.
+    pub fn copy_micromap_to_memory(
+        &mut self,
+        device: Handle,
+        deferred_operation: Handle,
+        info: Option<&CopyMicromapToMemoryInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCopyMicromapToMemoryEXT");
+        let vuids = HostCallVuids {
+            device: host_to_memory::device_parameter,
+            deferred_operation: host_to_memory::deferredOperation_parameter,
+            host_commands: host_to_memory::micromapHostCommands_07571,
+            info: host_to_memory::pInfo_parameter,
+        };
+        if let Some(info) = host_call(&mut ctx, device, deferred_operation, info, &vuids) {
+            let src = copy_micromap_to_memory_info(&mut ctx, info);
+            let src_vuids = HostMemoryVuids {
+                host_visible: host_to_memory::buffer_07568,
+                single_instance: host_to_memory::buffer_07572,
+            };
+            host_accessible(&mut ctx, src, &src_vuids, "pInfo->src");
+            serialized_host_address(
+                &mut ctx,
+                info.dst,
+                host_to_memory::pInfo_07569,
+                host_to_memory::pInfo_07570,
+                "pInfo->dst.hostAddress",
+            );
+        }
+        ctx.finish()
+    }
+
+    /// `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`: `src`
+    /// is a host address.
+    pub fn copy_memory_to_micromap(
+        &mut self,
+        device: Handle,
+        deferred_operation: Handle,
+        info: Option<&CopyMemoryToMicromapInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCopyMemoryToMicromapEXT");
+        let vuids = HostCallVuids {
+            device: host_from_memory::device_parameter,
+            deferred_operation: host_from_memory::deferredOperation_parameter,
+            host_commands: host_from_memory::micromapHostCommands_07566,
+            info: host_from_memory::pInfo_parameter,
+        };
+        if let Some(info) = host_call(&mut ctx, device, deferred_operation, info, &vuids) {
+            let dst = copy_memory_to_micromap_info(&mut ctx, info);
+            let dst_vuids = HostMemoryVuids {
+                host_visible: host_from_memory::buffer_07565,
+                single_instance: host_from_memory::buffer_07567,
+            };
+            host_accessible(&mut ctx, dst, &dst_vuids, "pInfo->dst");
+            serialized_host_address(
+                &mut ctx,
+                info.src,
+                host_from_memory::pInfo_07563,
+                host_from_memory::pInfo_07564,
+                "pInfo->src.hostAddress",
+            );
+        }
+        ctx.finish()
+    }
+
+    /// `vkCmdWriteMicromapsPropertiesEXT(commandBuffer, micromapCount,
+    /// pMicromaps, queryType, queryPool, firstQuery)`.
+    pub fn cmd_write_micromaps_properties(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        micromaps: &MicromapList,
+        query_type: i32,
+        query_pool: Handle,
+        first_query: u32,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdWriteMicromapsPropertiesEXT");
+        common::command_buffer(
+            &mut ctx,
+            command_buffer,
+            &CommandBufferVuids {
+                parameter: cmd_write::commandBuffer_parameter,
+                recording: cmd_write::commandBuffer_recording,
+                cmdpool: cmd_write::commandBuffer_cmdpool,
+                renderpass: Some(cmd_write::renderpass),
+                videocoding: Some(cmd_write::videocoding),
+                suspended: Some(cmd_write::suspended),
+            },
+        );
+        let listed = micromap_list(
+            &mut ctx,
+            micromaps,
+            cmd_write::micromapCount_arraylength,
+            cmd_write::pMicromaps_parameter,
+        );
+        properties_query_type(&mut ctx, query_type, cmd_write::queryType_07503);
+        for &(k, micromap) in &listed {
+            let at = format!("pMicromaps[{k}]");
+            bound_to_device_memory(&mut ctx, Some(micromap), cmd_write::buffer_07527, &at);
+            compactable(
+                &mut ctx,
+                micromap,
+                query_type,
+                cmd_write::pMicromaps_07502,
+                &at,
+            );
+        }
+        let Some(pool) = ctx.state.query_pools.get(&query_pool) else {
+            ctx.error(
+                cmd_write::queryPool_parameter,
+                "queryPool",
+                format!("{query_pool:#x} is not a VkQueryPool created on this device"),
+            );
+            return ctx.finish();
+        };
+        let (pool_type, pool_count) = (pool.query_type, pool.query_count);
+        ctx.require(
+            pool_type == query_type,
+            cmd_write::queryPool_07525,
+            || "queryPool".into(),
+            || format!("the pool was created with queryType {pool_type}, not {query_type}"),
+        );
+        let end = u64::from(first_query) + u64::from(micromaps.count);
+        ctx.require(
+            end <= u64::from(pool_count),
+            cmd_write::query_07528,
+            || "firstQuery".into(),
+            || {
+                format!(
+                    "firstQuery {first_query} + micromapCount {} = {end} exceeds the pool's {pool_count} queries",
+                    micromaps.count
+                )
+            },
+        );
+        ctx.finish()
+    }
+
+    /// `vkWriteMicromapsPropertiesEXT(device, micromapCount, pMicromaps,
+    /// queryType, dataSize, pData, stride)`; `data` is the host address
+    /// `pData` (0: NULL).
+    pub fn write_micromaps_properties(
+        &mut self,
+        device: Handle,
+        micromaps: &MicromapList,
+        query_type: i32,
+        data_size: u64,
+        data: u64,
+        stride: u64,
+    ) -> Report {
+        let mut ctx = self.ctx("vkWriteMicromapsPropertiesEXT");
+        device_handle(&mut ctx, device, host_write::device_parameter);
+        host_commands_feature(&mut ctx, host_write::micromapHostCommands_07578);
+        let listed = micromap_list(
+            &mut ctx,
+            micromaps,
+            host_write::micromapCount_arraylength,
+            host_write::pMicromaps_parameter,
+        );
+        ctx.require(
+            QUERY_TYPES.contains(&query_type),
+            host_write::queryType_parameter,
+            || "queryType".into(),
+            || format!("{query_type} is not a VkQueryType value"),
+        );
+        let size_query = properties_query_type(&mut ctx, query_type, host_write::queryType_07503);
+        let vuids = HostMemoryVuids {
+            host_visible: host_write::buffer_07577,
+            single_instance: host_write::buffer_07579,
+        };
+        for &(k, micromap) in &listed {
+            let at = format!("pMicromaps[{k}]");
+            host_accessible(&mut ctx, Some(micromap), &vuids, &at);
+            compactable(
+                &mut ctx,
+                micromap,
+                query_type,
+                host_write::pMicromaps_07502,
+                &at,
+            );
+        }
+        written_data(&mut ctx, micromaps.count, data_size, data, stride);
+        if size_query {
+            device_size_results(&mut ctx, data_size, data, stride);
+        }
+        ctx.finish()
+    }
+
+    /// `vkGetMicromapBuildSizesEXT(device, buildType, pBuildInfo, pSizeInfo)`.
+    pub fn get_micromap_build_sizes(
+        &mut self,
+        device: Handle,
+        build_type: i32,
+        build_info: Option<&MicromapBuildInfo>,
+        size_info: Option<&MicromapBuildSizesInfo>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkGetMicromapBuildSizesEXT");
+        device_handle(&mut ctx, device, build_sizes::device_parameter);
+        micromap_feature(&mut ctx, build_sizes::micromap_11618);
+        let physical_devices = ctx.device.physical_device_count;
+        ctx.require(
+            physical_devices <= 1 || ctx.device.features.buffer_device_address_multi_device,
+            build_sizes::device_07440,
+            || "device".into(),
+            || format!("the device has {physical_devices} physical devices but bufferDeviceAddressMultiDevice is not enabled"),
+        );
+        ctx.require(
+            ACCELERATION_STRUCTURE_BUILD_TYPES.contains(&build_type),
+            build_sizes::buildType_parameter,
+            || "buildType".into(),
+            || format!("{build_type} is not a VkAccelerationStructureBuildTypeKHR value"),
+        );
+        ctx.require(
+            build_info.is_some(),
+            build_sizes::pBuildInfo_parameter,
+            || "pBuildInfo".into(),
+            || "pBuildInfo is NULL".into(),
+        );
+        match size_info {
+            Some(sizes) => structure_header(
+                &mut ctx,
+                Header {
+                    s_type: sizes.s_type,
+                    next: &sizes.next,
+                    expected: STRUCTURE_TYPE_MICROMAP_BUILD_SIZES_INFO_EXT,
+                    expected_name: "VK_STRUCTURE_TYPE_MICROMAP_BUILD_SIZES_INFO_EXT",
+                    s_type_vuid: sizes_info::sType_sType,
+                    next_vuid: sizes_info::pNext_pNext,
+                    at: "pSizeInfo",
+                },
+            ),
+            None => {
+                ctx.error(
+                    build_sizes::pSizeInfo_parameter,
+                    "pSizeInfo",
+                    "pSizeInfo is NULL",
+                );
+            }
+        }
+        ctx.finish()
+    }
+
+    /// `vkGetDeviceMicromapCompatibilityEXT(device, pVersionInfo,
+    /// pCompatibility)`; `compatibility` says whether `pCompatibility` is
+    /// non-NULL.
+    pub fn get_device_micromap_compatibility(
+        &mut self,
+        device: Handle,
+        version: Option<&MicromapVersionInfo>,
+        compatibility: bool,
+    ) -> Report {
+        let mut ctx = self.ctx("vkGetDeviceMicromapCompatibilityEXT");
+        device_handle(&mut ctx, device, compatibility::device_parameter);
+        micromap_feature(&mut ctx, compatibility::micromap_11666);
+        ctx.require(
+            compatibility,
+            compatibility::pCompatibility_parameter,
+            || "pCompatibility".into(),
+            || "pCompatibility is NULL".into(),
+        );
+        let Some(version) = version else {
+            ctx.error(
+                compatibility::pVersionInfo_parameter,
+                "pVersionInfo",
+                "pVersionInfo is NULL",
+            );
+            return ctx.finish();
+        };
+        structure_header(
+            &mut ctx,
+            Header {
+                s_type: version.s_type,
+                next: &version.next,
+                expected: STRUCTURE_TYPE_MICROMAP_VERSION_INFO_EXT,
+                expected_name: "VK_STRUCTURE_TYPE_MICROMAP_VERSION_INFO_EXT",
+                s_type_vuid: version_info::sType_sType,
+                next_vuid: version_info::pNext_pNext,
+                at: "pVersionInfo",
+            },
+        );
+        match &version.version_data {
+            None => {
+                ctx.error(
+                    version_info::pVersionData_parameter,
+                    "pVersionInfo->pVersionData",
+                    "pVersionData is NULL",
+                );
+            }
+            Some(bytes) if bytes.len() < 2 * UUID_SIZE => {
+                ctx.error(
+                    version_info::pVersionData_parameter,
+                    "pVersionInfo->pVersionData",
+                    format!(
+                        "points to {} bytes, not 2 × VK_UUID_SIZE = {}",
+                        bytes.len(),
+                        2 * UUID_SIZE
+                    ),
+                );
+            }
+            Some(_) => {}
+        }
+        ctx.finish()
+    }
+
+    /// `vkCmdBeginQuery(commandBuffer, queryPool, query, flags)`: the
+    /// micromap rule only (the pool must not be a micromap size pool).
+    pub fn cmd_begin_query(
+        &mut self,
+        _command_buffer: &CommandBuffer,
+        query_pool: Handle,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdBeginQuery");
+        not_a_micromap_pool(&mut ctx, query_pool, begin_query::queryType_08972);
+        ctx.finish()
+    }
+
+    /// `vkCmdBeginQueryIndexedEXT(commandBuffer, queryPool, query, flags,
+    /// index)`: the micromap rule only.
+    pub fn cmd_begin_query_indexed(
+        &mut self,
+        _command_buffer: &CommandBuffer,
+        query_pool: Handle,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCmdBeginQueryIndexedEXT");
+        not_a_micromap_pool(&mut ctx, query_pool, begin_query_indexed::queryType_08972);
+        ctx.finish()
+    }
+}
+
+/// `device` must be a valid `VkDevice`: not NULL, and this device when its
+/// handle is known.
+fn device_handle(ctx: &mut Ctx<'_>, device: Handle, vuid: Vuid) {
+    let known = ctx.device.handle;
+    if device == 0 {
+        ctx.error(vuid, "device", "device is VK_NULL_HANDLE");
+    } else if known != 0 && device != known {
+        ctx.error(
+            vuid,
+            "device",
+            format!("{device:#x} is not the VkDevice {known:#x} being checked"),
+        );
+    }
+}
+
+fn micromap_feature(ctx: &mut Ctx<'_>, vuid: Vuid) {
+    ctx.require(ctx.device.features.micromap_ext, vuid, String::new, || {
+        "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into()
+    });
+}
+
+fn host_commands_feature(ctx: &mut Ctx<'_>, vuid: Vuid) {
+    ctx.require(
+        ctx.device.features.micromap_host_commands,
+        vuid,
+        String::new,
+        || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
+    );
+}
+
+/// A non-NULL `pAllocator` must point to valid callbacks.
+fn allocation_callbacks(ctx: &mut Ctx<'_>, allocator: Option<&AllocationCallbacks>, vuid: Vuid) {
+    if let Some(defect) = allocator.and_then(AllocationCallbacks::defect) {
+        ctx.error(vuid, "pAllocator", defect);
+    }
+}
+
+/// The `pInfo` of a command, reporting `vuid` when it is NULL.
+fn required_info<'i, T>(ctx: &mut Ctx<'_>, info: Option<&'i T>, vuid: Vuid) -> Option<&'i T> {
+    if info.is_none() {
+        ctx.error(vuid, "pInfo", "pInfo is NULL");
+    }
+    info
+}
+
+/// The checks every host copy begins with: the device, the host-commands
+/// feature, the deferred operation and `pInfo`.
+fn host_call<'i, T>(
+    ctx: &mut Ctx<'_>,
+    device: Handle,
+    deferred_operation: Handle,
+    info: Option<&'i T>,
+    vuids: &HostCallVuids,
+) -> Option<&'i T> {
+    device_handle(ctx, device, vuids.device);
+    host_commands_feature(ctx, vuids.host_commands);
+    if deferred_operation != 0 && !ctx.state.deferred_operations.contains(&deferred_operation) {
+        ctx.error(
+            vuids.deferred_operation,
+            "deferredOperation",
+            format!(
+                "{deferred_operation:#x} is not a VkDeferredOperationKHR created on this device"
+            ),
+        );
+    }
+    required_info(ctx, info, vuids.info)
+}
+
+/// A micromap handle the call names; reports `vuid` when it is not tracked.
+fn tracked_micromap<'s>(
+    ctx: &mut Ctx<'s>,
+    handle: Handle,
+    vuid: Vuid,
+    location: &str,
+) -> Option<&'s Micromap> {
+    let state = ctx.state;
+    let found = state.micromaps.get(&handle);
+    if found.is_none() {
+        ctx.error(
+            vuid,
+            location,
+            format!("{handle:#x} is not a VkMicromapEXT created on this device"),
+        )
+        .objects
+        .push(ObjectRef {
+            ty: "VkMicromapEXT",
+            handle,
+        });
+    }
+    found
+}
+
+/// The memory a micromap's buffer is bound to: `None` when the buffer is not
+/// tracked (nothing to decide), `Some(None)` when it is tracked but unbound.
+fn backing_memory(ctx: &Ctx<'_>, micromap: &Micromap) -> Option<Option<MemoryBinding>> {
+    ctx.state.buffers.get(&micromap.buffer).map(|b| b.memory)
+}
+
+/// The buffer a micromap was created on must be bound to device memory.
+fn bound_to_device_memory(
+    ctx: &mut Ctx<'_>,
+    micromap: Option<&Micromap>,
+    vuid: Vuid,
+    location: &str,
+) {
+    let Some(micromap) = micromap else { return };
+    if backing_memory(ctx, micromap) == Some(None) {
+        let buffer = micromap.buffer;
+        ctx.error(
+            vuid,
+            location,
+            format!("its buffer VkBuffer {buffer:#x} is not bound to device memory"),
+        );
+    }
+}
+
+/// A host command reaches a micromap's memory through a host mapping: the
+/// memory must be host-visible and of a single instance.
+fn host_accessible(
+    ctx: &mut Ctx<'_>,
+    micromap: Option<&Micromap>,
+    vuids: &HostMemoryVuids,
+    location: &str,
+) {
+    let Some(micromap) = micromap else { return };
+    let Some(memory) = backing_memory(ctx, micromap) else {
+        return;
+    };
+    let buffer = micromap.buffer;
+    ctx.require(
+        memory.is_some_and(|m| m.host_visible),
+        vuids.host_visible,
+        || location.to_string(),
+        || format!("its buffer VkBuffer {buffer:#x} is not bound to host-visible memory"),
+    );
+    ctx.require(
+        !memory.is_some_and(|m| m.multi_instance),
+        vuids.single_instance,
+        || location.to_string(),
+        || format!("its buffer VkBuffer {buffer:#x} is bound to memory allocated with multiple instances"),
+    );
+}
+
+/// A structure's `sType` and `pNext` (which must be NULL).
+struct Header<'a> {
+    s_type: i32,
+    next: &'a [i32],
+    expected: i32,
+    expected_name: &'static str,
+    s_type_vuid: Vuid,
+    next_vuid: Vuid,
+    at: &'a str,
+}
+
+fn structure_header(ctx: &mut Ctx<'_>, header: Header<'_>) {
+    let at = header.at;
+    ctx.require(
+        header.s_type == header.expected,
+        header.s_type_vuid,
+        || format!("{at}.sType"),
+        || format!("{} is not {}", header.s_type, header.expected_name),
+    );
+    if let Some(s_type) = header.next.first() {
+        ctx.error(
+            header.next_vuid,
+            format!("{at}.pNext"),
+            format!("pNext must be NULL, but it points to a structure with sType {s_type}"),
+        );
+    }
+}
+
+/// `mode` must be a `VkCopyMicromapModeEXT` value and the one the structure allows.
+fn copy_mode(
+    ctx: &mut Ctx<'_>,
+    mode: i32,
+    allowed: &[(i32, &str)],
+    parameter: Option<Vuid>,
+    required: Vuid,
+) {
+    let valid = (COPY_MICROMAP_MODE_CLONE_EXT..=COPY_MICROMAP_MODE_COMPACT_EXT).contains(&mode);
+    if let (false, Some(vuid)) = (valid, parameter) {
+        ctx.error(
+            vuid,
+            "pInfo->mode",
+            format!("{mode} is not a VkCopyMicromapModeEXT value"),
+        );
+        return;
+    }
+    if !allowed.iter().any(|(m, _)| *m == mode) {
+        let names: Vec<&str> = allowed.iter().map(|(_, name)| *name).collect();
+        ctx.error(
+            required,
+            "pInfo->mode",
+            format!("{mode} is not {}", names.join(" or ")),
+        );
+    }
+}
+
+/// `VkCopyMicromapInfoEXT`; returns the tracked source and destination.
+fn copy_micromap_info<'s>(
+    ctx: &mut Ctx<'s>,
+    info: &CopyMicromapInfo,
+) -> (Option<&'s Micromap>, Option<&'s Micromap>) {
+    structure_header(
+        ctx,
+        Header {
+            s_type: info.s_type,
+            next: &info.next,
+            expected: STRUCTURE_TYPE_COPY_MICROMAP_INFO_EXT,
+            expected_name: "VK_STRUCTURE_TYPE_COPY_MICROMAP_INFO_EXT",
+            s_type_vuid: copy_info::sType_sType,
+            next_vuid: copy_info::pNext_pNext,
+            at: "pInfo",
+        },
+    );
+    copy_mode(
+        ctx,
+        info.mode,
+        &[
+            (
+                COPY_MICROMAP_MODE_COMPACT_EXT,
+                "VK_COPY_MICROMAP_MODE_COMPACT_EXT",
+            ),
+            (
+                COPY_MICROMAP_MODE_CLONE_EXT,
+                "VK_COPY_MICROMAP_MODE_CLONE_EXT",
+            ),
+        ],
+        None,
+        copy_info::mode_07531,
+    );
+    let src = tracked_micromap(ctx, info.src, copy_info::src_parameter, "pInfo->src");
+    let dst = tracked_micromap(ctx, info.dst, copy_info::dst_parameter, "pInfo->dst");
+    // Compaction needs the source's build flags, known when the checker saw the build.
+    let src_flags = src.and_then(|m| m.built.as_ref()).map(|b| b.flags);
+    if let (COPY_MICROMAP_MODE_COMPACT_EXT, Some(flags)) = (info.mode, src_flags) {
+        ctx.require(
+            flags & BUILD_MICROMAP_ALLOW_COMPACTION_BIT_EXT != 0,
+            copy_info::mode_07533,
+            || "pInfo->src".into(),
+            || format!("mode is VK_COPY_MICROMAP_MODE_COMPACT_EXT, but src was built with flags {flags:#x}, without VK_BUILD_MICROMAP_ALLOW_COMPACTION_BIT_EXT"),
+        );
+    }
+    (src, dst)
+}
+
+/// `VkCopyMicromapToMemoryInfoEXT`; returns the tracked source.
+fn copy_micromap_to_memory_info<'s>(
+    ctx: &mut Ctx<'s>,
+    info: &CopyMicromapToMemoryInfo,
+) -> Option<&'s Micromap> {
+    structure_header(
+        ctx,
+        Header {
+            s_type: info.s_type,
+            next: &info.next,
+            expected: STRUCTURE_TYPE_COPY_MICROMAP_TO_MEMORY_INFO_EXT,
+            expected_name: "VK_STRUCTURE_TYPE_COPY_MICROMAP_TO_MEMORY_INFO_EXT",
+            s_type_vuid: to_memory_info::sType_sType,
+            next_vuid: to_memory_info::pNext_pNext,
+            at: "pInfo",
+        },
+    );
+    copy_mode(
+        ctx,
+        info.mode,
+        &[(
+            COPY_MICROMAP_MODE_SERIALIZE_EXT,
+            "VK_COPY_MICROMAP_MODE_SERIALIZE_EXT",
+        )],
+        Some(to_memory_info::mode_parameter),
+        to_memory_info::mode_07542,
+    );
+    tracked_micromap(ctx, info.src, to_memory_info::src_parameter, "pInfo->src")
+}
+
+/// `VkCopyMemoryToMicromapInfoEXT`; returns the tracked destination.
+fn copy_memory_to_micromap_info<'s>(
+    ctx: &mut Ctx<'s>,
+    info: &CopyMemoryToMicromapInfo,
+) -> Option<&'s Micromap> {
+    structure_header(
+        ctx,
+        Header {
+            s_type: info.s_type,
+            next: &info.next,
+            expected: STRUCTURE_TYPE_COPY_MEMORY_TO_MICROMAP_INFO_EXT,
+            expected_name: "VK_STRUCTURE_TYPE_COPY_MEMORY_TO_MICROMAP_INFO_EXT",
+            s_type_vuid: from_memory_info::sType_sType,
+            next_vuid: from_memory_info::pNext_pNext,
+            at: "pInfo",
+        },
+    );
+    copy_mode(
+        ctx,
+        info.mode,
+        &[(
+            COPY_MICROMAP_MODE_DESERIALIZE_EXT,
+            "VK_COPY_MICROMAP_MODE_DESERIALIZE_EXT",
+        )],
+        Some(from_memory_info::mode_parameter),
+        from_memory_info::mode_07548,
+    );
+    tracked_micromap(ctx, info.dst, from_memory_info::dst_parameter, "pInfo->dst")
+}
+
+/// A device address serialized data is read from or written to: valid, and
+/// aligned to 256 bytes.
+fn serialized_device_address(
+    ctx: &mut Ctx<'_>,
+    address: u64,
+    valid: Vuid,
+    aligned: Vuid,
+    location: &str,
+) {
+    common::valid_device_address(ctx, address, valid, location);
+    common::aligned(ctx, address, SERIALIZED_DEVICE_ALIGNMENT, aligned, location);
+}
+
+/// A host address serialized data is read from or written to: not NULL,
+/// inside the host memory the application described (when it described
+/// any), and aligned to 16 bytes.
+fn serialized_host_address(
+    ctx: &mut Ctx<'_>,
+    address: u64,
+    valid: Vuid,
+    aligned: Vuid,
+    location: &str,
+) {
+    if address == 0 {
+        ctx.error(valid, location, "the host address is NULL");
+    } else if !ctx.state.host_memory.is_empty() && ctx.state.host_bytes_from(address).is_none() {
+        ctx.error(
+            valid,
+            location,
+            format!("{address:#x} is outside the host memory the application described"),
+        );
+    }
+    common::aligned(ctx, address, SERIALIZED_HOST_ALIGNMENT, aligned, location);
+}
+
+/// `micromapCount` and `pMicromaps`: returns the tracked micromaps with their
+/// indices.
+fn micromap_list<'s>(
+    ctx: &mut Ctx<'s>,
+    list: &MicromapList,
+    arraylength: Vuid,
+    parameter: Vuid,
+) -> Vec<(usize, &'s Micromap)> {
+    ctx.require(
+        list.count > 0,
+        arraylength,
+        || "micromapCount".into(),
+        || "micromapCount is 0".into(),
+    );
+    let Some(handles) = &list.handles else {
+        if list.count > 0 {
+            ctx.error(parameter, "pMicromaps", "pMicromaps is NULL");
+        }
+        return Vec::new();
+    };
+    if handles.len() as u64 != u64::from(list.count) {
+        ctx.error(
+            parameter,
+            "pMicromaps",
+            format!(
+                "points to {} handles, not micromapCount = {}",
+                handles.len(),
+                list.count
+            ),
+        );
+    }
+    let mut tracked = Vec::new();
+    for (k, handle) in handles.iter().enumerate() {
+        if let Some(micromap) =
+            tracked_micromap(ctx, *handle, parameter, &format!("pMicromaps[{k}]"))
+        {
+            tracked.push((k, micromap));
+        }
+    }
+    tracked
+}
+
+/// `queryType` must be one of the two micromap size queries; returns whether it is.
+fn properties_query_type(ctx: &mut Ctx<'_>, query_type: i32, vuid: Vuid) -> bool {
+    let ok = query_type == QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT
+        || query_type == QUERY_TYPE_MICROMAP_SERIALIZATION_SIZE_EXT;
+    ctx.require(ok, vuid, || "queryType".into(), || {
+        format!("{query_type} is neither VK_QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT nor VK_QUERY_TYPE_MICROMAP_SERIALIZATION_SIZE_EXT")
+    });
+    ok
+}
+
+/// A compacted-size query needs micromaps built with ALLOW_COMPACTION;
+/// decided when the checker saw the build.
+fn compactable(
+    ctx: &mut Ctx<'_>,
+    micromap: &Micromap,
+    query_type: i32,
+    vuid: Vuid,
+    location: &str,
+) {
+    let Some(build) = &micromap.built else { return };
+    if query_type == QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT
+        && build.flags & BUILD_MICROMAP_ALLOW_COMPACTION_BIT_EXT == 0
+    {
+        ctx.error(
+            vuid,
+            location,
+            format!("queryType is VK_QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT, but the micromap was built with flags {:#x}, without VK_BUILD_MICROMAP_ALLOW_COMPACTION_BIT_EXT", build.flags),
+        );
+    }
+}
+
+/// `dataSize` and `pData` of `vkWriteMicromapsPropertiesEXT`: room for one
+/// result per micromap, in memory the application owns.
+fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride: u64) {
+    ctx.require(
+        data_size > 0,
+        host_write::dataSize_arraylength,
+        || "dataSize".into(),
+        || "dataSize is 0".into(),
+    );
+    let needed = u128::from(count) * u128::from(stride);
+    ctx.require(
+        u128::from(data_size) >= needed,
+        host_write::dataSize_07576,
+        || "dataSize".into(),
+        || format!("{data_size} is less than micromapCount {count} × stride {stride} = {needed}"),
+    );
+    if data == 0 {
+        if data_size > 0 {
+            ctx.error(host_write::pData_parameter, "pData", "pData is NULL");
+        }
+    } else if !ctx.state.host_memory.is_empty() && ctx.state.read_host(data, data_size).is_none() {
+        ctx.error(
+            host_write::pData_parameter,
+            "pData",
+            format!(
+                "[{data:#x}, +{data_size}) is not inside the host memory the application described"
+            ),
+        );
+    }
+}
+
+/// Size queries write `VkDeviceSize` values: stride and `pData` must fit them.
+fn device_size_results(ctx: &mut Ctx<'_>, data_size: u64, data: u64, stride: u64) {
+    ctx.require(
+        stride % DEVICE_SIZE_BYTES == 0,
+        host_write::queryType_10071,
+        || "stride".into(),
+        || format!("{stride} is not a multiple of sizeof(VkDeviceSize) = 8"),
+    );
+    if data_size < DEVICE_SIZE_BYTES {
+        ctx.error(
+            host_write::queryType_10072,
+            "dataSize",
+            format!("{data_size} bytes cannot hold a VkDeviceSize"),
+        );
+    } else if data % DEVICE_SIZE_BYTES != 0 {
+        ctx.error(
+            host_write::queryType_10072,
+            "pData",
+            format!("{data:#x} is not aligned for a VkDeviceSize (8 bytes)"),
+        );
+    }
+}
+
+/// `VkMicromapCreateInfoEXT`.
+fn micromap_create_info(ctx: &mut Ctx<'_>, info: &MicromapCreateInfo) {
+    structure_header(
+        ctx,
+        Header {
+            s_type: info.s_type,
+            next: &info.next,
+            expected: STRUCTURE_TYPE_MICROMAP_CREATE_INFO_EXT,
+            expected_name: "VK_STRUCTURE_TYPE_MICROMAP_CREATE_INFO_EXT",
+            s_type_vuid: create_info::sType_sType,
+            next_vuid: create_info::pNext_pNext,
+            at: "pCreateInfo",
+        },
+    );
+    ctx.require(
+        info.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT
+            || info.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV,
+        create_info::type_parameter,
+        || "pCreateInfo->type".into(),
+        || format!("{} is not a VkMicromapTypeEXT value", info.ty),
+    );
+    ctx.require(
+        info.create_flags & !MICROMAP_CREATE_DEVICE_ADDRESS_CAPTURE_REPLAY_BIT_EXT == 0,
+        create_info::createFlags_parameter,
+        || "pCreateInfo->createFlags".into(),
+        || {
+            format!(
+                "{:#x} has bits outside VkMicromapCreateFlagBitsEXT",
+                info.create_flags
+            )
+        },
+    );
+    capture_replay(ctx, info);
+    common::aligned(
+        ctx,
+        info.offset,
+        MICROMAP_OFFSET_ALIGNMENT,
+        create_info::offset_07438,
+        "pCreateInfo->offset",
+    );
+    backing_buffer(ctx, info);
+}
+
+/// The capture-replay flag, its features, and the replayed address.
+fn capture_replay(ctx: &mut Ctx<'_>, info: &MicromapCreateInfo) {
+    let replay = info.create_flags & MICROMAP_CREATE_DEVICE_ADDRESS_CAPTURE_REPLAY_BIT_EXT != 0;
+    let features = &ctx.device.features;
+    let (capture_replay, multi_device) = (
+        features.micromap_capture_replay,
+        features.buffer_device_address_multi_device,
+    );
+    if replay {
+        ctx.require(
+            capture_replay,
+            create_info::micromapCaptureReplay_11616,
+            || "pCreateInfo->createFlags".into(),
+            || "VK_MICROMAP_CREATE_DEVICE_ADDRESS_CAPTURE_REPLAY_BIT_EXT is set but the micromapCaptureReplay feature is not enabled".into(),
+        );
+        ctx.require(
+            ctx.device.physical_device_count <= 1 || multi_device,
+            create_info::bufferDeviceAddressMultiDevice_11617,
+            || "pCreateInfo->createFlags".into(),
+            || "VK_MICROMAP_CREATE_DEVICE_ADDRESS_CAPTURE_REPLAY_BIT_EXT is set on a multi-device device without the bufferDeviceAddressMultiDevice feature".into(),
+        );
+    }
+    if info.device_address != 0 {
+        ctx.require(
+            replay,
+            create_info::deviceAddress_07433,
+            || "pCreateInfo->deviceAddress".into(),
+            || format!("{:#x} is not 0, but createFlags lacks VK_MICROMAP_CREATE_DEVICE_ADDRESS_CAPTURE_REPLAY_BIT_EXT", info.device_address),
+        );
+        common::valid_device_address(
+            ctx,
+            info.device_address,
+            create_info::deviceAddress_parameter,
+            "pCreateInfo->deviceAddress",
+        );
+    }
+}
+
+/// The buffer the micromap lives in: tracked, usable for micromap storage,
+/// not sparse-resident, and large enough.
+fn backing_buffer(ctx: &mut Ctx<'_>, info: &MicromapCreateInfo) {
+    let handle = info.buffer;
+    let Some(buffer) = ctx.state.buffers.get(&handle) else {
+        ctx.error(
+            create_info::buffer_parameter,
+            "pCreateInfo->buffer",
+            format!("{handle:#x} is not a VkBuffer created on this device"),
+        );
+        return;
+    };
+    let (usage, flags, size) = (buffer.usage, buffer.create_flags, buffer.size);
+    ctx.require(
+        usage & BUFFER_USAGE_MICROMAP_STORAGE_BIT_EXT != 0,
+        create_info::buffer_07435,
+        || "pCreateInfo->buffer".into(),
+        || format!("VkBuffer {handle:#x} has usage {usage:#x}, without VK_BUFFER_USAGE_MICROMAP_STORAGE_BIT_EXT"),
+    );
+    ctx.require(
+        flags & BUFFER_CREATE_SPARSE_RESIDENCY_BIT == 0,
+        create_info::buffer_07436,
+        || "pCreateInfo->buffer".into(),
+        || format!("VkBuffer {handle:#x} was created with VK_BUFFER_CREATE_SPARSE_RESIDENCY_BIT"),
+    );
+    let end = info.offset.checked_add(info.size);
+    ctx.require(
+        end.is_some_and(|end| end <= size),
+        create_info::offset_07437,
+        || "pCreateInfo->offset".into(),
+        || {
+            format!(
+                "offset {} + size {} exceeds the buffer's size {size}",
+                info.offset, info.size
+            )
+        },
+    );
+}
+
+/// `queryPool` of `vkCmdBeginQuery*` must not be a micromap size pool; a
+/// pool the checker does not track is left to the pool's own rules.
+fn not_a_micromap_pool(ctx: &mut Ctx<'_>, query_pool: Handle, vuid: Vuid) {
+    let Some(pool) = ctx.state.query_pools.get(&query_pool) else {
+        return;
+    };
+    let query_type = pool.query_type;
+    ctx.require(
+        query_type != QUERY_TYPE_MICROMAP_SERIALIZATION_SIZE_EXT
+            && query_type != QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT,
+        vuid,
+        || "queryPool".into(),
+        || format!("the pool was created with the micromap size query type {query_type}, which cannot be begun"),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{Device, Profile};
+    use crate::state::Buffer;
+
+    fn host_validator() -> Validator {
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        v.state_mut().host_memory.push(crate::state::HostRange {
+            address: 0x1000,
+            bytes: std::sync::Arc::from(vec![0u8; 64]),
+        });
+        v
+    }
+
+    #[test]
+    fn data_size_product_does_not_overflow() {
+        let mut v = host_validator();
+        let list = MicromapList {
+            count: u32::MAX,
+            handles: None,
+        };
+        let report = v.write_micromaps_properties(1, &list, 0, 8, 0x1000, u64::MAX);
+        assert!(report.contains(host_write::dataSize_07576));
+    }
+
+    #[test]
+    fn offset_plus_size_overflow_is_out_of_range() {
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        v.state_mut().buffers.insert(
+            7,
+            Buffer {
+                size: u64::MAX,
+                usage: BUFFER_USAGE_MICROMAP_STORAGE_BIT_EXT,
+                ..Default::default()
+            },
+        );
+        let info = MicromapCreateInfo {
+            buffer: 7,
+            offset: 256,
+            size: u64::MAX,
+            ..Default::default()
+        };
+        let report = v.create_micromap(1, Some(&info), None, Some(9));
+        assert_eq!(report.ids(), [create_info::offset_07437.id()]);
+    }
+
+    #[test]
+    fn pdata_must_lie_inside_described_host_memory() {
+        let mut v = host_validator();
+        let report = v.write_micromaps_properties(
+            1,
+            &MicromapList::default(),
+            QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT,
+            64,
+            0x1008,
+            8,
+        );
+        assert!(report.contains(host_write::pData_parameter));
+        assert!(!report.contains(host_write::queryType_10072));
+    }
+}

@@ -153,20 +153,18 @@ impl Default for Geometry {
 }
 
 /// The `geometry` union of `VkAccelerationStructureGeometryKHR`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+// Builds hold a handful of geometries; keeping the triangles inline keeps
+// every construction plain.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub enum GeometryData {
     Triangles(TrianglesData),
     Aabbs(AabbsData),
     Instances(InstancesData),
     /// Nothing is read (micromap geometry uses the pNext structure).
+    #[default]
     None,
-}
-
-impl Default for GeometryData {
-    fn default() -> Self {
-        GeometryData::None
-    }
 }
 
 /// `VkAccelerationStructureGeometryTrianglesDataKHR` and the attachments in its pNext chain.
