@@ -79,11 +79,13 @@ pub const COVERAGE: Coverage = Coverage {
     ],
 };
 
-/// Whether the command reads device or host memory.
+/// Whether the command reads device or host memory, or (a size query) none.
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Side {
+pub(crate) enum Side {
     Device,
     Host,
+    /// `vkGetMicromapBuildSizesEXT`: addresses are ignored, contents never read.
+    SizeQuery,
 }
 
 impl Validator {
@@ -122,7 +124,7 @@ impl Validator {
             },
         );
         for (i, info) in infos.iter().enumerate() {
-            build_info(&mut ctx, i, info, Side::Device);
+            build_info(&mut ctx, &format!("pInfos[{i}]"), info, Side::Device);
             let at = format!("pInfos[{i}]");
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
@@ -234,7 +236,7 @@ impl Validator {
             || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
         );
         for (i, info) in infos.iter().enumerate() {
-            build_info(&mut ctx, i, info, Side::Host);
+            build_info(&mut ctx, &format!("pInfos[{i}]"), info, Side::Host);
             let at = format!("pInfos[{i}]");
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
@@ -367,7 +369,7 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
         ),
         // Host scratch is host memory; the destination is device memory
         // reached through a mapping, so 11668 is not decided (see COVERAGE).
-        Side::Host => (
+        Side::Host | Side::SizeQuery => (
             host::dstMicromap_11667,
             host::dstMicromap_11668,
             host::scratchData_11669,
@@ -432,8 +434,7 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
 
 /// `VkMicromapBuildInfoEXT` itself, the usage counts, and (when the checker
 /// can read them) the triangle array's entries.
-fn build_info(ctx: &mut Ctx<'_>, i: usize, info: &MicromapBuildInfo, side: Side) {
-    let at = format!("pInfos[{i}]");
+pub(crate) fn build_info(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo, side: Side) {
     ctx.require(
         info.s_type == STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
         info_vuid::sType_sType,
@@ -478,7 +479,7 @@ fn build_info(ctx: &mut Ctx<'_>, i: usize, info: &MicromapBuildInfo, side: Side)
     ctx.require(
         !(counts.array.is_some() && counts.pointers.is_some()),
         info_vuid::pUsageCounts_07516,
-        || at.clone(),
+        || at.to_string(),
         || "both pUsageCounts and ppUsageCounts are set".into(),
     );
     if counts.count != 0 {
@@ -583,8 +584,8 @@ fn build_info(ctx: &mut Ctx<'_>, i: usize, info: &MicromapBuildInfo, side: Side)
             );
         }
     }
-    if opacity || displacement {
-        triangle_array(ctx, i, info, side, opacity);
+    if (opacity || displacement) && side != Side::SizeQuery {
+        triangle_array(ctx, at, info, side, opacity);
     }
 }
 
@@ -593,12 +594,11 @@ fn build_info(ctx: &mut Ctx<'_>, i: usize, info: &MicromapBuildInfo, side: Side)
 /// counts against the entries.
 fn triangle_array(
     ctx: &mut Ctx<'_>,
-    i: usize,
+    at: &str,
     info: &MicromapBuildInfo,
     side: Side,
     opacity: bool,
 ) {
-    let at = format!("pInfos[{i}]");
     let triangles = info.usage_counts.total();
     if triangles == 0 {
         return;
@@ -609,6 +609,7 @@ fn triangle_array(
     let read_from = |address: u64| match side {
         Side::Device => state.device_bytes_from(address),
         Side::Host => state.host_bytes_from(address),
+        Side::SizeQuery => None,
     };
     let Some(array) = read_from(info.triangle_array) else {
         return; // Contents not available to the checker.

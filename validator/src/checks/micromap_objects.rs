@@ -674,6 +674,16 @@ impl Validator {
             || "pBuildInfo".into(),
             || "pBuildInfo is NULL".into(),
         );
+        if let Some(info) = build_info {
+            // The size query sees the build info's own rules; addresses and
+            // contents are ignored by the command.
+            crate::checks::micromap_build::build_info(
+                &mut ctx,
+                "pBuildInfo",
+                info,
+                crate::checks::micromap_build::Side::SizeQuery,
+            );
+        }
         match size_info {
             Some(sizes) => structure_header(
                 &mut ctx,
