@@ -1,0 +1,449 @@
+//! The draw, dispatch, trace-rays, generated-commands and subpass-shading
+//! commands: the micromap rules they share (11636-11640) about the
+//! acceleration structures their shaders reach, decided from the bound
+//! pipeline or shader objects and from what the checker knows of how each
+//! acceleration structure was built.
+
+use ommcheck_vuids::vuid;
+use ommcheck_vuids::Vuid;
+
+use crate::device::ext;
+use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData, TrianglesData};
+use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
+use crate::model::pipeline::*;
+use crate::model::CommandBuffer;
+use crate::report::{ObjectRef, Report};
+use crate::state::State;
+use crate::validator::{Ctx, Validator};
+
+const DESERIALIZED: &str = "needs the serialized bytes of the micromaps an acceleration structure was deserialized from and of those it was built with, which are device memory contents the application never hands over";
+
+/// The VUIDs one command has for the shared rules.
+struct WorkVuids {
+    function: &'static str,
+    ray_query_mode: Vuid,
+    pipeline_mixed: Vuid,
+    shader_mixed: Vuid,
+    /// Only the ray-tracing pipeline commands have 11640.
+    pipeline_opacity: Option<Vuid>,
+}
+
+macro_rules! work_commands {
+    (plain: [$($plain:ident),* $(,)?], trace: [$($trace:ident),* $(,)?] $(,)?) => {
+        /// A command that runs shaders, named as in the API.
+        #[allow(non_camel_case_types)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum WorkCommand {
+            $($plain,)*
+            $($trace,)*
+        }
+
+        impl WorkCommand {
+            pub const ALL: &'static [WorkCommand] =
+                &[$(WorkCommand::$plain,)* $(WorkCommand::$trace,)*];
+
+            fn vuids(self) -> WorkVuids {
+                match self {
+                    $(WorkCommand::$plain => WorkVuids {
+                        function: stringify!($plain),
+                        ray_query_mode: vuid::$plain::micromap_11636,
+                        pipeline_mixed: vuid::$plain::micromap_11638,
+                        shader_mixed: vuid::$plain::micromap_11639,
+                        pipeline_opacity: None,
+                    },)*
+                    $(WorkCommand::$trace => WorkVuids {
+                        function: stringify!($trace),
+                        ray_query_mode: vuid::$trace::micromap_11636,
+                        pipeline_mixed: vuid::$trace::micromap_11638,
+                        shader_mixed: vuid::$trace::micromap_11639,
+                        pipeline_opacity: Some(vuid::$trace::micromap_11640),
+                    },)*
+                }
+            }
+        }
+
+        pub(super) const ENFORCED: &[Vuid] = &[
+            $(vuid::$plain::micromap_11636, vuid::$plain::micromap_11638, vuid::$plain::micromap_11639,)*
+            $(vuid::$trace::micromap_11636, vuid::$trace::micromap_11638, vuid::$trace::micromap_11639,
+              vuid::$trace::micromap_11640,)*
+        ];
+
+        pub(super) const NOT_DECIDABLE: &[(Vuid, &str)] = &[
+            $((vuid::$plain::micromap_11637, DESERIALIZED),)*
+            $((vuid::$trace::micromap_11637, DESERIALIZED),)*
+        ];
+    };
+}
+
+work_commands! {
+    plain: [
+        vkCmdDispatch, vkCmdDispatchBase, vkCmdDispatchGraphAMDX, vkCmdDispatchGraphIndirectAMDX,
+        vkCmdDispatchGraphIndirectCountAMDX, vkCmdDispatchIndirect, vkCmdDispatchIndirect2KHR,
+        vkCmdDispatchTileQCOM, vkCmdDraw, vkCmdDrawClusterHUAWEI, vkCmdDrawClusterIndirectHUAWEI,
+        vkCmdDrawIndexed, vkCmdDrawIndexedIndirect, vkCmdDrawIndexedIndirect2KHR,
+        vkCmdDrawIndexedIndirectCount, vkCmdDrawIndexedIndirectCount2KHR, vkCmdDrawIndirect,
+        vkCmdDrawIndirect2KHR, vkCmdDrawIndirectByteCount2EXT, vkCmdDrawIndirectByteCountEXT,
+        vkCmdDrawIndirectCount, vkCmdDrawIndirectCount2KHR, vkCmdDrawMeshTasksEXT,
+        vkCmdDrawMeshTasksIndirect2EXT, vkCmdDrawMeshTasksIndirectCount2EXT,
+        vkCmdDrawMeshTasksIndirectCountEXT, vkCmdDrawMeshTasksIndirectCountNV,
+        vkCmdDrawMeshTasksIndirectEXT, vkCmdDrawMeshTasksIndirectNV, vkCmdDrawMeshTasksNV,
+        vkCmdDrawMultiEXT, vkCmdDrawMultiIndexedEXT, vkCmdExecuteGeneratedCommandsEXT,
+        vkCmdExecuteGeneratedCommandsNV, vkCmdSubpassShadingHUAWEI, vkCmdTraceRaysNV,
+    ],
+    trace: [vkCmdTraceRaysIndirect2KHR, vkCmdTraceRaysIndirectKHR, vkCmdTraceRaysKHR],
+}
+
+impl WorkCommand {
+    /// The command's name, e.g. `vkCmdDrawIndexed`.
+    pub fn function(self) -> &'static str {
+        self.vuids().function
+    }
+}
+
+impl Validator {
+    /// Any draw, dispatch or trace-rays command (`command` says which) with
+    /// what is bound when it is recorded. Its own parameters (counts,
+    /// buffers) are not micromap rules and are not taken.
+    pub fn cmd_run_shaders(
+        &mut self,
+        command: WorkCommand,
+        command_buffer: &CommandBuffer,
+        bound: &BoundWork,
+    ) -> Report {
+        let _ = command_buffer;
+        let vuids = command.vuids();
+        let mut ctx = self.ctx(vuids.function);
+        for access in &bound.accesses {
+            let Some(geometry) = ctx
+                .state
+                .micromap_geometry
+                .get(&access.acceleration_structure)
+                .copied()
+            else {
+                continue; // How it was built is unknown.
+            };
+            ray_query_mode(&mut ctx, &vuids, bound, access, geometry);
+            mixed_special_indices(&mut ctx, &vuids, bound, access, geometry);
+            if let Some(vuid) = vuids.pipeline_opacity {
+                pipeline_opacity(&mut ctx, vuid, bound, access, geometry);
+            }
+        }
+        ctx.finish()
+    }
+
+    /// Records what a build the checker saw put in each destination, for the
+    /// rules above: which opacity attachments its triangles chain, whether an
+    /// index buffer it could read mixes special and micromap indices, and for
+    /// instances, what the referenced bottom-level structures hold.
+    /// `ranges[i]` are the build ranges of `infos[i]`, where known.
+    pub fn record_micromap_geometry(
+        &mut self,
+        infos: &[BuildGeometryInfo],
+        ranges: &[Option<Vec<BuildRangeInfo>>],
+    ) {
+        for (i, info) in infos.iter().enumerate() {
+            if info.dst_acceleration_structure == 0 {
+                continue; // VK_NULL_HANDLE: nothing to remember it by.
+            }
+            let info_ranges = ranges.get(i).and_then(Option::as_ref);
+            let mut geometry = MicromapGeometry::default();
+            for (g, entry) in info.geometry_entries().1 {
+                let primitives = info_ranges
+                    .and_then(|r| r.get(g))
+                    .map_or(0, |r| r.primitive_count);
+                let found = match &entry.geometry {
+                    GeometryData::Triangles(triangles) => {
+                        triangles_geometry(&self.state, triangles, primitives)
+                    }
+                    GeometryData::Instances(instances) => instances
+                        .instances
+                        .iter()
+                        .flatten()
+                        .filter_map(|instance| {
+                            referenced(&self.state, instance.acceleration_structure_reference)
+                        })
+                        .fold(MicromapGeometry::default(), union),
+                    GeometryData::Aabbs(_) | GeometryData::None => MicromapGeometry::default(),
+                };
+                geometry = union(geometry, found);
+            }
+            self.state
+                .micromap_geometry
+                .insert(info.dst_acceleration_structure, geometry);
+        }
+    }
+}
+
+fn union(a: MicromapGeometry, b: MicromapGeometry) -> MicromapGeometry {
+    MicromapGeometry {
+        opacity_khr: a.opacity_khr || b.opacity_khr,
+        opacity_ext: a.opacity_ext || b.opacity_ext,
+        mixed_special_indices: a.mixed_special_indices || b.mixed_special_indices,
+    }
+}
+
+/// The record of the acceleration structure an instance references, by
+/// handle (host builds) or by device address.
+fn referenced(state: &State, reference: u64) -> Option<MicromapGeometry> {
+    if let Some(geometry) = state.micromap_geometry.get(&reference) {
+        return Some(*geometry);
+    }
+    let (handle, _) = state
+        .acceleration_structures
+        .iter()
+        .find(|(_, s)| s.address_range.is_some_and(|(start, _)| start == reference))?;
+    state.micromap_geometry.get(handle).copied()
+}
+
+fn triangles_geometry(
+    state: &State,
+    triangles: &TrianglesData,
+    primitives: u32,
+) -> MicromapGeometry {
+    let mut indices = [
+        triangles
+            .opacity_ext
+            .as_ref()
+            .map(|a| (a.index_type, a.index_buffer, a.index_stride)),
+        triangles
+            .opacity_khr
+            .as_ref()
+            .map(|a| (a.index_type, a.index_buffer, a.index_stride)),
+    ]
+    .into_iter()
+    .flatten();
+    MicromapGeometry {
+        opacity_ext: triangles.opacity_ext.is_some(),
+        opacity_khr: triangles.opacity_khr.is_some(),
+        mixed_special_indices: indices.any(|(ty, address, stride)| {
+            index_mix(state, ty, address, stride, primitives) == Some((true, true))
+        }),
+    }
+}
+
+/// Whether the opacity index buffer holds (special indices, micromap
+/// indices), when the checker can read all `count` entries.
+pub(crate) fn index_mix(
+    state: &State,
+    index_type: i32,
+    address: u64,
+    stride: u64,
+    count: u32,
+) -> Option<(bool, bool)> {
+    let size: u64 = match index_type {
+        INDEX_TYPE_UINT8 => 1,
+        INDEX_TYPE_UINT16 => 2,
+        INDEX_TYPE_UINT32 => 4,
+        _ => return None, // NONE: no index buffer, no special indices.
+    };
+    if count == 0 {
+        return Some((false, false));
+    }
+    // With stride 0 every triangle reads the first entry.
+    let entries = if stride == 0 { 1 } else { u64::from(count) };
+    let span = stride.checked_mul(entries - 1)?.checked_add(size)?;
+    let bytes = state
+        .read_device(address, span)
+        .or_else(|| state.read_host(address, span))?;
+    let (mut special, mut real) = (false, false);
+    for k in 0..entries {
+        let at = usize::try_from(k.checked_mul(stride)?).ok()?;
+        let raw = bytes.get(at..at.checked_add(size as usize)?)?;
+        let value = raw
+            .iter()
+            .rev()
+            .fold(0u64, |acc, byte| acc << 8 | u64::from(*byte));
+        // Special indices are -1..-4 cast to the index width.
+        let width_max = (1u64 << (size * 8)) - 1;
+        if value + 4 > width_max {
+            special = true;
+        } else if value + 5 != width_max + 1 {
+            real = true;
+        }
+    }
+    Some((special, real))
+}
+
+/// Whether the shader that performs `access` declares `OpacityMicromapIdKHR`
+/// true, where known. Several libraries may provide a pipeline stage: it is
+/// known to lack the mode only when none of them declares it.
+fn declares_opacity_micromap_id(
+    state: &State,
+    bound: &BoundWork,
+    access: &AccelerationStructureAccess,
+) -> Option<bool> {
+    match access.shader {
+        AccessingShader::PipelineStage(stage) => {
+            let record = state.pipelines.get(&bound.pipeline)?;
+            let mut facts = record
+                .stages
+                .iter()
+                .filter(|(s, _)| *s == stage)
+                .map(|(_, f)| f.opacity_micromap_id)
+                .peekable();
+            facts.peek()?;
+            facts.try_fold(false, |any, known| Some(any || known?))
+        }
+        AccessingShader::ShaderObject(shader) => state
+            .shader_objects
+            .get(&shader)
+            .and_then(|s| s.facts.opacity_micromap_id),
+    }
+}
+
+fn access_objects(access: &AccelerationStructureAccess) -> ObjectRef {
+    ObjectRef {
+        ty: "VkAccelerationStructureKHR",
+        handle: access.acceleration_structure,
+    }
+}
+
+fn shader_location(bound: &BoundWork, access: &AccelerationStructureAccess) -> String {
+    match access.shader {
+        AccessingShader::PipelineStage(stage) => {
+            format!("VkPipeline {:#x} stage {stage:#x}", bound.pipeline)
+        }
+        AccessingShader::ShaderObject(shader) => format!("VkShaderEXT {shader:#x}"),
+    }
+}
+
+/// 11636: with KHR micromaps only, a ray query reaching KHR micromap
+/// geometry needs the `OpacityMicromapIdKHR` mode set true.
+fn ray_query_mode(
+    ctx: &mut Ctx<'_>,
+    vuids: &WorkVuids,
+    bound: &BoundWork,
+    access: &AccelerationStructureAccess,
+    geometry: MicromapGeometry,
+) {
+    if !access.ray_query
+        || !geometry.opacity_khr
+        || ctx.device.has_extension(ext::EXT_OPACITY_MICROMAP)
+    {
+        return;
+    }
+    if declares_opacity_micromap_id(ctx.state, bound, access) == Some(false) {
+        ctx.error(
+            vuids.ray_query_mode,
+            shader_location(bound, access),
+            format!("the shader reaches VkAccelerationStructureKHR {:#x}, built with VkAccelerationStructureTrianglesOpacityMicromapKHR, through a ray query, but does not declare OpacityMicromapIdKHR with a true operand (VK_EXT_opacity_micromap is not enabled)", access.acceleration_structure),
+        )
+        .objects
+        .push(access_objects(access));
+    }
+}
+
+/// 11638 and 11639: geometry mixing special and micromap indices may not be
+/// reached by a pipeline or shader object that disallows it.
+fn mixed_special_indices(
+    ctx: &mut Ctx<'_>,
+    vuids: &WorkVuids,
+    bound: &BoundWork,
+    access: &AccelerationStructureAccess,
+    geometry: MicromapGeometry,
+) {
+    if !geometry.mixed_special_indices {
+        return;
+    }
+    let as_handle = access.acceleration_structure;
+    if let Some(record) = ctx.state.pipelines.get(&bound.pipeline) {
+        if record.flags & CREATE_DISALLOW_MIXED_SPECIAL_INDEX != 0 {
+            ctx.error(
+                vuids.pipeline_mixed,
+                format!("VkPipeline {:#x}", bound.pipeline),
+                format!("the bound pipeline was created with VK_PIPELINE_CREATE_2_OPACITY_MICROMAP_DISALLOW_MIXED_SPECIAL_INDEX_BIT_KHR, but VkAccelerationStructureKHR {as_handle:#x} has an opacity index buffer mixing special indices and micromap indices"),
+            )
+            .objects
+            .push(access_objects(access));
+        }
+    }
+    if let AccessingShader::ShaderObject(shader) = access.shader {
+        let flags = ctx.state.shader_objects.get(&shader).map_or(0, |s| s.flags);
+        if flags & SHADER_CREATE_DISALLOW_MIXED_SPECIAL_INDEX != 0 {
+            ctx.error(
+                vuids.shader_mixed,
+                format!("VkShaderEXT {shader:#x}"),
+                format!("the shader was created with VK_SHADER_CREATE_OPACITY_MICROMAP_DISALLOW_MIXED_SPECIAL_INDEX_BIT_EXT, but VkAccelerationStructureKHR {as_handle:#x} it reaches has an opacity index buffer mixing special indices and micromap indices"),
+            )
+            .objects
+            .push(access_objects(access));
+        }
+    }
+}
+
+/// 11640: tracing rays into opacity micromap geometry needs a pipeline
+/// created with the ray-tracing opacity micromap flag.
+fn pipeline_opacity(
+    ctx: &mut Ctx<'_>,
+    vuid: Vuid,
+    bound: &BoundWork,
+    access: &AccelerationStructureAccess,
+    geometry: MicromapGeometry,
+) {
+    if access.ray_query || !(geometry.opacity_khr || geometry.opacity_ext) {
+        return;
+    }
+    let Some(record) = ctx.state.pipelines.get(&bound.pipeline) else {
+        return;
+    };
+    if record.flags & CREATE_RAY_TRACING_OPACITY_MICROMAP == 0 {
+        ctx.error(
+            vuid,
+            format!("VkPipeline {:#x}", bound.pipeline),
+            format!("the bound pipeline's flags {:#x} lack VK_PIPELINE_CREATE_RAY_TRACING_OPACITY_MICROMAP_BIT_KHR, but rays are traced into VkAccelerationStructureKHR {:#x}, built with opacity micromap geometry", record.flags, access.acceleration_structure),
+        )
+        .objects
+        .push(access_objects(access));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::state::Buffer;
+
+    fn state_with(bytes: Vec<u8>) -> State {
+        let mut state = State::default();
+        state.buffers.insert(
+            1,
+            Buffer {
+                size: bytes.len() as u64,
+                device_address: Some(0x1000),
+                contents: Some(Arc::from(bytes)),
+                ..Default::default()
+            },
+        );
+        state
+    }
+
+    #[test]
+    fn index_mix_finds_special_and_real_indices() {
+        let state = state_with(vec![0xff, 0xff, 0x03, 0x00, 0xfb, 0xff]);
+        // u16: 0xffff is special (-1), 3 is real, 0xfffb (-5) is neither.
+        assert_eq!(
+            index_mix(&state, INDEX_TYPE_UINT16, 0x1000, 2, 3),
+            Some((true, true))
+        );
+        assert_eq!(
+            index_mix(&state, INDEX_TYPE_UINT16, 0x1000, 2, 1),
+            Some((true, false))
+        );
+        assert_eq!(
+            index_mix(&state, INDEX_TYPE_UINT16, 0x1004, 2, 1),
+            Some((false, false))
+        );
+        // Stride 0 reads one entry however many triangles there are.
+        assert_eq!(
+            index_mix(&state, INDEX_TYPE_UINT8, 0x1002, 0, u32::MAX),
+            Some((false, true))
+        );
+        // Past the end, or with a stride that overflows: unknown.
+        assert_eq!(index_mix(&state, INDEX_TYPE_UINT32, 0x1000, 4, 2), None);
+        assert_eq!(
+            index_mix(&state, INDEX_TYPE_UINT32, 0x1000, u64::MAX, 3),
+            None
+        );
+    }
+}
