@@ -6,3 +6,4 @@ pub mod decode;
 pub mod index;
 pub mod intersect;
 pub mod opacity;
+pub mod trace;
