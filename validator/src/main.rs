@@ -14,6 +14,12 @@ struct Cli {
     command: Command,
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Format {
+    Text,
+    Json,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Check scene files and print a VUID report.
@@ -23,6 +29,23 @@ enum Command {
         example: bool,
         /// Scene files to check.
         scenes: Vec<std::path::PathBuf>,
+    },
+    /// Map barycentrics to a micro-triangle index, or an index to its micro-triangle.
+    Index {
+        /// Subdivision level, 0 to 12.
+        #[arg(long)]
+        level: u32,
+        /// Hit barycentrics: u weighs vertex 1, v vertex 2.
+        #[arg(long, num_args = 2, value_names = ["U", "V"], allow_negative_numbers = true, conflicts_with = "index")]
+        uv: Option<Vec<f32>>,
+        /// A micro-triangle index.
+        #[arg(long, required_unless_present = "uv")]
+        index: Option<u32>,
+        /// The error the barycentrics may carry (default: 4 f32 ulps of 1).
+        #[arg(long, default_value_t = ommcheck::sim::index::DEFAULT_DELTA)]
+        delta: f64,
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// Print a VUID's catalog entry: parent, extensions, statement and link.
     Vuid {
@@ -48,6 +71,13 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         }
+        Command::Index {
+            level,
+            uv,
+            index,
+            delta,
+            format,
+        } => index_command(level, uv.as_deref(), index, delta, format),
         Command::Vuid { id } => match Vuid::from_id(&id) {
             Some(v) => {
                 let info = v.info();
@@ -82,4 +112,86 @@ fn main() -> ExitCode {
             }
         },
     }
+}
+
+/// `ommcheck index`: one mapping, as text or JSON.
+fn index_command(
+    level: u32,
+    uv: Option<&[f32]>,
+    index: Option<u32>,
+    delta: f64,
+    format: Format,
+) -> ExitCode {
+    use ommcheck::sim::index::{candidates, spec_triangle, MicroTriangle, MAX_LEVEL};
+    if level > MAX_LEVEL {
+        eprintln!("ommcheck: --level {level} is above the highest subdivision level, {MAX_LEVEL}");
+        return ExitCode::from(2);
+    }
+    let (triangle, ambiguous) = match (uv, index) {
+        (Some([u, v]), _) => {
+            let (triangle, set) = match (
+                spec_triangle(*u, *v, level),
+                candidates(*u, *v, level, delta),
+            ) {
+                (Ok(t), Ok(set)) => (t, set),
+                _ => {
+                    eprintln!("ommcheck: the barycentrics ({u}, {v}) are not numbers");
+                    return ExitCode::from(2);
+                }
+            };
+            let ambiguous: Vec<u32> = if set.len() > 1 {
+                set.into_iter().collect()
+            } else {
+                Vec::new()
+            };
+            (triangle, Some(ambiguous))
+        }
+        (_, Some(i)) => match MicroTriangle::from_index(i, level) {
+            Some(t) => (t, None),
+            None => {
+                eprintln!("ommcheck: index {i} is not below 4^{level}");
+                return ExitCode::from(2);
+            }
+        },
+        _ => unreachable!("clap requires --uv or --index"),
+    };
+    let index = triangle.index(level);
+    let vertices = triangle.vertices(level);
+    match format {
+        Format::Json => {
+            let mut json = serde_json::json!({
+                "index": index,
+                "upright": triangle.upright,
+                "i": triangle.i,
+                "j": triangle.j,
+                "vertices": vertices.map(|(u, v)| [u, v]),
+            });
+            if let Some(ambiguous) = ambiguous {
+                json["ambiguous"] = serde_json::json!(ambiguous);
+            }
+            println!("{json}");
+        }
+        Format::Text => {
+            let shape = if triangle.upright {
+                "upright"
+            } else {
+                "inverted"
+            };
+            println!(
+                "index {index} at level {level}: {shape} micro-triangle, cell (i, j) = ({}, {})",
+                triangle.i, triangle.j
+            );
+            let corners: Vec<String> = vertices
+                .iter()
+                .map(|(u, v)| format!("({u}, {v})"))
+                .collect();
+            println!("vertices (u, v): {}", corners.join(", "));
+            match ambiguous.as_deref() {
+                Some([]) => println!("definite within delta {delta}"),
+                Some(set) => println!("ambiguous within delta {delta}: any of {set:?}"),
+                None => {}
+            }
+        }
+    }
+    ExitCode::SUCCESS
 }

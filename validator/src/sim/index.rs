@@ -47,6 +47,20 @@ impl MicroTriangle {
         )
     }
 
+    /// The three corners in barycentrics (u, v): `(i, j), (i+1, j), (i, j+1)`
+    /// upright, `(i+1, j+1), (i, j+1), (i+1, j)` inverted, divided by N
+    /// (exact, since N is a power of two).
+    pub fn vertices(self, level: u32) -> [(f64, f64); 3] {
+        let n = f64::from(1u32 << level.min(MAX_LEVEL));
+        let (i, j) = (f64::from(self.i), f64::from(self.j));
+        let corners = if self.upright {
+            [(i, j), (i + 1.0, j), (i, j + 1.0)]
+        } else {
+            [(i + 1.0, j + 1.0), (i, j + 1.0), (i + 1.0, j)]
+        };
+        corners.map(|(x, y)| (x / n, y / n))
+    }
+
     /// The curve index of this micro-triangle.
     pub fn index(self, level: u32) -> u32 {
         let (iu, iv, iw) = self.dbary(level);
@@ -108,6 +122,10 @@ pub fn index_from_dbary(iu: u32, iv: u32, iw: u32, level: u32) -> u32 {
     }
     index
 }
+
+/// The error a hardware hit's barycentrics may carry beyond the exact
+/// answer when nothing better is known: a few f32 ulps of 1.
+pub const DEFAULT_DELTA: f64 = 4.0 * f32::EPSILON as f64;
 
 /// Why barycentrics could not be mapped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -311,7 +329,7 @@ mod tests {
 
     #[test]
     fn indexing_is_a_bijection_with_a_matching_inverse() {
-        for level in 0..=7 {
+        for level in 0..=8 {
             let count = 1u32 << (2 * level);
             let mut seen = vec![false; count as usize];
             for index in 0..count {
