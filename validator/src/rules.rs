@@ -44,6 +44,30 @@ pub static EXT_TRIANGLE_ARRAY_STRIDE: OwnRule = OwnRule {
     link: MICROMAPS,
 };
 
+const ACCELERATION_STRUCTURES: &str =
+    "https://docs.vulkan.org/spec/latest/chapters/accelstructures.html";
+
+/// EXT (and KHR host-build) attachments without a micromap: only special indices.
+pub static NULL_MICROMAP_SPECIAL_ONLY: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-null-micromap-special-only",
+    statement: "If micromap is VK_NULL_HANDLE, then every value read from indexBuffer must be one of the values in VkOpacityMicromapSpecialIndexEXT",
+    link: ACCELERATION_STRUCTURES,
+};
+
+/// EXT attachments: a non-special index selects one of the micromap's triangles.
+pub static INDEX_IN_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-index-in-range",
+    statement: "For each triangle in the geometry, the acceleration structure build fetches an index from indexBuffer using indexType and indexStride; if that value is not one of the special indices, that triangle uses the opacity micromap information from micromap at that index plus baseTriangle (which must therefore be less than the number of triangles micromap was built with)",
+    link: ACCELERATION_STRUCTURES,
+};
+
+/// Index buffers whose address or stride is not a multiple of the index size.
+pub static INDEX_ALIGNMENT: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-index-alignment",
+    statement: "indexBuffer is the address containing the triangle indices and indexStride is the byte stride between them (an address or stride that is not a multiple of the index size makes misaligned reads, which crash some drivers; EXT and NV state no VUID for it)",
+    link: ACCELERATION_STRUCTURES,
+};
+
 /// A pNext chain must end: no loops, and no longer than the reader walks.
 pub static PNEXT_CHAIN: OwnRule = OwnRule {
     id: "OMMCHECK-reader-pnext-chain",
@@ -58,14 +82,41 @@ pub static READ_BOUND: OwnRule = OwnRule {
     link: "https://docs.vulkan.org/spec/latest/chapters/fundamentals.html#fundamentals-validusage",
 };
 
+/// Hygiene: bits of a partly used byte that hold no state.
+pub static UNUSED_BITS: OwnRule = OwnRule {
+    id: "OMMCHECK-hygiene-unused-bits",
+    statement: "The data is packed from LSB to MSB in each byte; at subdivision levels 0 and 1 a triangle uses fewer than 8 bits of its byte, and the rest hold no state (they are best left zero so identical blocks compare equal)",
+    link: MICROMAPS,
+};
+
+/// Hygiene: identical blocks stored twice.
+pub static DUPLICATE_DATA: OwnRule = OwnRule {
+    id: "OMMCHECK-hygiene-duplicate-data",
+    statement: "Each micromap triangle's dataOffset is the location relative to data where its data begins; triangles with identical data may point at one copy",
+    link: MICROMAPS,
+};
+
+/// Hygiene: blocks that partly overlap.
+pub static OVERLAPPING_DATA: OwnRule = OwnRule {
+    id: "OMMCHECK-hygiene-overlapping-data",
+    statement: "Each micromap triangle's data is ceil(4^subdivisionLevel * bits / 8) bytes from its dataOffset; two triangles whose data partly overlaps share some states by accident (sharing a whole block is deliberate and not reported)",
+    link: MICROMAPS,
+};
+
 /// Every own rule, for the README and the coverage report.
 pub static ALL: &[&OwnRule] = &[
     &HISTOGRAM_MISMATCH,
     &TRIANGLE_DATA_RANGE,
     &TRIANGLE_ARRAY_RANGE,
     &EXT_TRIANGLE_ARRAY_STRIDE,
+    &NULL_MICROMAP_SPECIAL_ONLY,
+    &INDEX_IN_RANGE,
+    &INDEX_ALIGNMENT,
     &PNEXT_CHAIN,
     &READ_BOUND,
+    &UNUSED_BITS,
+    &DUPLICATE_DATA,
+    &OVERLAPPING_DATA,
 ];
 
 #[cfg(test)]

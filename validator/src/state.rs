@@ -124,6 +124,10 @@ pub struct State {
     /// What each acceleration structure's known build put in it that the
     /// draw, dispatch and trace-rays micromap rules ask about.
     pub micromap_geometry: BTreeMap<Handle, crate::model::pipeline::MicromapGeometry>,
+    /// What the original build of each acceleration structure chained to its
+    /// triangles geometries as KHR opacity attachments (update builds must
+    /// chain the same); recorded by `checks::accel_attach::record_original_attachments`.
+    pub original_attachments: BTreeMap<Handle, crate::model::accel::OriginalAttachments>,
 }
 
 impl State {

@@ -61,9 +61,13 @@ fn main() -> ExitCode {
                 .map_err(|source| xtask::Error::Io { path, source })
                 .and_then(|()| xtask::read(&readme_path))
                 .and_then(|readme| {
-                    let updated = ommcheck::coverage::update_readme(&readme)
-                        .ok_or_else(|| xtask::Error::Tool("README.md lacks the ommcheck-rules markers".into()))?;
-                    std::fs::write(&readme_path, updated).map_err(|source| xtask::Error::Io { path: readme_path, source })
+                    let updated = ommcheck::coverage::update_readme(&readme).ok_or_else(|| {
+                        xtask::Error::Tool("README.md lacks the ommcheck-rules markers".into())
+                    })?;
+                    std::fs::write(&readme_path, updated).map_err(|source| xtask::Error::Io {
+                        path: readme_path,
+                        source,
+                    })
                 })
                 .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
         }

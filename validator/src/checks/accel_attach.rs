@@ -1,17 +1,362 @@
 //! Triangle geometry that references a micromap: the EXT and KHR opacity
-//! attachments and the NV displacement attachment, instance flags, and the
-//! rules across the infos of one build command.
+//! attachments and the NV displacement attachment, instance flags, the rules
+//! across the infos of one build command, and the opacity-micromap members of
+//! NV cluster triangle infos.
+
+use ommcheck_vuids::vuid::{
+    vkBuildAccelerationStructuresKHR as host,
+    vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
+    vkCmdBuildAccelerationStructuresKHR as cmd,
+    VkAccelerationStructureGeometryTrianglesDataKHR as triangles_vuid,
+    VkAccelerationStructureInstanceKHR as instance_vuid,
+    VkAccelerationStructureTrianglesDisplacementMicromapNV as nv,
+    VkAccelerationStructureTrianglesOpacityMicromapEXT as ext,
+    VkAccelerationStructureTrianglesOpacityMicromapKHR as khr,
+    VkClusterAccelerationStructureBuildTriangleClusterInfoNV as cluster,
+    VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
+};
+use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::BuildCommand;
+use crate::checks::common::{self, Tally};
 use crate::checks::Coverage;
-use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, InstancesData, TrianglesData};
-use crate::validator::Ctx;
+use crate::model::accel::*;
+use crate::model::micromap::UsageCounts;
+use crate::model::values::*;
+use crate::report::{Report, RuleId, Severity};
+use crate::rules;
+use crate::state::{AccelerationStructure, Handle, State};
+use crate::validator::{Ctx, Validator};
 
 pub const COVERAGE: Coverage = Coverage {
     module: "accel_attach",
-    enforced: &[],
-    not_decidable: &[],
+    enforced: &[
+        ext::sType_sType,
+        ext::indexType_parameter,
+        ext::indexType_10719,
+        ext::indexType_10722,
+        ext::indexType_10723,
+        ext::micromap_parameter,
+        ext::pUsageCounts_07335,
+        ext::pUsageCounts_parameter,
+        ext::ppUsageCounts_parameter,
+        ext::format_11679,
+        ext::subdivisionLevel_11680,
+        ext::subdivisionLevel_11681,
+        ext::format_11682,
+        ext::subdivisionLevel_11683,
+        khr::sType_sType,
+        khr::indexType_parameter,
+        khr::indexType_11570,
+        khr::indexBuffer_11571,
+        khr::indexBuffer_11572,
+        khr::indexStride_11573,
+        khr::indexStride_11574,
+        khr::micromap_parameter,
+        khr::micromap_11579,
+        khr::geometry_11576,
+        nv::sType_sType,
+        nv::indexType_parameter,
+        nv::micromap_parameter,
+        nv::pUsageCounts_07992,
+        nv::pUsageCounts_parameter,
+        nv::ppUsageCounts_parameter,
+        nv::displacementBiasAndScaleFormat_09501,
+        nv::displacementBiasAndScaleFormat_parameter,
+        nv::displacementVectorFormat_09502,
+        nv::displacementVectorFormat_parameter,
+        triangles_vuid::pNext_pNext,
+        instance_vuid::micromap_11580,
+        instance_vuid::flags_11581,
+        cluster::opacityMicromapArray_10881,
+        cluster::opacityMicromapArray_parameter,
+        cluster::opacityMicromapIndexBuffer_parameter,
+        cluster::opacityMicromapIndexType_10492,
+        cluster_template::opacityMicromapArray_10882,
+        cluster_template::opacityMicromapArray_parameter,
+        cluster_template::opacityMicromapIndexBuffer_parameter,
+        cluster_template::opacityMicromapIndexType_10501,
+        cmd::pInfos_10904,
+        cmd::pInfos_10905,
+        cmd::pInfos_10607,
+        cmd::indexBuffer_11575,
+        cmd::indexBuffer_11577,
+        cmd::indexBuffer_11578,
+        cmd::micromap_11624,
+        cmd::dstAccelerationStructure_11548,
+        cmd::dstAccelerationStructure_11549,
+        cmd::micromap_11625,
+        cmd::micromap_11626,
+        cmd::micromap_11627,
+        cmd::micromap_11629,
+        indirect::pInfos_10904,
+        indirect::pInfos_10905,
+        indirect::pInfos_10607,
+        indirect::micromap_11624,
+        indirect::micromap_11625,
+        indirect::micromap_11626,
+        indirect::micromap_11627,
+        indirect::micromap_11629,
+        host::pInfos_10892,
+        host::pInfos_11821,
+        host::pInfos_11705,
+    ],
+    not_decidable: &[
+        (cmd::micromap_11632, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
+        (indirect::micromap_11632, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
+        (cmd::micromap_11701, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
+        (indirect::micromap_11701, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
+        (cmd::micromap_11628, "needs which micromap was deserialized from which serialized data; serialized micromaps pass through application memory and storage the checker does not follow"),
+        (indirect::micromap_11628, "needs which micromap was deserialized from which serialized data; serialized micromaps pass through application memory and storage the checker does not follow"),
+    ],
 };
+
+/// `VkFormat` values of the 1.4.360 registry (vk.xml, extensions supported
+/// for Vulkan), as inclusive ranges.
+const VK_FORMAT_RANGES: [(i32, i32); 11] = [
+    (0, 184),
+    (1_000_054_000, 1_000_054_007),
+    (1_000_066_000, 1_000_066_013),
+    (1_000_156_000, 1_000_156_033),
+    (1_000_288_000, 1_000_288_029),
+    (1_000_330_000, 1_000_330_003),
+    (1_000_340_000, 1_000_340_001),
+    (1_000_460_000, 1_000_460_003),
+    (1_000_464_000, 1_000_464_000),
+    (1_000_470_000, 1_000_470_001),
+    (1_000_609_000, 1_000_609_013),
+];
+
+const VK_FORMAT_UNDEFINED: i32 = 0;
+
+fn is_vk_format(value: i32) -> bool {
+    VK_FORMAT_RANGES
+        .iter()
+        .any(|&(first, last)| (first..=last).contains(&value))
+}
+
+/// `VkIndexType` values.
+const INDEX_TYPES: [i32; 4] = [
+    INDEX_TYPE_UINT16,
+    INDEX_TYPE_UINT32,
+    INDEX_TYPE_NONE,
+    INDEX_TYPE_UINT8,
+];
+
+/// Bytes of one index of `index_type`; None for NONE and for invalid values.
+fn index_size(index_type: i32) -> Option<u64> {
+    match index_type {
+        INDEX_TYPE_UINT8 => Some(1),
+        INDEX_TYPE_UINT16 => Some(2),
+        INDEX_TYPE_UINT32 => Some(4),
+        _ => None,
+    }
+}
+
+/// Whether the `size`-byte index `value` is the unsigned cast of one of the
+/// four `VkOpacityMicromapSpecialIndexKHR` values -1..-4 (0xFFFF..0xFFFC for
+/// 16-bit indices). The cluster-only -5 is no special index in the
+/// geometries checked here: it reads as an ordinary (huge) index.
+fn is_special_index(value: u32, size: u64) -> bool {
+    let max = match size {
+        1 => u64::from(u8::MAX),
+        2 => u64::from(u16::MAX),
+        _ => u64::from(u32::MAX),
+    };
+    u64::from(value) + 3 >= max
+}
+
+/// The indices of `count` triangles in `bytes` (an index buffer read from
+/// its start), as `(triangle, index)`, as far as `bytes` reaches. A stride of
+/// 0 reads one index for every triangle, so it is yielded once.
+fn read_indices(
+    bytes: &[u8],
+    size: u64,
+    stride: u64,
+    count: u64,
+) -> impl Iterator<Item = (u64, u32)> + '_ {
+    let distinct = if stride == 0 { count.min(1) } else { count };
+    (0..distinct).map_while(move |j| {
+        let start = usize::try_from(j.checked_mul(stride)?).ok()?;
+        let end = start.checked_add(usize::try_from(size).ok()?)?;
+        let index = bytes.get(start..end)?;
+        Some((
+            j,
+            index
+                .iter()
+                .rev()
+                .fold(0u32, |v, b| (v << 8) | u32::from(*b)),
+        ))
+    })
+}
+
+/// Which attachment a check looks at.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Ext,
+    Khr,
+    Nv,
+}
+
+impl Kind {
+    fn struct_name(self) -> &'static str {
+        match self {
+            Kind::Ext => "VkAccelerationStructureTrianglesOpacityMicromapEXT",
+            Kind::Khr => "VkAccelerationStructureTrianglesOpacityMicromapKHR",
+            Kind::Nv => "VkAccelerationStructureTrianglesDisplacementMicromapNV",
+        }
+    }
+
+    /// The rules the three structures state alike, with each one's VUID
+    /// (None where a structure states no such rule).
+    fn vuids(self) -> AttachmentVuids {
+        match self {
+            Kind::Ext => AttachmentVuids {
+                s_type: (
+                    ext::sType_sType,
+                    STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT,
+                ),
+                index_type_parameter: ext::indexType_parameter,
+                index_type_allowed: Some((
+                    ext::indexType_10719,
+                    &[INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_NONE],
+                )),
+                stride_multiple: Some(ext::indexType_10722),
+                stride_max: Some(ext::indexType_10723),
+                micromap_parameter: ext::micromap_parameter,
+                usage_counts: Some(UsageCountVuids {
+                    one_of: ext::pUsageCounts_07335,
+                    array: ext::pUsageCounts_parameter,
+                    pointers: ext::ppUsageCounts_parameter,
+                }),
+            },
+            Kind::Khr => AttachmentVuids {
+                s_type: (
+                    khr::sType_sType,
+                    STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
+                ),
+                index_type_parameter: khr::indexType_parameter,
+                index_type_allowed: Some((
+                    khr::indexType_11570,
+                    &[
+                        INDEX_TYPE_UINT8,
+                        INDEX_TYPE_UINT16,
+                        INDEX_TYPE_UINT32,
+                        INDEX_TYPE_NONE,
+                    ],
+                )),
+                stride_multiple: Some(khr::indexStride_11573),
+                stride_max: Some(khr::indexStride_11574),
+                micromap_parameter: khr::micromap_parameter,
+                usage_counts: None,
+            },
+            Kind::Nv => AttachmentVuids {
+                s_type: (
+                    nv::sType_sType,
+                    STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
+                ),
+                index_type_parameter: nv::indexType_parameter,
+                index_type_allowed: None,
+                stride_multiple: None,
+                stride_max: None,
+                micromap_parameter: nv::micromap_parameter,
+                usage_counts: Some(UsageCountVuids {
+                    one_of: nv::pUsageCounts_07992,
+                    array: nv::pUsageCounts_parameter,
+                    pointers: nv::ppUsageCounts_parameter,
+                }),
+            },
+        }
+    }
+}
+
+/// One attachment's VUIDs for the rules all three state alike.
+struct AttachmentVuids {
+    s_type: (Vuid, i32),
+    index_type_parameter: Vuid,
+    index_type_allowed: Option<(Vuid, &'static [i32])>,
+    stride_multiple: Option<Vuid>,
+    stride_max: Option<Vuid>,
+    micromap_parameter: Vuid,
+    usage_counts: Option<UsageCountVuids>,
+}
+
+struct UsageCountVuids {
+    one_of: Vuid,
+    array: Vuid,
+    pointers: Vuid,
+}
+
+/// The members the three attachments share, and where the structure is.
+struct Attachment<'a> {
+    kind: Kind,
+    /// `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`
+    at: String,
+    s_type: i32,
+    index_type: i32,
+    index_buffer: u64,
+    index_stride: u64,
+    base_triangle: u32,
+    micromap: Handle,
+    usage_counts: Option<&'a UsageCounts>,
+}
+
+impl Attachment<'_> {
+    fn member(&self, name: &str) -> String {
+        format!("{}.{name}", self.at)
+    }
+}
+
+/// The attachments chained to one triangles geometry.
+fn attachments<'a>(geometry_at: &str, data: &'a TrianglesData) -> Vec<Attachment<'a>> {
+    let at = |kind: Kind| {
+        format!(
+            "{geometry_at}.geometry.triangles.pNext<{}>",
+            kind.struct_name()
+        )
+    };
+    let mut found = Vec::new();
+    if let Some(a) = &data.opacity_ext {
+        found.push(Attachment {
+            kind: Kind::Ext,
+            at: at(Kind::Ext),
+            s_type: a.s_type,
+            index_type: a.index_type,
+            index_buffer: a.index_buffer,
+            index_stride: a.index_stride,
+            base_triangle: a.base_triangle,
+            micromap: a.micromap,
+            usage_counts: Some(&a.usage_counts),
+        });
+    }
+    if let Some(a) = &data.opacity_khr {
+        found.push(Attachment {
+            kind: Kind::Khr,
+            at: at(Kind::Khr),
+            s_type: a.s_type,
+            index_type: a.index_type,
+            index_buffer: a.index_buffer,
+            index_stride: a.index_stride,
+            base_triangle: a.base_triangle,
+            micromap: a.micromap,
+            usage_counts: None,
+        });
+    }
+    if let Some(a) = &data.displacement_nv {
+        found.push(Attachment {
+            kind: Kind::Nv,
+            at: at(Kind::Nv),
+            s_type: a.s_type,
+            index_type: a.index_type,
+            index_buffer: a.index_buffer,
+            index_stride: a.index_stride,
+            base_triangle: a.base_triangle,
+            micromap: a.micromap,
+            usage_counts: Some(&a.usage_counts),
+        });
+    }
+    found
+}
 
 /// A triangles geometry at `at` (e.g. `pInfos[0].pGeometries[1]`) of `info`,
 /// with its build range where the command has one.
@@ -23,10 +368,574 @@ pub(crate) fn triangles(
     triangles: &TrianglesData,
     range: Option<&BuildRangeInfo>,
 ) {
-    let _ = (ctx, command, at, info, triangles, range);
+    let _ = info;
+    pnext_chain(ctx, at, triangles);
+    let primitive_count = range.map(|r| u64::from(r.primitive_count));
+    for attachment in attachments(at, triangles) {
+        shared_members(ctx, &attachment);
+        match attachment.kind {
+            Kind::Ext => ext_attachment(ctx, command, &attachment),
+            Kind::Khr => khr_attachment(ctx, command, &attachment, primitive_count),
+            Kind::Nv => {
+                if let Some(data) = &triangles.displacement_nv {
+                    nv_formats(ctx, &attachment, data);
+                }
+            }
+        }
+        if let Some(count) = primitive_count {
+            index_contents(ctx, command, &attachment, count);
+        }
+    }
 }
 
-/// An instances geometry of a top-level build.
+/// The pNext chain of `VkAccelerationStructureGeometryTrianglesDataKHR`: the
+/// attachments and motion triangles, nothing else (the model keeps the
+/// attachments apart; the sTypes chained after them are in their `next`).
+fn pnext_chain(ctx: &mut Ctx<'_>, at: &str, data: &TrianglesData) {
+    const ALLOWED: [i32; 4] = [
+        STRUCTURE_TYPE_GEOMETRY_MOTION_TRIANGLES_DATA_NV,
+        STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT,
+        STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
+        STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
+    ];
+    let chained = data
+        .next
+        .iter()
+        .chain(data.opacity_ext.iter().flat_map(|a| &a.next))
+        .chain(data.opacity_khr.iter().flat_map(|a| &a.next))
+        .chain(data.displacement_nv.iter().flat_map(|a| &a.next));
+    if let Some(s_type) = chained.copied().find(|s| !ALLOWED.contains(s)) {
+        ctx.error(
+            triangles_vuid::pNext_pNext,
+            format!("{at}.geometry.triangles.pNext"),
+            format!(
+                "sType {s_type} does not extend VkAccelerationStructureGeometryTrianglesDataKHR"
+            ),
+        );
+    }
+}
+
+/// sType, index type and stride, the micromap handle and the usage-count
+/// pointers: the rules the three attachments state alike.
+fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
+    let vuids = a.kind.vuids();
+    let (s_type_vuid, s_type) = vuids.s_type;
+    ctx.require(
+        a.s_type == s_type,
+        s_type_vuid,
+        || a.member("sType"),
+        || format!("{} is not the sType of {}", a.s_type, a.kind.struct_name()),
+    );
+    let valid_index_type = INDEX_TYPES.contains(&a.index_type);
+    ctx.require(
+        valid_index_type,
+        vuids.index_type_parameter,
+        || a.member("indexType"),
+        || format!("{} is not a VkIndexType value", a.index_type),
+    );
+    if let Some((vuid, allowed)) = vuids.index_type_allowed {
+        ctx.require(
+            allowed.contains(&a.index_type),
+            vuid,
+            || a.member("indexType"),
+            || {
+                format!(
+                    "{} is not an index type this structure allows",
+                    a.index_type
+                )
+            },
+        );
+    }
+    if let Some(size) = index_size(a.index_type) {
+        if let Some(vuid) = vuids.stride_multiple {
+            common::aligned(ctx, a.index_stride, size, vuid, &a.member("indexStride"));
+        }
+        if let Some(vuid) = vuids.stride_max {
+            ctx.require(
+                a.index_stride <= u64::from(u32::MAX),
+                vuid,
+                || a.member("indexStride"),
+                || format!("{} exceeds 2^32-1", a.index_stride),
+            );
+        }
+        index_alignment(ctx, a, size, vuids.stride_multiple.is_none());
+    }
+    if a.micromap != 0 {
+        let known = match a.kind {
+            Kind::Ext | Kind::Nv => ctx.state.micromaps.contains_key(&a.micromap),
+            Kind::Khr => ctx.state.acceleration_structures.contains_key(&a.micromap),
+        };
+        let handle_type = match a.kind {
+            Kind::Ext | Kind::Nv => "VkMicromapEXT",
+            Kind::Khr => "VkAccelerationStructureKHR",
+        };
+        if !known {
+            ctx.error(
+                vuids.micromap_parameter,
+                a.member("micromap"),
+                format!(
+                    "{:#x} is not a {handle_type} created on this device",
+                    a.micromap
+                ),
+            )
+            .objects
+            .push(crate::report::ObjectRef {
+                ty: handle_type,
+                handle: a.micromap,
+            });
+        }
+    }
+    if let (Some(vuids), Some(counts)) = (vuids.usage_counts, a.usage_counts) {
+        usage_count_pointers(ctx, a, counts, &vuids);
+    }
+}
+
+/// A misaligned index buffer, or (where no VUID states it) a misaligned
+/// stride: legal for EXT and NV as far as any VUID says, but it crashes drivers.
+fn index_alignment(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, stride_too: bool) {
+    if a.index_buffer % size != 0 {
+        ctx.report(
+            &rules::INDEX_ALIGNMENT,
+            Severity::Warning,
+            a.member("indexBuffer"),
+            format!(
+                "{:#x} is not a multiple of the index size {size}",
+                a.index_buffer
+            ),
+        );
+    }
+    if stride_too && a.index_stride % size != 0 {
+        ctx.report(
+            &rules::INDEX_ALIGNMENT,
+            Severity::Warning,
+            a.member("indexStride"),
+            format!(
+                "{} is not a multiple of the index size {size}",
+                a.index_stride
+            ),
+        );
+    }
+}
+
+/// `pUsageCounts` / `ppUsageCounts`: at most one set, each as long as
+/// `usageCountsCount` says, no NULL element.
+fn usage_count_pointers(
+    ctx: &mut Ctx<'_>,
+    a: &Attachment<'_>,
+    counts: &UsageCounts,
+    vuids: &UsageCountVuids,
+) {
+    ctx.require(
+        !(counts.array.is_some() && counts.pointers.is_some()),
+        vuids.one_of,
+        || a.at.clone(),
+        || "both pUsageCounts and ppUsageCounts are set".into(),
+    );
+    if counts.count == 0 {
+        return;
+    }
+    if let Some(array) = &counts.array {
+        ctx.require(
+            array.len() as u64 == u64::from(counts.count),
+            vuids.array,
+            || a.member("pUsageCounts"),
+            || {
+                format!(
+                    "points to {} elements, not usageCountsCount = {}",
+                    array.len(),
+                    counts.count
+                )
+            },
+        );
+    }
+    if let Some(pointers) = &counts.pointers {
+        if pointers.len() as u64 != u64::from(counts.count) {
+            ctx.error(
+                vuids.pointers,
+                a.member("ppUsageCounts"),
+                format!(
+                    "points to {} pointers, not usageCountsCount = {}",
+                    pointers.len(),
+                    counts.count
+                ),
+            );
+        } else if let Some(null) = pointers.iter().position(Option::is_none) {
+            ctx.error(
+                vuids.pointers,
+                a.member(&format!("ppUsageCounts[{null}]")),
+                "the pointer is NULL",
+            );
+        }
+    }
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapEXT`: the index buffer
+/// against the index type (10904/10905, 10892/11821), and the usage counts
+/// against the type the micromap was created with (11679-11683).
+fn ext_attachment(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>) {
+    let location = a.member(match command {
+        BuildCommand::Host => "indexBuffer.hostAddress",
+        _ => "indexBuffer.deviceAddress",
+    });
+    let (must_be_zero, must_be_valid) = match command {
+        BuildCommand::Cmd => (cmd::pInfos_10904, cmd::pInfos_10905),
+        BuildCommand::Indirect => (indirect::pInfos_10904, indirect::pInfos_10905),
+        BuildCommand::Host => (host::pInfos_10892, host::pInfos_11821),
+    };
+    if a.index_type == INDEX_TYPE_NONE {
+        ctx.require(
+            a.index_buffer == 0,
+            must_be_zero,
+            || location.clone(),
+            || {
+                format!(
+                    "indexType is VK_INDEX_TYPE_NONE_KHR but the address is {:#x}",
+                    a.index_buffer
+                )
+            },
+        );
+    } else if command == BuildCommand::Host {
+        ctx.require(
+            a.index_buffer != 0,
+            must_be_valid,
+            || location.clone(),
+            || "the address is 0".into(),
+        );
+    } else {
+        common::valid_device_address(ctx, a.index_buffer, must_be_valid, &location);
+    }
+    ext_usage_counts(ctx, a);
+}
+
+/// The usage counts of an EXT attachment against the micromap's type.
+fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
+    let (Some(micromap), Some(counts)) = (ctx.state.micromaps.get(&a.micromap), a.usage_counts)
+    else {
+        return;
+    };
+    let opacity = micromap.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
+    let displacement = micromap.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
+    let limits = ctx.device.limits.clone();
+    let (member, entries) = counts.entries();
+    for (k, usage) in entries {
+        let loc = a.member(&format!("{member}[{k}]"));
+        let level = usage.subdivision_level;
+        let exceeds =
+            |max: u32, name: &'static str| move || format!("{level} exceeds {name} = {max}");
+        if opacity {
+            match usage.format {
+                OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
+                    level <= limits.max_opacity2_state_subdivision_level,
+                    ext::subdivisionLevel_11680,
+                    || format!("{loc}.subdivisionLevel"),
+                    exceeds(
+                        limits.max_opacity2_state_subdivision_level,
+                        "maxOpacity2StateSubdivisionLevel",
+                    ),
+                ),
+                OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
+                    level <= limits.max_opacity4_state_subdivision_level,
+                    ext::subdivisionLevel_11681,
+                    || format!("{loc}.subdivisionLevel"),
+                    exceeds(
+                        limits.max_opacity4_state_subdivision_level,
+                        "maxOpacity4StateSubdivisionLevel",
+                    ),
+                ),
+                other => {
+                    ctx.error(
+                        ext::format_11679,
+                        format!("{loc}.format"),
+                        format!("{other} is not a VkOpacityMicromapFormatEXT value (micromap is an opacity micromap)"),
+                    );
+                }
+            }
+        } else if displacement {
+            ctx.require(
+                DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
+                ext::format_11682,
+                || format!("{loc}.format"),
+                || format!("{} is not a VkDisplacementMicromapFormatNV value (micromap is a displacement micromap)", usage.format),
+            );
+            ctx.require(
+                level <= limits.max_displacement_micromap_subdivision_level,
+                ext::subdivisionLevel_11683,
+                || format!("{loc}.subdivisionLevel"),
+                exceeds(
+                    limits.max_displacement_micromap_subdivision_level,
+                    "maxDisplacementMicromapSubdivisionLevel",
+                ),
+            );
+        }
+    }
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapKHR`: the index buffer
+/// against the index type (11571/11572/11577), the micromap (11579, 11624,
+/// 11705), and with no index buffer the triangle count (11576).
+fn khr_attachment(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    a: &Attachment<'_>,
+    primitive_count: Option<u64>,
+) {
+    if a.index_type == INDEX_TYPE_NONE {
+        ctx.require(
+            a.index_buffer == 0,
+            khr::indexBuffer_11571,
+            || a.member("indexBuffer"),
+            || {
+                format!(
+                    "indexType is VK_INDEX_TYPE_NONE_KHR but indexBuffer is {:#x}",
+                    a.index_buffer
+                )
+            },
+        );
+        ctx.require(
+            a.micromap != 0,
+            khr::micromap_11579,
+            || a.member("micromap"),
+            || "indexType is VK_INDEX_TYPE_NONE_KHR and micromap is VK_NULL_HANDLE".into(),
+        );
+    } else if command == BuildCommand::Host {
+        ctx.require(
+            a.index_buffer != 0,
+            khr::indexBuffer_11572,
+            || a.member("indexBuffer"),
+            || "the address is 0".into(),
+        );
+    } else {
+        common::valid_device_address(
+            ctx,
+            a.index_buffer,
+            khr::indexBuffer_11572,
+            &a.member("indexBuffer"),
+        );
+    }
+    if command == BuildCommand::Host {
+        ctx.require(
+            a.micromap == 0,
+            host::pInfos_11705,
+            || a.member("micromap"),
+            || {
+                format!(
+                    "host builds take no KHR micromap, but micromap is {:#x}",
+                    a.micromap
+                )
+            },
+        );
+        return;
+    }
+    let built_with = match command {
+        BuildCommand::Indirect => indirect::micromap_11624,
+        _ => cmd::micromap_11624,
+    };
+    micromap_is_opacity_micromap(ctx, a, built_with);
+    if command == BuildCommand::Cmd {
+        if let (Some(count), Some(size)) = (primitive_count, index_size(a.index_type)) {
+            index_buffer_in_range(ctx, a, size, count);
+        }
+    }
+}
+
+/// 11624: a KHR attachment's micromap was built (or, unbuilt, can only be
+/// built) with type OPACITY_MICROMAP.
+fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vuid) {
+    let Some(structure) = ctx.state.acceleration_structures.get(&a.micromap) else {
+        return;
+    };
+    let built_type = structure.built.as_ref().map(|b| b.ty);
+    // 11547 lets only OPACITY_MICROMAP and GENERIC structures be built as micromaps.
+    let can_be_micromap = matches!(
+        structure.ty,
+        ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP | ACCELERATION_STRUCTURE_TYPE_GENERIC
+    );
+    let wrong = match built_type {
+        Some(ty) => ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+        None => !can_be_micromap,
+    };
+    if wrong {
+        let found = built_type.map_or_else(
+            || format!("was created with type {}", structure.ty),
+            |ty| format!("was built with type {ty}"),
+        );
+        ctx.error(
+            vuid,
+            a.member("micromap"),
+            format!(
+                "{:#x} {found}, not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR",
+                a.micromap
+            ),
+        );
+    }
+}
+
+/// 11577: `[indexBuffer, indexBuffer + indexStride * primitiveCount)` lies in one buffer.
+fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count: u64) {
+    // An address inside no buffer is 11572's finding.
+    if count == 0 || ctx.state.buffers_at(a.index_buffer).next().is_none() {
+        return;
+    }
+    // A stride below the index size still reads whole indices.
+    let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
+    let inside = len.is_some_and(|len| ctx.state.range_in_one_buffer(a.index_buffer, len));
+    if !inside {
+        ctx.error(
+            cmd::indexBuffer_11577,
+            a.member("indexBuffer"),
+            format!(
+                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer",
+                a.index_stride, a.index_buffer
+            ),
+        );
+    }
+}
+
+/// The NV attachment's two displacement formats (09501/09502 and their -parameter rules).
+fn nv_formats(ctx: &mut Ctx<'_>, a: &Attachment<'_>, data: &TrianglesDisplacementMicromapNv) {
+    let formats = [
+        (
+            "displacementBiasAndScaleFormat",
+            data.displacement_bias_and_scale_format,
+            nv::displacementBiasAndScaleFormat_parameter,
+            nv::displacementBiasAndScaleFormat_09501,
+        ),
+        (
+            "displacementVectorFormat",
+            data.displacement_vector_format,
+            nv::displacementVectorFormat_parameter,
+            nv::displacementVectorFormat_09502,
+        ),
+    ];
+    for (member, format, parameter, not_undefined) in formats {
+        ctx.require(
+            is_vk_format(format),
+            parameter,
+            || a.member(member),
+            || format!("{format} is not a VkFormat value"),
+        );
+        ctx.require(
+            format != VK_FORMAT_UNDEFINED,
+            not_undefined,
+            || a.member(member),
+            || "the format is VK_FORMAT_UNDEFINED".into(),
+        );
+    }
+}
+
+/// The number of triangles the attachment's micromap was built with, where
+/// the checker saw that build.
+fn micromap_triangle_count(state: &State, a: &Attachment<'_>) -> Option<u64> {
+    let record = match a.kind {
+        Kind::Ext => state.micromaps.get(&a.micromap)?.built.as_ref()?,
+        Kind::Khr => {
+            let record = state
+                .acceleration_structures
+                .get(&a.micromap)?
+                .built
+                .as_ref()?;
+            // A structure built as something else has no micromap triangles (11624 says so).
+            if record.ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
+                return None;
+            }
+            record
+        }
+        Kind::Nv => return None,
+    };
+    Some(record.triangle_count)
+}
+
+/// The index buffer's contents (where the checker can read them) or, with
+/// no index buffer, the triangle indices themselves, against the micromap:
+/// without a micromap only special indices (11578 / our rule); with one,
+/// `index + baseTriangle` inside its triangles (11575, 11576 / our rule).
+fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, count: u64) {
+    // Host builds take no KHR micromap (11705 says so); nothing to compare with.
+    let khr_host_micromap = a.kind == Kind::Khr && command == BuildCommand::Host && a.micromap != 0;
+    if a.kind == Kind::Nv || count == 0 || khr_host_micromap {
+        return;
+    }
+    let triangles = if a.micromap == 0 {
+        None
+    } else {
+        match micromap_triangle_count(ctx.state, a) {
+            Some(triangles) => Some(triangles),
+            None => return, // The micromap's build is unknown: nothing to compare with.
+        }
+    };
+    let base = u64::from(a.base_triangle);
+    // The VUIDs say "less than or equal" (and 11575 "greater than zero"); the
+    // micromap has triangles 0..numTriangles, so what hardware reads needs
+    // index + baseTriangle < numTriangles, index 0 included.
+    let out_of_range = |index: u64| triangles.is_some_and(|n| index.saturating_add(base) >= n);
+    let in_range_rule: RuleId = match a.kind {
+        Kind::Khr => cmd::indexBuffer_11575.into(),
+        _ => (&rules::INDEX_IN_RANGE).into(),
+    };
+    let Some(size) = index_size(a.index_type) else {
+        if a.index_type == INDEX_TYPE_NONE && triangles.is_some() {
+            // Triangle j uses micromap triangle j + baseTriangle; the last is the largest.
+            let last = count - 1;
+            let rule: RuleId = match a.kind {
+                Kind::Khr => khr::geometry_11576.into(),
+                _ => (&rules::INDEX_IN_RANGE).into(),
+            };
+            if out_of_range(last) {
+                ctx.error(
+                    rule,
+                    a.member("baseTriangle"),
+                    format!(
+                        "triangle {last} + baseTriangle {base} is not below the micromap's {} triangles",
+                        triangles.unwrap_or(0)
+                    ),
+                );
+            }
+        }
+        return;
+    };
+    let state = ctx.state;
+    let bytes = match command {
+        BuildCommand::Host => state.host_bytes_from(a.index_buffer),
+        _ => state.device_bytes_from(a.index_buffer),
+    };
+    let Some(bytes) = bytes else {
+        return; // Contents not available to the checker.
+    };
+    let not_special_rule: RuleId = match (a.kind, command) {
+        (Kind::Khr, BuildCommand::Cmd) => cmd::indexBuffer_11578.into(),
+        _ => (&rules::NULL_MICROMAP_SPECIAL_ONLY).into(),
+    };
+    let array = a.member("indexBuffer");
+    let mut tally = Tally::new();
+    for (j, index) in read_indices(bytes, size, a.index_stride, count) {
+        if is_special_index(index, size) {
+            continue;
+        }
+        let location = format!("{array}[{j}]");
+        match triangles {
+            None => tally.error(
+                ctx,
+                not_special_rule,
+                location,
+                || format!("micromap is VK_NULL_HANDLE, but index {index:#x} is no VkOpacityMicromapSpecialIndexKHR value"),
+                &array,
+            ),
+            Some(n) if out_of_range(u64::from(index)) => tally.error(
+                ctx,
+                in_range_rule,
+                location,
+                || format!("index {index} + baseTriangle {base} is not below the micromap's {n} triangles"),
+                &array,
+            ),
+            Some(_) => {}
+        }
+    }
+    tally.finish(ctx);
+}
+
+/// An instances geometry of a top-level build: each instance's opacity
+/// flags need the micromap feature (11580) and, for DISABLE, a referenced
+/// structure built to allow it (10607 / 11581).
 pub(crate) fn instances(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
@@ -34,10 +943,404 @@ pub(crate) fn instances(
     info: &BuildGeometryInfo,
     instances: &InstancesData,
 ) {
-    let _ = (ctx, command, at, info, instances);
+    let _ = info;
+    let Some(list) = &instances.instances else {
+        return;
+    };
+    let force = khr_values::GEOMETRY_INSTANCE_FORCE_OPACITY_MICROMAP_2_STATE_BIT_KHR.as_raw() as u8;
+    let disable = khr_values::GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw() as u8;
+    let allow_disable =
+        khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw();
+    let disable_vuid = match command {
+        BuildCommand::Cmd => cmd::pInfos_10607,
+        BuildCommand::Indirect => indirect::pInfos_10607,
+        BuildCommand::Host => instance_vuid::flags_11581,
+    };
+    let features = &ctx.device.features;
+    let micromap_feature = features.micromap_ext || features.micromap_khr;
+    let array = format!("{at}.geometry.instances.data");
+    let mut tally = Tally::new();
+    for (k, instance) in list.iter().enumerate() {
+        let location = format!("{array}[{k}].flags");
+        if instance.flags & (force | disable) != 0 && !micromap_feature {
+            tally.error(
+                ctx,
+                instance_vuid::micromap_11580,
+                location.clone(),
+                || format!("flags {:#x} use opacity micromap bits, but neither micromap feature is enabled", instance.flags),
+                &array,
+            );
+        }
+        if instance.flags & disable == 0 {
+            continue;
+        }
+        let referenced = referenced_structure(
+            ctx.state,
+            command,
+            instance.acceleration_structure_reference,
+        );
+        let built_flags = referenced.and_then(|s| s.built.as_ref()).map(|b| b.flags);
+        if let Some(flags) = built_flags.filter(|flags| flags & allow_disable == 0) {
+            tally.error(
+                ctx,
+                disable_vuid,
+                location,
+                || format!("VK_GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR is set, but the referenced acceleration structure {:#x} was built with flags {flags:#x}, without VK_BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR", instance.acceleration_structure_reference),
+                &array,
+            );
+        }
+    }
+    tally.finish(ctx);
 }
 
-/// Rules that relate different elements of `pInfos`.
+/// The acceleration structure an instance references: a handle in host
+/// builds, a device address (the start of its memory) in device builds.
+fn referenced_structure(
+    state: &State,
+    command: BuildCommand,
+    reference: u64,
+) -> Option<&AccelerationStructure> {
+    if command == BuildCommand::Host {
+        return state.acceleration_structures.get(&reference);
+    }
+    state
+        .acceleration_structures
+        .values()
+        .find(|s| memory_range(state, s).is_some_and(|(start, _)| start == reference))
+}
+
+/// The device-address range backing an acceleration structure, when known.
+fn memory_range(state: &State, structure: &AccelerationStructure) -> Option<(u64, u64)> {
+    structure.address_range.or_else(|| {
+        let base = state.buffers.get(&structure.buffer)?.device_address?;
+        let start = base.checked_add(structure.offset)?;
+        Some((start, start.checked_add(structure.size)?))
+    })
+}
+
+/// Rules that relate different elements of `pInfos`: a KHR micromap of one
+/// info is no other info's destination (11548), nor overlaps its memory
+/// (11549); and update builds chain what the original build chained
+/// (11625-11627, 11629).
 pub(crate) fn across_infos(ctx: &mut Ctx<'_>, command: BuildCommand, infos: &[BuildGeometryInfo]) {
-    let _ = (ctx, command, infos);
+    if command == BuildCommand::Cmd {
+        micromaps_against_destinations(ctx, infos);
+    }
+    if command != BuildCommand::Host {
+        for (i, info) in infos.iter().enumerate() {
+            if info.mode == BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE {
+                update_matches_original(ctx, command, i, info);
+            }
+        }
+    }
+}
+
+/// The KHR micromaps an info's geometries reference, with their locations.
+fn khr_micromaps(i: usize, info: &BuildGeometryInfo) -> Vec<(String, Handle)> {
+    let (member, geometries) = info.geometry_entries();
+    geometries
+        .into_iter()
+        .filter_map(|(g, geometry)| match KhrOpacityAttachment::of(geometry) {
+            KhrOpacityAttachment::Micromap(m) => Some((
+                format!(
+                    "pInfos[{i}].{member}[{g}].geometry.triangles.pNext<{}>.micromap",
+                    Kind::Khr.struct_name()
+                ),
+                m,
+            )),
+            _ => None,
+        })
+        .collect()
+}
+
+fn micromaps_against_destinations(ctx: &mut Ctx<'_>, infos: &[BuildGeometryInfo]) {
+    let state = ctx.state;
+    let range_of = |handle: Handle| {
+        state
+            .acceleration_structures
+            .get(&handle)
+            .and_then(|s| memory_range(state, s))
+    };
+    for (i, info) in infos.iter().enumerate() {
+        for (location, micromap) in khr_micromaps(i, info) {
+            for (j, other) in infos.iter().enumerate().filter(|(j, _)| *j != i) {
+                let dst = other.dst_acceleration_structure;
+                if dst == micromap {
+                    ctx.error(
+                        cmd::dstAccelerationStructure_11548,
+                        location.clone(),
+                        format!("{micromap:#x} is also pInfos[{j}].dstAccelerationStructure"),
+                    );
+                    continue;
+                }
+                if let (Some(a), Some(b)) = (range_of(micromap), range_of(dst)) {
+                    if a.0 < b.1 && b.0 < a.1 {
+                        ctx.error(
+                            cmd::dstAccelerationStructure_11549,
+                            location.clone(),
+                            format!("the memory of micromap {micromap:#x} [{:#x}, {:#x}) overlaps that of pInfos[{j}].dstAccelerationStructure [{:#x}, {:#x})", a.0, a.1, b.0, b.1),
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// An update build against the KHR attachments of the source's original build.
+fn update_matches_original(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    i: usize,
+    info: &BuildGeometryInfo,
+) {
+    // The state outlives the context's borrow, so findings can be reported
+    // while reading the record.
+    let state = ctx.state;
+    let Some(original) = state
+        .original_attachments
+        .get(&info.src_acceleration_structure)
+    else {
+        return; // The original build is unknown.
+    };
+    let (kept_micromap, kept_null, none_added, same_handle) = match command {
+        BuildCommand::Indirect => (
+            indirect::micromap_11625,
+            indirect::micromap_11626,
+            indirect::micromap_11627,
+            indirect::micromap_11629,
+        ),
+        _ => (
+            cmd::micromap_11625,
+            cmd::micromap_11626,
+            cmd::micromap_11627,
+            cmd::micromap_11629,
+        ),
+    };
+    let update_bits = khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_UPDATE_BIT_KHR
+        .as_raw()
+        | khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_BIT_EXT
+            .as_raw();
+    let handle_must_match = original.flags & update_bits == 0 && !original.deserialized;
+    let (member, geometries) = info.geometry_entries();
+    for (g, geometry) in geometries {
+        if geometry.geometry_type != GEOMETRY_TYPE_TRIANGLES {
+            continue;
+        }
+        let Some(before) = original.geometries.get(g).copied() else {
+            continue;
+        };
+        let at = format!("pInfos[{i}].{member}[{g}].geometry.triangles.pNext");
+        use KhrOpacityAttachment::{Absent, Micromap, NullMicromap};
+        match (before, KhrOpacityAttachment::of(geometry)) {
+            (Micromap(_), Absent | NullMicromap) => {
+                ctx.error(kept_micromap, at, "the original build chained a VkAccelerationStructureTrianglesOpacityMicromapKHR with a micromap; this update chains none with a micromap");
+            }
+            (NullMicromap, Absent | Micromap(_)) => {
+                ctx.error(kept_null, at, "the original build chained a VkAccelerationStructureTrianglesOpacityMicromapKHR with micromap VK_NULL_HANDLE; this update does not");
+            }
+            (Absent, NullMicromap | Micromap(_)) => {
+                ctx.error(none_added, at, "the original build chained no VkAccelerationStructureTrianglesOpacityMicromapKHR; this update chains one");
+            }
+            (Micromap(old), Micromap(new)) if handle_must_match && old != new => {
+                ctx.error(same_handle, at, format!("micromap {new:#x} differs from {old:#x} of the original build, which allowed no opacity micromap update"));
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Records, for each info of a build that creates (mode BUILD) an
+/// acceleration structure, which KHR opacity attachments its geometries
+/// chain, for later update builds to be checked against. The build
+/// entry points call it after their checks.
+pub fn record_original_attachments(state: &mut State, infos: &[BuildGeometryInfo]) {
+    for info in infos {
+        if info.mode != BUILD_ACCELERATION_STRUCTURE_MODE_BUILD
+            || info.dst_acceleration_structure == 0
+        {
+            continue;
+        }
+        let mut geometries = Vec::new();
+        if let Some(list) = &info.geometries {
+            geometries.extend(list.iter().map(KhrOpacityAttachment::of));
+        } else if let Some(list) = &info.geometry_pointers {
+            geometries.extend(
+                list.iter()
+                    .map(|g| g.as_ref().map(KhrOpacityAttachment::of).unwrap_or_default()),
+            );
+        }
+        state.original_attachments.insert(
+            info.dst_acceleration_structure,
+            OriginalAttachments {
+                flags: info.flags,
+                deserialized: false,
+                geometries,
+            },
+        );
+    }
+}
+
+/// The cluster info structure whose opacity members are checked.
+#[derive(Clone, Copy)]
+struct ClusterVuids {
+    array_needs_flag: Vuid,
+    array_parameter: Vuid,
+    index_buffer_parameter: Vuid,
+    index_type_single_bit: Vuid,
+}
+
+const CLUSTER_VUIDS: ClusterVuids = ClusterVuids {
+    array_needs_flag: cluster::opacityMicromapArray_10881,
+    array_parameter: cluster::opacityMicromapArray_parameter,
+    index_buffer_parameter: cluster::opacityMicromapIndexBuffer_parameter,
+    index_type_single_bit: cluster::opacityMicromapIndexType_10492,
+};
+
+const CLUSTER_TEMPLATE_VUIDS: ClusterVuids = ClusterVuids {
+    array_needs_flag: cluster_template::opacityMicromapArray_10882,
+    array_parameter: cluster_template::opacityMicromapArray_parameter,
+    index_buffer_parameter: cluster_template::opacityMicromapIndexBuffer_parameter,
+    index_type_single_bit: cluster_template::opacityMicromapIndexType_10501,
+};
+
+const CLUSTER_FUNCTION: &str = "vkCmdBuildClusterAccelerationStructureIndirectNV";
+
+impl Validator {
+    /// The opacity-micromap members of the
+    /// `VkClusterAccelerationStructureBuildTriangleClusterInfoNV` elements a
+    /// `vkCmdBuildClusterAccelerationStructureIndirectNV` with opType
+    /// BUILD_TRIANGLE_CLUSTER reads from `srcInfosArray` (as far as the
+    /// caller could read them), against `VkClusterAccelerationStructureInputInfoNV::flags`.
+    pub fn cmd_build_cluster_triangle_clusters(
+        &mut self,
+        input_flags: u32,
+        src_infos: &[ClusterBuildTriangleClusterInfo],
+    ) -> Report {
+        let mut ctx = self.ctx(CLUSTER_FUNCTION);
+        for (k, info) in src_infos.iter().enumerate() {
+            cluster_opacity(&mut ctx, input_flags, k, &info.opacity, &CLUSTER_VUIDS);
+        }
+        ctx.finish()
+    }
+
+    /// As [`Self::cmd_build_cluster_triangle_clusters`], for opType
+    /// BUILD_TRIANGLE_CLUSTER_TEMPLATE and its
+    /// `VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV` elements.
+    pub fn cmd_build_cluster_triangle_cluster_templates(
+        &mut self,
+        input_flags: u32,
+        src_infos: &[ClusterBuildTriangleClusterTemplateInfo],
+    ) -> Report {
+        let mut ctx = self.ctx(CLUSTER_FUNCTION);
+        for (k, info) in src_infos.iter().enumerate() {
+            cluster_opacity(
+                &mut ctx,
+                input_flags,
+                k,
+                &info.opacity,
+                &CLUSTER_TEMPLATE_VUIDS,
+            );
+        }
+        ctx.finish()
+    }
+}
+
+fn cluster_opacity(
+    ctx: &mut Ctx<'_>,
+    input_flags: u32,
+    k: usize,
+    opacity: &ClusterTriangleOpacity,
+    vuids: &ClusterVuids,
+) {
+    let at = format!("pCommandInfos->srcInfosArray[{k}]");
+    let allow =
+        khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_CLUSTER_OPACITY_MICROMAPS_BIT_NV.as_raw();
+    let array = opacity.opacity_micromap_array;
+    if array != 0 {
+        ctx.require(
+            input_flags & allow != 0,
+            vuids.array_needs_flag,
+            || format!("{at}.opacityMicromapArray"),
+            || format!("the input flags {input_flags:#x} lack VK_BUILD_ACCELERATION_STRUCTURE_ALLOW_CLUSTER_OPACITY_MICROMAPS_BIT_NV"),
+        );
+        cluster_address(
+            ctx,
+            array,
+            vuids.array_parameter,
+            &format!("{at}.opacityMicromapArray"),
+        );
+    }
+    let index_buffer = opacity.opacity_micromap_index_buffer;
+    if index_buffer != 0 {
+        cluster_address(
+            ctx,
+            index_buffer,
+            vuids.index_buffer_parameter,
+            &format!("{at}.opacityMicromapIndexBuffer"),
+        );
+    }
+    // A zero index type is left alone where nothing is indexed: structures
+    // without micromaps commonly leave the field 0.
+    let index_type = opacity.opacity_micromap_index_type;
+    let single_bit = index_type.count_ones() == 1 || (index_type == 0 && index_buffer == 0);
+    ctx.require(
+        single_bit,
+        vuids.index_type_single_bit,
+        || format!("{at}.opacityMicromapIndexType"),
+        || format!("{index_type:#x} does not have exactly one bit set"),
+    );
+}
+
+/// An optional cluster address that is set must lie in a buffer, where the
+/// checker knows buffer addresses.
+fn cluster_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) {
+    if ctx.state.knows_addresses() && ctx.state.buffers_at(address).next().is_none() {
+        ctx.error(
+            vuid,
+            location,
+            format!("{address:#x} is inside no buffer's device-address range"),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn special_indices_by_width() {
+        assert!(is_special_index(0xFFFF, 2));
+        assert!(is_special_index(0xFFFC, 2));
+        assert!(!is_special_index(0xFFFB, 2), "-5 is cluster-only");
+        assert!(is_special_index(0xFC, 1));
+        assert!(!is_special_index(0xFB, 1));
+        assert!(is_special_index(u32::MAX - 3, 4));
+        assert!(!is_special_index(u32::MAX - 4, 4));
+        assert!(!is_special_index(0, 4));
+    }
+
+    #[test]
+    fn indices_are_read_little_endian_within_the_bytes() {
+        let bytes = [1u8, 0, 2, 0, 0xff, 0xff];
+        let read: Vec<_> = read_indices(&bytes, 2, 2, 10).collect();
+        assert_eq!(read, [(0, 1), (1, 2), (2, 0xffff)]);
+        let strided: Vec<_> = read_indices(&bytes, 2, 4, 2).collect();
+        assert_eq!(strided, [(0, 1), (1, 0xffff)]);
+        // A zero stride reads one index, however many triangles there are.
+        assert_eq!(read_indices(&bytes, 4, 0, u64::MAX).count(), 1);
+        assert_eq!(read_indices(&bytes, 4, u64::MAX, 3).count(), 1);
+    }
+
+    #[test]
+    fn vk_format_values() {
+        assert!(is_vk_format(0));
+        assert!(is_vk_format(vk_format_r16g16_sfloat()));
+        assert!(!is_vk_format(185));
+        assert!(!is_vk_format(-1));
+    }
+
+    fn vk_format_r16g16_sfloat() -> i32 {
+        ash::vk::Format::R16G16_SFLOAT.as_raw()
+    }
 }

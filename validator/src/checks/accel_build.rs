@@ -3,17 +3,114 @@
 //! KHR opacity micromaps (type OPACITY_MICROMAP, `VkAccelerationStructureGeometryMicromapDataKHR`),
 //! their creation, size queries and copies. The triangle-geometry
 //! attachments are checked in `accel_attach`.
+//!
+//! The catalog holds only micromap-related VUIDs, and the implicit
+//! command-buffer VUIDs of the KHR acceleration-structure commands
+//! (`-commandBuffer-recording`, `-cmdpool`, `-renderpass`, ...) are not among
+//! them, so the `vkCmd*` entry points here take the command buffer without
+//! checking it: there is no catalog VUID to cite.
 
+use std::collections::{BTreeMap, BTreeSet};
+
+use ommcheck_vuids::vuid::{
+    vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
+    vkCmdBuildAccelerationStructuresKHR as cmd, vkCmdCopyAccelerationStructureKHR as cmd_copy,
+    vkCmdCopyAccelerationStructureToMemoryKHR as cmd_to_memory,
+    vkCmdCopyMemoryToAccelerationStructureKHR as cmd_from_memory,
+    vkCopyAccelerationStructureKHR as host_copy, vkGetAccelerationStructureBuildSizesKHR as sizes,
+    VkAccelerationStructureBuildGeometryInfoKHR as info_vuid,
+    VkAccelerationStructureCreateInfo2KHR as create_info2,
+    VkAccelerationStructureCreateInfoKHR as create_info,
+    VkAccelerationStructureGeometryKHR as geometry_vuid,
+    VkAccelerationStructureGeometryMicromapDataKHR as micromap_vuid,
+    VkCopyAccelerationStructureToMemoryInfoKHR as to_memory_info,
+    VkCopyMemoryToAccelerationStructureInfoKHR as from_memory_info,
+    VkMicromapUsageKHR as usage_vuid,
+};
+use ommcheck_vuids::Vuid;
+
+use crate::checks::common::{self, Tally};
 use crate::checks::{accel_attach, Coverage};
-use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData};
-use crate::model::CommandBuffer;
+use crate::device::Limits;
+use crate::model::accel::*;
+use crate::model::micromap::opacity_triangle_bytes;
+use crate::model::values::{
+    BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
+    OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
+};
+use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
 use crate::report::Report;
+use crate::rules;
+use crate::state::{AccelerationStructure, BuildRecord, Handle, State};
 use crate::validator::{Ctx, Validator};
+
+const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by device-memory contents that GPU copies write at execution time, not visible at the API boundary";
+const SERIALIZED_HEADER: &str = "the serialized header is device memory that an earlier serialization writes on the GPU timeline; its blocks exist only when the copy executes, not at the API boundary";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "accel_build",
-    enforced: &[],
-    not_decidable: &[],
+    enforced: &[
+        info_vuid::flags_11558,
+        info_vuid::flags_11562,
+        info_vuid::flags_11709,
+        info_vuid::flags_11710,
+        info_vuid::flags_11711,
+        info_vuid::format_11712,
+        info_vuid::format_11713,
+        info_vuid::geometryCount_11560,
+        info_vuid::geometryType_11561,
+        info_vuid::geometryType_11707,
+        info_vuid::micromap_11559,
+        info_vuid::subdivisionLevel_11564,
+        info_vuid::subdivisionLevel_11565,
+        info_vuid::subdivisionLevel_11566,
+        info_vuid::subdivisionLevel_11567,
+        info_vuid::type_11563,
+        geometry_vuid::flags_11569,
+        geometry_vuid::micromap_11568,
+        geometry_vuid::pNext_pNext,
+        micromap_vuid::count_11643,
+        micromap_vuid::pUsageCounts_11642,
+        micromap_vuid::pUsageCounts_parameter,
+        micromap_vuid::ppUsageCounts_parameter,
+        micromap_vuid::sType_sType,
+        micromap_vuid::subdivisionLevel_11645,
+        micromap_vuid::triangleArrayStride_11646,
+        micromap_vuid::triangleArrayStride_11647,
+        usage_vuid::format_parameter,
+        cmd::dstAccelerationStructure_11547,
+        cmd::micromap_11550,
+        cmd::micromap_11551,
+        cmd::micromap_11552,
+        cmd::micromap_11553,
+        cmd::micromap_11554,
+        cmd::micromap_11555,
+        cmd::micromap_11556,
+        cmd::mode_11545,
+        cmd::ppBuildRangeInfos_11543,
+        cmd::ppBuildRangeInfos_11544,
+        cmd::srcAccelerationStructure_11546,
+        indirect::type_11557,
+        sizes::buildType_11614,
+        sizes::pMaxPrimitiveCounts_11612,
+        sizes::pMaxPrimitiveCounts_11613,
+        create_info::type_11600,
+        create_info2::createFlags_11610,
+        create_info2::createFlags_11611,
+        create_info2::micromap_11609,
+        cmd_to_memory::pInfo_11699,
+        // The id names the other copy command; the catalog files it (like
+        // the specification) under the one whose src is a device address.
+        cmd_from_memory::VUID_vkCmdCopyAccelerationStructureToMemoryKHR_pInfo_11700,
+    ],
+    not_decidable: &[
+        (to_memory_info::src_11582, DESERIALIZED_MICROMAPS),
+        (cmd_copy::src_11634, DESERIALIZED_MICROMAPS),
+        (host_copy::src_11587, DESERIALIZED_MICROMAPS),
+        (from_memory_info::src_11583, SERIALIZED_HEADER),
+        (from_memory_info::dst_11584, SERIALIZED_HEADER),
+        (from_memory_info::dst_11585, SERIALIZED_HEADER),
+    ],
 };
 
 /// Which build command is checked; many rules differ only in their VUID.
@@ -35,21 +132,50 @@ impl BuildCommand {
             BuildCommand::Host => "vkBuildAccelerationStructuresKHR",
         }
     }
+
+    /// Whether the command's addresses are host addresses.
+    fn reads_host_memory(self) -> bool {
+        self == BuildCommand::Host
+    }
 }
+
+/// Flags a KHR opacity-micromap build may have (11562).
+const MICROMAP_BUILD_FLAGS: u32 = BUILD_ALLOW_COMPACTION
+    | BUILD_PREFER_FAST_TRACE
+    | BUILD_PREFER_FAST_BUILD
+    | BUILD_MICROMAP_LOSSY;
+
+/// sTypes that may extend `VkAccelerationStructureGeometryKHR`.
+const GEOMETRY_EXTENSIONS: [i32; 4] = [
+    STRUCTURE_TYPE_DENSE_GEOMETRY_FORMAT_TRIANGLES_DATA_AMDX,
+    STRUCTURE_TYPE_GEOMETRY_LINEAR_SWEPT_SPHERES_DATA_NV,
+    STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
+    STRUCTURE_TYPE_GEOMETRY_SPHERES_DATA_NV,
+];
+
+/// KHR micromap `data` and `triangleArray` addresses are multiples of this (11552).
+const MICROMAP_INPUT_ALIGNMENT: u64 = 128;
+
+/// Serialized KHR micromaps are aligned to this (11699, 11700).
+const MICROMAP_SERIALIZATION_ALIGNMENT: u64 = 128;
 
 impl Validator {
     /// `vkCmdBuildAccelerationStructuresKHR(commandBuffer, infoCount, pInfos, ppBuildRangeInfos)`;
-    /// `build_range_infos[i]` is `ppBuildRangeInfos[i]` (None: NULL).
+    /// `build_range_infos[i]` is `ppBuildRangeInfos[i]` (None, or missing: NULL).
     pub fn cmd_build_acceleration_structures(
         &mut self,
         command_buffer: &CommandBuffer,
         infos: &[BuildGeometryInfo],
         build_range_infos: &[Option<Vec<BuildRangeInfo>>],
     ) -> Report {
-        let mut ctx = self.ctx(BuildCommand::Cmd.function());
+        // No catalog VUID to cite for the command buffer (see the module doc).
         let _ = command_buffer;
+        let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
-        ctx.finish()
+        let report = ctx.finish();
+        record_builds(&mut self.state, infos);
+        self.record_micromap_geometry(infos, build_range_infos);
+        report
     }
 
     /// `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer, infoCount, pInfos,
@@ -62,15 +188,21 @@ impl Validator {
         indirect_strides: &[u32],
         max_primitive_counts: &[Option<Vec<u32>>],
     ) -> Report {
-        let mut ctx = self.ctx(BuildCommand::Indirect.function());
+        // The indirect arguments carry no micromap rule, and the command
+        // buffer has no catalog VUID (see the module doc).
         let _ = (
             command_buffer,
             indirect_device_addresses,
             indirect_strides,
             max_primitive_counts,
         );
+        let mut ctx = self.ctx(BuildCommand::Indirect.function());
         builds(&mut ctx, BuildCommand::Indirect, infos, None);
-        ctx.finish()
+        let report = ctx.finish();
+        record_builds(&mut self.state, infos);
+        // Primitive counts live in device memory: no index buffer is read.
+        self.record_micromap_geometry(infos, &[]);
+        report
     }
 
     /// `vkBuildAccelerationStructuresKHR(device, deferredOperation, infoCount, pInfos, ppBuildRangeInfos)`.
@@ -81,12 +213,309 @@ impl Validator {
     ) -> Report {
         let mut ctx = self.ctx(BuildCommand::Host.function());
         builds(&mut ctx, BuildCommand::Host, infos, Some(build_range_infos));
+        let report = ctx.finish();
+        record_builds(&mut self.state, infos);
+        self.record_micromap_geometry(infos, build_range_infos);
+        report
+    }
+
+    /// `vkGetAccelerationStructureBuildSizesKHR(device, buildType, pBuildInfo,
+    /// pMaxPrimitiveCounts, pSizeInfo)`; `max_primitive_counts` None is NULL.
+    /// Addresses, `mode` and the handles of `build_info` are ignored by the
+    /// command, so only its structure is checked.
+    pub fn get_acceleration_structure_build_sizes(
+        &mut self,
+        build_type: i32,
+        build_info: &BuildGeometryInfo,
+        max_primitive_counts: Option<&[u32]>,
+    ) -> Report {
+        let mut ctx = self.ctx("vkGetAccelerationStructureBuildSizesKHR");
+        build_geometry_info(&mut ctx, "pBuildInfo->", build_info);
+        if build_info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
+            ctx.require(
+                build_type == BUILD_TYPE_DEVICE,
+                sizes::buildType_11614,
+                || "buildType".into(),
+                || {
+                    format!("{build_type} is not VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, for an opacity micromap")
+                },
+            );
+            ctx.require(
+                max_primitive_counts.is_none(),
+                sizes::pMaxPrimitiveCounts_11613,
+                || "pMaxPrimitiveCounts".into(),
+                || "is not NULL, for an opacity micromap".into(),
+            );
+        } else if build_info.geometry_count != 0 {
+            let needed = build_info.geometry_count;
+            ctx.require(
+                max_primitive_counts.is_some_and(|counts| counts.len() as u64 >= u64::from(needed)),
+                sizes::pMaxPrimitiveCounts_11612,
+                || "pMaxPrimitiveCounts".into(),
+                || match max_primitive_counts {
+                    None => format!("is NULL, but pBuildInfo->geometryCount is {needed}"),
+                    Some(counts) => format!(
+                        "points to {} values, not pBuildInfo->geometryCount = {needed}",
+                        counts.len()
+                    ),
+                },
+            );
+        }
         ctx.finish()
+    }
+
+    /// `vkCreateAccelerationStructureKHR(device, pCreateInfo, pAllocator,
+    /// pAccelerationStructure)`; `acceleration_structure` is the handle the
+    /// call returned (0: none), which is then tracked.
+    pub fn create_acceleration_structure(
+        &mut self,
+        info: &AccelerationStructureCreateInfo,
+        acceleration_structure: Handle,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCreateAccelerationStructureKHR");
+        ctx.require(
+            info.ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+            create_info::type_11600,
+            || "pCreateInfo->type".into(),
+            || "is VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, which only vkCreateAccelerationStructure2KHR creates".into(),
+        );
+        let report = ctx.finish();
+        if acceleration_structure != 0 {
+            let buffer_start = self
+                .state
+                .buffers
+                .get(&info.buffer)
+                .and_then(|b| b.device_address)
+                .and_then(|start| start.checked_add(info.offset));
+            let record = AccelerationStructure {
+                ty: info.ty,
+                created_with_2: false,
+                buffer: info.buffer,
+                offset: info.offset,
+                size: info.size,
+                address_range: buffer_start
+                    .and_then(|start| Some((start, start.checked_add(info.size)?))),
+                built: None,
+            };
+            self.state
+                .acceleration_structures
+                .insert(acceleration_structure, record);
+        }
+        report
+    }
+
+    /// `vkCreateAccelerationStructure2KHR(device, pCreateInfo, pAllocator,
+    /// pAccelerationStructure)`; `acceleration_structure` as for
+    /// [`Self::create_acceleration_structure`].
+    pub fn create_acceleration_structure2(
+        &mut self,
+        info: &AccelerationStructureCreateInfo2,
+        acceleration_structure: Handle,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCreateAccelerationStructure2KHR");
+        if info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
+            ctx.require(
+                ctx.device.features.micromap_khr,
+                create_info2::micromap_11609,
+                || "pCreateInfo->type".into(),
+                || "an opacity micromap needs the VkPhysicalDeviceOpacityMicromapFeaturesKHR::micromap feature, which is not enabled".into(),
+            );
+            for (bit, name, vuid) in [
+                (
+                    CREATE_DESCRIPTOR_BUFFER_CAPTURE_REPLAY_BIT_EXT,
+                    "VK_ACCELERATION_STRUCTURE_CREATE_DESCRIPTOR_BUFFER_CAPTURE_REPLAY_BIT_EXT",
+                    create_info2::createFlags_11610,
+                ),
+                (
+                    CREATE_MOTION_BIT_NV,
+                    "VK_ACCELERATION_STRUCTURE_CREATE_MOTION_BIT_NV",
+                    create_info2::createFlags_11611,
+                ),
+            ] {
+                ctx.require(
+                    info.create_flags & bit == 0,
+                    vuid,
+                    || "pCreateInfo->createFlags".into(),
+                    || {
+                        format!(
+                            "{:#x} includes {name}, for an opacity micromap",
+                            info.create_flags
+                        )
+                    },
+                );
+            }
+        }
+        let report = ctx.finish();
+        if acceleration_structure != 0 {
+            let backing = self
+                .state
+                .buffers_at(info.address)
+                .next()
+                .and_then(|(handle, b)| {
+                    Some((handle, info.address.checked_sub(b.device_address?)?))
+                });
+            let (buffer, offset) = backing.unwrap_or((0, 0));
+            let record = AccelerationStructure {
+                ty: info.ty,
+                created_with_2: true,
+                buffer,
+                offset,
+                size: info.size,
+                address_range: info
+                    .address
+                    .checked_add(info.size)
+                    .map(|end| (info.address, end)),
+                built: None,
+            };
+            self.state
+                .acceleration_structures
+                .insert(acceleration_structure, record);
+        }
+        report
+    }
+
+    /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`. Its one
+    /// micromap rule is not decidable; the copy's effect is recorded.
+    pub fn cmd_copy_acceleration_structure(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: &CopyAccelerationStructureInfo,
+    ) -> Report {
+        let _ = command_buffer;
+        let report = self.ctx("vkCmdCopyAccelerationStructureKHR").finish();
+        record_copy(&mut self.state, info);
+        report
+    }
+
+    /// `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`, as
+    /// [`Self::cmd_copy_acceleration_structure`] on the host.
+    pub fn copy_acceleration_structure(&mut self, info: &CopyAccelerationStructureInfo) -> Report {
+        let report = self.ctx("vkCopyAccelerationStructureKHR").finish();
+        record_copy(&mut self.state, info);
+        report
+    }
+
+    /// `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`:
+    /// serializing an opacity micromap needs 128-byte alignment.
+    pub fn cmd_copy_acceleration_structure_to_memory(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: &CopyAccelerationStructureToMemoryInfo,
+    ) -> Report {
+        let _ = command_buffer;
+        let mut ctx = self.ctx("vkCmdCopyAccelerationStructureToMemoryKHR");
+        let micromap_source = ctx
+            .state
+            .acceleration_structures
+            .get(&info.src)
+            .is_some_and(|src| built_type(src) == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP);
+        if micromap_source {
+            common::aligned(
+                &mut ctx,
+                info.dst,
+                MICROMAP_SERIALIZATION_ALIGNMENT,
+                cmd_to_memory::pInfo_11699,
+                "pInfo->dst.deviceAddress",
+            );
+        }
+        ctx.finish()
+    }
+
+    /// `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`:
+    /// deserializing an opacity micromap needs 128-byte alignment. The rules
+    /// on the serialized header are not decidable; what the destination
+    /// holds afterwards is whatever was serialized, so its recorded build is
+    /// forgotten.
+    pub fn cmd_copy_memory_to_acceleration_structure(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: &CopyMemoryToAccelerationStructureInfo,
+    ) -> Report {
+        let _ = command_buffer;
+        let mut ctx = self.ctx("vkCmdCopyMemoryToAccelerationStructureKHR");
+        // Only an opacity micromap deserializes into a structure created as
+        // one, so the destination's creation type tells what src holds.
+        let micromap_destination = ctx
+            .state
+            .acceleration_structures
+            .get(&info.dst)
+            .is_some_and(|dst| dst.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP);
+        if micromap_destination {
+            common::aligned(
+                &mut ctx,
+                info.src,
+                MICROMAP_SERIALIZATION_ALIGNMENT,
+                cmd_from_memory::VUID_vkCmdCopyAccelerationStructureToMemoryKHR_pInfo_11700,
+                "pInfo->src.deviceAddress",
+            );
+        }
+        let report = ctx.finish();
+        // The serialized source's build is not known to the checker.
+        if let Some(dst) = self.state.acceleration_structures.get_mut(&info.dst) {
+            dst.built = None;
+        }
+        self.state.original_attachments.remove(&info.dst);
+        report
     }
 }
 
-/// The checks every build command shares: each info, each geometry's
-/// attachments (in `accel_attach`), and rules across infos.
+/// The type an acceleration structure was built with, or (not built through
+/// the checker) created with.
+fn built_type(structure: &AccelerationStructure) -> i32 {
+    structure.built.as_ref().map_or(structure.ty, |b| b.ty)
+}
+
+/// A clone or compaction gives the destination the source's build and its
+/// original attachments.
+fn record_copy(state: &mut State, info: &CopyAccelerationStructureInfo) {
+    if info.mode != COPY_MODE_CLONE && info.mode != COPY_MODE_COMPACT {
+        return;
+    }
+    let built = state
+        .acceleration_structures
+        .get(&info.src)
+        .and_then(|src| src.built.clone());
+    if let Some(dst) = state.acceleration_structures.get_mut(&info.dst) {
+        dst.built = built;
+    }
+    match state.original_attachments.get(&info.src).cloned() {
+        Some(attachments) => state.original_attachments.insert(info.dst, attachments),
+        None => state.original_attachments.remove(&info.dst),
+    };
+}
+
+/// Remembers what each build made of its destination, and (for
+/// `accel_attach`'s update rules) the attachments of original builds.
+fn record_builds(state: &mut State, infos: &[BuildGeometryInfo]) {
+    accel_attach::record_original_attachments(state, infos);
+    for info in infos {
+        if let Some(dst) = state
+            .acceleration_structures
+            .get_mut(&info.dst_acceleration_structure)
+        {
+            dst.built = Some(BuildRecord {
+                flags: info.flags,
+                ty: info.ty,
+                triangle_count: micromap_triangle_count(info),
+            });
+        }
+    }
+}
+
+/// The number of micromap triangles a build describes: the sum of its
+/// micromap geometries' usage counts.
+fn micromap_triangle_count(info: &BuildGeometryInfo) -> u64 {
+    info.geometry_entries()
+        .1
+        .iter()
+        .filter_map(|(_, g)| g.micromap.as_ref())
+        .map(|m| m.usage_counts.total())
+        .fold(0, u64::saturating_add)
+}
+
+/// The checks every build command shares: each info, its command's own
+/// rules, each micromap geometry's inputs, each geometry's attachments (in
+/// `accel_attach`), and rules across infos.
 fn builds(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
@@ -94,11 +523,25 @@ fn builds(
     ranges: Option<&[Option<Vec<BuildRangeInfo>>]>,
 ) {
     for (i, info) in infos.iter().enumerate() {
-        let info_ranges = ranges.and_then(|r| r.get(i)).and_then(Option::as_ref);
+        build_geometry_info(ctx, &format!("pInfos[{i}]."), info);
+        let info_ranges = ranges.map(|r| r.get(i).and_then(Option::as_ref));
+        match command {
+            BuildCommand::Cmd => cmd_rules(ctx, i, info, info_ranges.flatten()),
+            BuildCommand::Indirect => ctx.require(
+                info.ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+                indirect::type_11557,
+                || format!("pInfos[{i}].type"),
+                || "is VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, which indirect builds cannot build".into(),
+            ),
+            BuildCommand::Host => {}
+        }
         let (member, geometries) = info.geometry_entries();
         for (g, geometry) in geometries {
             let at = format!("pInfos[{i}].{member}[{g}]");
-            let range = info_ranges.and_then(|r| r.get(g));
+            if let Some(micromap) = &geometry.micromap {
+                micromap_inputs(ctx, command, &micromap_location(&at), info, micromap);
+            }
+            let range = info_ranges.flatten().and_then(|r| r.get(g));
             match &geometry.geometry {
                 GeometryData::Triangles(triangles) => {
                     accel_attach::triangles(ctx, command, &at, info, triangles, range)
@@ -111,4 +554,665 @@ fn builds(
         }
     }
     accel_attach::across_infos(ctx, command, infos);
+}
+
+/// Where a geometry's `VkAccelerationStructureGeometryMicromapDataKHR` is.
+fn micromap_location(geometry_at: &str) -> String {
+    format!("{geometry_at}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>")
+}
+
+/// `vkCmdBuildAccelerationStructuresKHR`'s own rules for `pInfos[i]`, with
+/// `ppBuildRangeInfos[i]` (None: NULL).
+fn cmd_rules(
+    ctx: &mut Ctx<'_>,
+    i: usize,
+    info: &BuildGeometryInfo,
+    ranges: Option<&Vec<BuildRangeInfo>>,
+) {
+    let opacity_micromap = info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP;
+    if opacity_micromap {
+        ctx.require(
+            info.mode == BUILD_ACCELERATION_STRUCTURE_MODE_BUILD,
+            cmd::mode_11545,
+            || format!("pInfos[{i}].mode"),
+            || {
+                format!(
+                    "{} is not VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR, for an opacity micromap",
+                    info.mode
+                )
+            },
+        );
+        ctx.require(
+            info.src_acceleration_structure == 0,
+            cmd::srcAccelerationStructure_11546,
+            || format!("pInfos[{i}].srcAccelerationStructure"),
+            || {
+                format!(
+                    "{:#x} is not VK_NULL_HANDLE, for an opacity micromap",
+                    info.src_acceleration_structure
+                )
+            },
+        );
+        let dst_type = ctx
+            .state
+            .acceleration_structures
+            .get(&info.dst_acceleration_structure)
+            .map(|dst| dst.ty);
+        if let Some(ty) = dst_type {
+            ctx.require(
+                ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP
+                    || ty == ACCELERATION_STRUCTURE_TYPE_GENERIC,
+                cmd::dstAccelerationStructure_11547,
+                || format!("pInfos[{i}].dstAccelerationStructure"),
+                || format!("was created with type {ty}, not OPACITY_MICROMAP or GENERIC"),
+            );
+        }
+    }
+    let geometries = info.geometry_entries().1;
+    let has_type = |ty: i32| geometries.iter().any(|(_, g)| g.geometry_type == ty);
+    if has_type(GEOMETRY_TYPE_MICROMAP) {
+        ctx.require(
+            ranges.is_none(),
+            cmd::ppBuildRangeInfos_11544,
+            || format!("ppBuildRangeInfos[{i}]"),
+            || format!("is not NULL, but pInfos[{i}] has micromap geometry"),
+        );
+    } else if !opacity_micromap && !has_type(GEOMETRY_TYPE_DENSE_GEOMETRY_FORMAT_TRIANGLES_AMDX) {
+        let needed = info.geometry_count;
+        ctx.require(
+            ranges.is_some_and(|r| r.len() as u64 >= u64::from(needed)),
+            cmd::ppBuildRangeInfos_11543,
+            || format!("ppBuildRangeInfos[{i}]"),
+            || match ranges {
+                None => format!("is NULL, but pInfos[{i}].geometryCount is {needed}"),
+                Some(r) => format!(
+                    "points to {} range infos, not pInfos[{i}].geometryCount = {needed}",
+                    r.len()
+                ),
+            },
+        );
+    }
+}
+
+/// The rules of `VkAccelerationStructureBuildGeometryInfoKHR` and the
+/// structures it points to, which the build commands and the size query
+/// share; `prefix` is `pInfos[i].` or `pBuildInfo->`.
+fn build_geometry_info(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
+    build_flags(ctx, prefix, info);
+    micromap_type(ctx, prefix, info);
+    let lossy = info.flags & BUILD_MICROMAP_LOSSY != 0;
+    let (member, geometries) = info.geometry_entries();
+    for (g, geometry) in geometries {
+        let at = format!("{prefix}{member}[{g}]");
+        geometry_rules(ctx, &at, geometry);
+        if let Some(micromap) = &geometry.micromap {
+            micromap_data(ctx, &micromap_location(&at), micromap, lossy);
+        }
+    }
+}
+
+/// The build flags' micromap rules.
+fn build_flags(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
+    let flags = info.flags;
+    let features = &ctx.device.features;
+    let (ext_micromap, any_micromap) = (
+        features.micromap_ext,
+        features.micromap_ext || features.micromap_khr,
+    );
+    let at = || format!("{prefix}flags");
+    ctx.require(
+        flags & BUILD_MICROMAP_LOSSY == 0 || info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+        info_vuid::type_11563,
+        || format!("{prefix}type"),
+        || format!("{} is not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, but flags include VK_BUILD_ACCELERATION_STRUCTURE_MICROMAP_LOSSY_BIT_KHR", info.ty),
+    );
+    if info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
+        let outside = flags & !MICROMAP_BUILD_FLAGS;
+        ctx.require(
+            outside == 0,
+            info_vuid::flags_11562,
+            at,
+            || format!("{flags:#x} has bits {outside:#x} an opacity micromap build may not have (only ALLOW_COMPACTION, PREFER_FAST_TRACE, PREFER_FAST_BUILD, MICROMAP_LOSSY)"),
+        );
+    }
+    let update = flags & BUILD_ALLOW_OPACITY_MICROMAP_UPDATE != 0;
+    let data_update = flags & BUILD_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_EXT != 0;
+    ctx.require(
+        !(update && data_update),
+        info_vuid::flags_11558,
+        at,
+        || format!("{flags:#x} has both ALLOW_OPACITY_MICROMAP_UPDATE and ALLOW_OPACITY_MICROMAP_DATA_UPDATE_EXT"),
+    );
+    ctx.require(
+        !data_update || ext_micromap,
+        info_vuid::flags_11709,
+        at,
+        || "ALLOW_OPACITY_MICROMAP_DATA_UPDATE_EXT is set, but the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into(),
+    );
+    for (bit, name, vuid) in [
+        (
+            BUILD_ALLOW_OPACITY_MICROMAP_UPDATE,
+            "ALLOW_OPACITY_MICROMAP_UPDATE",
+            info_vuid::flags_11710,
+        ),
+        (
+            BUILD_ALLOW_DISABLE_OPACITY_MICROMAPS,
+            "ALLOW_DISABLE_OPACITY_MICROMAPS",
+            info_vuid::flags_11711,
+        ),
+    ] {
+        ctx.require(flags & bit == 0 || any_micromap, vuid, at, || {
+            format!("{name} is set, but neither the KHR nor the EXT micromap feature is enabled")
+        });
+    }
+}
+
+/// The rules tying the build's type to its geometries.
+fn micromap_type(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
+    let (member, geometries) = info.geometry_entries();
+    if info.ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
+        for (g, geometry) in geometries {
+            ctx.require(
+                geometry.geometry_type != GEOMETRY_TYPE_MICROMAP,
+                info_vuid::geometryType_11707,
+                || format!("{prefix}{member}[{g}].geometryType"),
+                || format!("is VK_GEOMETRY_TYPE_MICROMAP_KHR, but the build's type is {}, not OPACITY_MICROMAP", info.ty),
+            );
+        }
+        return;
+    }
+    ctx.require(
+        ctx.device.features.micromap_khr,
+        info_vuid::micromap_11559,
+        || format!("{prefix}type"),
+        || "is OPACITY_MICROMAP, but the VkPhysicalDeviceOpacityMicromapFeaturesKHR::micromap feature is not enabled".into(),
+    );
+    ctx.require(
+        info.geometry_count == 1,
+        info_vuid::geometryCount_11560,
+        || format!("{prefix}geometryCount"),
+        || format!("is {}, not 1, for an opacity micromap", info.geometry_count),
+    );
+    for (g, geometry) in geometries {
+        ctx.require(
+            geometry.geometry_type == GEOMETRY_TYPE_MICROMAP,
+            info_vuid::geometryType_11561,
+            || format!("{prefix}{member}[{g}].geometryType"),
+            || {
+                format!(
+                    "is {}, not VK_GEOMETRY_TYPE_MICROMAP_KHR, in an opacity micromap build",
+                    geometry.geometry_type
+                )
+            },
+        );
+    }
+}
+
+/// `VkAccelerationStructureGeometryKHR`: its pNext chain, and what micromap
+/// geometry needs.
+fn geometry_rules(ctx: &mut Ctx<'_>, at: &str, geometry: &Geometry) {
+    for s_type in geometry
+        .next
+        .iter()
+        .filter(|s| !GEOMETRY_EXTENSIONS.contains(s))
+    {
+        ctx.error(
+            geometry_vuid::pNext_pNext,
+            format!("{at}.pNext"),
+            format!("a structure with sType {s_type} does not extend VkAccelerationStructureGeometryKHR"),
+        );
+    }
+    if geometry.geometry_type != GEOMETRY_TYPE_MICROMAP {
+        return;
+    }
+    ctx.require(
+        geometry.flags == 0,
+        geometry_vuid::flags_11569,
+        || format!("{at}.flags"),
+        || format!("{:#x} is not 0, for micromap geometry", geometry.flags),
+    );
+    let chained = usize::from(geometry.micromap.is_some())
+        + geometry
+            .next
+            .iter()
+            .filter(|s| **s == STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA)
+            .count();
+    ctx.require(
+        chained == 1,
+        geometry_vuid::micromap_11568,
+        || format!("{at}.pNext"),
+        || format!("holds {chained} VkAccelerationStructureGeometryMicromapDataKHR structures, not exactly 1, for micromap geometry"),
+    );
+}
+
+/// `VkAccelerationStructureGeometryMicromapDataKHR` at `at` and its usage
+/// counts, in a build with or without the LOSSY flag.
+fn micromap_data(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData, lossy: bool) {
+    ctx.require(
+        data.s_type == STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
+        micromap_vuid::sType_sType,
+        || format!("{at}.sType"),
+        || {
+            format!(
+                "{} is not VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR",
+                data.s_type
+            )
+        },
+    );
+    let stride = data.triangle_array_stride;
+    ctx.require(
+        stride >= MicromapTriangle::SIZE,
+        micromap_vuid::triangleArrayStride_11646,
+        || format!("{at}.triangleArrayStride"),
+        || format!("{stride} is less than 8"),
+    );
+    ctx.require(
+        stride % 4 == 0,
+        micromap_vuid::triangleArrayStride_11647,
+        || format!("{at}.triangleArrayStride"),
+        || format!("{stride} is not a multiple of 4"),
+    );
+    usage_count_pointers(ctx, at, &data.usage_counts);
+    let total = data.usage_counts.total();
+    let max_triangles = ctx.device.limits.max_micromap_triangles;
+    let (member, usages) = data.usage_counts.entries();
+    ctx.require(
+        total <= max_triangles,
+        micromap_vuid::count_11643,
+        || format!("{at}.{member}"),
+        || format!("the counts sum to {total}, more than maxMicromapTriangles = {max_triangles}"),
+    );
+    let limits = ctx.device.limits.clone();
+    for (k, usage) in usages {
+        let loc = format!("{at}.{member}[{k}]");
+        usage_rules(
+            ctx,
+            &loc,
+            usage.format,
+            usage.subdivision_level,
+            lossy,
+            &limits,
+        );
+    }
+}
+
+/// One `VkMicromapUsageKHR`'s format and subdivision level.
+fn usage_rules(
+    ctx: &mut Ctx<'_>,
+    loc: &str,
+    format: u32,
+    level: u32,
+    lossy: bool,
+    limits: &Limits,
+) {
+    let two_state = format == OPACITY_MICROMAP_FORMAT_2_STATE;
+    let four_state = format == OPACITY_MICROMAP_FORMAT_4_STATE;
+    ctx.require(
+        two_state || four_state,
+        usage_vuid::format_parameter,
+        || format!("{loc}.format"),
+        || format!("{format} is not a VkOpacityMicromapFormatKHR value"),
+    );
+    ctx.require(
+        !lossy || four_state,
+        info_vuid::format_11712,
+        || format!("{loc}.format"),
+        || {
+            format!(
+                "{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build"
+            )
+        },
+    );
+    let max2 = limits.max_opacity2_state_subdivision_level;
+    ctx.require(
+        !two_state || level <= max2,
+        micromap_vuid::subdivisionLevel_11645,
+        || format!("{loc}.subdivisionLevel"),
+        || format!("{level} exceeds maxOpacity2StateSubdivisionLevel = {max2}"),
+    );
+    if lossy {
+        let max = limits.max_opacity_lossy4_state_subdivision_level;
+        ctx.require(
+            level <= max,
+            info_vuid::subdivisionLevel_11565,
+            || format!("{loc}.subdivisionLevel"),
+            || format!("{level} exceeds maxOpacityLossy4StateSubdivisionLevel = {max}"),
+        );
+    } else {
+        let max4 = limits.max_opacity4_state_subdivision_level;
+        ctx.require(
+            !four_state || level <= max4,
+            info_vuid::subdivisionLevel_11564,
+            || format!("{loc}.subdivisionLevel"),
+            || format!("{level} exceeds maxOpacity4StateSubdivisionLevel = {max4}"),
+        );
+    }
+}
+
+/// Only one of `pUsageCounts` and `ppUsageCounts` (11642), each holding
+/// `usageCountsCount` elements, none NULL.
+fn usage_count_pointers(ctx: &mut Ctx<'_>, at: &str, counts: &UsageCounts) {
+    ctx.require(
+        !(counts.array.is_some() && counts.pointers.is_some()),
+        micromap_vuid::pUsageCounts_11642,
+        || at.to_string(),
+        || "both pUsageCounts and ppUsageCounts are set".into(),
+    );
+    if counts.count == 0 {
+        return;
+    }
+    let expected = u64::from(counts.count);
+    if let Some(array) = &counts.array {
+        ctx.require(
+            array.len() as u64 == expected,
+            micromap_vuid::pUsageCounts_parameter,
+            || format!("{at}.pUsageCounts"),
+            || {
+                format!(
+                    "points to {} elements, not usageCountsCount = {expected}",
+                    array.len()
+                )
+            },
+        );
+    }
+    if let Some(pointers) = &counts.pointers {
+        if pointers.len() as u64 != expected {
+            ctx.error(
+                micromap_vuid::ppUsageCounts_parameter,
+                format!("{at}.ppUsageCounts"),
+                format!(
+                    "points to {} pointers, not usageCountsCount = {expected}",
+                    pointers.len()
+                ),
+            );
+        } else if let Some(null) = pointers.iter().position(Option::is_none) {
+            ctx.error(
+                micromap_vuid::ppUsageCounts_parameter,
+                format!("{at}.ppUsageCounts[{null}]"),
+                "the pointer is NULL",
+            );
+        }
+    }
+}
+
+/// A micromap geometry's input memory: its addresses (device builds) and,
+/// when the checker can read it, its triangle array.
+fn micromap_inputs(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    at: &str,
+    info: &BuildGeometryInfo,
+    data: &GeometryMicromapData,
+) {
+    if command == BuildCommand::Cmd {
+        for (address, member) in [(data.data, "data"), (data.triangle_array, "triangleArray")] {
+            let loc = format!("{at}.{member}");
+            common::valid_device_address(ctx, address, cmd::micromap_11550, &loc);
+            common::device_address_usage(
+                ctx,
+                address,
+                BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
+                "VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR",
+                cmd::micromap_11551,
+                &loc,
+            );
+            common::aligned(
+                ctx,
+                address,
+                MICROMAP_INPUT_ALIGNMENT,
+                cmd::micromap_11552,
+                &loc,
+            );
+        }
+        triangle_array_in_buffer(ctx, at, data);
+    }
+    TriangleArrayCheck {
+        command,
+        at,
+        lossy: info.flags & BUILD_MICROMAP_LOSSY != 0,
+        limits: ctx.device.limits.clone(),
+    }
+    .run(ctx, data);
+}
+
+/// 11554: `[triangleArray, triangleArray + stride * Σcount)` inside the
+/// buffer `triangleArray` lies in (addresses inside no buffer are 11550's).
+fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData) {
+    let total = data.usage_counts.total();
+    let start = data.triangle_array;
+    if total == 0 || ctx.state.buffers_at(start).next().is_none() {
+        return;
+    }
+    let len = u128::from(total) * u128::from(data.triangle_array_stride);
+    let fits = u64::try_from(len).is_ok_and(|len| ctx.state.range_in_one_buffer(start, len));
+    ctx.require(
+        fits,
+        cmd::micromap_11554,
+        || format!("{at}.triangleArray"),
+        || format!("{total} entries at stride {} ({len} bytes from {start:#x}) run past the end of the buffer it lies in", data.triangle_array_stride),
+    );
+}
+
+/// The bytes from `address` to the end of the memory holding it.
+fn bytes_from(state: &State, host: bool, address: u64) -> Option<&[u8]> {
+    if host {
+        state.host_bytes_from(address)
+    } else {
+        state.device_bytes_from(address)
+    }
+}
+
+/// How many bytes from `address` on lie inside the buffer (or described host
+/// memory) holding it, whether or not the checker can read them.
+fn bytes_available(state: &State, host: bool, address: u64) -> Option<u64> {
+    if host {
+        return state.host_bytes_from(address).map(|b| b.len() as u64);
+    }
+    state
+        .buffers_at(address)
+        .filter_map(|(_, b)| b.address_range())
+        .map(|(_, end)| end - address)
+        .max()
+}
+
+/// The triangle array's entries of one micromap geometry, read through the
+/// tracked memory: formats and levels against the limits (11555, 11556,
+/// 11566, 11567, 11713), each triangle's data inside the buffer (11553),
+/// and the usage counts against the entries.
+struct TriangleArrayCheck<'a> {
+    command: BuildCommand,
+    /// The micromap structure's location.
+    at: &'a str,
+    lossy: bool,
+    limits: Limits,
+}
+
+impl TriangleArrayCheck<'_> {
+    fn run(&self, ctx: &mut Ctx<'_>, data: &GeometryMicromapData) {
+        let total = data.usage_counts.total();
+        let stride = data.triangle_array_stride;
+        // A stride that breaks 11646/11647 is reported there; its entries
+        // overlap, so reading them would only repeat that finding.
+        if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
+            return;
+        }
+        // The bytes borrow the tracked state, not the context, so findings
+        // can be reported while reading.
+        let state = ctx.state;
+        let host = self.command.reads_host_memory();
+        let Some(array) = bytes_from(state, host, data.triangle_array) else {
+            return; // Contents not available to the checker.
+        };
+        let data_available = bytes_available(state, host, data.data);
+        let mut tally = Tally::new();
+        let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+        let mut read = 0u64;
+        // The loop ends at the end of `array`: each step advances >= 8 bytes.
+        for m in 0..total {
+            let entry = m
+                .checked_mul(stride)
+                .and_then(|offset| usize::try_from(offset).ok())
+                .and_then(|offset| array.get(offset..offset.checked_add(8)?));
+            let Some(bytes) = entry.and_then(|b| <[u8; 8]>::try_from(b).ok()) else {
+                // For the device command, 11554 decides this from the buffer range.
+                if self.command != BuildCommand::Cmd {
+                    ctx.error(
+                        &rules::TRIANGLE_ARRAY_RANGE,
+                        self.entry(m),
+                        format!("entry {m} of {total} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
+                    );
+                }
+                break;
+            };
+            read += 1;
+            let triangle = MicromapTriangle::from_bytes(bytes);
+            let key = (
+                u32::from(triangle.format),
+                u32::from(triangle.subdivision_level),
+            );
+            *histogram.entry(key).or_default() += 1;
+            self.triangle_rules(ctx, &mut tally, m, key.0, key.1);
+            if let Some(available) = data_available {
+                self.data_in_range(ctx, &mut tally, m, &triangle, available);
+            }
+        }
+        tally.finish(ctx);
+        if read == total {
+            usage_counts_match(ctx, self.at, &data.usage_counts, &histogram);
+        }
+    }
+
+    /// The location of triangle-array entry `m`.
+    fn entry(&self, m: u64) -> String {
+        format!("{}.triangleArray[{m}]", self.at)
+    }
+
+    /// One entry's format and subdivision level.
+    fn triangle_rules(
+        &self,
+        ctx: &mut Ctx<'_>,
+        tally: &mut Tally,
+        m: u64,
+        format: u32,
+        level: u32,
+    ) {
+        let device_command = self.command == BuildCommand::Cmd;
+        let two_state = format == OPACITY_MICROMAP_FORMAT_2_STATE;
+        let four_state = format == OPACITY_MICROMAP_FORMAT_4_STATE;
+        let limits = &self.limits;
+        let mut fail = |rule: Vuid, member: &str, message: String| {
+            tally.error(
+                ctx,
+                rule,
+                format!("{}.{member}", self.entry(m)),
+                || message,
+                "triangleArray",
+            );
+        };
+        if device_command && !two_state && !four_state {
+            fail(
+                cmd::micromap_11555,
+                "format",
+                format!("{format} is not a VkOpacityMicromapFormatKHR value"),
+            );
+        }
+        let max2 = limits.max_opacity2_state_subdivision_level;
+        if device_command && two_state && level > max2 {
+            fail(
+                cmd::micromap_11556,
+                "subdivisionLevel",
+                format!("{level} exceeds maxOpacity2StateSubdivisionLevel = {max2}"),
+            );
+        }
+        if self.lossy {
+            if !four_state {
+                fail(info_vuid::format_11713, "format", format!("{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build"));
+            }
+            let max = limits.max_opacity_lossy4_state_subdivision_level;
+            if level > max {
+                fail(
+                    info_vuid::subdivisionLevel_11567,
+                    "subdivisionLevel",
+                    format!("{level} exceeds maxOpacityLossy4StateSubdivisionLevel = {max}"),
+                );
+            }
+        } else {
+            let max4 = limits.max_opacity4_state_subdivision_level;
+            if four_state && level > max4 {
+                fail(
+                    info_vuid::subdivisionLevel_11566,
+                    "subdivisionLevel",
+                    format!("{level} exceeds maxOpacity4StateSubdivisionLevel = {max4}"),
+                );
+            }
+        }
+    }
+
+    /// The entry's `[dataOffset, dataOffset + triangleSize)` inside the
+    /// `available` bytes from `data`.
+    fn data_in_range(
+        &self,
+        ctx: &mut Ctx<'_>,
+        tally: &mut Tally,
+        m: u64,
+        triangle: &MicromapTriangle,
+        available: u64,
+    ) {
+        let (format, level) = (
+            u32::from(triangle.format),
+            u32::from(triangle.subdivision_level),
+        );
+        let Some(size) = opacity_triangle_bytes(format, level) else {
+            return; // An invalid format or level is reported by the format and level rules.
+        };
+        let start = u64::from(triangle.data_offset);
+        if start.checked_add(size).is_some_and(|end| end <= available) {
+            return;
+        }
+        let message = || {
+            format!("[{start}, {start} + {size}) runs past the end of the memory data points into ({available} bytes from data)")
+        };
+        let location = format!("{}.dataOffset", self.entry(m));
+        if self.command == BuildCommand::Cmd {
+            tally.error(ctx, cmd::micromap_11553, location, message, "triangleArray");
+        } else {
+            tally.error(
+                ctx,
+                &rules::TRIANGLE_DATA_RANGE,
+                location,
+                message,
+                "triangleArray",
+            );
+        }
+    }
+}
+
+/// The usage counts must describe the triangle array: per (format, level),
+/// the sum of the counts equals the number of entries.
+fn usage_counts_match(
+    ctx: &mut Ctx<'_>,
+    at: &str,
+    counts: &UsageCounts,
+    found: &BTreeMap<(u32, u32), u64>,
+) {
+    let (member, entries) = counts.entries();
+    let mut declared: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    for (_, usage) in entries {
+        let sum = declared
+            .entry((usage.format, usage.subdivision_level))
+            .or_default();
+        *sum = sum.saturating_add(u64::from(usage.count));
+    }
+    let keys: BTreeSet<(u32, u32)> = declared.keys().chain(found.keys()).copied().collect();
+    for (format, level) in keys {
+        let said = declared.get(&(format, level)).copied().unwrap_or(0);
+        let has = found.get(&(format, level)).copied().unwrap_or(0);
+        if said != has {
+            ctx.error(
+                &rules::HISTOGRAM_MISMATCH,
+                format!("{at}.{member}"),
+                format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {has}"),
+            );
+        }
+    }
 }

@@ -7,7 +7,7 @@ use ommcheck_vuids::Vuid;
 
 use crate::model::command::queue;
 use crate::model::CommandBuffer;
-use crate::report::RuleId;
+use crate::report::{RuleId, Severity};
 use crate::state::Handle;
 use crate::validator::Ctx;
 
@@ -131,7 +131,7 @@ pub(crate) fn aligned(ctx: &mut Ctx<'_>, value: u64, alignment: u64, vuid: Vuid,
 /// Caps how often one rule is reported for the elements of one array, so a
 /// million bad triangles give a few findings and a total, not a million.
 pub(crate) struct Tally {
-    counts: BTreeMap<&'static str, (RuleId, u64, String)>,
+    counts: BTreeMap<&'static str, (RuleId, u64, String, Severity)>,
 }
 
 impl Tally {
@@ -144,7 +144,7 @@ impl Tally {
         }
     }
 
-    /// Reports the first [`Self::SHOWN`] failures of `rule` in full.
+    /// Reports the first [`Self::SHOWN`] failures of `rule` in full, as errors.
     pub fn error(
         &mut self,
         ctx: &mut Ctx<'_>,
@@ -153,29 +153,39 @@ impl Tally {
         message: impl FnOnce() -> String,
         array: &str,
     ) {
+        self.report(ctx, rule, Severity::Error, location, message, array);
+    }
+
+    /// Reports the first [`Self::SHOWN`] findings of `rule` in full.
+    pub fn report(
+        &mut self,
+        ctx: &mut Ctx<'_>,
+        rule: impl Into<RuleId>,
+        severity: Severity,
+        location: String,
+        message: impl FnOnce() -> String,
+        array: &str,
+    ) {
         let rule = rule.into();
-        let entry = self
-            .counts
-            .entry(rule.as_str())
-            .or_insert((rule, 0, array.to_string()));
+        let entry =
+            self.counts
+                .entry(rule.as_str())
+                .or_insert((rule, 0, array.to_string(), severity));
         entry.1 += 1;
         if entry.1 <= Self::SHOWN {
-            ctx.error(rule, location, message());
+            ctx.report(rule, severity, location, message());
         }
     }
 
     /// Adds one finding per rule that failed more often than it was shown.
     pub fn finish(self, ctx: &mut Ctx<'_>) {
-        for (_, (rule, count, array)) in self.counts {
+        for (_, (rule, count, array, severity)) in self.counts {
             if count > Self::SHOWN {
-                ctx.error(
-                    rule,
-                    array.clone(),
-                    format!(
-                        "{} more elements of {array} fail this rule ({count} in all)",
-                        count - Self::SHOWN
-                    ),
+                let message = format!(
+                    "{} more elements of {array} fail this rule ({count} in all)",
+                    count - Self::SHOWN
                 );
+                ctx.report(rule, severity, array, message);
             }
         }
     }

@@ -7,6 +7,7 @@ use ommcheck_vuids::vuid::{
 };
 
 use crate::checks::common::{self, CommandBufferVuids, Tally};
+use crate::checks::hygiene;
 use crate::checks::Coverage;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::*;
@@ -626,6 +627,7 @@ fn triangle_array(
     }
     let limits = ctx.device.limits.clone();
     let mut tally = Tally::new();
+    let mut blocks = Vec::new();
     let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
     for m in 0..triangles {
         let loc = format!("{at}.triangleArray[{m}]");
@@ -694,7 +696,9 @@ fn triangle_array(
             }
             if let (Some(data), Some(size)) = (data, opacity_triangle_bytes(format, level)) {
                 let end = u64::from(triangle.data_offset).checked_add(size);
-                if end.is_none_or(|end| end > data.len() as u64) {
+                if end.is_some_and(|end| end <= data.len() as u64) {
+                    blocks.push(hygiene::Block { m, triangle });
+                } else {
                     tally.error(
                         ctx,
                         &rules::TRIANGLE_DATA_RANGE,
@@ -731,6 +735,9 @@ fn triangle_array(
         }
     }
     tally.finish(ctx);
+    if let Some(data) = data {
+        hygiene::opacity_blocks(ctx, at, data, &blocks);
+    }
 
     // The usage counts must describe the array: per (format, level), the sum
     // of the counts equals the number of entries.

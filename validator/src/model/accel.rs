@@ -375,3 +375,283 @@ pub struct BuildRangeInfo {
     pub first_vertex: u32,
     pub transform_offset: u32,
 }
+
+pub const STRUCTURE_TYPE_GEOMETRY_MOTION_TRIANGLES_DATA_NV: i32 =
+    vk::StructureType::ACCELERATION_STRUCTURE_GEOMETRY_MOTION_TRIANGLES_DATA_NV.as_raw();
+
+/// What the original build of an acceleration structure chained to one
+/// geometry as `VkAccelerationStructureTrianglesOpacityMicromapKHR`; update
+/// builds must chain the same (11625-11629).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub enum KhrOpacityAttachment {
+    /// No such structure (or not a triangles geometry).
+    #[default]
+    Absent,
+    /// The structure with `micromap` VK_NULL_HANDLE.
+    NullMicromap,
+    /// The structure with this micromap.
+    Micromap(Handle),
+}
+
+impl KhrOpacityAttachment {
+    /// The attachment of one geometry.
+    pub fn of(geometry: &Geometry) -> Self {
+        match &geometry.geometry {
+            GeometryData::Triangles(TrianglesData {
+                opacity_khr: Some(khr),
+                ..
+            }) if khr.micromap == 0 => Self::NullMicromap,
+            GeometryData::Triangles(TrianglesData {
+                opacity_khr: Some(khr),
+                ..
+            }) => Self::Micromap(khr.micromap),
+            _ => Self::Absent,
+        }
+    }
+}
+
+/// The KHR opacity attachments of an acceleration structure's original
+/// (mode BUILD) build, by geometry index.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct OriginalAttachments {
+    /// The original build's `flags`.
+    pub flags: u32,
+    /// Constructed by deserialization (`vkCmdCopyMemoryToAccelerationStructureKHR`)
+    /// rather than by the build recorded here.
+    pub deserialized: bool,
+    pub geometries: Vec<KhrOpacityAttachment>,
+}
+
+/// `VkClusterAccelerationStructureIndexFormatFlagBitsNV`.
+pub const CLUSTER_INDEX_FORMAT_8BIT_NV: u32 = 0x1;
+pub const CLUSTER_INDEX_FORMAT_16BIT_NV: u32 = 0x2;
+pub const CLUSTER_INDEX_FORMAT_32BIT_NV: u32 = 0x4;
+
+/// The opacity-micromap members that
+/// `VkClusterAccelerationStructureBuildTriangleClusterInfoNV` and
+/// `VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV` share.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct ClusterTriangleOpacity {
+    /// The 4-bit `opacityMicromapIndexType`
+    /// (`VkClusterAccelerationStructureIndexFormatFlagBitsNV`).
+    pub opacity_micromap_index_type: u32,
+    pub opacity_micromap_index_buffer_stride: u16,
+    pub opacity_micromap_array: u64,
+    pub opacity_micromap_index_buffer: u64,
+}
+
+/// `VkClusterAccelerationStructureBuildTriangleClusterInfoNV`: the members
+/// the micromap checks read (the rest describe the cluster's geometry).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct ClusterBuildTriangleClusterInfo {
+    pub cluster_id: u32,
+    /// The 9-bit `triangleCount`.
+    pub triangle_count: u32,
+    #[serde(flatten)]
+    pub opacity: ClusterTriangleOpacity,
+}
+
+/// `VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV`: the
+/// members the micromap checks read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct ClusterBuildTriangleClusterTemplateInfo {
+    pub cluster_id: u32,
+    /// The 9-bit `triangleCount`.
+    pub triangle_count: u32,
+    #[serde(flatten)]
+    pub opacity: ClusterTriangleOpacity,
+}
+
+// Acceleration-structure objects: creation, size queries and copies, as far
+// as KHR opacity micromaps (acceleration structures of type OPACITY_MICROMAP)
+// are concerned.
+
+pub const STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO: i32 =
+    vk::StructureType::ACCELERATION_STRUCTURE_CREATE_INFO_KHR.as_raw();
+pub const STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_2: i32 =
+    khr::STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_2_KHR.as_raw();
+pub const STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_INFO: i32 =
+    vk::StructureType::COPY_ACCELERATION_STRUCTURE_INFO_KHR.as_raw();
+pub const STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_TO_MEMORY_INFO: i32 =
+    vk::StructureType::COPY_ACCELERATION_STRUCTURE_TO_MEMORY_INFO_KHR.as_raw();
+pub const STRUCTURE_TYPE_COPY_MEMORY_TO_ACCELERATION_STRUCTURE_INFO: i32 =
+    vk::StructureType::COPY_MEMORY_TO_ACCELERATION_STRUCTURE_INFO_KHR.as_raw();
+
+/// sTypes that may extend `VkAccelerationStructureGeometryKHR` (vk.xml of
+/// 1.4.360; ash 0.38 predates all but the micromap one, which comes from the
+/// generated declarations).
+pub const STRUCTURE_TYPE_DENSE_GEOMETRY_FORMAT_TRIANGLES_DATA_AMDX: i32 = 1_000_478_001;
+pub const STRUCTURE_TYPE_GEOMETRY_LINEAR_SWEPT_SPHERES_DATA_NV: i32 = 1_000_429_009;
+pub const STRUCTURE_TYPE_GEOMETRY_SPHERES_DATA_NV: i32 = 1_000_429_010;
+
+/// `VK_GEOMETRY_TYPE_DENSE_GEOMETRY_FORMAT_TRIANGLES_AMDX` (vk.xml of 1.4.360).
+pub const GEOMETRY_TYPE_DENSE_GEOMETRY_FORMAT_TRIANGLES_AMDX: i32 = 1_000_478_000;
+
+/// `VkBuildAccelerationStructureFlagBitsKHR` bits the micromap rules name.
+pub const BUILD_ALLOW_COMPACTION: u32 =
+    vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION.as_raw();
+pub const BUILD_PREFER_FAST_TRACE: u32 =
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE.as_raw();
+pub const BUILD_PREFER_FAST_BUILD: u32 =
+    vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_BUILD.as_raw();
+pub const BUILD_ALLOW_OPACITY_MICROMAP_UPDATE: u32 =
+    khr::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_UPDATE_BIT_KHR.as_raw();
+pub const BUILD_ALLOW_DISABLE_OPACITY_MICROMAPS: u32 =
+    khr::BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw();
+pub const BUILD_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_EXT: u32 =
+    khr::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_BIT_EXT.as_raw();
+pub const BUILD_MICROMAP_LOSSY: u32 =
+    khr::BUILD_ACCELERATION_STRUCTURE_MICROMAP_LOSSY_BIT_KHR.as_raw();
+
+/// `VkAccelerationStructureCreateFlagBitsKHR` bits the micromap rules name.
+pub const CREATE_MOTION_BIT_NV: u32 = vk::AccelerationStructureCreateFlagsKHR::MOTION_NV.as_raw();
+pub const CREATE_DESCRIPTOR_BUFFER_CAPTURE_REPLAY_BIT_EXT: u32 =
+    vk::AccelerationStructureCreateFlagsKHR::DESCRIPTOR_BUFFER_CAPTURE_REPLAY_EXT.as_raw();
+
+/// `VkAccelerationStructureBuildTypeKHR`.
+pub const BUILD_TYPE_HOST: i32 = vk::AccelerationStructureBuildTypeKHR::HOST.as_raw();
+pub const BUILD_TYPE_DEVICE: i32 = vk::AccelerationStructureBuildTypeKHR::DEVICE.as_raw();
+
+/// `VkCopyAccelerationStructureModeKHR`.
+pub const COPY_MODE_CLONE: i32 = vk::CopyAccelerationStructureModeKHR::CLONE.as_raw();
+pub const COPY_MODE_COMPACT: i32 = vk::CopyAccelerationStructureModeKHR::COMPACT.as_raw();
+pub const COPY_MODE_SERIALIZE: i32 = vk::CopyAccelerationStructureModeKHR::SERIALIZE.as_raw();
+pub const COPY_MODE_DESERIALIZE: i32 = vk::CopyAccelerationStructureModeKHR::DESERIALIZE.as_raw();
+
+/// `VkAccelerationStructureCreateInfoKHR`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct AccelerationStructureCreateInfo {
+    pub s_type: i32,
+    pub next: Vec<i32>,
+    pub create_flags: u32,
+    pub buffer: Handle,
+    pub offset: u64,
+    pub size: u64,
+    #[serde(rename = "type")]
+    pub ty: i32,
+    pub device_address: u64,
+}
+
+impl Default for AccelerationStructureCreateInfo {
+    fn default() -> Self {
+        Self {
+            s_type: STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO,
+            next: Vec::new(),
+            create_flags: 0,
+            buffer: 0,
+            offset: 0,
+            size: 0,
+            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+            device_address: 0,
+        }
+    }
+}
+
+/// `VkAccelerationStructureCreateInfo2KHR` (`VK_KHR_device_address_commands`):
+/// the structure lives in a device-address range instead of a buffer.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct AccelerationStructureCreateInfo2 {
+    pub s_type: i32,
+    pub next: Vec<i32>,
+    pub create_flags: u32,
+    /// `addressRange.address`
+    pub address: u64,
+    /// `addressRange.size`
+    pub size: u64,
+    /// `VkAddressCommandFlagsKHR` bits.
+    pub address_flags: u32,
+    #[serde(rename = "type")]
+    pub ty: i32,
+}
+
+impl Default for AccelerationStructureCreateInfo2 {
+    fn default() -> Self {
+        Self {
+            s_type: STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_2,
+            next: Vec::new(),
+            create_flags: 0,
+            address: 0,
+            size: 0,
+            address_flags: 0,
+            ty: ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+        }
+    }
+}
+
+/// `VkCopyAccelerationStructureInfoKHR`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct CopyAccelerationStructureInfo {
+    pub s_type: i32,
+    pub next: Vec<i32>,
+    pub src: Handle,
+    pub dst: Handle,
+    pub mode: i32,
+}
+
+impl Default for CopyAccelerationStructureInfo {
+    fn default() -> Self {
+        Self {
+            s_type: STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_INFO,
+            next: Vec::new(),
+            src: 0,
+            dst: 0,
+            mode: COPY_MODE_CLONE,
+        }
+    }
+}
+
+/// `VkCopyAccelerationStructureToMemoryInfoKHR`; `dst` is a device or host
+/// address, depending on the command.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct CopyAccelerationStructureToMemoryInfo {
+    pub s_type: i32,
+    pub next: Vec<i32>,
+    pub src: Handle,
+    pub dst: u64,
+    pub mode: i32,
+}
+
+impl Default for CopyAccelerationStructureToMemoryInfo {
+    fn default() -> Self {
+        Self {
+            s_type: STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_TO_MEMORY_INFO,
+            next: Vec::new(),
+            src: 0,
+            dst: 0,
+            mode: COPY_MODE_SERIALIZE,
+        }
+    }
+}
+
+/// `VkCopyMemoryToAccelerationStructureInfoKHR`; `src` is a device or host
+/// address, depending on the command.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct CopyMemoryToAccelerationStructureInfo {
+    pub s_type: i32,
+    pub next: Vec<i32>,
+    pub src: u64,
+    pub dst: Handle,
+    pub mode: i32,
+}
+
+impl Default for CopyMemoryToAccelerationStructureInfo {
+    fn default() -> Self {
+        Self {
+            s_type: STRUCTURE_TYPE_COPY_MEMORY_TO_ACCELERATION_STRUCTURE_INFO,
+            next: Vec::new(),
+            src: 0,
+            dst: 0,
+            mode: COPY_MODE_DESERIALIZE,
+        }
+    }
+}

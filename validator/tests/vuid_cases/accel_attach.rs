@@ -1,7 +1,1290 @@
-//! Cases for the `accel_attach` checks.
+//! Cases for the `accel_attach` checks: triangle geometry that references a
+//! micromap, instance flags, rules across the infos of one build, and NV
+//! cluster triangle infos.
 
-use crate::Case;
+use std::sync::Arc;
+
+use ommcheck::checks::accel_attach::record_original_attachments;
+use ommcheck::model::accel::*;
+use ommcheck::model::values::*;
+use ommcheck::model::{MicromapUsage, UsageCounts};
+use ommcheck::rules;
+use ommcheck::state::{AccelerationStructure, BuildRecord, HostRange};
+use ommcheck::vuids::khr as khr_values;
+use ommcheck::vuids::vuid::{
+    vkBuildAccelerationStructuresKHR as host,
+    vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
+    vkCmdBuildAccelerationStructuresKHR as cmd,
+    VkAccelerationStructureGeometryTrianglesDataKHR as triangles_vuid,
+    VkAccelerationStructureInstanceKHR as instance_vuid,
+    VkAccelerationStructureTrianglesDisplacementMicromapNV as nv,
+    VkAccelerationStructureTrianglesOpacityMicromapEXT as ext,
+    VkAccelerationStructureTrianglesOpacityMicromapKHR as khr,
+    VkClusterAccelerationStructureBuildTriangleClusterInfoNV as cluster,
+    VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
+};
+use ommcheck::{Report, Validator};
+
+use crate::fixtures::*;
+use crate::{case, Case};
+
+/// The bottom-level structure the builds write.
+const BLAS: u64 = 0xa5;
+const BLAS_OFFSET: u64 = 0x2000;
+/// A second destination, for builds of two infos.
+const BLAS_2: u64 = 0xa8;
+const BLAS_2_OFFSET: u64 = 0x6000;
+/// A structure whose memory overlaps [`KHR_MICROMAP`]'s.
+const OVERLAPPING: u64 = 0xa9;
+/// A bottom-level structure that is no micromap.
+const NOT_A_MICROMAP: u64 = 0xaa;
+/// The top-level structure instance builds write.
+const TLAS: u64 = 0xab;
+/// KHR opacity micromaps: acceleration structures of type OPACITY_MICROMAP.
+const KHR_MICROMAP: u64 = 0xa6;
+const KHR_MICROMAP_OFFSET: u64 = 0x4000;
+const KHR_MICROMAP_2: u64 = 0xa7;
+/// Triangles in each micromap's build, and in each geometry.
+const TRIANGLES: u32 = 4;
+
+/// Index regions of the input buffer: valid indices 0..3, one index past
+/// the micromap, and only special indices.
+const INDICES_OFFSET: u64 = 0x2000;
+const BAD_INDICES_OFFSET: u64 = 0x2100;
+const SPECIAL_INDICES_OFFSET: u64 = 0x2200;
+const INDICES: u64 = INPUT_ADDRESS + INDICES_OFFSET;
+const BAD_INDICES: u64 = INPUT_ADDRESS + BAD_INDICES_OFFSET;
+const SPECIAL_INDICES: u64 = INPUT_ADDRESS + SPECIAL_INDICES_OFFSET;
+const INSTANCES: u64 = INPUT_ADDRESS + 0x3000;
+const INDIRECT: u64 = INPUT_ADDRESS + 0x3800;
+/// Host copies of the index regions.
+const HOST_INDICES: u64 = 0x7200_0000;
+const HOST_SPECIAL_INDICES: u64 = 0x7200_1000;
+const HOST_VERTICES: u64 = 0x7300_0000;
+/// An address inside no buffer.
+const NOWHERE: u64 = 0xdead_0000;
+
+const GOOD: [u32; 4] = [0, 1, 2, 3];
+const PAST_THE_END: [u32; 4] = [0, 1, 2, TRIANGLES];
+const SPECIAL: [u32; 4] = [u32::MAX, u32::MAX - 1, u32::MAX - 2, u32::MAX - 3];
+
+fn le_bytes(indices: &[u32]) -> Vec<u8> {
+    indices.iter().flat_map(|i| i.to_le_bytes()).collect()
+}
+
+fn allow_update() -> u32 {
+    ash::vk::BuildAccelerationStructureFlagsKHR::ALLOW_UPDATE.as_raw()
+}
+
+fn allow_disable() -> u32 {
+    khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw()
+}
+
+fn structure(ty: i32, offset: u64, built: Option<BuildRecord>) -> AccelerationStructure {
+    let start = STORAGE_ADDRESS + offset;
+    AccelerationStructure {
+        ty,
+        buffer: STORAGE,
+        offset,
+        size: 0x1000,
+        address_range: Some((start, start + 0x1000)),
+        built,
+        ..Default::default()
+    }
+}
+
+fn built(ty: i32, flags: u32, triangle_count: u64) -> Option<BuildRecord> {
+    Some(BuildRecord {
+        flags,
+        ty,
+        triangle_count,
+    })
+}
+
+/// The fixtures' world plus index regions, host copies, built micromaps
+/// (EXT [`MICROMAP`] opacity, EXT [`MICROMAP_2`] displacement, KHR
+/// [`KHR_MICROMAP`] and [`KHR_MICROMAP_2`]) and the structures above.
+fn world() -> Validator {
+    let mut v = validator();
+    let state = v.state_mut();
+    let input = state.buffers.get_mut(&INPUT).expect("fixture buffer");
+    let mut contents = input.contents.as_deref().expect("contents").to_vec();
+    for (offset, indices) in [
+        (INDICES_OFFSET, GOOD),
+        (BAD_INDICES_OFFSET, PAST_THE_END),
+        (SPECIAL_INDICES_OFFSET, SPECIAL),
+    ] {
+        let at = offset as usize;
+        contents[at..at + 16].copy_from_slice(&le_bytes(&indices));
+    }
+    input.contents = Some(Arc::from(contents));
+    for (address, indices) in [(HOST_INDICES, GOOD), (HOST_SPECIAL_INDICES, SPECIAL)] {
+        state.host_memory.push(HostRange {
+            address,
+            bytes: Arc::from(le_bytes(&indices)),
+        });
+    }
+    state.host_memory.push(HostRange {
+        address: HOST_VERTICES,
+        bytes: Arc::from(vec![0u8; 0x100]),
+    });
+    let opacity = built(MICROMAP_TYPE_OPACITY_MICROMAP_EXT, 0, u64::from(TRIANGLES));
+    state.micromaps.get_mut(&MICROMAP).expect("fixture").built = opacity;
+    let displacement = state.micromaps.get_mut(&MICROMAP_2).expect("fixture");
+    displacement.ty = MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
+    displacement.built = built(
+        MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV,
+        0,
+        u64::from(TRIANGLES),
+    );
+    let khr_built = built(
+        ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+        0,
+        u64::from(TRIANGLES),
+    );
+    let bottom = ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL;
+    for (handle, s) in [
+        (BLAS, structure(bottom, BLAS_OFFSET, None)),
+        (BLAS_2, structure(bottom, BLAS_2_OFFSET, None)),
+        (
+            OVERLAPPING,
+            structure(bottom, KHR_MICROMAP_OFFSET + 0x800, None),
+        ),
+        (NOT_A_MICROMAP, structure(bottom, 0x9000, None)),
+        (
+            TLAS,
+            structure(ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, 0xa000, None),
+        ),
+        (
+            KHR_MICROMAP,
+            structure(
+                ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+                KHR_MICROMAP_OFFSET,
+                khr_built.clone(),
+            ),
+        ),
+        (
+            KHR_MICROMAP_2,
+            structure(
+                ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+                0x5000,
+                khr_built,
+            ),
+        ),
+    ] {
+        state.acceleration_structures.insert(handle, s);
+    }
+    v
+}
+
+fn usage(count: u32, level: u32, format: u32) -> MicromapUsage {
+    MicromapUsage {
+        count,
+        subdivision_level: level,
+        format,
+    }
+}
+
+/// A valid EXT attachment: 32-bit indices 0..3 into [`MICROMAP`].
+fn ext_ok() -> TrianglesOpacityMicromapExt {
+    TrianglesOpacityMicromapExt {
+        index_buffer: INDICES,
+        usage_counts: UsageCounts::array(vec![usage(
+            TRIANGLES,
+            1,
+            OPACITY_MICROMAP_FORMAT_4_STATE,
+        )]),
+        micromap: MICROMAP,
+        ..Default::default()
+    }
+}
+
+/// A valid KHR attachment: 32-bit indices 0..3 into [`KHR_MICROMAP`].
+fn khr_ok() -> TrianglesOpacityMicromapKhr {
+    TrianglesOpacityMicromapKhr {
+        index_buffer: INDICES,
+        micromap: KHR_MICROMAP,
+        ..Default::default()
+    }
+}
+
+/// A valid NV attachment into the displacement micromap [`MICROMAP_2`].
+fn nv_ok() -> TrianglesDisplacementMicromapNv {
+    TrianglesDisplacementMicromapNv {
+        displacement_bias_and_scale_buffer: INPUT_ADDRESS + 0x4000,
+        displacement_bias_and_scale_stride: 4,
+        displacement_vector_buffer: INPUT_ADDRESS + 0x5000,
+        displacement_vector_stride: 8,
+        index_buffer: INDICES,
+        usage_counts: UsageCounts::array(vec![usage(TRIANGLES, 1, 1)]),
+        micromap: MICROMAP_2,
+        ..Default::default()
+    }
+}
+
+/// Non-indexed triangles over 12 vertices at `vertices`, with the attachments in `data`.
+fn triangles_at(vertices: u64, data: TrianglesData) -> Geometry {
+    Geometry {
+        geometry: GeometryData::Triangles(TrianglesData {
+            vertex_data: vertices,
+            max_vertex: 3 * TRIANGLES - 1,
+            ..data
+        }),
+        ..Default::default()
+    }
+}
+
+fn with_ext(attachment: TrianglesOpacityMicromapExt) -> TrianglesData {
+    TrianglesData {
+        opacity_ext: Some(attachment),
+        ..Default::default()
+    }
+}
+
+fn with_khr(attachment: TrianglesOpacityMicromapKhr) -> TrianglesData {
+    TrianglesData {
+        opacity_khr: Some(attachment),
+        ..Default::default()
+    }
+}
+
+fn with_nv(attachment: TrianglesDisplacementMicromapNv) -> TrianglesData {
+    TrianglesData {
+        displacement_nv: Some(attachment),
+        ..Default::default()
+    }
+}
+
+/// A bottom-level BUILD of `geometries` into `dst`, with scratch at `scratch`.
+fn blas_build(dst: u64, scratch: u64, geometries: Vec<Geometry>) -> BuildGeometryInfo {
+    BuildGeometryInfo {
+        dst_acceleration_structure: dst,
+        scratch_data: scratch,
+        ..BuildGeometryInfo::with_geometries(ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, geometries)
+    }
+}
+
+fn device_blas(data: TrianglesData) -> BuildGeometryInfo {
+    blas_build(
+        BLAS,
+        SCRATCH_ADDRESS,
+        vec![triangles_at(INPUT_ADDRESS, data)],
+    )
+}
+
+fn host_blas(data: TrianglesData) -> BuildGeometryInfo {
+    blas_build(BLAS, HOST_SCRATCH, vec![triangles_at(HOST_VERTICES, data)])
+}
+
+fn ranges(infos: &[BuildGeometryInfo]) -> Vec<Option<Vec<BuildRangeInfo>>> {
+    infos
+        .iter()
+        .map(|info| {
+            Some(vec![
+                BuildRangeInfo {
+                    primitive_count: TRIANGLES,
+                    ..Default::default()
+                };
+                info.geometry_count as usize
+            ])
+        })
+        .collect()
+}
+
+fn cmd_in(mut v: Validator, infos: &[BuildGeometryInfo]) -> Report {
+    v.cmd_build_acceleration_structures(&command_buffer(), infos, &ranges(infos))
+}
+
+fn indirect_in(mut v: Validator, infos: &[BuildGeometryInfo]) -> Report {
+    let addresses: Vec<u64> = (0..infos.len() as u64).map(|i| INDIRECT + 16 * i).collect();
+    let strides = vec![16; infos.len()];
+    let max_counts: Vec<_> = infos
+        .iter()
+        .map(|info| Some(vec![TRIANGLES; info.geometry_count as usize]))
+        .collect();
+    v.cmd_build_acceleration_structures_indirect(
+        &command_buffer(),
+        infos,
+        &addresses,
+        &strides,
+        &max_counts,
+    )
+}
+
+fn host_in(mut v: Validator, infos: &[BuildGeometryInfo]) -> Report {
+    v.build_acceleration_structures(infos, &ranges(infos))
+}
+
+fn cmd_ext(attachment: TrianglesOpacityMicromapExt) -> Report {
+    cmd_in(world(), &[device_blas(with_ext(attachment))])
+}
+
+fn indirect_ext(attachment: TrianglesOpacityMicromapExt) -> Report {
+    indirect_in(world(), &[device_blas(with_ext(attachment))])
+}
+
+fn host_ext(attachment: TrianglesOpacityMicromapExt) -> Report {
+    host_in(world(), &[host_blas(with_ext(attachment))])
+}
+
+fn cmd_khr(attachment: TrianglesOpacityMicromapKhr) -> Report {
+    cmd_in(world(), &[device_blas(with_khr(attachment))])
+}
+
+fn indirect_khr(attachment: TrianglesOpacityMicromapKhr) -> Report {
+    indirect_in(world(), &[device_blas(with_khr(attachment))])
+}
+
+fn host_khr(attachment: TrianglesOpacityMicromapKhr) -> Report {
+    host_in(world(), &[host_blas(with_khr(attachment))])
+}
+
+fn cmd_nv(attachment: TrianglesDisplacementMicromapNv) -> Report {
+    cmd_in(world(), &[device_blas(with_nv(attachment))])
+}
+
+fn ok_ext() -> Report {
+    cmd_ext(ext_ok())
+}
+
+fn ok_khr() -> Report {
+    cmd_khr(khr_ok())
+}
+
+fn ok_nv() -> Report {
+    cmd_nv(nv_ok())
+}
+
+/// An EXT attachment with the usage counts `usages` into `micromap`.
+fn ext_usages(micromap: u64, usages: Vec<MicromapUsage>) -> Report {
+    cmd_ext(TrianglesOpacityMicromapExt {
+        micromap,
+        usage_counts: UsageCounts::array(usages),
+        ..ext_ok()
+    })
+}
+
+/// An EXT attachment with 4 usage-count entries as `counts` says.
+fn ext_counts(counts: UsageCounts) -> Report {
+    cmd_ext(TrianglesOpacityMicromapExt {
+        usage_counts: counts,
+        ..ext_ok()
+    })
+}
+
+fn nv_counts(counts: UsageCounts) -> Report {
+    cmd_nv(TrianglesDisplacementMicromapNv {
+        usage_counts: counts,
+        ..nv_ok()
+    })
+}
+
+fn both_count_pointers() -> UsageCounts {
+    let mut counts = UsageCounts::array(vec![usage(TRIANGLES, 1, 2)]);
+    counts.pointers = Some(vec![Some(usage(TRIANGLES, 1, 2))]);
+    counts
+}
+
+fn short_count_array() -> UsageCounts {
+    let mut counts = UsageCounts::array(vec![usage(TRIANGLES, 1, 2)]);
+    counts.count = 2;
+    counts
+}
+
+fn null_count_pointer() -> UsageCounts {
+    UsageCounts {
+        count: 2,
+        array: None,
+        pointers: Some(vec![Some(usage(TRIANGLES, 1, 2)), None]),
+    }
+}
+
+fn split_count_pointers() -> UsageCounts {
+    UsageCounts::pointers(vec![usage(2, 1, 2), usage(2, 1, 2)])
+}
+
+fn nv_formats(bias_and_scale: i32, vector: i32) -> Report {
+    cmd_nv(TrianglesDisplacementMicromapNv {
+        displacement_bias_and_scale_format: bias_and_scale,
+        displacement_vector_format: vector,
+        ..nv_ok()
+    })
+}
+
+fn r16g16_sfloat() -> i32 {
+    ash::vk::Format::R16G16_SFLOAT.as_raw()
+}
+
+fn r16g16b16a16_sfloat() -> i32 {
+    ash::vk::Format::R16G16B16A16_SFLOAT.as_raw()
+}
+
+/// Two infos: pInfos[0] into [`BLAS`] references [`KHR_MICROMAP`]; pInfos[1]
+/// (no attachment) writes `second_dst`.
+fn two_infos(second_dst: u64) -> Report {
+    let first = device_blas(with_khr(khr_ok()));
+    let second = blas_build(
+        second_dst,
+        SCRATCH_ADDRESS + 0x8000,
+        vec![triangles_at(INPUT_ADDRESS, TrianglesData::default())],
+    );
+    cmd_in(world(), &[first, second])
+}
+
+/// An update of [`BLAS`] whose original build chained `original` and which
+/// now chains `now`, through `build` (Cmd or Indirect).
+fn update(
+    original: TrianglesData,
+    now: TrianglesData,
+    build: fn(Validator, &[BuildGeometryInfo]) -> Report,
+) -> Report {
+    let mut v = world();
+    let original_build = BuildGeometryInfo {
+        flags: allow_update(),
+        ..device_blas(original)
+    };
+    let state = v.state_mut();
+    record_original_attachments(state, &[original_build]);
+    state
+        .acceleration_structures
+        .get_mut(&BLAS)
+        .expect("world")
+        .built = built(ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, allow_update(), 0);
+    let update = BuildGeometryInfo {
+        flags: allow_update(),
+        mode: BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE,
+        src_acceleration_structure: BLAS,
+        ..device_blas(now)
+    };
+    build(v, &[update])
+}
+
+fn khr_into(micromap: u64) -> TrianglesData {
+    with_khr(TrianglesOpacityMicromapKhr {
+        micromap,
+        ..khr_ok()
+    })
+}
+
+fn khr_null() -> TrianglesData {
+    with_khr(TrianglesOpacityMicromapKhr {
+        micromap: 0,
+        index_buffer: SPECIAL_INDICES,
+        ..khr_ok()
+    })
+}
+
+/// A top-level build of one instance with `flags` referencing [`BLAS`],
+/// built with `blas_flags`, on a device with `micromap_features`.
+fn instance_build(
+    flags: u32,
+    blas_flags: u32,
+    micromap_features: bool,
+    build: fn(Validator, &[BuildGeometryInfo]) -> Report,
+    host_side: bool,
+) -> Report {
+    let mut v = world();
+    let blas_address = STORAGE_ADDRESS + BLAS_OFFSET;
+    {
+        let state = v.state_mut();
+        state
+            .acceleration_structures
+            .get_mut(&BLAS)
+            .expect("world")
+            .built = built(ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, blas_flags, 0);
+    }
+    if !micromap_features {
+        let mut device = v.device().clone();
+        device.features.micromap_ext = false;
+        device.features.micromap_khr = false;
+        let state = v.state().clone();
+        v = Validator::new(device);
+        *v.state_mut() = state;
+    }
+    let instance = Instance {
+        mask: 0xff,
+        flags: flags as u8,
+        acceleration_structure_reference: if host_side { BLAS } else { blas_address },
+        ..Default::default()
+    };
+    let geometry = Geometry {
+        geometry_type: GEOMETRY_TYPE_INSTANCES,
+        geometry: GeometryData::Instances(InstancesData {
+            array_of_pointers: false,
+            data: if host_side { HOST_DATA } else { INSTANCES },
+            instances: Some(vec![instance]),
+        }),
+        ..Default::default()
+    };
+    let info = BuildGeometryInfo {
+        dst_acceleration_structure: TLAS,
+        scratch_data: if host_side {
+            HOST_SCRATCH
+        } else {
+            SCRATCH_ADDRESS
+        },
+        ..BuildGeometryInfo::with_geometries(ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, vec![geometry])
+    };
+    let infos = [info];
+    if host_side {
+        return v.build_acceleration_structures(
+            &infos,
+            &[Some(vec![BuildRangeInfo {
+                primitive_count: 1,
+                ..Default::default()
+            }])],
+        );
+    }
+    build(v, &infos)
+}
+
+fn disable_flag() -> u32 {
+    khr_values::GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw()
+}
+
+fn force_2_state_flag() -> u32 {
+    khr_values::GEOMETRY_INSTANCE_FORCE_OPACITY_MICROMAP_2_STATE_BIT_KHR.as_raw()
+}
+
+fn cluster_opacity(index_type: u32, array: u64, index_buffer: u64) -> ClusterTriangleOpacity {
+    ClusterTriangleOpacity {
+        opacity_micromap_index_type: index_type,
+        opacity_micromap_index_buffer_stride: 4,
+        opacity_micromap_array: array,
+        opacity_micromap_index_buffer: index_buffer,
+    }
+}
+
+fn cluster_ok() -> ClusterTriangleOpacity {
+    cluster_opacity(CLUSTER_INDEX_FORMAT_32BIT_NV, INPUT_ADDRESS, INDICES)
+}
+
+fn allow_cluster_micromaps() -> u32 {
+    khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_CLUSTER_OPACITY_MICROMAPS_BIT_NV.as_raw()
+}
+
+fn clusters(input_flags: u32, opacity: ClusterTriangleOpacity) -> Report {
+    world().cmd_build_cluster_triangle_clusters(
+        input_flags,
+        &[ClusterBuildTriangleClusterInfo {
+            cluster_id: 1,
+            triangle_count: TRIANGLES,
+            opacity,
+        }],
+    )
+}
+
+fn templates(input_flags: u32, opacity: ClusterTriangleOpacity) -> Report {
+    world().cmd_build_cluster_triangle_cluster_templates(
+        input_flags,
+        &[ClusterBuildTriangleClusterTemplateInfo {
+            cluster_id: 1,
+            triangle_count: TRIANGLES,
+            opacity,
+        }],
+    )
+}
+
+fn ok_clusters() -> Report {
+    clusters(allow_cluster_micromaps(), cluster_ok())
+}
+
+fn ok_templates() -> Report {
+    templates(allow_cluster_micromaps(), cluster_ok())
+}
 
 pub fn cases() -> Vec<Case> {
-    vec![]
+    let mut cases = ext_cases();
+    cases.extend(khr_cases());
+    cases.extend(nv_cases());
+    cases.extend(across_info_cases());
+    cases.extend(instance_cases());
+    cases.extend(cluster_cases());
+    cases
+}
+
+fn ext_cases() -> Vec<Case> {
+    vec![
+        case(
+            ext::sType_sType,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    s_type: 0,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            ext::indexType_parameter,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_type: 7,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            ext::indexType_10719,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_UINT8,
+                    ..ext_ok()
+                })
+            },
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_UINT16,
+                    index_stride: 4,
+                    ..ext_ok()
+                })
+            },
+        ),
+        case(
+            ext::indexType_10722,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_stride: 6,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            ext::indexType_10723,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_stride: 1 << 34,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            ext::micromap_parameter,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    micromap: 0x999,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            ext::pUsageCounts_07335,
+            || ext_counts(both_count_pointers()),
+            ok_ext,
+        ),
+        case(
+            ext::pUsageCounts_parameter,
+            || ext_counts(short_count_array()),
+            ok_ext,
+        ),
+        case(
+            ext::ppUsageCounts_parameter,
+            || ext_counts(null_count_pointer()),
+            || ext_counts(split_count_pointers()),
+        ),
+        case(
+            ext::format_11679,
+            || ext_usages(MICROMAP, vec![usage(TRIANGLES, 1, 3)]),
+            ok_ext,
+        ),
+        case(
+            ext::subdivisionLevel_11680,
+            || {
+                ext_usages(
+                    MICROMAP,
+                    vec![usage(TRIANGLES, 4, OPACITY_MICROMAP_FORMAT_2_STATE)],
+                )
+            },
+            || {
+                ext_usages(
+                    MICROMAP,
+                    vec![usage(TRIANGLES, 3, OPACITY_MICROMAP_FORMAT_2_STATE)],
+                )
+            },
+        ),
+        case(
+            ext::subdivisionLevel_11681,
+            || {
+                ext_usages(
+                    MICROMAP,
+                    vec![usage(TRIANGLES, 4, OPACITY_MICROMAP_FORMAT_4_STATE)],
+                )
+            },
+            ok_ext,
+        ),
+        case(
+            ext::format_11682,
+            || ext_usages(MICROMAP_2, vec![usage(TRIANGLES, 1, 4)]),
+            || ext_usages(MICROMAP_2, vec![usage(TRIANGLES, 1, 1)]),
+        ),
+        case(
+            ext::subdivisionLevel_11683,
+            || ext_usages(MICROMAP_2, vec![usage(TRIANGLES, 4, 1)]),
+            || ext_usages(MICROMAP_2, vec![usage(TRIANGLES, 3, 1)]),
+        ),
+        case(
+            cmd::pInfos_10904,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_NONE,
+                    ..ext_ok()
+                })
+            },
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: 0,
+                    ..ext_ok()
+                })
+            },
+        ),
+        case(
+            cmd::pInfos_10905,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: NOWHERE,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            indirect::pInfos_10904,
+            || {
+                indirect_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_NONE,
+                    ..ext_ok()
+                })
+            },
+            || indirect_ext(ext_ok()),
+        ),
+        case(
+            indirect::pInfos_10905,
+            || {
+                indirect_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: 0,
+                    ..ext_ok()
+                })
+            },
+            || indirect_ext(ext_ok()),
+        ),
+        case(
+            host::pInfos_10892,
+            || {
+                host_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: HOST_INDICES,
+                    ..ext_ok()
+                })
+            },
+            || {
+                host_ext(TrianglesOpacityMicromapExt {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: 0,
+                    ..ext_ok()
+                })
+            },
+        ),
+        case(
+            host::pInfos_11821,
+            || {
+                host_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: 0,
+                    ..ext_ok()
+                })
+            },
+            || {
+                host_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: HOST_INDICES,
+                    ..ext_ok()
+                })
+            },
+        ),
+        case(
+            &rules::NULL_MICROMAP_SPECIAL_ONLY,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    micromap: 0,
+                    ..ext_ok()
+                })
+            },
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    micromap: 0,
+                    index_buffer: SPECIAL_INDICES,
+                    ..ext_ok()
+                })
+            },
+        ),
+        case(
+            &rules::INDEX_IN_RANGE,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: BAD_INDICES,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            &rules::INDEX_ALIGNMENT,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: INDICES + 2,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
+            triangles_vuid::pNext_pNext,
+            || {
+                cmd_in(
+                    world(),
+                    &[device_blas(TrianglesData {
+                        next: vec![1_000_150_017],
+                        ..with_ext(ext_ok())
+                    })],
+                )
+            },
+            ok_ext,
+        ),
+    ]
+}
+
+fn khr_cases() -> Vec<Case> {
+    vec![
+        case(
+            khr::sType_sType,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    s_type: 0,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            khr::indexType_parameter,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: 7,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            khr::indexType_11570,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: 9,
+                    ..khr_ok()
+                })
+            },
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: INDEX_TYPE_UINT8,
+                    ..khr_ok()
+                })
+            },
+        ),
+        case(
+            khr::indexBuffer_11571,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: INDEX_TYPE_NONE,
+                    ..khr_ok()
+                })
+            },
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: 0,
+                    ..khr_ok()
+                })
+            },
+        ),
+        case(
+            khr::indexBuffer_11572,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_buffer: NOWHERE,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            khr::indexStride_11573,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_stride: 6,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            khr::indexStride_11574,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_stride: 1 << 34,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            khr::micromap_parameter,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    micromap: 0x999,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            khr::micromap_11579,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: 0,
+                    micromap: 0,
+                    ..khr_ok()
+                })
+            },
+            || cmd_in(world(), &[device_blas(khr_null())]),
+        ),
+        case(
+            khr::geometry_11576,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: 0,
+                    base_triangle: 1,
+                    ..khr_ok()
+                })
+            },
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_type: INDEX_TYPE_NONE,
+                    index_buffer: 0,
+                    ..khr_ok()
+                })
+            },
+        ),
+        case(
+            cmd::indexBuffer_11575,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_buffer: BAD_INDICES,
+                    ..khr_ok()
+                })
+            },
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_buffer: SPECIAL_INDICES,
+                    ..khr_ok()
+                })
+            },
+        ),
+        case(
+            cmd::indexBuffer_11577,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    index_buffer: INPUT_ADDRESS + INPUT_SIZE - 8,
+                    ..khr_ok()
+                })
+            },
+            ok_khr,
+        ),
+        case(
+            cmd::indexBuffer_11578,
+            || {
+                cmd_khr(TrianglesOpacityMicromapKhr {
+                    micromap: 0,
+                    ..khr_ok()
+                })
+            },
+            || cmd_in(world(), &[device_blas(khr_null())]),
+        ),
+        case(
+            cmd::micromap_11624,
+            || cmd_in(world(), &[device_blas(khr_into(NOT_A_MICROMAP))]),
+            ok_khr,
+        ),
+        case(
+            indirect::micromap_11624,
+            || indirect_in(world(), &[device_blas(khr_into(NOT_A_MICROMAP))]),
+            || indirect_khr(khr_ok()),
+        ),
+        case(
+            host::pInfos_11705,
+            || {
+                host_khr(TrianglesOpacityMicromapKhr {
+                    index_buffer: HOST_SPECIAL_INDICES,
+                    ..khr_ok()
+                })
+            },
+            || {
+                host_khr(TrianglesOpacityMicromapKhr {
+                    index_buffer: HOST_SPECIAL_INDICES,
+                    micromap: 0,
+                    ..khr_ok()
+                })
+            },
+        ),
+    ]
+}
+
+fn nv_cases() -> Vec<Case> {
+    vec![
+        case(
+            nv::sType_sType,
+            || {
+                cmd_nv(TrianglesDisplacementMicromapNv {
+                    s_type: 0,
+                    ..nv_ok()
+                })
+            },
+            ok_nv,
+        ),
+        case(
+            nv::indexType_parameter,
+            || {
+                cmd_nv(TrianglesDisplacementMicromapNv {
+                    index_type: 7,
+                    ..nv_ok()
+                })
+            },
+            ok_nv,
+        ),
+        case(
+            nv::micromap_parameter,
+            || {
+                cmd_nv(TrianglesDisplacementMicromapNv {
+                    micromap: 0x999,
+                    ..nv_ok()
+                })
+            },
+            ok_nv,
+        ),
+        case(
+            nv::pUsageCounts_07992,
+            || nv_counts(both_count_pointers()),
+            ok_nv,
+        ),
+        case(
+            nv::pUsageCounts_parameter,
+            || nv_counts(short_count_array()),
+            ok_nv,
+        ),
+        case(
+            nv::ppUsageCounts_parameter,
+            || nv_counts(null_count_pointer()),
+            || nv_counts(split_count_pointers()),
+        ),
+        case(
+            nv::displacementBiasAndScaleFormat_09501,
+            || nv_formats(0, r16g16b16a16_sfloat()),
+            ok_nv,
+        ),
+        case(
+            nv::displacementBiasAndScaleFormat_parameter,
+            || nv_formats(999, r16g16b16a16_sfloat()),
+            ok_nv,
+        ),
+        case(
+            nv::displacementVectorFormat_09502,
+            || nv_formats(r16g16_sfloat(), 0),
+            ok_nv,
+        ),
+        case(
+            nv::displacementVectorFormat_parameter,
+            || nv_formats(r16g16_sfloat(), 1_000_999_000),
+            ok_nv,
+        ),
+    ]
+}
+
+fn across_info_cases() -> Vec<Case> {
+    vec![
+        case(
+            cmd::dstAccelerationStructure_11548,
+            || two_infos(KHR_MICROMAP),
+            || two_infos(BLAS_2),
+        ),
+        case(
+            cmd::dstAccelerationStructure_11549,
+            || two_infos(OVERLAPPING),
+            || two_infos(BLAS_2),
+        ),
+        case(
+            cmd::micromap_11625,
+            || update(khr_into(KHR_MICROMAP), TrianglesData::default(), cmd_in),
+            || update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP), cmd_in),
+        ),
+        case(
+            cmd::micromap_11626,
+            || update(khr_null(), khr_into(KHR_MICROMAP), cmd_in),
+            || update(khr_null(), khr_null(), cmd_in),
+        ),
+        case(
+            cmd::micromap_11627,
+            || update(TrianglesData::default(), khr_into(KHR_MICROMAP), cmd_in),
+            || update(TrianglesData::default(), TrianglesData::default(), cmd_in),
+        ),
+        case(
+            cmd::micromap_11629,
+            || update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP_2), cmd_in),
+            || update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP), cmd_in),
+        ),
+        case(
+            indirect::micromap_11625,
+            || update(khr_into(KHR_MICROMAP), khr_null(), indirect_in),
+            || update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP), indirect_in),
+        ),
+        case(
+            indirect::micromap_11626,
+            || update(khr_null(), TrianglesData::default(), indirect_in),
+            || update(khr_null(), khr_null(), indirect_in),
+        ),
+        case(
+            indirect::micromap_11627,
+            || update(TrianglesData::default(), khr_null(), indirect_in),
+            || {
+                update(
+                    TrianglesData::default(),
+                    TrianglesData::default(),
+                    indirect_in,
+                )
+            },
+        ),
+        case(
+            indirect::micromap_11629,
+            || {
+                update(
+                    khr_into(KHR_MICROMAP),
+                    khr_into(KHR_MICROMAP_2),
+                    indirect_in,
+                )
+            },
+            || update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP), indirect_in),
+        ),
+    ]
+}
+
+fn instance_cases() -> Vec<Case> {
+    vec![
+        case(
+            instance_vuid::micromap_11580,
+            || instance_build(force_2_state_flag(), 0, false, cmd_in, false),
+            || instance_build(force_2_state_flag(), 0, true, cmd_in, false),
+        ),
+        case(
+            instance_vuid::flags_11581,
+            || instance_build(disable_flag(), 0, true, host_in, true),
+            || instance_build(disable_flag(), allow_disable(), true, host_in, true),
+        ),
+        case(
+            cmd::pInfos_10607,
+            || instance_build(disable_flag(), 0, true, cmd_in, false),
+            || instance_build(disable_flag(), allow_disable(), true, cmd_in, false),
+        ),
+        case(
+            indirect::pInfos_10607,
+            || instance_build(disable_flag(), 0, true, indirect_in, false),
+            || instance_build(disable_flag(), allow_disable(), true, indirect_in, false),
+        ),
+    ]
+}
+
+fn cluster_cases() -> Vec<Case> {
+    vec![
+        case(
+            cluster::opacityMicromapArray_10881,
+            || clusters(0, cluster_ok()),
+            ok_clusters,
+        ),
+        case(
+            cluster::opacityMicromapArray_parameter,
+            || {
+                clusters(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(CLUSTER_INDEX_FORMAT_32BIT_NV, NOWHERE, INDICES),
+                )
+            },
+            ok_clusters,
+        ),
+        case(
+            cluster::opacityMicromapIndexBuffer_parameter,
+            || {
+                clusters(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(CLUSTER_INDEX_FORMAT_32BIT_NV, INPUT_ADDRESS, NOWHERE),
+                )
+            },
+            ok_clusters,
+        ),
+        case(
+            cluster::opacityMicromapIndexType_10492,
+            || {
+                clusters(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(
+                        CLUSTER_INDEX_FORMAT_16BIT_NV | CLUSTER_INDEX_FORMAT_32BIT_NV,
+                        INPUT_ADDRESS,
+                        INDICES,
+                    ),
+                )
+            },
+            || clusters(0, cluster_opacity(0, 0, 0)),
+        ),
+        case(
+            cluster_template::opacityMicromapArray_10882,
+            || templates(0, cluster_ok()),
+            ok_templates,
+        ),
+        case(
+            cluster_template::opacityMicromapArray_parameter,
+            || {
+                templates(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(CLUSTER_INDEX_FORMAT_32BIT_NV, NOWHERE, INDICES),
+                )
+            },
+            ok_templates,
+        ),
+        case(
+            cluster_template::opacityMicromapIndexBuffer_parameter,
+            || {
+                templates(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(CLUSTER_INDEX_FORMAT_32BIT_NV, INPUT_ADDRESS, NOWHERE),
+                )
+            },
+            ok_templates,
+        ),
+        case(
+            cluster_template::opacityMicromapIndexType_10501,
+            || {
+                templates(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(0, INPUT_ADDRESS, INDICES),
+                )
+            },
+            || {
+                templates(
+                    allow_cluster_micromaps(),
+                    cluster_opacity(CLUSTER_INDEX_FORMAT_8BIT_NV, INPUT_ADDRESS, INDICES),
+                )
+            },
+        ),
+    ]
 }

@@ -87,6 +87,38 @@ fn without_features(f: impl FnOnce(&mut Device)) -> Validator {
     validator_with(d, &two_triangles())
 }
 
+fn t(data_offset: u32, subdivision_level: u16, format: u16) -> MicromapTriangle {
+    MicromapTriangle {
+        data_offset,
+        subdivision_level,
+        format,
+    }
+}
+
+/// A valid device build of `triangles` whose data starts with `data`.
+fn data_build(triangles: &[MicromapTriangle], data: &[u8]) -> Report {
+    let mut v = validator_with(device(), triangles);
+    let input = v.state_mut().buffers.get_mut(&INPUT).unwrap();
+    let mut contents = input.contents.as_deref().unwrap().to_vec();
+    contents[..data.len()].copy_from_slice(data);
+    input.contents = Some(contents.into());
+    let mut usage: Vec<MicromapUsage> = Vec::new();
+    for tri in triangles {
+        usage.push(MicromapUsage {
+            count: 1,
+            subdivision_level: u32::from(tri.subdivision_level),
+            format: u32::from(tri.format),
+        });
+    }
+    cmd_with(
+        &mut v,
+        MicromapBuildInfo {
+            usage_counts: UsageCounts::array(usage),
+            ..device_build()
+        },
+    )
+}
+
 pub fn cases() -> Vec<Case> {
     vec![
         // VkMicromapBuildInfoEXT
@@ -395,6 +427,32 @@ pub fn cases() -> Vec<Case> {
                 })
             },
             ok_cmd,
+        ),
+        // Hygiene information about the data.
+        case(
+            &rules::UNUSED_BITS,
+            || data_build(&[t(0, 0, 1)], &[0b10]),
+            || data_build(&[t(0, 0, 1)], &[0b01]),
+        ),
+        case(
+            &rules::DUPLICATE_DATA,
+            || data_build(&[t(0, 2, 2), t(4, 2, 2)], &[1, 2, 3, 4, 1, 2, 3, 4]),
+            || {
+                data_build(
+                    &[t(0, 2, 2), t(0, 2, 2), t(4, 2, 2)],
+                    &[1, 2, 3, 4, 5, 6, 7, 8],
+                )
+            },
+        ),
+        case(
+            &rules::OVERLAPPING_DATA,
+            || data_build(&[t(0, 2, 2), t(2, 2, 2)], &[1, 2, 3, 4, 5, 6]),
+            || {
+                data_build(
+                    &[t(0, 2, 2), t(0, 2, 2), t(4, 2, 2)],
+                    &[1, 2, 3, 4, 5, 6, 7, 8],
+                )
+            },
         ),
         // vkCmdBuildMicromapsEXT
         case(
