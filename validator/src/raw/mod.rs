@@ -10,6 +10,8 @@
 
 #![allow(unsafe_code)]
 
+pub mod accel;
+
 use std::collections::HashSet;
 use std::ffi::c_void;
 use std::sync::Arc;

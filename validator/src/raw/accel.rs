@@ -1,0 +1,1 @@
+//! Reading `VkAccelerationStructureBuildGeometryInfoKHR` and friends (being written).
