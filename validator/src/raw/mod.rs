@@ -37,7 +37,7 @@ pub const MAX_HOST_BYTES: u64 = 1 << 28;
 /// # Safety
 /// Every non-NULL `pNext` in the chain must point to a readable structure
 /// that starts with `sType` and `pNext`, as the Vulkan API requires.
-unsafe fn chain_s_types(
+pub(crate) unsafe fn chain_s_types(
     mut next: *const c_void,
     function: &'static str,
     location: &str,
@@ -70,7 +70,7 @@ unsafe fn chain_s_types(
 ///
 /// # Safety
 /// A non-NULL `pointer` must point to `count` readable, initialised `T`s.
-unsafe fn read_array<T: Copy>(
+pub(crate) unsafe fn read_array<T: Copy>(
     pointer: *const T,
     count: u32,
     function: &'static str,
@@ -87,7 +87,7 @@ unsafe fn read_array<T: Copy>(
 }
 
 /// `count` bounded by [`MAX_ELEMENTS`], with a warning when it is cut.
-fn bounded_len(
+pub(crate) fn bounded_len(
     count: u32,
     function: &'static str,
     location: &str,
@@ -106,7 +106,7 @@ fn bounded_len(
     len.min(MAX_ELEMENTS)
 }
 
-fn usage(u: vk::MicromapUsageEXT) -> MicromapUsage {
+pub(crate) fn usage(u: vk::MicromapUsageEXT) -> MicromapUsage {
     MicromapUsage {
         count: u.count,
         subdivision_level: u.subdivision_level,
@@ -118,7 +118,7 @@ fn usage(u: vk::MicromapUsageEXT) -> MicromapUsage {
 ///
 /// # Safety
 /// The pointers must be NULL or valid for `count` elements, as the API requires.
-unsafe fn usage_counts(
+pub(crate) unsafe fn usage_counts(
     count: u32,
     array: *const vk::MicromapUsageEXT,
     pointers: *const *const vk::MicromapUsageEXT,
