@@ -265,10 +265,9 @@ mod tests {
     fn readme_lists_every_rule_of_ours() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
         let readme = std::fs::read_to_string(&path).expect("README.md");
-        assert_eq!(
-            update_readme(&readme).as_deref(),
-            Some(readme.as_str()),
-            "README rules are stale: run `cargo xtask coverage`"
+        assert!(
+            update_readme(&readme).as_deref() == Some(readme.as_str()),
+            "the rules table of README.md is stale: run `cargo xtask coverage`"
         );
     }
 

@@ -134,6 +134,10 @@ fn index_command(
                 candidates(*u, *v, level, delta),
             ) {
                 (Ok(t), Ok(set)) => (t, set),
+                (_, Err(ommcheck::sim::index::BaryError::TooUncertain)) => {
+                    eprintln!("ommcheck: --delta {delta} spans more than {} micro-triangles: the whole triangle is uncertain", ommcheck::sim::index::MAX_CANDIDATE_SPAN);
+                    return ExitCode::from(2);
+                }
                 _ => {
                     eprintln!("ommcheck: the barycentrics ({u}, {v}) are not numbers");
                     return ExitCode::from(2);

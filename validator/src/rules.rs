@@ -61,6 +61,14 @@ pub static INDEX_IN_RANGE: OwnRule = OwnRule {
     link: ACCELERATION_STRUCTURES,
 };
 
+/// EXT (and NV displacement) attachments: the usage counts describe the
+/// micromap triangles the index buffer references.
+pub static ATTACH_USAGE_COUNTS: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-usage-counts-match-indices",
+    statement: "usageCountsCount specifies the number of usage counts structures that will be used to determine the size of this micromap; each count is the number of triangles that usage format and subdivision level combination represents (for a geometry: the triangles t < primitiveCount whose index, plus baseTriangle, selects a micromap triangle of that format and subdivisionLevel, each reference counted, special indices not counted)",
+    link: ACCELERATION_STRUCTURES,
+};
+
 /// Index buffers whose address or stride is not a multiple of the index size.
 pub static INDEX_ALIGNMENT: OwnRule = OwnRule {
     id: "OMMCHECK-attach-index-alignment",
@@ -111,6 +119,7 @@ pub static ALL: &[&OwnRule] = &[
     &EXT_TRIANGLE_ARRAY_STRIDE,
     &NULL_MICROMAP_SPECIAL_ONLY,
     &INDEX_IN_RANGE,
+    &ATTACH_USAGE_COUNTS,
     &INDEX_ALIGNMENT,
     &PNEXT_CHAIN,
     &READ_BOUND,

@@ -53,6 +53,49 @@ pub struct BuildRecord {
     pub ty: i32,
     /// Sum of the build's usage counts: the number of micromap triangles.
     pub triangle_count: u64,
+    /// A micromap build's triangle array (decoded, as far as the checker
+    /// could read it) and its data (shared with the buffer or host memory it
+    /// was read from, never copied); None when the contents were unreadable.
+    pub content: Option<Arc<crate::sim::decode::MicromapContent>>,
+    /// A bottom-level build's geometries, by index, for the simulator:
+    /// triangles geometries with what locates their vertices and opacity
+    /// attachments (None for other geometry types).
+    pub geometries: Vec<Option<TriangleGeometryRecord>>,
+    /// The build read host addresses (`vkBuildAccelerationStructuresKHR`).
+    pub host: bool,
+}
+
+/// A triangles geometry of a recorded bottom-level build: where its
+/// vertices and indices are, its flags and build range, and its opacity
+/// attachment.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TriangleGeometryRecord {
+    /// `VkGeometryFlagsKHR` bits (OPAQUE is 0x1).
+    pub flags: u32,
+    pub vertex_format: i32,
+    pub vertex_data: u64,
+    pub vertex_stride: u64,
+    pub max_vertex: u32,
+    pub index_type: i32,
+    pub index_data: u64,
+    pub transform_data: u64,
+    /// The build range (None: the command had none, e.g. an indirect build).
+    pub range: Option<crate::model::accel::BuildRangeInfo>,
+    /// The EXT or KHR opacity micromap attachment.
+    pub opacity: Option<OpacityAttachmentRecord>,
+}
+
+/// An opacity micromap attachment of a recorded geometry.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OpacityAttachmentRecord {
+    /// `VkAccelerationStructureTrianglesOpacityMicromapKHR` (the micromap is
+    /// an acceleration structure) rather than the EXT structure (a `VkMicromapEXT`).
+    pub khr: bool,
+    pub index_type: i32,
+    pub index_buffer: u64,
+    pub index_stride: u64,
+    pub base_triangle: u32,
+    pub micromap: Handle,
 }
 
 /// A `VkMicromapEXT`.
@@ -114,6 +157,13 @@ pub struct State {
     /// `VkDeferredOperationKHR` handles the application created
     /// (`vkCreateDeferredOperationKHR`) and has not destroyed.
     pub deferred_operations: BTreeSet<Handle>,
+    /// Deferred operations a host command was deferred to and that have not
+    /// completed yet (`vkDeferredOperationJoinKHR` / `vkGetDeferredOperationResultKHR`
+    /// not yet reported completion).
+    pub pending_deferred_operations: BTreeSet<Handle>,
+    /// Handles of objects that belong to another `VkDevice`: valid handles,
+    /// but not of the device being checked (the layer tracks every device).
+    pub other_device_objects: BTreeSet<Handle>,
     /// Pipelines created through the checker: their flags and what their
     /// shaders declare (pipeline and draw/dispatch/trace checks).
     pub pipelines: BTreeMap<Handle, crate::model::pipeline::PipelineRecord>,
@@ -187,6 +237,26 @@ impl State {
             let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
             // An address one past the end belongs to no range.
             (offset < r.bytes.len()).then(|| &r.bytes[offset..])
+        })
+    }
+
+    /// The device memory from `address` on, shared: the contents of the
+    /// buffer holding `address` and the offset of `address` in them.
+    pub fn device_contents_from(&self, address: u64) -> Option<(Arc<[u8]>, usize)> {
+        self.buffers_at(address).find_map(|(_, b)| {
+            let (start, _) = b.address_range()?;
+            let contents = b.contents.as_ref()?;
+            let offset = usize::try_from(address - start).ok()?;
+            (offset <= contents.len()).then(|| (Arc::clone(contents), offset))
+        })
+    }
+
+    /// The host memory from `address` on, shared: the range holding
+    /// `address` and the offset of `address` in it.
+    pub fn host_contents_from(&self, address: u64) -> Option<(Arc<[u8]>, usize)> {
+        self.host_memory.iter().find_map(|r| {
+            let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
+            (offset < r.bytes.len()).then(|| (Arc::clone(&r.bytes), offset))
         })
     }
 

@@ -3,7 +3,7 @@
 
 use crate::device::Device;
 use crate::report::{Finding, Report, RuleId, Severity};
-use crate::state::State;
+use crate::state::{Handle, State};
 
 /// Checks calls against a device and the objects earlier calls created.
 ///
@@ -36,6 +36,31 @@ impl Validator {
     /// objects by other means.
     pub fn state_mut(&mut self) -> &mut State {
         &mut self.state
+    }
+
+    /// `vkCreateDeferredOperationKHR` returned `operation`.
+    pub fn create_deferred_operation(&mut self, operation: Handle) {
+        self.state.deferred_operations.insert(operation);
+    }
+
+    /// `vkDestroyDeferredOperationKHR(operation)`.
+    pub fn destroy_deferred_operation(&mut self, operation: Handle) {
+        self.state.deferred_operations.remove(&operation);
+        self.state.pending_deferred_operations.remove(&operation);
+    }
+
+    /// `vkDeferredOperationJoinKHR` returned `VK_SUCCESS`, or
+    /// `vkGetDeferredOperationResultKHR` returned anything but
+    /// `VK_NOT_READY`: the operation's command has completed.
+    pub fn deferred_operation_completed(&mut self, operation: Handle) {
+        self.state.pending_deferred_operations.remove(&operation);
+    }
+
+    /// A host command was given `operation`; it runs until reported complete.
+    pub(crate) fn defer(&mut self, operation: Handle) {
+        if operation != 0 && self.state.deferred_operations.contains(&operation) {
+            self.state.pending_deferred_operations.insert(operation);
+        }
     }
 
     pub(crate) fn ctx(&self, function: &'static str) -> Ctx<'_> {

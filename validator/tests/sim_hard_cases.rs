@@ -57,6 +57,17 @@ fn slightly_negative_barycentrics() {
 }
 
 #[test]
+fn huge_error_bounds_mean_the_whole_triangle() {
+    assert_eq!(candidates(0.5, 0.25, 12, 0.5), Err(BaryError::TooUncertain));
+    assert_eq!(
+        candidates(0.5, 0.25, 12, f64::NAN),
+        Err(BaryError::TooUncertain)
+    );
+    // At level 2 the same bound spans only 2 micro-triangles: listed.
+    assert!(candidates(0.5, 0.25, 2, 0.5).is_ok());
+}
+
+#[test]
 fn nan_and_infinity() {
     assert_eq!(spec_index(f32::NAN, 0.1, 3), Err(BaryError::NotANumber));
     assert_eq!(
@@ -127,8 +138,11 @@ fn needle_and_near_zero_area_triangles() {
         ..ray
     };
     if let Some(hit) = intersect(&ray, v0, v1, needle).unwrap() {
-        let set = candidates(hit.u as f32, hit.v as f32, 12, hit.delta).unwrap();
-        assert!(set.len() > 1, "{hit:?} {set:?}");
+        match candidates(hit.u as f32, hit.v as f32, 12, hit.delta) {
+            Ok(set) => assert!(set.len() > 1, "{hit:?} {set:?}"),
+            // So uncertain that any micro-triangle of the triangle may be hit.
+            Err(e) => assert_eq!(e, BaryError::TooUncertain, "{hit:?}"),
+        }
     }
 }
 
@@ -145,8 +159,10 @@ fn grazing_rays() {
     };
     if let Some(hit) = intersect(&ray, v0, v1, v2).unwrap() {
         assert!(hit.u.is_finite() && hit.v.is_finite() && hit.delta >= 0.0);
-        let set = candidates(hit.u as f32, hit.v as f32, 12, hit.delta).unwrap();
-        assert!(set.contains(&spec_index(hit.u as f32, hit.v as f32, 12).unwrap()));
+        match candidates(hit.u as f32, hit.v as f32, 12, hit.delta) {
+            Ok(set) => assert!(set.contains(&spec_index(hit.u as f32, hit.v as f32, 12).unwrap())),
+            Err(e) => assert_eq!(e, BaryError::TooUncertain, "{hit:?}"),
+        }
     }
 }
 
@@ -155,14 +171,14 @@ fn level_12_blocks_and_offsets_near_2_pow_32() {
     assert_eq!(opacity_triangle_bytes(2, 12), Some(4 << 20));
     assert_eq!(opacity_triangle_bytes(1, 12), Some(2 << 20));
     // A level-12 block at dataOffset u32::MAX - 1 ends past 2^32 without wrapping.
-    let content = MicromapContent {
-        triangles: vec![MicromapTriangle {
+    let content = MicromapContent::new(
+        vec![MicromapTriangle {
             data_offset: u32::MAX - 1,
             subdivision_level: 12,
             format: 2,
         }],
-        data: Arc::from(vec![0u8; 16]),
-    };
+        Arc::from(vec![0u8; 16]),
+    );
     assert_eq!(
         content.states(Slot::Micromap(0), 0.1, 0.1, 0.0),
         Err(LookupError::DataOutOfRange { m: 0 })

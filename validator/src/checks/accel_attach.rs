@@ -15,6 +15,8 @@ use ommcheck_vuids::vuid::{
     VkClusterAccelerationStructureBuildTriangleClusterInfoNV as cluster,
     VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
 };
+use std::collections::BTreeMap;
+
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::BuildCommand;
@@ -384,6 +386,7 @@ pub(crate) fn triangles(
         }
         if let Some(count) = primitive_count {
             index_contents(ctx, command, &attachment, count);
+            usage_counts_match_indices(ctx, command, &attachment, count);
         }
     }
 }
@@ -929,6 +932,121 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
             ),
             Some(_) => {}
         }
+    }
+    tally.finish(ctx);
+}
+
+/// EXT and NV attachments: per (format, subdivision level), the usage
+/// counts equal the number of geometry triangles `t < primitiveCount` whose
+/// index plus baseTriangle selects a micromap triangle of that key (each
+/// reference counted; special indices, which EXT alone has, not counted).
+/// Decided only when the micromap's content and every index are known and
+/// every index selects a triangle the checker read (an index past the end
+/// is the index rules' finding).
+fn usage_counts_match_indices(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    a: &Attachment<'_>,
+    count: u64,
+) {
+    let state = ctx.state;
+    let (Some(counts), Some(content)) = (
+        a.usage_counts,
+        state
+            .micromaps
+            .get(&a.micromap)
+            .and_then(|m| m.built.as_ref())
+            .and_then(|b| b.content.as_ref()),
+    ) else {
+        return;
+    };
+    if a.kind == Kind::Khr || count == 0 {
+        return;
+    }
+    let triangles = &content.triangles;
+    let key = |m: u64| {
+        let t = triangles.get(usize::try_from(m).ok()?)?;
+        Some((u32::from(t.format), u32::from(t.subdivision_level)))
+    };
+    let base = u64::from(a.base_triangle);
+    let mut found: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    match index_size(a.index_type) {
+        None if a.index_type == INDEX_TYPE_NONE => {
+            // Triangle t uses t + baseTriangle: all of them must have been read,
+            // which bounds the loop by the triangle array.
+            let Some(last) = (count - 1).checked_add(base) else {
+                return;
+            };
+            if last >= triangles.len() as u64 {
+                return;
+            }
+            for t in 0..count {
+                match key(t + base) {
+                    Some(k) => *found.entry(k).or_default() += 1,
+                    None => return,
+                }
+            }
+        }
+        None => return,
+        Some(size) => {
+            let bytes = match command {
+                BuildCommand::Host => state.host_bytes_from(a.index_buffer),
+                _ => state.device_bytes_from(a.index_buffer),
+            };
+            let Some(bytes) = bytes else {
+                return; // Contents not available to the checker.
+            };
+            // A stride of 0 reads one index for every triangle.
+            let (expected, weight) = if a.index_stride == 0 {
+                (1, count)
+            } else {
+                (count, 1)
+            };
+            let mut read = 0u64;
+            for (_, index) in read_indices(bytes, size, a.index_stride, count) {
+                read += 1;
+                if a.kind == Kind::Ext && is_special_index(index, size) {
+                    continue;
+                }
+                match key(u64::from(index) + base) {
+                    Some(k) => {
+                        let n = found.entry(k).or_default();
+                        *n = n.saturating_add(weight);
+                    }
+                    None => return,
+                }
+            }
+            if read < expected {
+                return; // Part of the index buffer is not readable.
+            }
+        }
+    }
+    let (member, entries) = counts.entries();
+    let mut declared: BTreeMap<(u32, u32), (u64, Option<usize>)> = BTreeMap::new();
+    for (k, usage) in &entries {
+        let sum = declared
+            .entry((usage.format, usage.subdivision_level))
+            .or_insert((0, Some(*k)));
+        sum.0 = sum.0.saturating_add(u64::from(usage.count));
+    }
+    let keys: std::collections::BTreeSet<(u32, u32)> =
+        declared.keys().chain(found.keys()).copied().collect();
+    let array = a.member(member);
+    let mut tally = Tally::new();
+    for (format, level) in keys {
+        let (said, first) = declared.get(&(format, level)).copied().unwrap_or((0, None));
+        let has = found.get(&(format, level)).copied().unwrap_or(0);
+        if said == has {
+            continue;
+        }
+        let location = first.map_or_else(|| array.clone(), |k| format!("{array}[{k}]"));
+        tally.error(
+            ctx,
+            &rules::ATTACH_USAGE_COUNTS,
+            location,
+            || format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but the {count} geometry triangles reference micromap triangles of that format and level {has} times"),
+            &array,
+        );
     }
     tally.finish(ctx);
 }

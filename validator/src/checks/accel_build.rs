@@ -11,6 +11,7 @@
 //! checking it: there is no catalog VUID to cite.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
 
 use ommcheck_vuids::vuid::{
     vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
@@ -41,7 +42,11 @@ use crate::model::values::{
 use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
 use crate::report::Report;
 use crate::rules;
-use crate::state::{AccelerationStructure, BuildRecord, Handle, State};
+use crate::sim::decode::MicromapContent;
+use crate::state::{
+    AccelerationStructure, BuildRecord, Handle, OpacityAttachmentRecord, State,
+    TriangleGeometryRecord,
+};
 use crate::validator::{Ctx, Validator};
 
 const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by device-memory contents that GPU copies write at execution time, not visible at the API boundary";
@@ -173,7 +178,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
         let report = ctx.finish();
-        record_builds(&mut self.state, infos);
+        record_builds(&mut self.state, infos, build_range_infos, false);
         self.record_micromap_geometry(infos, build_range_infos);
         report
     }
@@ -199,7 +204,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Indirect.function());
         builds(&mut ctx, BuildCommand::Indirect, infos, None);
         let report = ctx.finish();
-        record_builds(&mut self.state, infos);
+        record_builds(&mut self.state, infos, &[], false);
         // Primitive counts live in device memory: no index buffer is read.
         self.record_micromap_geometry(infos, &[]);
         report
@@ -214,7 +219,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Host.function());
         builds(&mut ctx, BuildCommand::Host, infos, Some(build_range_infos));
         let report = ctx.finish();
-        record_builds(&mut self.state, infos);
+        record_builds(&mut self.state, infos, build_range_infos, true);
         self.record_micromap_geometry(infos, build_range_infos);
         report
     }
@@ -485,10 +490,38 @@ fn record_copy(state: &mut State, info: &CopyAccelerationStructureInfo) {
 }
 
 /// Remembers what each build made of its destination, and (for
-/// `accel_attach`'s update rules) the attachments of original builds.
-fn record_builds(state: &mut State, infos: &[BuildGeometryInfo]) {
+/// `accel_attach`'s update rules) the attachments of original builds: a
+/// micromap build's content (its triangle array as read, its data shared
+/// with the memory holding it), and a bottom-level build's triangles
+/// geometries with their build ranges, for the simulator. `host`: the
+/// addresses are host addresses.
+fn record_builds(
+    state: &mut State,
+    infos: &[BuildGeometryInfo],
+    ranges: &[Option<Vec<BuildRangeInfo>>],
+    host: bool,
+) {
     accel_attach::record_original_attachments(state, infos);
-    for info in infos {
+    for (i, info) in infos.iter().enumerate() {
+        if !state
+            .acceleration_structures
+            .contains_key(&info.dst_acceleration_structure)
+        {
+            continue;
+        }
+        let info_ranges = ranges.get(i).and_then(Option::as_ref);
+        let (_, geometries) = info.geometry_entries();
+        let content = geometries
+            .iter()
+            .find_map(|(_, g)| g.micromap.as_ref())
+            .and_then(|data| micromap_content(state, host, data))
+            .map(Arc::new);
+        let geometries = geometries
+            .iter()
+            .map(|(g, geometry)| {
+                geometry_record(geometry, info_ranges.and_then(|r| r.get(*g)).copied())
+            })
+            .collect();
         if let Some(dst) = state
             .acceleration_structures
             .get_mut(&info.dst_acceleration_structure)
@@ -497,9 +530,87 @@ fn record_builds(state: &mut State, infos: &[BuildGeometryInfo]) {
                 flags: info.flags,
                 ty: info.ty,
                 triangle_count: micromap_triangle_count(info),
+                content,
+                geometries,
+                host,
             });
         }
     }
+}
+
+/// A micromap geometry's triangle array as far as it is readable (at most
+/// Σcount entries, a stride below 8 or not a multiple of 4 reads none:
+/// 11646/11647 report it) and its data, shared.
+fn micromap_content(
+    state: &State,
+    host: bool,
+    data: &GeometryMicromapData,
+) -> Option<MicromapContent> {
+    let total = data.usage_counts.total();
+    let stride = data.triangle_array_stride;
+    if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
+        return None;
+    }
+    let array = bytes_from(state, host, data.triangle_array)?;
+    // Each entry takes >= 8 bytes of `array`, so this ends at its end.
+    let triangles: Vec<MicromapTriangle> = (0..total)
+        .map_while(|m| {
+            let offset = usize::try_from(m.checked_mul(stride)?).ok()?;
+            let bytes = array.get(offset..offset.checked_add(8)?)?;
+            Some(MicromapTriangle::from_bytes(
+                <[u8; 8]>::try_from(bytes).ok()?,
+            ))
+        })
+        .collect();
+    let shared = if host {
+        state.host_contents_from(data.data)
+    } else {
+        state.device_contents_from(data.data)
+    };
+    let (bytes, start) = shared.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
+    Some(MicromapContent::at(triangles, bytes, start))
+}
+
+/// What the simulator needs of one geometry: a triangles geometry's data,
+/// flags, build range and opacity attachment.
+fn geometry_record(
+    geometry: &Geometry,
+    range: Option<BuildRangeInfo>,
+) -> Option<TriangleGeometryRecord> {
+    let GeometryData::Triangles(t) = &geometry.geometry else {
+        return None;
+    };
+    let opacity = match (&t.opacity_khr, &t.opacity_ext) {
+        (Some(a), _) => Some(OpacityAttachmentRecord {
+            khr: true,
+            index_type: a.index_type,
+            index_buffer: a.index_buffer,
+            index_stride: a.index_stride,
+            base_triangle: a.base_triangle,
+            micromap: a.micromap,
+        }),
+        (None, Some(a)) => Some(OpacityAttachmentRecord {
+            khr: false,
+            index_type: a.index_type,
+            index_buffer: a.index_buffer,
+            index_stride: a.index_stride,
+            base_triangle: a.base_triangle,
+            micromap: a.micromap,
+        }),
+        (None, None) => None,
+    };
+    Some(TriangleGeometryRecord {
+        flags: geometry.flags,
+        vertex_format: t.vertex_format,
+        vertex_data: t.vertex_data,
+        vertex_stride: t.vertex_stride,
+        max_vertex: t.max_vertex,
+        index_type: t.index_type,
+        index_data: t.index_data,
+        transform_data: t.transform_data,
+        range,
+        opacity,
+    })
 }
 
 /// The number of micromap triangles a build describes: the sum of its

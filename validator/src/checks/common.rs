@@ -80,6 +80,66 @@ pub(crate) fn command_buffer(ctx: &mut Ctx<'_>, cb: &CommandBuffer, vuids: &Comm
     }
 }
 
+/// `device` must be the device being checked (0 in `Device::handle` means
+/// any non-NULL handle is taken to be it).
+pub(crate) fn device_handle(ctx: &mut Ctx<'_>, device: Handle, vuid: Vuid) {
+    let known = ctx.device.handle;
+    if device == 0 {
+        ctx.error(vuid, "device", "device is VK_NULL_HANDLE");
+    } else if known != 0 && device != known {
+        ctx.error(
+            vuid,
+            "device",
+            format!("{device:#x} is not the VkDevice {known:#x} being checked"),
+        );
+    }
+}
+
+/// Whether `handle` belongs to another `VkDevice`; reports `vuid` (a
+/// `-parent` or `-commonparent` rule) at `location` when it does.
+pub(crate) fn other_device(ctx: &mut Ctx<'_>, handle: Handle, vuid: Vuid, location: &str) -> bool {
+    let foreign = handle != 0 && ctx.state.other_device_objects.contains(&handle);
+    if foreign {
+        ctx.error(
+            vuid,
+            location,
+            format!("{handle:#x} belongs to another VkDevice"),
+        );
+    }
+    foreign
+}
+
+/// The VUIDs of a host command's `deferredOperation` parameter.
+pub(crate) struct DeferredOperationVuids {
+    pub parameter: Vuid,
+    pub parent: Vuid,
+    /// "Any previous deferred operation ... must be complete", where the command has it.
+    pub complete: Option<Vuid>,
+}
+
+/// Checks `deferredOperation`: NULL or a deferred operation of this device,
+/// not one still running a previous command.
+pub(crate) fn deferred_operation(
+    ctx: &mut Ctx<'_>,
+    handle: Handle,
+    vuids: &DeferredOperationVuids,
+) {
+    if handle == 0 || other_device(ctx, handle, vuids.parent, "deferredOperation") {
+        return;
+    }
+    if !ctx.state.deferred_operations.contains(&handle) {
+        ctx.error(
+            vuids.parameter,
+            "deferredOperation",
+            format!("{handle:#x} is not a VkDeferredOperationKHR created on this device"),
+        );
+    } else if let Some(vuid) = vuids.complete {
+        if ctx.state.pending_deferred_operations.contains(&handle) {
+            ctx.error(vuid, "deferredOperation", format!("{handle:#x} still runs an earlier deferred command (no vkDeferredOperationJoinKHR or vkGetDeferredOperationResultKHR has reported it complete)"));
+        }
+    }
+}
+
 /// A device address must be a valid `VkDeviceAddress`: non-zero, and inside
 /// a buffer when the checker knows buffer addresses.
 pub(crate) fn valid_device_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) {

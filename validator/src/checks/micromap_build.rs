@@ -1,6 +1,7 @@
 //! `VkMicromapBuildInfoEXT`, `vkCmdBuildMicromapsEXT` and `vkBuildMicromapsEXT`.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use ommcheck_vuids::vuid::{
     vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd, VkMicromapBuildInfoEXT as info_vuid,
@@ -14,6 +15,7 @@ use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
 use crate::report::Report;
 use crate::rules;
+use crate::sim::decode::MicromapContent;
 use crate::state::{BuildRecord, Handle};
 use crate::validator::{Ctx, Validator};
 
@@ -44,6 +46,7 @@ pub const COVERAGE: Coverage = Coverage {
         cmd::videocoding,
         cmd::suspended,
         cmd::infoCount_arraylength,
+        cmd::pInfos_parameter,
         cmd::micromap_11648,
         cmd::mode_07462,
         cmd::dstMicromap_07463,
@@ -60,6 +63,10 @@ pub const COVERAGE: Coverage = Coverage {
         cmd::dstMicromap_11650,
         cmd::scratchData_11651,
         host::infoCount_arraylength,
+        host::pInfos_parameter,
+        host::device_parameter,
+        host::deferredOperation_parameter,
+        host::deferredOperation_parent,
         host::micromapHostCommands_07555,
         host::mode_07462,
         host::dstMicromap_07463,
@@ -124,8 +131,14 @@ impl Validator {
                     .into()
             },
         );
+        let mut contents = Vec::with_capacity(infos.len());
         for (i, info) in infos.iter().enumerate() {
-            build_info(&mut ctx, &format!("pInfos[{i}]"), info, Side::Device);
+            contents.push(build_info(
+                &mut ctx,
+                &format!("pInfos[{i}]"),
+                info,
+                Side::Device,
+            ));
             let at = format!("pInfos[{i}]");
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
@@ -216,14 +229,31 @@ impl Validator {
         }
         overlaps(&mut ctx, infos, Side::Device);
         let report = ctx.finish();
-        self.record_builds(infos);
+        self.record_builds(infos, contents);
         report
     }
 
     /// `vkBuildMicromapsEXT(device, deferredOperation, infoCount, pInfos)`: a
-    /// build on the host; every address is a host address.
-    pub fn build_micromaps(&mut self, infos: &[MicromapBuildInfo]) -> Report {
+    /// build on the host; every address is a host address. A non-NULL
+    /// `deferred_operation` is taken to be running the build until
+    /// [`Validator::deferred_operation_completed`] says otherwise.
+    pub fn build_micromaps(
+        &mut self,
+        device: Handle,
+        deferred_operation: Handle,
+        infos: &[MicromapBuildInfo],
+    ) -> Report {
         let mut ctx = self.ctx("vkBuildMicromapsEXT");
+        common::device_handle(&mut ctx, device, host::device_parameter);
+        common::deferred_operation(
+            &mut ctx,
+            deferred_operation,
+            &common::DeferredOperationVuids {
+                parameter: host::deferredOperation_parameter,
+                parent: host::deferredOperation_parent,
+                complete: None,
+            },
+        );
         ctx.require(
             !infos.is_empty(),
             host::infoCount_arraylength,
@@ -236,8 +266,14 @@ impl Validator {
             String::new,
             || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
         );
+        let mut contents = Vec::with_capacity(infos.len());
         for (i, info) in infos.iter().enumerate() {
-            build_info(&mut ctx, &format!("pInfos[{i}]"), info, Side::Host);
+            contents.push(build_info(
+                &mut ctx,
+                &format!("pInfos[{i}]"),
+                info,
+                Side::Host,
+            ));
             let at = format!("pInfos[{i}]");
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
@@ -300,18 +336,28 @@ impl Validator {
         }
         overlaps(&mut ctx, infos, Side::Host);
         let report = ctx.finish();
-        self.record_builds(infos);
+        self.record_builds(infos, contents);
+        self.defer(deferred_operation);
         report
     }
 
-    /// Remembers what each build made of its destination micromap.
-    fn record_builds(&mut self, infos: &[MicromapBuildInfo]) {
+    /// Remembers what each build made of its destination micromap, with
+    /// the content `build_info` read for it (`contents[i]` for `infos[i]`).
+    fn record_builds(
+        &mut self,
+        infos: &[MicromapBuildInfo],
+        contents: Vec<Option<MicromapContent>>,
+    ) {
+        let mut contents = contents.into_iter();
         for info in infos {
+            let content = contents.next().flatten();
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
                 micromap.built = Some(BuildRecord {
                     flags: info.flags,
                     ty: info.ty,
                     triangle_count: info.usage_counts.total(),
+                    content: content.map(Arc::new),
+                    ..Default::default()
                 });
             }
         }
@@ -434,8 +480,14 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
 }
 
 /// `VkMicromapBuildInfoEXT` itself, the usage counts, and (when the checker
-/// can read them) the triangle array's entries.
-pub(crate) fn build_info(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo, side: Side) {
+/// can read them) the triangle array's entries, which it returns with the
+/// data for the build's record.
+pub(crate) fn build_info(
+    ctx: &mut Ctx<'_>,
+    at: &str,
+    info: &MicromapBuildInfo,
+    side: Side,
+) -> Option<MicromapContent> {
     ctx.require(
         info.s_type == STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
         info_vuid::sType_sType,
@@ -586,23 +638,25 @@ pub(crate) fn build_info(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo, 
         }
     }
     if (opacity || displacement) && side != Side::SizeQuery {
-        triangle_array(ctx, at, info, side, opacity);
+        return triangle_array(ctx, at, info, side, opacity);
     }
+    None
 }
 
 /// The triangle array's entries, when the checker can read them: each entry's
 /// format and level (11657-11661), its data inside `data`, and the usage
-/// counts against the entries.
+/// counts against the entries. Returns the entries read and the data (shared
+/// with the memory holding it), or None when the array is unreadable.
 fn triangle_array(
     ctx: &mut Ctx<'_>,
     at: &str,
     info: &MicromapBuildInfo,
     side: Side,
     opacity: bool,
-) {
+) -> Option<MicromapContent> {
     let triangles = info.usage_counts.total();
     if triangles == 0 {
-        return;
+        return None;
     }
     // The bytes borrow the tracked state, not the context, so findings can
     // be reported while reading.
@@ -613,9 +667,13 @@ fn triangle_array(
         Side::SizeQuery => None,
     };
     let Some(array) = read_from(info.triangle_array) else {
-        return; // Contents not available to the checker.
+        return None; // Contents not available to the checker.
     };
     let data = read_from(info.data);
+    // The entries kept for the record: at most one per byte of the array
+    // (a stride of 0 repeats one entry), so never more than was readable.
+    let mut entries = Vec::new();
+    let entry_cap = array.len() as u64;
     let stride = info.triangle_array_stride;
     if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
         ctx.report(
@@ -629,7 +687,14 @@ fn triangle_array(
     let mut tally = Tally::new();
     let mut blocks = Vec::new();
     let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
-    for m in 0..triangles {
+    // A stride of 0 makes every triangle read the one entry: check it once
+    // and count it for all, rather than looping over up to 2^64 triangles.
+    let (entries_to_read, weight) = if stride == 0 {
+        (1, triangles)
+    } else {
+        (triangles, 1)
+    };
+    for m in 0..entries_to_read {
         let loc = format!("{at}.triangleArray[{m}]");
         let entry = m
             .checked_mul(stride)
@@ -644,11 +709,14 @@ fn triangle_array(
             break;
         };
         let triangle = MicromapTriangle::from_bytes(bytes.try_into().expect("8 bytes"));
+        if (entries.len() as u64) < entry_cap {
+            entries.push(triangle);
+        }
         let (format, level) = (
             u32::from(triangle.format),
             u32::from(triangle.subdivision_level),
         );
-        *histogram.entry((format, level)).or_default() += 1;
+        *histogram.entry((format, level)).or_default() += weight;
         if opacity {
             match format {
                 OPACITY_MICROMAP_FORMAT_2_STATE => {
@@ -766,4 +834,11 @@ fn triangle_array(
             }
         }
     }
+    let shared = match side {
+        Side::Device => state.device_contents_from(info.data),
+        Side::Host => state.host_contents_from(info.data),
+        Side::SizeQuery => None,
+    };
+    let (data, data_start) = shared.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
+    Some(MicromapContent::at(entries, data, data_start))
 }

@@ -29,8 +29,6 @@ use crate::validator::{Ctx, Validator};
 
 const EXECUTION: &str = "whether the micromap was built before this command executes is GPU execution order (submissions, semaphores, fences), not visible at the API boundary";
 const HOST_EXECUTION: &str = "whether the build completed before this host command runs depends on deferred operations and other threads finishing, not visible at the API boundary";
-const DEFERRED_COMPLETE: &str = "completion of a deferred operation is known only from vkDeferredOperationJoinKHR / vkGetDeferredOperationResultKHR results, outside these calls";
-const OTHER_DEVICE: &str = "one Validator tracks one device's objects: a handle of another device is unknown to it and reported under the -parameter rule";
 const SERIALIZED_SIZE: &str = "the serialization size is the implementation's, returned only through a query the GPU or driver writes";
 const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
@@ -176,18 +174,18 @@ pub const COVERAGE: Coverage = Coverage {
         version_info::sType_sType,
         begin_query::queryType_08972,
         begin_query_indexed::queryType_08972,
+        copy_info::commonparent,
+        destroy::micromap_parent,
+        host_write::pMicromaps_parent,
+        cmd_write::commonparent,
+        host_copy::deferredOperation_parent,
+        host_to_memory::deferredOperation_parent,
+        host_from_memory::deferredOperation_parent,
+        host_copy::deferredOperation_03678,
+        host_to_memory::deferredOperation_03678,
+        host_from_memory::deferredOperation_03678,
     ],
     not_decidable: &[
-        (copy_info::commonparent, OTHER_DEVICE),
-        (destroy::micromap_parent, OTHER_DEVICE),
-        (host_write::pMicromaps_parent, OTHER_DEVICE),
-        (cmd_write::commonparent, OTHER_DEVICE),
-        (host_copy::deferredOperation_parent, OTHER_DEVICE),
-        (host_to_memory::deferredOperation_parent, OTHER_DEVICE),
-        (host_from_memory::deferredOperation_parent, OTHER_DEVICE),
-        (host_copy::deferredOperation_03678, DEFERRED_COMPLETE),
-        (host_to_memory::deferredOperation_03678, DEFERRED_COMPLETE),
-        (host_from_memory::deferredOperation_03678, DEFERRED_COMPLETE),
         (destroy::micromap_07441, "completion of submitted commands is GPU execution state (fences, semaphores, vkQueueWaitIdle), not visible at the API boundary"),
         (cmd_copy::src_07532, EXECUTION),
         (cmd_write::pMicromaps_11662, EXECUTION),
@@ -220,7 +218,7 @@ struct HostMemoryVuids {
 /// The implicit rules every host command states about its handles.
 struct HostCallVuids {
     device: Vuid,
-    deferred_operation: Vuid,
+    deferred_operation: common::DeferredOperationVuids,
     host_commands: Vuid,
     info: Vuid,
 }
@@ -237,7 +235,7 @@ impl Validator {
         micromap: Option<Handle>,
     ) -> Report {
         let mut ctx = self.ctx("vkCreateMicromapEXT");
-        device_handle(&mut ctx, device, create::device_parameter);
+        common::device_handle(&mut ctx, device, create::device_parameter);
         ctx.require(
             ctx.device.queue_count > 0,
             create::device_queuecount,
@@ -303,9 +301,10 @@ impl Validator {
         allocator: Option<&AllocationCallbacks>,
     ) -> Report {
         let mut ctx = self.ctx("vkDestroyMicromapEXT");
-        device_handle(&mut ctx, device, destroy::device_parameter);
+        common::device_handle(&mut ctx, device, destroy::device_parameter);
         micromap_feature(&mut ctx, destroy::micromap_11619);
         allocation_callbacks(&mut ctx, allocator, destroy::pAllocator_parameter);
+        common::other_device(&mut ctx, micromap, destroy::micromap_parent, "micromap");
         if micromap != 0 {
             if let Some(tracked) =
                 tracked_micromap(&mut ctx, micromap, destroy::micromap_parameter, "micromap")
@@ -437,7 +436,11 @@ impl Validator {
         let mut ctx = self.ctx("vkCopyMicromapEXT");
         let vuids = HostCallVuids {
             device: host_copy::device_parameter,
-            deferred_operation: host_copy::deferredOperation_parameter,
+            deferred_operation: common::DeferredOperationVuids {
+                parameter: host_copy::deferredOperation_parameter,
+                parent: host_copy::deferredOperation_parent,
+                complete: Some(host_copy::deferredOperation_03678),
+            },
             host_commands: host_copy::micromapHostCommands_07560,
             info: host_copy::pInfo_parameter,
         };
@@ -454,7 +457,9 @@ impl Validator {
             host_accessible(&mut ctx, src, &src_vuids, "pInfo->src");
             host_accessible(&mut ctx, dst, &dst_vuids, "pInfo->dst");
         }
-        ctx.finish()
+        let report = ctx.finish();
+        self.defer(deferred_operation);
+        report
     }
 
     /// `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`: `dst`
@@ -468,7 +473,11 @@ impl Validator {
         let mut ctx = self.ctx("vkCopyMicromapToMemoryEXT");
         let vuids = HostCallVuids {
             device: host_to_memory::device_parameter,
-            deferred_operation: host_to_memory::deferredOperation_parameter,
+            deferred_operation: common::DeferredOperationVuids {
+                parameter: host_to_memory::deferredOperation_parameter,
+                parent: host_to_memory::deferredOperation_parent,
+                complete: Some(host_to_memory::deferredOperation_03678),
+            },
             host_commands: host_to_memory::micromapHostCommands_07571,
             info: host_to_memory::pInfo_parameter,
         };
@@ -487,7 +496,9 @@ impl Validator {
                 "pInfo->dst.hostAddress",
             );
         }
-        ctx.finish()
+        let report = ctx.finish();
+        self.defer(deferred_operation);
+        report
     }
 
     /// `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`: `src`
@@ -501,7 +512,11 @@ impl Validator {
         let mut ctx = self.ctx("vkCopyMemoryToMicromapEXT");
         let vuids = HostCallVuids {
             device: host_from_memory::device_parameter,
-            deferred_operation: host_from_memory::deferredOperation_parameter,
+            deferred_operation: common::DeferredOperationVuids {
+                parameter: host_from_memory::deferredOperation_parameter,
+                parent: host_from_memory::deferredOperation_parent,
+                complete: Some(host_from_memory::deferredOperation_03678),
+            },
             host_commands: host_from_memory::micromapHostCommands_07566,
             info: host_from_memory::pInfo_parameter,
         };
@@ -520,7 +535,9 @@ impl Validator {
                 "pInfo->src.hostAddress",
             );
         }
-        ctx.finish()
+        let report = ctx.finish();
+        self.defer(deferred_operation);
+        report
     }
 
     /// `vkCmdWriteMicromapsPropertiesEXT(commandBuffer, micromapCount,
@@ -546,6 +563,20 @@ impl Validator {
                 suspended: Some(cmd_write::suspended),
             },
         );
+        // commandBuffer, queryPool and the micromaps must share one device.
+        let foreign = std::iter::once(("queryPool".to_string(), query_pool))
+            .chain(
+                micromaps
+                    .handles
+                    .iter()
+                    .flatten()
+                    .enumerate()
+                    .map(|(k, h)| (format!("pMicromaps[{k}]"), *h)),
+            )
+            .find(|(_, h)| *h != 0 && ctx.state.other_device_objects.contains(h));
+        if let Some((location, handle)) = foreign {
+            common::other_device(&mut ctx, handle, cmd_write::commonparent, &location);
+        }
         let listed = micromap_list(
             &mut ctx,
             micromaps,
@@ -607,8 +638,16 @@ impl Validator {
         stride: u64,
     ) -> Report {
         let mut ctx = self.ctx("vkWriteMicromapsPropertiesEXT");
-        device_handle(&mut ctx, device, host_write::device_parameter);
+        common::device_handle(&mut ctx, device, host_write::device_parameter);
         host_commands_feature(&mut ctx, host_write::micromapHostCommands_07578);
+        for (k, handle) in micromaps.handles.iter().flatten().enumerate() {
+            common::other_device(
+                &mut ctx,
+                *handle,
+                host_write::pMicromaps_parent,
+                &format!("pMicromaps[{k}]"),
+            );
+        }
         let listed = micromap_list(
             &mut ctx,
             micromaps,
@@ -653,7 +692,7 @@ impl Validator {
         size_info: Option<&MicromapBuildSizesInfo>,
     ) -> Report {
         let mut ctx = self.ctx("vkGetMicromapBuildSizesEXT");
-        device_handle(&mut ctx, device, build_sizes::device_parameter);
+        common::device_handle(&mut ctx, device, build_sizes::device_parameter);
         micromap_feature(&mut ctx, build_sizes::micromap_11618);
         let physical_devices = ctx.device.physical_device_count;
         ctx.require(
@@ -718,7 +757,7 @@ impl Validator {
         compatibility: bool,
     ) -> Report {
         let mut ctx = self.ctx("vkGetDeviceMicromapCompatibilityEXT");
-        device_handle(&mut ctx, device, compatibility::device_parameter);
+        common::device_handle(&mut ctx, device, compatibility::device_parameter);
         micromap_feature(&mut ctx, compatibility::micromap_11666);
         ctx.require(
             compatibility,
@@ -795,21 +834,6 @@ impl Validator {
     }
 }
 
-/// `device` must be a valid `VkDevice`: not NULL, and this device when its
-/// handle is known.
-fn device_handle(ctx: &mut Ctx<'_>, device: Handle, vuid: Vuid) {
-    let known = ctx.device.handle;
-    if device == 0 {
-        ctx.error(vuid, "device", "device is VK_NULL_HANDLE");
-    } else if known != 0 && device != known {
-        ctx.error(
-            vuid,
-            "device",
-            format!("{device:#x} is not the VkDevice {known:#x} being checked"),
-        );
-    }
-}
-
 fn micromap_feature(ctx: &mut Ctx<'_>, vuid: Vuid) {
     ctx.require(ctx.device.features.micromap_ext, vuid, String::new, || {
         "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into()
@@ -849,17 +873,9 @@ fn host_call<'i, T>(
     info: Option<&'i T>,
     vuids: &HostCallVuids,
 ) -> Option<&'i T> {
-    device_handle(ctx, device, vuids.device);
+    common::device_handle(ctx, device, vuids.device);
     host_commands_feature(ctx, vuids.host_commands);
-    if deferred_operation != 0 && !ctx.state.deferred_operations.contains(&deferred_operation) {
-        ctx.error(
-            vuids.deferred_operation,
-            "deferredOperation",
-            format!(
-                "{deferred_operation:#x} is not a VkDeferredOperationKHR created on this device"
-            ),
-        );
-    }
+    common::deferred_operation(ctx, deferred_operation, &vuids.deferred_operation);
     required_info(ctx, info, vuids.info)
 }
 
@@ -872,7 +888,7 @@ fn tracked_micromap<'s>(
 ) -> Option<&'s Micromap> {
     let state = ctx.state;
     let found = state.micromaps.get(&handle);
-    if found.is_none() {
+    if found.is_none() && !state.other_device_objects.contains(&handle) {
         ctx.error(
             vuid,
             location,
@@ -1026,6 +1042,9 @@ fn copy_micromap_info<'s>(
         None,
         copy_info::mode_07531,
     );
+    if !common::other_device(ctx, info.src, copy_info::commonparent, "pInfo->src") {
+        common::other_device(ctx, info.dst, copy_info::commonparent, "pInfo->dst");
+    }
     let src = tracked_micromap(ctx, info.src, copy_info::src_parameter, "pInfo->src");
     let dst = tracked_micromap(ctx, info.dst, copy_info::dst_parameter, "pInfo->dst");
     // Compaction needs the source's build flags, known when the checker saw the build.

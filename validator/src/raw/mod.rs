@@ -23,6 +23,7 @@ use crate::report::{Finding, Report, Severity};
 use crate::rules;
 use crate::state::HostRange;
 use crate::Validator;
+use ommcheck_vuids::vuid;
 
 /// The most elements read from one application array.
 pub const MAX_ELEMENTS: usize = 1 << 20;
@@ -222,8 +223,18 @@ unsafe fn micromap_build_infos(
     count: u32,
     function: &'static str,
     findings: &mut Vec<Finding>,
+    null_infos: ommcheck_vuids::Vuid,
 ) -> Vec<MicromapBuildInfo> {
     if infos.is_null() {
+        if count != 0 {
+            findings.push(Finding::new(
+                null_infos,
+                Severity::Error,
+                function,
+                "pInfos",
+                format!("pInfos is NULL with infoCount = {count}"),
+            ));
+        }
         return Vec::new();
     }
     let len = bounded_len(count, function, "pInfos", findings);
@@ -250,18 +261,39 @@ impl Validator {
         command_buffer: &CommandBuffer,
         infos: &[vk::MicromapBuildInfoEXT<'_>],
     ) -> Report {
-        let mut findings = Vec::new();
         let count = u32::try_from(infos.len()).unwrap_or(u32::MAX);
+        // SAFETY: a slice points to `len` valid elements; the rest is the caller's.
+        unsafe { self.cmd_build_micromaps_raw(command_buffer, count, infos.as_ptr()) }
+    }
+
+    /// Checks `vkCmdBuildMicromapsEXT(commandBuffer, infoCount, pInfos)` as a
+    /// layer receives it; a NULL `pInfos` with a count is reported, not read.
+    ///
+    /// # Safety
+    /// A non-NULL `infos` must point to `info_count` structures valid as for
+    /// [`micromap_build_info`].
+    pub unsafe fn cmd_build_micromaps_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info_count: u32,
+        infos: *const vk::MicromapBuildInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCmdBuildMicromapsEXT";
         // SAFETY: forwarded from the caller.
         let model = unsafe {
             micromap_build_infos(
-                infos.as_ptr(),
-                count,
-                "vkCmdBuildMicromapsEXT",
+                infos,
+                info_count,
+                function,
                 &mut findings,
+                vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
             )
         };
         let mut report = Report { findings };
+        if infos.is_null() && info_count != 0 {
+            return report;
+        }
         report.extend(self.cmd_build_micromaps(command_buffer, &model));
         report
     }
@@ -277,13 +309,44 @@ impl Validator {
     /// `infos` must be valid as for [`micromap_build_info`], and each
     /// triangleArray host address must be readable for
     /// `(Σ usage counts − 1) × triangleArrayStride + 8` bytes, as the API requires.
-    pub unsafe fn build_micromaps_ash(&mut self, infos: &[vk::MicromapBuildInfoEXT<'_>]) -> Report {
-        let mut findings = Vec::new();
+    pub unsafe fn build_micromaps_ash(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        infos: &[vk::MicromapBuildInfoEXT<'_>],
+    ) -> Report {
         let count = u32::try_from(infos.len()).unwrap_or(u32::MAX);
+        // SAFETY: a slice points to `len` valid elements; the rest is the caller's.
+        unsafe { self.build_micromaps_raw(device, deferred_operation, count, infos.as_ptr()) }
+    }
+
+    /// Checks `vkBuildMicromapsEXT(device, deferredOperation, infoCount,
+    /// pInfos)` as a layer receives it (see [`Self::build_micromaps_ash`]).
+    ///
+    /// # Safety
+    /// As [`Self::build_micromaps_ash`], for `info_count` structures at a
+    /// non-NULL `infos`.
+    pub unsafe fn build_micromaps_raw(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        info_count: u32,
+        infos: *const vk::MicromapBuildInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
         let model = unsafe {
-            micromap_build_infos(infos.as_ptr(), count, "vkBuildMicromapsEXT", &mut findings)
+            micromap_build_infos(
+                infos,
+                info_count,
+                "vkBuildMicromapsEXT",
+                &mut findings,
+                vuid::vkBuildMicromapsEXT::pInfos_parameter,
+            )
         };
+        if infos.is_null() && info_count != 0 {
+            return Report { findings };
+        }
         for (i, info) in model.iter().enumerate() {
             let triangles = info.usage_counts.total();
             let extent = triangles
@@ -319,7 +382,11 @@ impl Validator {
             }
         }
         let mut report = Report { findings };
-        report.extend(self.build_micromaps(&model));
+        report.extend(self.build_micromaps(
+            vk::Handle::as_raw(device),
+            vk::Handle::as_raw(deferred_operation),
+            &model,
+        ));
         report
     }
 }
@@ -431,7 +498,13 @@ mod tests {
         };
         let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
         // SAFETY: the triangle array holds the 2 entries the usage counts describe.
-        let report = unsafe { v.build_micromaps_ash(&[info]) };
+        let report = unsafe {
+            v.build_micromaps_ash(
+                <vk::Device as vk::Handle>::from_raw(1),
+                vk::DeferredOperationKHR::null(),
+                &[info],
+            )
+        };
         // Entry 0 has format 9: found by reading the host triangle array.
         assert!(
             report.contains(vuid::VkMicromapBuildInfoEXT::format_11657),

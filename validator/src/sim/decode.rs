@@ -8,15 +8,41 @@ use std::sync::Arc;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::MicromapTriangle;
 use crate::sim::index::{self, BaryError};
-use crate::sim::opacity::{state_at, OpacityState, Slot};
+use crate::sim::opacity::{bits_per_state, state_at, OpacityState, Slot};
 
 /// The triangle array and data of one micromap build.
+///
+/// The data is shared, not copied: `data` is the whole memory the build's
+/// `data` address lies in (a buffer's contents or a host range) and
+/// `data_start` is where `data` begins in it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct MicromapContent {
-    /// `triangleArray`, one entry per micromap triangle.
+    /// `triangleArray`, one entry per micromap triangle (as far as the
+    /// checker could read it).
     pub triangles: Vec<MicromapTriangle>,
-    /// The bytes `data` points to (as far as the checker could read them).
+    /// The memory holding the bytes `data` points to.
     pub data: Arc<[u8]>,
+    /// The offset of the build's `data` address in [`Self::data`].
+    pub data_start: usize,
+}
+
+/// The work a simulation did: micromap triangles whose states were read
+/// (blocks decoded), bytes read from application memory, and indices read
+/// from index buffers. Returned with each answer, so the cost of a query can
+/// be checked against what it references.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct WorkCounters {
+    pub blocks_decoded: u64,
+    pub bytes_read: u64,
+    pub indices_read: u64,
+}
+
+impl std::ops::AddAssign for WorkCounters {
+    fn add_assign(&mut self, other: Self) {
+        self.blocks_decoded = self.blocks_decoded.saturating_add(other.blocks_decoded);
+        self.bytes_read = self.bytes_read.saturating_add(other.bytes_read);
+        self.indices_read = self.indices_read.saturating_add(other.indices_read);
+    }
 }
 
 /// Why a lookup has no answer.
@@ -33,6 +59,27 @@ pub enum LookupError {
 }
 
 impl MicromapContent {
+    /// Content whose data starts at the beginning of `data`.
+    pub fn new(triangles: Vec<MicromapTriangle>, data: Arc<[u8]>) -> Self {
+        Self::at(triangles, data, 0)
+    }
+
+    /// Content whose data starts `data_start` bytes into `data` (clamped to
+    /// its length: past the end there is no data).
+    pub fn at(triangles: Vec<MicromapTriangle>, data: Arc<[u8]>, data_start: usize) -> Self {
+        let data_start = data_start.min(data.len());
+        Self {
+            triangles,
+            data,
+            data_start,
+        }
+    }
+
+    /// The bytes from the build's `data` address on.
+    pub fn data_bytes(&self) -> &[u8] {
+        self.data.get(self.data_start..).unwrap_or(&[])
+    }
+
     /// The bytes of triangle `m`'s states.
     pub fn triangle_data(&self, m: u64) -> Result<(&MicromapTriangle, &[u8]), LookupError> {
         let count = self.triangles.len() as u64;
@@ -52,7 +99,7 @@ impl MicromapContent {
         let bytes = start
             .checked_add(size)
             .and_then(|end| Some((usize::try_from(start).ok()?, usize::try_from(end).ok()?)))
-            .and_then(|(s, e)| self.data.get(s..e))
+            .and_then(|(s, e)| self.data_bytes().get(s..e))
             .ok_or(LookupError::DataOutOfRange { m })?;
         Ok((triangle, bytes))
     }
@@ -66,22 +113,77 @@ impl MicromapContent {
         v: f32,
         delta: f64,
     ) -> Result<BTreeSet<OpacityState>, LookupError> {
+        self.states_counted(slot, u, v, delta, &mut WorkCounters::default())
+            .map(|(_, states)| states)
+    }
+
+    /// As [`Self::states`], also returning the micro-triangles considered
+    /// and adding what was read to `work` (one block, and the bytes holding
+    /// the considered states).
+    pub fn states_counted(
+        &self,
+        slot: Slot,
+        u: f32,
+        v: f32,
+        delta: f64,
+        work: &mut WorkCounters,
+    ) -> Result<(BTreeSet<u32>, BTreeSet<OpacityState>), LookupError> {
         match slot {
-            Slot::Special(special) => Ok(special.state().into_iter().collect()),
+            Slot::Special(special) => Ok((BTreeSet::new(), special.state().into_iter().collect())),
             Slot::Micromap(m) => {
                 let (triangle, bytes) = self.triangle_data(m)?;
                 let level = u32::from(triangle.subdivision_level);
-                let micro =
-                    index::candidates(u, v, level, delta).map_err(LookupError::Barycentrics)?;
-                micro
-                    .into_iter()
-                    .map(|k| {
-                        state_at(bytes, u32::from(triangle.format), k)
-                            .ok_or(LookupError::DataOutOfRange { m })
-                    })
-                    .collect()
+                let format = u32::from(triangle.format);
+                let micro = match index::candidates(u, v, level, delta) {
+                    Ok(micro) => micro,
+                    // The hit could be anywhere on the triangle: all its states.
+                    Err(BaryError::TooUncertain) => {
+                        return Ok((BTreeSet::new(), self.all_states(m, work)?))
+                    }
+                    Err(e) => return Err(LookupError::Barycentrics(e)),
+                };
+                let states = micro
+                    .iter()
+                    .map(|k| state_at(bytes, format, *k).ok_or(LookupError::DataOutOfRange { m }))
+                    .collect::<Result<BTreeSet<_>, _>>()?;
+                let bits = u64::from(bits_per_state(format).unwrap_or(2));
+                let touched: BTreeSet<u64> =
+                    micro.iter().map(|k| u64::from(*k) * bits / 8).collect();
+                work.blocks_decoded = work.blocks_decoded.saturating_add(1);
+                work.bytes_read = work.bytes_read.saturating_add(touched.len() as u64);
+                Ok((micro, states))
             }
         }
+    }
+
+    /// Every state micromap triangle `m` holds (all its micro-triangles),
+    /// adding one block and the bytes scanned to `work`. The scan stops once
+    /// all four states have been seen.
+    pub fn all_states(
+        &self,
+        m: u64,
+        work: &mut WorkCounters,
+    ) -> Result<BTreeSet<OpacityState>, LookupError> {
+        let (triangle, bytes) = self.triangle_data(m)?;
+        let format = u32::from(triangle.format);
+        let level = u32::from(triangle.subdivision_level);
+        if level > index::MAX_LEVEL {
+            return Err(LookupError::Barycentrics(BaryError::Level));
+        }
+        let bits = u64::from(bits_per_state(format).unwrap_or(2));
+        let mut states = BTreeSet::new();
+        let mut scanned = 0u64;
+        // At most 4^12 micro-triangles.
+        for k in 0..(1u32 << (2 * level)) {
+            states.insert(state_at(bytes, format, k).ok_or(LookupError::DataOutOfRange { m })?);
+            scanned = u64::from(k) * bits / 8 + 1;
+            if states.len() == 4 {
+                break;
+            }
+        }
+        work.blocks_decoded = work.blocks_decoded.saturating_add(1);
+        work.bytes_read = work.bytes_read.saturating_add(scanned);
+        Ok(states)
     }
 }
 
@@ -93,8 +195,8 @@ mod tests {
     fn content() -> MicromapContent {
         // Triangle 0: 4-state level 1 with states T, O, UT, UO; triangle 1:
         // 2-state level 0, opaque; triangle 2: data past the end.
-        MicromapContent {
-            triangles: vec![
+        MicromapContent::new(
+            vec![
                 MicromapTriangle {
                     data_offset: 0,
                     subdivision_level: 1,
@@ -111,8 +213,8 @@ mod tests {
                     format: 2,
                 },
             ],
-            data: Arc::from(vec![0b1110_0100u8, 0x01]),
-        }
+            Arc::from(vec![0b1110_0100u8, 0x01]),
+        )
     }
 
     #[test]
@@ -145,6 +247,46 @@ mod tests {
         assert_eq!(
             c.states(Slot::Special(SpecialIndex::FullyOpaque), 0.3, 0.3, 0.0),
             Ok(BTreeSet::from([OpacityState::Opaque]))
+        );
+    }
+
+    #[test]
+    fn data_is_shared_from_an_offset_and_work_is_counted() {
+        // The data starts 2 bytes into the shared memory.
+        let memory: Arc<[u8]> = Arc::from(vec![0xFFu8, 0xFF, 0b1110_0100]);
+        let c = MicromapContent::at(
+            vec![MicromapTriangle {
+                data_offset: 0,
+                subdivision_level: 1,
+                format: 2,
+            }],
+            Arc::clone(&memory),
+            2,
+        );
+        assert!(Arc::ptr_eq(&c.data, &memory));
+        assert_eq!(c.data_bytes(), &[0b1110_0100]);
+        let mut work = WorkCounters::default();
+        let (micro, states) = c
+            .states_counted(Slot::Micromap(0), 0.4, 0.4, 0.0, &mut work)
+            .unwrap();
+        assert_eq!(micro, BTreeSet::from([1]));
+        assert_eq!(states, BTreeSet::from([OpacityState::Opaque]));
+        assert_eq!(
+            work,
+            WorkCounters {
+                blocks_decoded: 1,
+                bytes_read: 1,
+                indices_read: 0
+            }
+        );
+        assert_eq!(c.all_states(0, &mut work).map(|s| s.len()), Ok(4));
+        assert_eq!(work.blocks_decoded, 2);
+        // A start past the end is clamped: no data.
+        let past = MicromapContent::at(c.triangles.clone(), memory, 99);
+        assert_eq!(past.data_bytes(), &[] as &[u8]);
+        assert_eq!(
+            past.all_states(0, &mut work),
+            Err(LookupError::DataOutOfRange { m: 0 })
         );
     }
 

@@ -134,7 +134,15 @@ pub enum BaryError {
     NotANumber,
     /// The level is above [`MAX_LEVEL`].
     Level,
+    /// The error bound spans more than [`MAX_CANDIDATE_SPAN`] micro-triangles
+    /// across: every micro-triangle of the triangle is a candidate.
+    TooUncertain,
 }
+
+/// The widest error bound, in micro-triangle widths, for which [`candidates`]
+/// lists cells; beyond it the whole triangle is uncertain (a needle or
+/// grazing hit), which callers treat as "any micro-triangle".
+pub const MAX_CANDIDATE_SPAN: f64 = 64.0;
 
 /// The specification's mapping of (u, v) to a micro-triangle at `level`,
 /// with the diagonal test `ru + rv >= 1` evaluated exactly (the reference
@@ -203,7 +211,11 @@ pub fn candidates(u: f32, v: f32, level: u32, delta: f64) -> Result<BTreeSet<u32
     out.insert(spec_triangle(u, v, level)?.index(level));
     out.insert(reference_f32(u, v, level)?.index(level));
     let n = f64::from(1u32 << level);
-    let eps = delta.max(0.0) * n;
+    // A NaN bound says nothing about where the hit is (and `max` would drop it).
+    let eps = if delta.is_nan() { f64::INFINITY } else { delta.max(0.0) * n };
+    if eps > MAX_CANDIDATE_SPAN {
+        return Err(BaryError::TooUncertain);
+    }
     // The nearest point of the triangle {x >= 0, y >= 0, x + y <= N}.
     let (mut x, mut y) = (f64::from(u) * n, f64::from(v) * n);
     x = x.max(0.0);

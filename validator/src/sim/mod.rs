@@ -6,4 +6,5 @@ pub mod decode;
 pub mod index;
 pub mod intersect;
 pub mod opacity;
+pub mod simulate;
 pub mod trace;

@@ -6,7 +6,7 @@ use std::collections::BTreeSet;
 use crate::model::values::{OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE};
 
 /// A micro-triangle's opacity state (4-state values; 2-state data holds 0 or 1).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 pub enum OpacityState {
     Transparent = 0,
     Opaque = 1,
@@ -46,7 +46,7 @@ pub fn state_at(triangle_data: &[u8], format: u32, k: u32) -> Option<OpacityStat
 }
 
 /// `VkOpacityMicromapSpecialIndexKHR` values -1..-4 and the cluster-only -5.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 pub enum SpecialIndex {
     FullyTransparent,
     FullyOpaque,
@@ -80,7 +80,7 @@ impl SpecialIndex {
 }
 
 /// Where a geometry triangle's opacity comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 pub enum Slot {
     /// Micromap triangle `m` (the index read plus baseTriangle, in 64 bits).
     Micromap(u64),
@@ -153,7 +153,7 @@ pub mod ray_flags {
 }
 
 /// What happens to a candidate hit.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 pub enum HitOutcome {
     /// Dropped: transparent, or culled by a ray flag.
     Ignored,

@@ -129,14 +129,14 @@ mod tests {
     use crate::model::MicromapTriangle;
 
     fn micromap() -> MicromapContent {
-        MicromapContent {
-            triangles: vec![MicromapTriangle {
+        MicromapContent::new(
+            vec![MicromapTriangle {
                 data_offset: 0,
                 subdivision_level: 1,
                 format: 2,
             }],
-            data: Arc::from(vec![0b1110_0100u8]),
-        }
+            Arc::from(vec![0b1110_0100u8]),
+        )
     }
 
     fn attachment<'a>(bytes: &'a [u8], micromap: &'a MicromapContent) -> Attachment<'a> {

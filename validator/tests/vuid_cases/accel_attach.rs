@@ -7,7 +7,7 @@ use std::sync::Arc;
 use ommcheck::checks::accel_attach::record_original_attachments;
 use ommcheck::model::accel::*;
 use ommcheck::model::values::*;
-use ommcheck::model::{MicromapUsage, UsageCounts};
+use ommcheck::model::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
 use ommcheck::rules;
 use ommcheck::state::{AccelerationStructure, BuildRecord, HostRange};
 use ommcheck::vuids::khr as khr_values;
@@ -23,7 +23,7 @@ use ommcheck::vuids::vuid::{
     VkClusterAccelerationStructureBuildTriangleClusterInfoNV as cluster,
     VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
 };
-use ommcheck::{Report, Validator};
+use ommcheck::{Report, RuleId, Validator};
 
 use crate::fixtures::*;
 use crate::{case, Case};
@@ -98,6 +98,7 @@ fn built(ty: i32, flags: u32, triangle_count: u64) -> Option<BuildRecord> {
         flags,
         ty,
         triangle_count,
+        ..Default::default()
     })
 }
 
@@ -600,6 +601,7 @@ pub fn cases() -> Vec<Case> {
     cases.extend(across_info_cases());
     cases.extend(instance_cases());
     cases.extend(cluster_cases());
+    cases.extend(usage_count_cases());
     cases
 }
 
@@ -1287,4 +1289,183 @@ fn cluster_cases() -> Vec<Case> {
             },
         ),
     ]
+}
+
+/// Where [`world_with_content`] puts the micromaps' triangle arrays in the
+/// input buffer (256-byte aligned, clear of the fixtures' regions).
+const CONTENT_TRIANGLES_OFFSET: u64 = 0x1800;
+
+/// [`world`] with [`MICROMAP`] built (and its content recorded) from four
+/// 4-state level-1 triangles, and the displacement micromap [`MICROMAP_2`]
+/// from four format-1 level-1 triangles.
+fn world_with_content() -> Validator {
+    let mut v = world();
+    let entries = |format: u16| -> Vec<u8> {
+        (0..TRIANGLES)
+            .flat_map(|m| {
+                MicromapTriangle {
+                    data_offset: m,
+                    subdivision_level: 1,
+                    format,
+                }
+                .to_bytes()
+            })
+            .collect()
+    };
+    let input = v
+        .state_mut()
+        .buffers
+        .get_mut(&INPUT)
+        .expect("fixture buffer");
+    let mut contents = input.contents.as_deref().expect("contents").to_vec();
+    let at = CONTENT_TRIANGLES_OFFSET as usize;
+    contents[at..at + 32].copy_from_slice(&entries(2));
+    contents[at + 0x100..at + 0x120].copy_from_slice(&entries(1));
+    input.contents = Some(Arc::from(contents));
+    let opacity = MicromapBuildInfo {
+        dst_micromap: MICROMAP,
+        usage_counts: UsageCounts::array(vec![usage(
+            TRIANGLES,
+            1,
+            OPACITY_MICROMAP_FORMAT_4_STATE,
+        )]),
+        data: INPUT_ADDRESS,
+        triangle_array: INPUT_ADDRESS + CONTENT_TRIANGLES_OFFSET,
+        triangle_array_stride: 8,
+        scratch_data: SCRATCH_ADDRESS,
+        ..Default::default()
+    };
+    let displacement = MicromapBuildInfo {
+        ty: MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV,
+        dst_micromap: MICROMAP_2,
+        usage_counts: UsageCounts::array(vec![usage(TRIANGLES, 1, 1)]),
+        triangle_array: INPUT_ADDRESS + CONTENT_TRIANGLES_OFFSET + 0x100,
+        scratch_data: SCRATCH_ADDRESS + 0x8000,
+        ..opacity.clone()
+    };
+    let report = v.cmd_build_micromaps(&command_buffer(), &[opacity, displacement]);
+    assert!(!report.has_errors(), "{report}");
+    v
+}
+
+fn usage_count_cases() -> Vec<Case> {
+    vec![
+        // Special indices select no micromap triangle, so the four triangles
+        // the counts declare are referenced by none.
+        case(
+            &rules::ATTACH_USAGE_COUNTS,
+            || {
+                cmd_in(
+                    world_with_content(),
+                    &[device_blas(with_ext(TrianglesOpacityMicromapExt {
+                        index_buffer: SPECIAL_INDICES,
+                        ..ext_ok()
+                    }))],
+                )
+            },
+            || cmd_in(world_with_content(), &[device_blas(with_ext(ext_ok()))]),
+        ),
+        // The displacement attachment's counts name level 2; the triangles
+        // its indices select are level 1.
+        case(
+            &rules::ATTACH_USAGE_COUNTS,
+            || {
+                cmd_in(
+                    world_with_content(),
+                    &[device_blas(with_nv(TrianglesDisplacementMicromapNv {
+                        usage_counts: UsageCounts::array(vec![usage(TRIANGLES, 2, 1)]),
+                        ..nv_ok()
+                    }))],
+                )
+            },
+            || cmd_in(world_with_content(), &[device_blas(with_nv(nv_ok()))]),
+        ),
+    ]
+}
+
+/// The usage-count rule on one EXT attachment in [`world_with_content`].
+fn usage_findings(attachment: TrianglesOpacityMicromapExt) -> Report {
+    cmd_in(world_with_content(), &[device_blas(with_ext(attachment))])
+}
+
+#[test]
+fn usage_counts_count_each_reference_and_skip_what_is_unknown() {
+    let rule = &rules::ATTACH_USAGE_COUNTS;
+    // Stride 0: every triangle reads index 0, four references to one triangle.
+    assert!(!usage_findings(TrianglesOpacityMicromapExt {
+        index_stride: 0,
+        ..ext_ok()
+    })
+    .contains(rule));
+    // ... which three counts do not describe.
+    assert!(usage_findings(TrianglesOpacityMicromapExt {
+        index_stride: 0,
+        usage_counts: UsageCounts::array(vec![usage(3, 1, OPACITY_MICROMAP_FORMAT_4_STATE)]),
+        ..ext_ok()
+    })
+    .contains(rule));
+    // Counts split over duplicate keys are summed; zero counts are allowed.
+    assert!(!usage_findings(TrianglesOpacityMicromapExt {
+        usage_counts: UsageCounts::pointers(vec![
+            usage(1, 1, OPACITY_MICROMAP_FORMAT_4_STATE),
+            usage(3, 1, OPACITY_MICROMAP_FORMAT_4_STATE),
+            usage(0, 2, OPACITY_MICROMAP_FORMAT_2_STATE),
+        ]),
+        ..ext_ok()
+    })
+    .contains(rule));
+    // Index type NONE: triangle t uses t + baseTriangle.
+    assert!(!usage_findings(TrianglesOpacityMicromapExt {
+        index_type: INDEX_TYPE_NONE,
+        index_buffer: 0,
+        ..ext_ok()
+    })
+    .contains(rule));
+    // An index past the micromap is the index rule's finding, not a count mismatch.
+    let past = usage_findings(TrianglesOpacityMicromapExt {
+        index_buffer: BAD_INDICES,
+        ..ext_ok()
+    });
+    assert!(past.contains(&rules::INDEX_IN_RANGE) && !past.contains(rule));
+    let based = usage_findings(TrianglesOpacityMicromapExt {
+        index_type: INDEX_TYPE_NONE,
+        index_buffer: 0,
+        base_triangle: 1,
+        ..ext_ok()
+    });
+    assert!(based.contains(&rules::INDEX_IN_RANGE) && !based.contains(rule));
+    // A micromap whose content the checker never saw: not decided.
+    assert!(!cmd_ext(TrianglesOpacityMicromapExt {
+        index_buffer: SPECIAL_INDICES,
+        ..ext_ok()
+    })
+    .contains(rule));
+}
+
+#[test]
+fn usage_count_findings_name_the_key_and_the_counts() {
+    let report = usage_findings(TrianglesOpacityMicromapExt {
+        index_buffer: SPECIAL_INDICES,
+        ..ext_ok()
+    });
+    let finding = report
+        .findings
+        .iter()
+        .find(|f| f.rule == RuleId::from(&rules::ATTACH_USAGE_COUNTS))
+        .expect("a usage-count finding");
+    assert!(
+        finding.location.ends_with(
+            ".geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.pUsageCounts[0]"
+        ),
+        "{}",
+        finding.location
+    );
+    assert!(
+        finding
+            .message
+            .contains("4 triangles of format 2 at subdivision level 1")
+            && finding.message.contains("0 times"),
+        "{}",
+        finding.message
+    );
 }

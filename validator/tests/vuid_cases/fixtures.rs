@@ -12,6 +12,8 @@ use ommcheck::model::{
 use ommcheck::state::{Buffer, HostRange, MemoryBinding, Micromap};
 use ommcheck::{Device, Profile, Validator};
 
+/// The `VkDevice` handle host commands name.
+pub const DEVICE: u64 = 0xde;
 pub const INPUT: u64 = 0x1b;
 pub const INPUT_ADDRESS: u64 = 0x10_0000;
 pub const INPUT_SIZE: u64 = 0x1_0000;

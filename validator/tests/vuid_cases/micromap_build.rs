@@ -21,7 +21,7 @@ fn cmd_build(build: MicromapBuildInfo) -> Report {
 }
 
 fn host_build_of(build: MicromapBuildInfo) -> Report {
-    validator().build_micromaps(&[build])
+    validator().build_micromaps(DEVICE, 0, &[build])
 }
 
 fn ok_cmd() -> Report {
@@ -726,15 +726,41 @@ pub fn cases() -> Vec<Case> {
         ),
         // vkBuildMicromapsEXT
         case(
+            host::device_parameter,
+            || validator().build_micromaps(0, 0, &[host_build()]),
+            ok_host,
+        ),
+        case(
+            host::deferredOperation_parameter,
+            || validator().build_micromaps(DEVICE, 0xbad, &[host_build()]),
+            ok_host,
+        ),
+        case(
+            host::deferredOperation_parent,
+            || {
+                let mut v = validator();
+                v.state_mut().other_device_objects.insert(0xf0);
+                v.build_micromaps(DEVICE, 0xf0, &[host_build()])
+            },
+            || {
+                let mut v = validator();
+                v.create_deferred_operation(0xdef);
+                v.build_micromaps(DEVICE, 0xdef, &[host_build()])
+            },
+        ),
+        case(
             host::infoCount_arraylength,
-            || validator().build_micromaps(&[]),
+            || validator().build_micromaps(DEVICE, 0, &[]),
             ok_host,
         ),
         case(
             host::micromapHostCommands_07555,
             || {
-                without_features(|d| d.features.micromap_host_commands = false)
-                    .build_micromaps(&[host_build()])
+                without_features(|d| d.features.micromap_host_commands = false).build_micromaps(
+                    DEVICE,
+                    0,
+                    &[host_build()],
+                )
             },
             ok_host,
         ),
@@ -764,7 +790,7 @@ pub fn cases() -> Vec<Case> {
                 let mut v = validator();
                 v.state_mut().micromaps.get_mut(&MICROMAP).unwrap().ty =
                     MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
-                v.build_micromaps(&[host_build()])
+                v.build_micromaps(DEVICE, 0, &[host_build()])
             },
             ok_host,
         ),
@@ -780,7 +806,7 @@ pub fn cases() -> Vec<Case> {
                     .as_mut()
                     .unwrap()
                     .host_visible = false;
-                v.build_micromaps(&[host_build()])
+                v.build_micromaps(DEVICE, 0, &[host_build()])
             },
             ok_host,
         ),
@@ -826,45 +852,70 @@ pub fn cases() -> Vec<Case> {
                     .as_mut()
                     .unwrap()
                     .multi_instance = true;
-                v.build_micromaps(&[host_build()])
+                v.build_micromaps(DEVICE, 0, &[host_build()])
             },
             ok_host,
         ),
         case(
             host::dstMicromap_11667,
-            || validator().build_micromaps(&[host_build(), host_build()]),
+            || validator().build_micromaps(DEVICE, 0, &[host_build(), host_build()]),
             || {
-                validator().build_micromaps(&[
-                    host_build(),
-                    MicromapBuildInfo {
-                        dst_micromap: MICROMAP_2,
-                        scratch_data: HOST_SCRATCH + 0x800,
-                        ..host_build()
-                    },
-                ])
+                validator().build_micromaps(
+                    DEVICE,
+                    0,
+                    &[
+                        host_build(),
+                        MicromapBuildInfo {
+                            dst_micromap: MICROMAP_2,
+                            scratch_data: HOST_SCRATCH + 0x800,
+                            ..host_build()
+                        },
+                    ],
+                )
             },
         ),
         case(
             host::scratchData_11669,
             || {
-                validator().build_micromaps(&[
-                    host_build(),
-                    MicromapBuildInfo {
-                        dst_micromap: MICROMAP_2,
-                        ..host_build()
-                    },
-                ])
+                validator().build_micromaps(
+                    DEVICE,
+                    0,
+                    &[
+                        host_build(),
+                        MicromapBuildInfo {
+                            dst_micromap: MICROMAP_2,
+                            ..host_build()
+                        },
+                    ],
+                )
             },
             || {
-                validator().build_micromaps(&[
-                    host_build(),
-                    MicromapBuildInfo {
-                        dst_micromap: MICROMAP_2,
-                        scratch_data: HOST_SCRATCH + 0x800,
-                        ..host_build()
-                    },
-                ])
+                validator().build_micromaps(
+                    DEVICE,
+                    0,
+                    &[
+                        host_build(),
+                        MicromapBuildInfo {
+                            dst_micromap: MICROMAP_2,
+                            scratch_data: HOST_SCRATCH + 0x800,
+                            ..host_build()
+                        },
+                    ],
+                )
             },
         ),
     ]
+}
+
+#[test]
+fn stride_zero_reads_one_entry_for_any_count() {
+    // 4 × (2^32 − 1) triangles all reading the fixture's first entry (level 1, 4-state).
+    let counts = UsageCounts::array(vec![usage(u32::MAX, 1, 2); 4]);
+    let report = cmd_build(MicromapBuildInfo {
+        triangle_array_stride: 0,
+        usage_counts: counts,
+        ..device_build()
+    });
+    assert!(!report.contains(&rules::HISTOGRAM_MISMATCH), "{report}");
+    assert!(!report.has_errors(), "{report}");
 }

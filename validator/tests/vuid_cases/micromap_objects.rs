@@ -57,6 +57,7 @@ fn world_on(device: Device) -> Validator {
                 flags,
                 ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
                 triangle_count: 2,
+                ..Default::default()
             });
         }
     }
@@ -122,6 +123,23 @@ fn device_where(change: fn(&mut Device)) -> Device {
     let mut d = device();
     change(&mut d);
     d
+}
+
+/// A micromap, a deferred operation and a query pool of another VkDevice.
+const FOREIGN: Handle = 0xf0;
+
+/// [`world`] where [`FOREIGN`] is a handle of another device.
+fn world_with_foreign() -> Validator {
+    let mut v = world();
+    v.state_mut().other_device_objects.insert(FOREIGN);
+    v
+}
+
+/// [`world`] where [`DEFERRED`] still runs an earlier deferred command.
+fn world_with_pending() -> Validator {
+    let mut v = world();
+    v.state_mut().pending_deferred_operations.insert(DEFERRED);
+    v
 }
 
 fn without_micromap_feature() -> Validator {
@@ -500,6 +518,16 @@ macro_rules! host_call_cases {
                 || $call(world(), DEVICE, DEFERRED, true),
             ),
             case(
+                $vuids::deferredOperation_parent,
+                || $call(world_with_foreign(), DEVICE, FOREIGN, true),
+                || $call(world_with_foreign(), DEVICE, DEFERRED, true),
+            ),
+            case(
+                $vuids::deferredOperation_03678,
+                || $call(world_with_pending(), DEVICE, DEFERRED, true),
+                || $call(world(), DEVICE, DEFERRED, true),
+            ),
+            case(
                 $vuids::$host_commands,
                 || $call(without_host_commands(), DEVICE, 0, true),
                 || $call(world(), DEVICE, 0, true),
@@ -513,8 +541,53 @@ macro_rules! host_call_cases {
     };
 }
 
+/// The rules that objects of one call come from one device.
+fn parent_cases() -> Vec<Case> {
+    vec![
+        case(
+            destroy::micromap_parent,
+            || world_with_foreign().destroy_micromap(DEVICE, FOREIGN, None),
+            || world_with_foreign().destroy_micromap(DEVICE, MICROMAP, None),
+        ),
+        case(
+            copy_info::commonparent,
+            || {
+                let info = CopyMicromapInfo {
+                    dst: FOREIGN,
+                    ..copy_micromap_info()
+                };
+                world_with_foreign().cmd_copy_micromap(&command_buffer(), Some(&info))
+            },
+            ok_cmd_copy,
+        ),
+        case(
+            host_write::pMicromaps_parent,
+            || {
+                host_write_on(world_with_foreign(), DEVICE, |w| {
+                    w.micromaps = MicromapList::of(vec![FOREIGN])
+                })
+            },
+            ok_host_write,
+        ),
+        case(
+            cmd_write::commonparent,
+            || {
+                world_with_foreign().cmd_write_micromaps_properties(
+                    &command_buffer(),
+                    &MicromapList::of(vec![MICROMAP]),
+                    QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT,
+                    FOREIGN,
+                    0,
+                )
+            },
+            ok_cmd_write,
+        ),
+    ]
+}
+
 pub fn cases() -> Vec<Case> {
     let mut cases = Vec::new();
+    cases.extend(parent_cases());
     cases.extend(create_cases());
     cases.extend(destroy_cases());
     cases.extend(copy_cases());

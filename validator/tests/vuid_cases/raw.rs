@@ -1,7 +1,9 @@
 //! Cases for the rules of the raw-structure reader.
 
 use ash::vk;
+use ash::vk::Handle as _;
 use ommcheck::model::CommandBuffer;
+use ommcheck::vuids::vuid;
 use ommcheck::{rules, Report};
 
 use crate::fixtures::validator;
@@ -72,6 +74,43 @@ fn looped_chain() -> Report {
 
 pub fn cases() -> Vec<Case> {
     vec![
+        case(
+            vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
+            // SAFETY: a NULL pInfos is never read.
+            || unsafe {
+                validator().cmd_build_micromaps_raw(&CommandBuffer::default(), 1, std::ptr::null())
+            },
+            || with_usages(1),
+        ),
+        case(
+            vuid::vkBuildMicromapsEXT::pInfos_parameter,
+            // SAFETY: a NULL pInfos is never read.
+            || unsafe {
+                validator().build_micromaps_raw(
+                    vk::Device::from_raw(crate::fixtures::DEVICE),
+                    vk::DeferredOperationKHR::null(),
+                    1,
+                    std::ptr::null(),
+                )
+            },
+            // SAFETY: an empty slice is never read.
+            || {
+                unsafe {
+                    validator().build_micromaps_ash(
+                        vk::Device::from_raw(crate::fixtures::DEVICE),
+                        vk::DeferredOperationKHR::null(),
+                        &[],
+                    )
+                }
+                .findings
+                .into_iter()
+                .filter(|f| f.rule.as_str() != "VUID-vkBuildMicromapsEXT-infoCount-arraylength")
+                .fold(Report::default(), |mut r, f| {
+                    r.push(f);
+                    r
+                })
+            },
+        ),
         case(&rules::PNEXT_CHAIN, looped_chain, || with_usages(1)),
         case(
             &rules::READ_BOUND,
