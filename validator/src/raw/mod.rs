@@ -179,15 +179,13 @@ pub unsafe fn micromap_build_info(
     location: &str,
     findings: &mut Vec<Finding>,
 ) -> MicromapBuildInfo {
-    // SAFETY: both union members are 64-bit integers or pointers on the
-    // targets we support; reading either gives the address bits.
-    let (data, scratch_data, triangle_array) = unsafe {
-        (
-            info.data.device_address,
-            info.scratch_data.device_address,
-            info.triangle_array.device_address,
-        )
-    };
+    // The host members' provenance is exposed so a host build can read
+    // through the number again (see `build_micromaps_raw`).
+    let (data, scratch_data, triangle_array) = (
+        accel::address(&info.data),
+        accel::scratch_address(&info.scratch_data),
+        accel::address(&info.triangle_array),
+    );
     MicromapBuildInfo {
         s_type: info.s_type.as_raw(),
         // SAFETY: forwarded from the caller.
@@ -347,6 +345,9 @@ impl Validator {
         if infos.is_null() && info_count != 0 {
             return Report { findings };
         }
+        // Host memory read for this call is forgotten after it: the
+        // application may change or free it once the call returns.
+        let described_before = self.state.host_memory.len();
         for (i, info) in model.iter().enumerate() {
             let triangles = info.usage_counts.total();
             let extent = triangles
@@ -371,7 +372,7 @@ impl Validator {
                 // for `extent` bytes; `extent` fits in memory (bounded above).
                 let bytes = unsafe {
                     std::slice::from_raw_parts(
-                        info.triangle_array as usize as *const u8,
+                        std::ptr::with_exposed_provenance::<u8>(info.triangle_array as usize),
                         extent as usize,
                     )
                 };
@@ -387,6 +388,7 @@ impl Validator {
             vk::Handle::as_raw(deferred_operation),
             &model,
         ));
+        self.state.host_memory.truncate(described_before);
         report
     }
 }
