@@ -212,7 +212,11 @@ pub fn candidates(u: f32, v: f32, level: u32, delta: f64) -> Result<BTreeSet<u32
     out.insert(reference_f32(u, v, level)?.index(level));
     let n = f64::from(1u32 << level);
     // A NaN bound says nothing about where the hit is (and `max` would drop it).
-    let eps = if delta.is_nan() { f64::INFINITY } else { delta.max(0.0) * n };
+    let eps = if delta.is_nan() {
+        f64::INFINITY
+    } else {
+        delta.max(0.0) * n
+    };
     if eps > MAX_CANDIDATE_SPAN {
         return Err(BaryError::TooUncertain);
     }
