@@ -80,3 +80,33 @@ proptest! {
         }
     }
 }
+
+fn vertex() -> impl Strategy<Value = glam::DVec3> {
+    (-100.0f64..100.0, -100.0f64..100.0, -100.0f64..100.0)
+        .prop_map(|(x, y, z)| glam::DVec3::new(x, y, z))
+}
+
+proptest! {
+    /// Rotating a triangle's vertex order must not change whether or where
+    /// a ray hits it; the barycentrics rotate with the vertices (u, v of the
+    /// rotated triangle are v and w = 1 - u - v of the original), which is
+    /// why opacity lookups do depend on the order the index buffer gives.
+    #[test]
+    fn vertex_rotation_moves_barycentrics_not_hits(v0 in vertex(), v1 in vertex(), v2 in vertex(), a in 0.05f64..0.9, b in 0.05f64..0.9) {
+        use ommcheck::sim::intersect::{intersect, Ray};
+        prop_assume!(a + b < 0.95);
+        let normal = (v1 - v0).cross(v2 - v0);
+        prop_assume!(normal.length() > 1e-3);
+        let target = v0 + (v1 - v0) * a + (v2 - v0) * b;
+        let ray = Ray { origin: target + normal.normalize(), direction: -normal.normalize(), t_min: 0.0, t_max: 10.0 };
+        let hit = intersect(&ray, v0, v1, v2).unwrap();
+        let rotated = intersect(&ray, v1, v2, v0).unwrap();
+        let (Some(hit), Some(rotated)) = (hit, rotated) else {
+            return Err(TestCaseError::fail("an interior point was missed"));
+        };
+        let tolerance = hit.delta + rotated.delta + 1e-9;
+        prop_assert!((hit.t - rotated.t).abs() <= 1e-9 * (1.0 + hit.t.abs()));
+        prop_assert!((rotated.u - hit.v).abs() <= tolerance);
+        prop_assert!((rotated.v - (1.0 - hit.u - hit.v)).abs() <= tolerance);
+    }
+}
