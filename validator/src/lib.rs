@@ -74,6 +74,7 @@ pub mod model;
 pub mod raw;
 pub mod report;
 pub mod rules;
+pub mod scene;
 pub mod sim;
 pub mod state;
 pub mod summary;

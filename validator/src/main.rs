@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use ommcheck::summary::CatalogSummary;
+use ommcheck::scene::{CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary};
 use ommcheck::vuids::Vuid;
 
 /// A checker for Vulkan opacity-micromap API usage.
@@ -20,15 +20,31 @@ enum Format {
     Json,
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Deny {
+    Warnings,
+}
+
 #[derive(Subcommand)]
 enum Command {
-    /// Check scene files and print a VUID report.
+    /// Check scene files and print a VUID report. Exit status: 0 when no
+    /// errors were found, 1 when some were (or warnings, with --deny
+    /// warnings), 2 when a scene could not be read.
     Check {
-        /// Check the built-in example.
+        /// Check the built-in example scene (embedded in the binary).
         #[arg(long)]
         example: bool,
-        /// Scene files to check.
+        /// Scene files to check (JSON; see docs/scene-format.md).
         scenes: Vec<std::path::PathBuf>,
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+        /// Check under these limits instead of each scene's: spec-minimum,
+        /// permissive, or a JSON file of limits by spec member name.
+        #[arg(long, value_name = "NAME|FILE")]
+        profile: Option<String>,
+        /// Treat findings of this severity as errors for the exit status.
+        #[arg(long, value_enum)]
+        deny: Option<Deny>,
     },
     /// Map barycentrics to a micro-triangle index, or an index to its micro-triangle.
     Index {
@@ -47,6 +63,8 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
+    /// Print the JSON Schema of scene files (docs/scene.schema.json).
+    Schema,
     /// Print a VUID's catalog entry: parent, extensions, statement and link.
     Vuid {
         /// e.g. VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516
@@ -56,21 +74,13 @@ enum Command {
 
 fn main() -> ExitCode {
     match Cli::parse().command {
-        Command::Check { example, scenes } => {
-            if !scenes.is_empty() {
-                eprintln!("ommcheck: scene files are not supported yet (the scene format arrives with the snapshot reports)");
-                return ExitCode::from(2);
-            }
-            if example {
-                // Until the checker core lands, the built-in example is the
-                // catalog the checks will cite.
-                print!("{}", CatalogSummary::new().render());
-                ExitCode::SUCCESS
-            } else {
-                eprintln!("ommcheck: give scene files or --example");
-                ExitCode::from(2)
-            }
-        }
+        Command::Check {
+            example,
+            scenes,
+            format,
+            profile,
+            deny,
+        } => check_command(example, &scenes, format, profile.as_deref(), deny),
         Command::Index {
             level,
             uv,
@@ -78,6 +88,10 @@ fn main() -> ExitCode {
             delta,
             format,
         } => index_command(level, uv.as_deref(), index, delta, format),
+        Command::Schema => {
+            print!("{}", ommcheck::scene::schema());
+            ExitCode::SUCCESS
+        }
         Command::Vuid { id } => match Vuid::from_id(&id) {
             Some(v) => {
                 let info = v.info();
@@ -111,6 +125,95 @@ fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         },
+    }
+}
+
+/// `ommcheck check`: reads every scene first (a scene that cannot be read
+/// stops the run with status 2 before anything is checked), then checks
+/// each and prints the findings.
+fn check_command(
+    example: bool,
+    paths: &[std::path::PathBuf],
+    format: Format,
+    profile: Option<&str>,
+    deny: Option<Deny>,
+) -> ExitCode {
+    if !example && paths.is_empty() {
+        eprintln!("ommcheck: give scene files or --example");
+        return ExitCode::from(2);
+    }
+    let limits = match profile {
+        None => None,
+        Some(name) => match ommcheck::Profile::from_name(name) {
+            Some(profile) => Some(LimitsOverride::Profile(profile)),
+            None => match ommcheck::scene::read_profile_file(std::path::Path::new(name)) {
+                Ok(limits) => Some(LimitsOverride::Limits(limits)),
+                Err(message) => {
+                    eprintln!("ommcheck: --profile {name}: {message}");
+                    return ExitCode::from(2);
+                }
+            },
+        },
+    };
+    let options = CheckOptions { limits };
+    let mut scenes = Vec::new();
+    if example {
+        scenes.push(Scene::example());
+    }
+    for path in paths {
+        match Scene::load(path) {
+            Ok(scene) => scenes.push(scene),
+            Err(error) => {
+                eprintln!("ommcheck: {error}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let mut reports: Vec<SceneReport> = Vec::new();
+    for scene in &scenes {
+        match scene.check(&options) {
+            Ok(report) => reports.push(report),
+            Err(error) => {
+                eprintln!("ommcheck: {error}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let summary = Summary::of(&reports);
+    match format {
+        Format::Json => {
+            let output = Output {
+                scenes: &reports,
+                summary: summary.clone(),
+            };
+            match serde_json::to_string_pretty(&output) {
+                Ok(text) => println!("{text}"),
+                Err(error) => {
+                    eprintln!("ommcheck: cannot write the report: {error}");
+                    return ExitCode::from(2);
+                }
+            }
+        }
+        Format::Text => {
+            for report in &reports {
+                println!("== {} ({} calls)", report.path, report.calls);
+                if report.findings.is_empty() {
+                    println!("no findings\n");
+                } else {
+                    print!("\n{}", report.report);
+                }
+            }
+            println!(
+                "{} scene(s), {} call(s): {} error(s), {} warning(s), {} info",
+                summary.scenes, summary.calls, summary.errors, summary.warnings, summary.info
+            );
+        }
+    }
+    let denied_warnings = deny == Some(Deny::Warnings) && summary.warnings > 0;
+    if summary.errors > 0 || denied_warnings {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
     }
 }
 

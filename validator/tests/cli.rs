@@ -66,7 +66,11 @@ fn vuid_lookup() {
 
 #[test]
 fn example_runs() {
-    let (code, stdout, _) = ommcheck(&["check", "--example"]);
-    assert_eq!(code, 0);
-    assert!(stdout.contains("574 VUIDs"));
+    // The built-in example has errors on purpose: status 1, with its report.
+    let (code, stdout, stderr) = ommcheck(&["check", "--example"]);
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stdout.contains("Validation Error: [ OMMCHECK-build-triangle-data-in-range ]"));
+    assert!(stdout.contains("[ OMMCHECK-build-usage-counts-match-triangles ]"));
+    assert!(stdout.contains("[ OMMCHECK-attach-index-in-range ]"));
+    assert!(stdout.contains("vkCmdBuildMicromapsEXT(): calls[1]: pInfos[0]"));
 }

@@ -1,0 +1,1374 @@
+//! The scene file as written: serde types whose member names are the
+//! specification's (camelCase, `sType`/`pNext` implied or explicit), with
+//! enums and flags by spec name or number, handles by object name, and
+//! addresses by buffer and offset. `docs/scene-format.md` describes it and
+//! `docs/scene.schema.json` is generated from these types.
+
+use schemars::JsonSchema;
+use serde::de::{self, Deserializer};
+use serde::Deserialize;
+
+use super::args::{deserialize_tagged, AddressArg, HandleArg, Tagged};
+use super::names::{self, Value};
+
+/// Reads a member that must be present but may be `null` (a pointer
+/// parameter: omitting it is a mistake, NULL is a case to check).
+fn nullable<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    deserializer: D,
+) -> Result<Option<T>, D::Error> {
+    Option::<T>::deserialize(deserializer)
+}
+
+/// A whole scene.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+#[schemars(title = "ommcheck scene")]
+pub struct SceneFile {
+    /// The schema this file follows (ignored by ommcheck; editors use it).
+    #[serde(rename = "$schema", default)]
+    pub schema: Option<String>,
+    /// Free text about the scene.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The device the calls run on; absent: every micromap extension and
+    /// feature, with the spec-minimum limits.
+    #[serde(default)]
+    pub device: Option<DeviceDesc>,
+    #[serde(default)]
+    pub buffers: Vec<BufferDesc>,
+    /// Host memory that host commands (`vkBuildMicromapsEXT`, ...) read
+    /// through `hostAddress` members.
+    #[serde(default)]
+    pub host_memory: Vec<HostMemoryDesc>,
+    /// Micromaps that exist before the first call.
+    #[serde(default)]
+    pub micromaps: Vec<MicromapDesc>,
+    /// Acceleration structures that exist before the first call.
+    #[serde(default)]
+    pub acceleration_structures: Vec<AccelerationStructureDesc>,
+    #[serde(default)]
+    pub query_pools: Vec<QueryPoolDesc>,
+    /// `VkDeferredOperationKHR` objects, by name.
+    #[serde(default)]
+    pub deferred_operations: Vec<String>,
+    /// Command buffers calls may name; a `vkCmd*` call without one records
+    /// into a primary command buffer on a graphics+compute+transfer queue.
+    #[serde(default)]
+    pub command_buffers: Vec<CommandBufferDesc>,
+    /// The API calls, checked in order.
+    pub calls: Vec<Call>,
+}
+
+/// The device: enabled extensions and features, and its limits.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct DeviceDesc {
+    /// Enabled device extensions; absent: every micromap and ray-tracing
+    /// extension ommcheck knows.
+    pub extensions: Option<Vec<String>>,
+    /// Enabled features by structure; absent: every feature. When present,
+    /// features not listed are disabled.
+    pub features: Option<FeaturesDesc>,
+    /// `spec-minimum` (default), `permissive`, or the path (relative to the
+    /// scene) of a JSON file of limits with the spec's member names.
+    pub profile: Option<String>,
+    /// Limits over the profile's, by the spec's member names.
+    pub limits: Option<LimitsDesc>,
+    /// Physical devices in the device group (default 1).
+    pub physical_device_count: Option<u32>,
+    /// Queues the device was created with (default 1).
+    pub queue_count: Option<u32>,
+}
+
+/// `VkPhysicalDeviceOpacityMicromapFeaturesEXT`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct OpacityMicromapFeaturesExt {
+    #[serde(default)]
+    pub micromap: bool,
+    #[serde(default)]
+    pub micromap_capture_replay: bool,
+    #[serde(default)]
+    pub micromap_host_commands: bool,
+}
+
+/// `VkPhysicalDeviceOpacityMicromapFeaturesKHR`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct OpacityMicromapFeaturesKhr {
+    #[serde(default)]
+    pub micromap: bool,
+}
+
+/// `VkPhysicalDeviceDisplacementMicromapFeaturesNV`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct DisplacementMicromapFeaturesNv {
+    #[serde(default)]
+    pub displacement_micromap: bool,
+}
+
+/// `VkPhysicalDevicePipelineOpacityMicromapFeaturesARM`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct PipelineOpacityMicromapFeaturesArm {
+    #[serde(default)]
+    pub pipeline_opacity_micromap: bool,
+}
+
+/// `VkPhysicalDeviceAccelerationStructureFeaturesKHR`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AccelerationStructureFeatures {
+    #[serde(default)]
+    pub acceleration_structure: bool,
+    #[serde(default)]
+    pub acceleration_structure_host_commands: bool,
+}
+
+/// `VkPhysicalDeviceBufferDeviceAddressFeatures`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BufferDeviceAddressFeatures {
+    #[serde(default)]
+    pub buffer_device_address: bool,
+    #[serde(default)]
+    pub buffer_device_address_multi_device: bool,
+}
+
+/// `VkPhysicalDeviceSynchronization2Features`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct Synchronization2Features {
+    #[serde(default)]
+    pub synchronization2: bool,
+}
+
+/// `VkPhysicalDeviceIndexTypeUint8Features`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct IndexTypeUint8Features {
+    #[serde(default)]
+    pub index_type_uint8: bool,
+}
+
+/// `VkPhysicalDeviceRayQueryFeaturesKHR`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct RayQueryFeatures {
+    #[serde(default)]
+    pub ray_query: bool,
+}
+
+/// `VkPhysicalDeviceRayTracingPipelineFeaturesKHR`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct RayTracingPipelineFeatures {
+    #[serde(default)]
+    pub ray_tracing_pipeline: bool,
+}
+
+/// Enabled features, keyed by the spec's structure names.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FeaturesDesc {
+    #[serde(rename = "VkPhysicalDeviceOpacityMicromapFeaturesEXT", default)]
+    pub opacity_micromap_ext: OpacityMicromapFeaturesExt,
+    #[serde(rename = "VkPhysicalDeviceOpacityMicromapFeaturesKHR", default)]
+    pub opacity_micromap_khr: OpacityMicromapFeaturesKhr,
+    #[serde(rename = "VkPhysicalDeviceDisplacementMicromapFeaturesNV", default)]
+    pub displacement_micromap_nv: DisplacementMicromapFeaturesNv,
+    #[serde(rename = "VkPhysicalDevicePipelineOpacityMicromapFeaturesARM", default)]
+    pub pipeline_opacity_micromap_arm: PipelineOpacityMicromapFeaturesArm,
+    #[serde(rename = "VkPhysicalDeviceAccelerationStructureFeaturesKHR", default)]
+    pub acceleration_structure: AccelerationStructureFeatures,
+    #[serde(rename = "VkPhysicalDeviceBufferDeviceAddressFeatures", default)]
+    pub buffer_device_address: BufferDeviceAddressFeatures,
+    #[serde(rename = "VkPhysicalDeviceSynchronization2Features", default)]
+    pub synchronization2: Synchronization2Features,
+    #[serde(rename = "VkPhysicalDeviceIndexTypeUint8Features", default)]
+    pub index_type_uint8: IndexTypeUint8Features,
+    #[serde(rename = "VkPhysicalDeviceRayQueryFeaturesKHR", default)]
+    pub ray_query: RayQueryFeatures,
+    #[serde(rename = "VkPhysicalDeviceRayTracingPipelineFeaturesKHR", default)]
+    pub ray_tracing_pipeline: RayTracingPipelineFeatures,
+}
+
+/// Device limits by the spec's member names (each optional; absent ones
+/// keep the profile's value).
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct LimitsDesc {
+    /// `VkPhysicalDeviceOpacityMicromapPropertiesEXT/KHR::maxOpacity2StateSubdivisionLevel`
+    pub max_opacity2_state_subdivision_level: Option<u32>,
+    /// `...::maxOpacity4StateSubdivisionLevel`
+    pub max_opacity4_state_subdivision_level: Option<u32>,
+    /// `VkPhysicalDeviceOpacityMicromapPropertiesKHR::maxOpacityLossy4StateSubdivisionLevel`
+    pub max_opacity_lossy4_state_subdivision_level: Option<u32>,
+    /// `VkPhysicalDeviceOpacityMicromapPropertiesKHR::maxMicromapTriangles`
+    pub max_micromap_triangles: Option<u64>,
+    /// `VkPhysicalDeviceDisplacementMicromapPropertiesNV::maxDisplacementMicromapSubdivisionLevel`
+    pub max_displacement_micromap_subdivision_level: Option<u32>,
+    /// `VkPhysicalDeviceAccelerationStructurePropertiesKHR::minAccelerationStructureScratchOffsetAlignment`
+    pub min_acceleration_structure_scratch_offset_alignment: Option<u32>,
+}
+
+/// The memory a buffer is bound to.
+#[derive(Clone, Copy, Debug, Deserialize, JsonSchema, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum MemoryDesc {
+    /// Bound to device-local memory (the default).
+    #[default]
+    DeviceLocal,
+    /// Bound to memory with VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT.
+    HostVisible,
+    /// Bound to memory allocated with multiple instances (device groups).
+    MultiInstance,
+    /// Host-visible and multi-instance.
+    HostVisibleMultiInstance,
+    /// Not bound to any memory.
+    Unbound,
+}
+
+/// A `VkBuffer`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BufferDesc {
+    pub name: String,
+    pub size: u64,
+    /// `VkBufferUsageFlags2` bits.
+    #[serde(default)]
+    pub usage: Value<names::BufferUsageFlags>,
+    /// `VkBufferCreateFlags` bits.
+    #[serde(default)]
+    pub flags: Value<names::BufferCreateFlags>,
+    #[serde(default)]
+    pub memory: MemoryDesc,
+    /// What `vkGetBufferDeviceAddress` returns; absent: assigned (256-byte
+    /// aligned, in declaration order, clear of every fixed address).
+    pub device_address: Option<u64>,
+    /// The buffer's bytes the checker may read; bytes not given are zero.
+    /// Absent: the checker does not know the contents.
+    pub contents: Option<Contents>,
+}
+
+/// A block of host memory that host commands read.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct HostMemoryDesc {
+    pub name: String,
+    /// Bytes; absent: the end of the last piece of `contents`.
+    pub size: Option<u64>,
+    /// The host address; absent: assigned.
+    pub address: Option<u64>,
+    #[serde(default)]
+    pub contents: Option<Contents>,
+}
+
+/// One piece or a list of pieces of contents.
+#[derive(Debug, JsonSchema)]
+#[serde(untagged)]
+pub enum Contents {
+    One(Piece),
+    Many(Vec<Piece>),
+}
+
+impl<'de> Deserialize<'de> for Contents {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct ContentsVisitor;
+        impl<'de> de::Visitor<'de> for ContentsVisitor {
+            type Value = Contents;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a contents piece ({\"at\": N, \"hex\": ...}) or an array of them")
+            }
+            fn visit_map<A: de::MapAccess<'de>>(self, map: A) -> Result<Contents, A::Error> {
+                Piece::deserialize(de::value::MapAccessDeserializer::new(map)).map(Contents::One)
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(self, seq: A) -> Result<Contents, A::Error> {
+                Vec::<Piece>::deserialize(de::value::SeqAccessDeserializer::new(seq))
+                    .map(Contents::Many)
+            }
+        }
+        deserializer.deserialize_any(ContentsVisitor)
+    }
+}
+
+impl Contents {
+    pub fn pieces(&self) -> &[Piece] {
+        match self {
+            Contents::One(piece) => std::slice::from_ref(piece),
+            Contents::Many(pieces) => pieces,
+        }
+    }
+}
+
+/// Bytes placed at `at` (default 0): exactly one of the forms.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct Piece {
+    #[serde(default)]
+    pub at: u64,
+    /// Hex digits; spaces, newlines and `_` are ignored.
+    pub hex: Option<String>,
+    /// Standard base64.
+    pub base64: Option<String>,
+    /// A binary file, relative to the scene's directory.
+    pub file: Option<String>,
+    /// Bytes.
+    pub u8: Option<Vec<u8>>,
+    /// Little-endian 16-bit values (an index buffer of VK_INDEX_TYPE_UINT16).
+    pub u16: Option<Vec<u16>>,
+    /// Little-endian 32-bit values.
+    pub u32: Option<Vec<u32>>,
+    /// Little-endian 64-bit values.
+    pub u64: Option<Vec<u64>>,
+    /// `VkMicromapTriangleEXT` entries, 8 bytes each.
+    pub triangles: Option<Vec<TriangleDesc>>,
+}
+
+/// `VkMicromapTriangleEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TriangleDesc {
+    pub data_offset: u32,
+    pub subdivision_level: u16,
+    pub format: Value<names::MicromapFormat>,
+}
+
+/// What a build the checker did not see left in an object.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BuiltDesc {
+    /// The build's `flags` (raw bits of the build's flag type).
+    #[serde(default)]
+    pub flags: u32,
+    /// The number of micromap triangles (Σ usage counts).
+    #[serde(default)]
+    pub triangle_count: u64,
+}
+
+/// A `VkMicromapEXT` created before the scene's calls.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct MicromapDesc {
+    pub name: String,
+    pub buffer: String,
+    #[serde(default)]
+    pub offset: u64,
+    pub size: u64,
+    #[serde(rename = "type")]
+    pub ty: Option<Value<names::MicromapType>>,
+    #[serde(default)]
+    pub create_flags: Value<names::MicromapCreateFlags>,
+    /// Set when the micromap was built by a build the scene does not show.
+    pub built: Option<BuiltDesc>,
+}
+
+/// A `VkAccelerationStructureKHR` created before the scene's calls: in a
+/// buffer (`vkCreateAccelerationStructureKHR`) or at an address range
+/// (`vkCreateAccelerationStructure2KHR`).
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AccelerationStructureDesc {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub ty: Value<names::AccelerationStructureType>,
+    pub buffer: Option<String>,
+    #[serde(default)]
+    pub offset: u64,
+    /// The start of its address range (created with
+    /// vkCreateAccelerationStructure2KHR).
+    #[serde(default)]
+    pub address: Option<AddressArg>,
+    pub size: u64,
+    pub built: Option<BuiltDesc>,
+}
+
+/// A `VkQueryPool`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct QueryPoolDesc {
+    pub name: String,
+    pub query_type: Value<names::QueryType>,
+    pub query_count: u32,
+}
+
+/// A `VkCommandBuffer` and its state at the calls that name it.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CommandBufferDesc {
+    pub name: String,
+    /// Between vkBeginCommandBuffer and vkEndCommandBuffer (default true).
+    #[serde(default = "yes")]
+    pub recording: bool,
+    /// Flags of the queue family its pool belongs to (default graphics,
+    /// compute and transfer).
+    pub queue_flags: Option<Value<names::QueueFlags>>,
+    #[serde(default)]
+    pub in_render_pass: bool,
+    #[serde(default)]
+    pub in_video_coding: bool,
+    #[serde(default)]
+    pub suspended: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A structure of a pNext chain, named by its `sType`. The structures
+/// ommcheck reads have their members; any other sType is recorded as chained
+/// (its members are ignored).
+#[derive(Debug, JsonSchema)]
+#[serde(tag = "sType")]
+pub enum ChainStruct {
+    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")]
+    TrianglesOpacityMicromapExt(TrianglesOpacityMicromapExtDesc),
+    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR")]
+    TrianglesOpacityMicromapKhr(TrianglesOpacityMicromapKhrDesc),
+    #[serde(
+        rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV"
+    )]
+    TrianglesDisplacementMicromapNv(TrianglesDisplacementMicromapNvDesc),
+    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR")]
+    GeometryMicromapData(GeometryMicromapDataDesc),
+    /// Any other sType (by name or number); other members are ignored.
+    #[serde(untagged)]
+    Other(OtherStruct),
+}
+
+/// A chained structure ommcheck does not read.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(rename_all = "camelCase")]
+pub struct OtherStruct {
+    pub s_type: Value<names::StructureType>,
+}
+
+impl Tagged for ChainStruct {
+    const TAG: &'static str = "sType";
+    const WHAT: &'static str = "a pNext structure";
+    type Tag = Value<names::StructureType>;
+
+    fn from_rest<'de, D: Deserializer<'de>>(tag: Self::Tag, rest: D) -> Result<Self, D::Error> {
+        use super::names::{lookup, StructureType};
+        let is = |name: &str| lookup::<StructureType>(name) == Some(tag.raw());
+        if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT") {
+            Deserialize::deserialize(rest).map(ChainStruct::TrianglesOpacityMicromapExt)
+        } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR") {
+            Deserialize::deserialize(rest).map(ChainStruct::TrianglesOpacityMicromapKhr)
+        } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV")
+        {
+            Deserialize::deserialize(rest).map(ChainStruct::TrianglesDisplacementMicromapNv)
+        } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR") {
+            Deserialize::deserialize(rest).map(ChainStruct::GeometryMicromapData)
+        } else {
+            de::IgnoredAny::deserialize(rest)?;
+            Ok(ChainStruct::Other(OtherStruct { s_type: tag }))
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for ChainStruct {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserialize_tagged(deserializer)
+    }
+}
+
+/// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct UsageDesc {
+    pub count: u32,
+    pub subdivision_level: u32,
+    pub format: Value<names::MicromapFormat>,
+}
+
+/// `VkMicromapBuildInfoEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct MicromapBuildInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    /// Default VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT.
+    #[serde(rename = "type")]
+    pub ty: Option<Value<names::MicromapType>>,
+    #[serde(default)]
+    pub flags: Value<names::BuildMicromapFlags>,
+    /// Default VK_BUILD_MICROMAP_MODE_BUILD_EXT.
+    pub mode: Option<Value<names::BuildMicromapMode>>,
+    #[serde(default)]
+    pub dst_micromap: HandleArg,
+    /// Default: the length of pUsageCounts or ppUsageCounts.
+    pub usage_counts_count: Option<u32>,
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default)]
+    pub data: AddressArg,
+    #[serde(default)]
+    pub scratch_data: AddressArg,
+    #[serde(default)]
+    pub triangle_array: AddressArg,
+    #[serde(default)]
+    pub triangle_array_stride: u64,
+}
+
+/// `VkMicromapCreateInfoEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct MicromapCreateInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub create_flags: Value<names::MicromapCreateFlags>,
+    #[serde(default)]
+    pub buffer: HandleArg,
+    #[serde(default)]
+    pub offset: u64,
+    #[serde(default)]
+    pub size: u64,
+    #[serde(rename = "type")]
+    pub ty: Option<Value<names::MicromapType>>,
+    #[serde(default)]
+    pub device_address: AddressArg,
+}
+
+/// `VkAllocationCallbacks`: each function pointer as a number (0: NULL).
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AllocationCallbacksDesc {
+    #[serde(default = "some_function")]
+    pub pfn_allocation: u64,
+    #[serde(default = "some_function")]
+    pub pfn_reallocation: u64,
+    #[serde(default = "some_function")]
+    pub pfn_free: u64,
+    #[serde(default)]
+    pub pfn_internal_allocation: u64,
+    #[serde(default)]
+    pub pfn_internal_free: u64,
+}
+
+fn some_function() -> u64 {
+    0x1000
+}
+
+/// `VkCopyMicromapInfoEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CopyMicromapInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub src: HandleArg,
+    #[serde(default)]
+    pub dst: HandleArg,
+    /// Default VK_COPY_MICROMAP_MODE_CLONE_EXT.
+    pub mode: Option<Value<names::CopyMicromapMode>>,
+}
+
+/// `VkCopyMicromapToMemoryInfoEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CopyMicromapToMemoryInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub src: HandleArg,
+    #[serde(default)]
+    pub dst: AddressArg,
+    /// Default VK_COPY_MICROMAP_MODE_SERIALIZE_EXT.
+    pub mode: Option<Value<names::CopyMicromapMode>>,
+}
+
+/// `VkCopyMemoryToMicromapInfoEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CopyMemoryToMicromapInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub src: AddressArg,
+    #[serde(default)]
+    pub dst: HandleArg,
+    /// Default VK_COPY_MICROMAP_MODE_DESERIALIZE_EXT.
+    pub mode: Option<Value<names::CopyMicromapMode>>,
+}
+
+/// `VkMicromapBuildSizesInfoEXT` as handed in (its sizes are outputs).
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct SizesInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+}
+
+/// `VkMicromapVersionInfoEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct MicromapVersionInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    /// The 2 × VK_UUID_SIZE bytes, as hex; null: NULL.
+    #[serde(deserialize_with = "nullable")]
+    #[schemars(required)]
+    pub p_version_data: Option<String>,
+}
+
+/// `VkAccelerationStructureBuildGeometryInfoKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BuildGeometryInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(rename = "type")]
+    pub ty: Value<names::AccelerationStructureType>,
+    #[serde(default)]
+    pub flags: Value<names::BuildAccelerationStructureFlags>,
+    /// Default VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR.
+    pub mode: Option<Value<names::BuildAccelerationStructureMode>>,
+    #[serde(default)]
+    pub src_acceleration_structure: HandleArg,
+    #[serde(default)]
+    pub dst_acceleration_structure: HandleArg,
+    /// Default: the length of pGeometries or ppGeometries.
+    pub geometry_count: Option<u32>,
+    pub p_geometries: Option<Vec<GeometryDesc>>,
+    pub pp_geometries: Option<Vec<Option<GeometryDesc>>>,
+    #[serde(default)]
+    pub scratch_data: AddressArg,
+}
+
+/// `VkAccelerationStructureGeometryKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeometryDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    /// May hold a `VkAccelerationStructureGeometryMicromapDataKHR`.
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    pub geometry_type: Value<names::GeometryType>,
+    /// The union member; absent for micromap geometry.
+    #[serde(default)]
+    pub geometry: GeometryUnionDesc,
+    #[serde(default)]
+    pub flags: Value<names::GeometryFlags>,
+}
+
+/// `VkAccelerationStructureGeometryDataKHR`: at most one member.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeometryUnionDesc {
+    pub triangles: Option<TrianglesDesc>,
+    pub aabbs: Option<AabbsDesc>,
+    pub instances: Option<InstancesDesc>,
+}
+
+/// `VkAccelerationStructureGeometryTrianglesDataKHR`; its pNext chain holds
+/// the opacity or displacement attachment.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    /// Default VK_FORMAT_R32G32B32_SFLOAT.
+    pub vertex_format: Option<Value<names::Format>>,
+    #[serde(default)]
+    pub vertex_data: AddressArg,
+    /// Default 12.
+    pub vertex_stride: Option<u64>,
+    #[serde(default)]
+    pub max_vertex: u32,
+    /// Default VK_INDEX_TYPE_NONE_KHR.
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_data: AddressArg,
+    #[serde(default)]
+    pub transform_data: AddressArg,
+}
+
+/// `VkAccelerationStructureGeometryAabbsDataKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AabbsDesc {
+    #[serde(default)]
+    pub data: AddressArg,
+    #[serde(default)]
+    pub stride: u64,
+}
+
+/// `VkAccelerationStructureGeometryInstancesDataKHR`. With
+/// `arrayOfPointers` false, the checker reads the instances from `data`
+/// where the buffer's contents are known.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct InstancesDesc {
+    #[serde(default)]
+    pub array_of_pointers: bool,
+    #[serde(default)]
+    pub data: AddressArg,
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesOpacityMicromapExtDesc {
+    /// Default VK_INDEX_TYPE_UINT32.
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_buffer: AddressArg,
+    /// Default 4.
+    pub index_stride: Option<u64>,
+    #[serde(default)]
+    pub base_triangle: u32,
+    pub usage_counts_count: Option<u32>,
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default)]
+    pub micromap: HandleArg,
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an
+/// acceleration structure of type OPACITY_MICROMAP.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesOpacityMicromapKhrDesc {
+    /// Default VK_INDEX_TYPE_UINT32.
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_buffer: AddressArg,
+    /// Default 4.
+    pub index_stride: Option<u64>,
+    #[serde(default)]
+    pub base_triangle: u32,
+    #[serde(default)]
+    pub micromap: HandleArg,
+}
+
+/// `VkAccelerationStructureTrianglesDisplacementMicromapNV`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesDisplacementMicromapNvDesc {
+    /// Default VK_FORMAT_R16G16_SFLOAT.
+    pub displacement_bias_and_scale_format: Option<Value<names::Format>>,
+    /// Default VK_FORMAT_R16G16B16A16_SFLOAT.
+    pub displacement_vector_format: Option<Value<names::Format>>,
+    #[serde(default)]
+    pub displacement_bias_and_scale_buffer: AddressArg,
+    #[serde(default)]
+    pub displacement_bias_and_scale_stride: u64,
+    #[serde(default)]
+    pub displacement_vector_buffer: AddressArg,
+    #[serde(default)]
+    pub displacement_vector_stride: u64,
+    #[serde(default)]
+    pub displaced_micromap_primitive_flags: AddressArg,
+    #[serde(default)]
+    pub displaced_micromap_primitive_flags_stride: u64,
+    /// Default VK_INDEX_TYPE_UINT32.
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_buffer: AddressArg,
+    /// Default 4.
+    pub index_stride: Option<u64>,
+    #[serde(default)]
+    pub base_triangle: u32,
+    pub usage_counts_count: Option<u32>,
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default)]
+    pub micromap: HandleArg,
+}
+
+/// `VkAccelerationStructureGeometryMicromapDataKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeometryMicromapDataDesc {
+    pub usage_counts_count: Option<u32>,
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default)]
+    pub data: AddressArg,
+    #[serde(default)]
+    pub triangle_array: AddressArg,
+    /// Default 8.
+    pub triangle_array_stride: Option<u64>,
+}
+
+/// `VkAccelerationStructureBuildRangeInfoKHR`.
+#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BuildRangeDesc {
+    #[serde(default)]
+    pub primitive_count: u32,
+    #[serde(default)]
+    pub primitive_offset: u32,
+    #[serde(default)]
+    pub first_vertex: u32,
+    #[serde(default)]
+    pub transform_offset: u32,
+}
+
+/// `VkAccelerationStructureCreateInfoKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AccelerationStructureCreateInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub create_flags: Value<names::AccelerationStructureCreateFlags>,
+    #[serde(default)]
+    pub buffer: HandleArg,
+    #[serde(default)]
+    pub offset: u64,
+    #[serde(default)]
+    pub size: u64,
+    #[serde(rename = "type")]
+    pub ty: Value<names::AccelerationStructureType>,
+    #[serde(default)]
+    pub device_address: AddressArg,
+}
+
+/// `VkDeviceAddressRangeKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AddressRangeDesc {
+    #[serde(default)]
+    pub address: AddressArg,
+    #[serde(default)]
+    pub size: u64,
+}
+
+/// `VkAccelerationStructureCreateInfo2KHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AccelerationStructureCreateInfo2Desc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub create_flags: Value<names::AccelerationStructureCreateFlags>,
+    pub address_range: AddressRangeDesc,
+    #[serde(default)]
+    pub address_flags: Value<names::AddressCommandFlags>,
+    #[serde(rename = "type")]
+    pub ty: Value<names::AccelerationStructureType>,
+}
+
+/// `VkCopyAccelerationStructureInfoKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CopyAccelerationStructureInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub src: HandleArg,
+    #[serde(default)]
+    pub dst: HandleArg,
+    /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_CLONE_KHR.
+    pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
+}
+
+/// `VkCopyAccelerationStructureToMemoryInfoKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CopyAccelerationStructureToMemoryInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub src: HandleArg,
+    #[serde(default)]
+    pub dst: AddressArg,
+    /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_SERIALIZE_KHR.
+    pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
+}
+
+/// `VkCopyMemoryToAccelerationStructureInfoKHR`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct CopyMemoryToAccelerationStructureInfoDesc {
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default)]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub src: AddressArg,
+    #[serde(default)]
+    pub dst: HandleArg,
+    /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR.
+    pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
+}
+
+/// A command buffer parameter: the name of one in `commandBuffers`, or an
+/// inline description (without `name`).
+#[derive(Debug, Default, JsonSchema)]
+#[serde(untagged)]
+pub enum CommandBufferArg {
+    #[default]
+    #[serde(skip)]
+    Omitted,
+    Name(String),
+    Inline(InlineCommandBuffer),
+}
+
+impl<'de> Deserialize<'de> for CommandBufferArg {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct CommandBufferVisitor;
+        impl<'de> de::Visitor<'de> for CommandBufferVisitor {
+            type Value = CommandBufferArg;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(
+                    "the name of a command buffer in `commandBuffers`, or a command buffer object",
+                )
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<CommandBufferArg, E> {
+                Ok(CommandBufferArg::Name(v.to_string()))
+            }
+            fn visit_map<A: de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<CommandBufferArg, A::Error> {
+                InlineCommandBuffer::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(CommandBufferArg::Inline)
+            }
+        }
+        deserializer.deserialize_any(CommandBufferVisitor)
+    }
+}
+
+/// A command buffer described where it is used.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct InlineCommandBuffer {
+    #[serde(default = "yes")]
+    pub recording: bool,
+    pub queue_flags: Option<Value<names::QueueFlags>>,
+    #[serde(default)]
+    pub in_render_pass: bool,
+    #[serde(default)]
+    pub in_video_coding: bool,
+    #[serde(default)]
+    pub suspended: bool,
+}
+
+macro_rules! params {
+    ($(#[$doc:meta])* $name:ident { $($(#[$fdoc:meta])* $field:ident : $ty:ty),* $(,)? }) => {
+        $(#[$doc])*
+        #[derive(Debug, Deserialize, JsonSchema)]
+        #[serde(deny_unknown_fields, rename_all = "camelCase")]
+        pub struct $name {
+            $($(#[$fdoc])* pub $field: $ty),*
+        }
+    };
+}
+
+params!(
+    /// `vkCreateMicromapEXT(device, pCreateInfo, pAllocator, pMicromap)`.
+    CreateMicromap {
+        #[serde(default)] device: HandleArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_create_info: Option<MicromapCreateInfoDesc>,
+        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
+        /// The name the new micromap gets; null: pMicromap is NULL.
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_micromap: Option<String>,
+    }
+);
+
+params!(
+    /// `vkDestroyMicromapEXT(device, micromap, pAllocator)`.
+    DestroyMicromap {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] micromap: HandleArg,
+        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
+    }
+);
+
+params!(
+    /// `vkCmdBuildMicromapsEXT(commandBuffer, infoCount, pInfos)`.
+    CmdBuildMicromaps {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        p_infos: Vec<MicromapBuildInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkBuildMicromapsEXT(device, deferredOperation, infoCount, pInfos)`;
+    /// addresses are host addresses.
+    BuildMicromaps {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_infos: Vec<MicromapBuildInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkGetMicromapBuildSizesEXT(device, buildType, pBuildInfo, pSizeInfo)`.
+    GetMicromapBuildSizes {
+        #[serde(default)] device: HandleArg,
+        build_type: Value<names::BuildType>,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_build_info: Option<MicromapBuildInfoDesc>,
+        /// Absent: a VkMicromapBuildSizesInfoEXT with its sType.
+        #[serde(default = "some_sizes_info", deserialize_with = "nullable")] p_size_info: Option<SizesInfoDesc>,
+    }
+);
+
+fn some_sizes_info() -> Option<SizesInfoDesc> {
+    Some(SizesInfoDesc::default())
+}
+
+params!(
+    /// `vkCmdCopyMicromapEXT(commandBuffer, pInfo)`.
+    CmdCopyMicromap {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`.
+    CmdCopyMicromapToMemory {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapToMemoryInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`.
+    CmdCopyMemoryToMicromap {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMemoryToMicromapInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
+    CopyMicromap {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`.
+    CopyMicromapToMemory {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapToMemoryInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`.
+    CopyMemoryToMicromap {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMemoryToMicromapInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCmdWriteMicromapsPropertiesEXT(commandBuffer, micromapCount,
+    /// pMicromaps, queryType, queryPool, firstQuery)`.
+    CmdWriteMicromapsProperties {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        /// Default: the length of pMicromaps.
+        micromap_count: Option<u32>,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_micromaps: Option<Vec<HandleArg>>,
+        query_type: Value<names::QueryType>,
+        #[serde(default)] query_pool: HandleArg,
+        #[serde(default)] first_query: u32,
+    }
+);
+
+params!(
+    /// `vkWriteMicromapsPropertiesEXT(device, micromapCount, pMicromaps,
+    /// queryType, dataSize, pData, stride)`.
+    WriteMicromapsProperties {
+        #[serde(default)] device: HandleArg,
+        micromap_count: Option<u32>,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_micromaps: Option<Vec<HandleArg>>,
+        query_type: Value<names::QueryType>,
+        #[serde(default)] data_size: u64,
+        #[serde(default)] p_data: AddressArg,
+        #[serde(default)] stride: u64,
+    }
+);
+
+params!(
+    /// `vkGetDeviceMicromapCompatibilityEXT(device, pVersionInfo, pCompatibility)`.
+    GetDeviceMicromapCompatibility {
+        #[serde(default)] device: HandleArg,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_version_info: Option<MicromapVersionInfoDesc>,
+        /// false: pCompatibility is NULL.
+        #[serde(default = "yes")] p_compatibility: bool,
+    }
+);
+
+params!(
+    /// `vkCreateAccelerationStructureKHR(device, pCreateInfo, pAllocator,
+    /// pAccelerationStructure)`.
+    CreateAccelerationStructure {
+        #[serde(default)] device: HandleArg,
+        p_create_info: AccelerationStructureCreateInfoDesc,
+        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
+        /// The name the new acceleration structure gets.
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_acceleration_structure: Option<String>,
+    }
+);
+
+params!(
+    /// `vkCreateAccelerationStructure2KHR(device, pCreateInfo, pAllocator,
+    /// pAccelerationStructure)`.
+    CreateAccelerationStructure2 {
+        #[serde(default)] device: HandleArg,
+        p_create_info: AccelerationStructureCreateInfo2Desc,
+        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
+        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_acceleration_structure: Option<String>,
+    }
+);
+
+params!(
+    /// `vkCmdBuildAccelerationStructuresKHR(commandBuffer, infoCount, pInfos,
+    /// ppBuildRangeInfos)`.
+    CmdBuildAccelerationStructures {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        p_infos: Vec<BuildGeometryInfoDesc>,
+        /// One array per info (null: a NULL element); absent: none.
+        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeDesc>>>,
+    }
+);
+
+params!(
+    /// `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer, infoCount,
+    /// pInfos, pIndirectDeviceAddresses, pIndirectStrides, ppMaxPrimitiveCounts)`.
+    CmdBuildAccelerationStructuresIndirect {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        p_infos: Vec<BuildGeometryInfoDesc>,
+        #[serde(default)] p_indirect_device_addresses: Vec<AddressArg>,
+        #[serde(default)] p_indirect_strides: Vec<u32>,
+        #[serde(default)] pp_max_primitive_counts: Vec<Option<Vec<u32>>>,
+    }
+);
+
+params!(
+    /// `vkBuildAccelerationStructuresKHR(device, deferredOperation,
+    /// infoCount, pInfos, ppBuildRangeInfos)`; addresses are host addresses.
+    BuildAccelerationStructures {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_infos: Vec<BuildGeometryInfoDesc>,
+        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeDesc>>>,
+    }
+);
+
+params!(
+    /// `vkGetAccelerationStructureBuildSizesKHR(device, buildType,
+    /// pBuildInfo, pMaxPrimitiveCounts, pSizeInfo)`.
+    GetAccelerationStructureBuildSizes {
+        #[serde(default)] device: HandleArg,
+        build_type: Value<names::BuildType>,
+        p_build_info: BuildGeometryInfoDesc,
+        /// null or absent: NULL.
+        #[serde(default)] p_max_primitive_counts: Option<Vec<u32>>,
+        #[serde(default)] p_size_info: Option<SizesInfoDesc>,
+    }
+);
+
+params!(
+    /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`.
+    CmdCopyAccelerationStructure {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        p_info: CopyAccelerationStructureInfoDesc,
+    }
+);
+
+params!(
+    /// `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`.
+    CopyAccelerationStructure {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_info: CopyAccelerationStructureInfoDesc,
+    }
+);
+
+params!(
+    /// `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`.
+    CmdCopyAccelerationStructureToMemory {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        p_info: CopyAccelerationStructureToMemoryInfoDesc,
+    }
+);
+
+params!(
+    /// `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`.
+    CmdCopyMemoryToAccelerationStructure {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        p_info: CopyMemoryToAccelerationStructureInfoDesc,
+    }
+);
+
+/// One API call: `{"call": "vkCmdBuildMicromapsEXT", ...parameters}`.
+#[derive(Debug, JsonSchema)]
+#[serde(tag = "call")]
+pub enum Call {
+    #[serde(rename = "vkCreateMicromapEXT")]
+    CreateMicromap(CreateMicromap),
+    #[serde(rename = "vkDestroyMicromapEXT")]
+    DestroyMicromap(DestroyMicromap),
+    #[serde(rename = "vkCmdBuildMicromapsEXT")]
+    CmdBuildMicromaps(CmdBuildMicromaps),
+    #[serde(rename = "vkBuildMicromapsEXT")]
+    BuildMicromaps(BuildMicromaps),
+    #[serde(rename = "vkGetMicromapBuildSizesEXT")]
+    GetMicromapBuildSizes(GetMicromapBuildSizes),
+    #[serde(rename = "vkCmdCopyMicromapEXT")]
+    CmdCopyMicromap(CmdCopyMicromap),
+    #[serde(rename = "vkCmdCopyMicromapToMemoryEXT")]
+    CmdCopyMicromapToMemory(CmdCopyMicromapToMemory),
+    #[serde(rename = "vkCmdCopyMemoryToMicromapEXT")]
+    CmdCopyMemoryToMicromap(CmdCopyMemoryToMicromap),
+    #[serde(rename = "vkCopyMicromapEXT")]
+    CopyMicromap(CopyMicromap),
+    #[serde(rename = "vkCopyMicromapToMemoryEXT")]
+    CopyMicromapToMemory(CopyMicromapToMemory),
+    #[serde(rename = "vkCopyMemoryToMicromapEXT")]
+    CopyMemoryToMicromap(CopyMemoryToMicromap),
+    #[serde(rename = "vkCmdWriteMicromapsPropertiesEXT")]
+    CmdWriteMicromapsProperties(CmdWriteMicromapsProperties),
+    #[serde(rename = "vkWriteMicromapsPropertiesEXT")]
+    WriteMicromapsProperties(WriteMicromapsProperties),
+    #[serde(rename = "vkGetDeviceMicromapCompatibilityEXT")]
+    GetDeviceMicromapCompatibility(GetDeviceMicromapCompatibility),
+    #[serde(rename = "vkCreateAccelerationStructureKHR")]
+    CreateAccelerationStructure(CreateAccelerationStructure),
+    #[serde(rename = "vkCreateAccelerationStructure2KHR")]
+    CreateAccelerationStructure2(CreateAccelerationStructure2),
+    #[serde(rename = "vkCmdBuildAccelerationStructuresKHR")]
+    CmdBuildAccelerationStructures(CmdBuildAccelerationStructures),
+    #[serde(rename = "vkCmdBuildAccelerationStructuresIndirectKHR")]
+    CmdBuildAccelerationStructuresIndirect(CmdBuildAccelerationStructuresIndirect),
+    #[serde(rename = "vkBuildAccelerationStructuresKHR")]
+    BuildAccelerationStructures(BuildAccelerationStructures),
+    #[serde(rename = "vkGetAccelerationStructureBuildSizesKHR")]
+    GetAccelerationStructureBuildSizes(GetAccelerationStructureBuildSizes),
+    #[serde(rename = "vkCmdCopyAccelerationStructureKHR")]
+    CmdCopyAccelerationStructure(CmdCopyAccelerationStructure),
+    #[serde(rename = "vkCopyAccelerationStructureKHR")]
+    CopyAccelerationStructure(CopyAccelerationStructure),
+    #[serde(rename = "vkCmdCopyAccelerationStructureToMemoryKHR")]
+    CmdCopyAccelerationStructureToMemory(CmdCopyAccelerationStructureToMemory),
+    #[serde(rename = "vkCmdCopyMemoryToAccelerationStructureKHR")]
+    CmdCopyMemoryToAccelerationStructure(CmdCopyMemoryToAccelerationStructure),
+}
+
+/// Every call name a scene may use, for messages and docs.
+pub const CALL_NAMES: [&str; 24] = [
+    "vkCreateMicromapEXT",
+    "vkDestroyMicromapEXT",
+    "vkCmdBuildMicromapsEXT",
+    "vkBuildMicromapsEXT",
+    "vkGetMicromapBuildSizesEXT",
+    "vkCmdCopyMicromapEXT",
+    "vkCmdCopyMicromapToMemoryEXT",
+    "vkCmdCopyMemoryToMicromapEXT",
+    "vkCopyMicromapEXT",
+    "vkCopyMicromapToMemoryEXT",
+    "vkCopyMemoryToMicromapEXT",
+    "vkCmdWriteMicromapsPropertiesEXT",
+    "vkWriteMicromapsPropertiesEXT",
+    "vkGetDeviceMicromapCompatibilityEXT",
+    "vkCreateAccelerationStructureKHR",
+    "vkCreateAccelerationStructure2KHR",
+    "vkCmdBuildAccelerationStructuresKHR",
+    "vkCmdBuildAccelerationStructuresIndirectKHR",
+    "vkBuildAccelerationStructuresKHR",
+    "vkGetAccelerationStructureBuildSizesKHR",
+    "vkCmdCopyAccelerationStructureKHR",
+    "vkCopyAccelerationStructureKHR",
+    "vkCmdCopyAccelerationStructureToMemoryKHR",
+    "vkCmdCopyMemoryToAccelerationStructureKHR",
+];
+
+impl Tagged for Call {
+    const TAG: &'static str = "call";
+    const WHAT: &'static str = "a call";
+    type Tag = String;
+
+    fn from_rest<'de, D: Deserializer<'de>>(name: String, rest: D) -> Result<Self, D::Error> {
+        use Deserialize as De;
+        Ok(match name.as_str() {
+            "vkCreateMicromapEXT" => Call::CreateMicromap(De::deserialize(rest)?),
+            "vkDestroyMicromapEXT" => Call::DestroyMicromap(De::deserialize(rest)?),
+            "vkCmdBuildMicromapsEXT" => Call::CmdBuildMicromaps(De::deserialize(rest)?),
+            "vkBuildMicromapsEXT" => Call::BuildMicromaps(De::deserialize(rest)?),
+            "vkGetMicromapBuildSizesEXT" => Call::GetMicromapBuildSizes(De::deserialize(rest)?),
+            "vkCmdCopyMicromapEXT" => Call::CmdCopyMicromap(De::deserialize(rest)?),
+            "vkCmdCopyMicromapToMemoryEXT" => Call::CmdCopyMicromapToMemory(De::deserialize(rest)?),
+            "vkCmdCopyMemoryToMicromapEXT" => Call::CmdCopyMemoryToMicromap(De::deserialize(rest)?),
+            "vkCopyMicromapEXT" => Call::CopyMicromap(De::deserialize(rest)?),
+            "vkCopyMicromapToMemoryEXT" => Call::CopyMicromapToMemory(De::deserialize(rest)?),
+            "vkCopyMemoryToMicromapEXT" => Call::CopyMemoryToMicromap(De::deserialize(rest)?),
+            "vkCmdWriteMicromapsPropertiesEXT" => {
+                Call::CmdWriteMicromapsProperties(De::deserialize(rest)?)
+            }
+            "vkWriteMicromapsPropertiesEXT" => {
+                Call::WriteMicromapsProperties(De::deserialize(rest)?)
+            }
+            "vkGetDeviceMicromapCompatibilityEXT" => {
+                Call::GetDeviceMicromapCompatibility(De::deserialize(rest)?)
+            }
+            "vkCreateAccelerationStructureKHR" => {
+                Call::CreateAccelerationStructure(De::deserialize(rest)?)
+            }
+            "vkCreateAccelerationStructure2KHR" => {
+                Call::CreateAccelerationStructure2(De::deserialize(rest)?)
+            }
+            "vkCmdBuildAccelerationStructuresKHR" => {
+                Call::CmdBuildAccelerationStructures(De::deserialize(rest)?)
+            }
+            "vkCmdBuildAccelerationStructuresIndirectKHR" => {
+                Call::CmdBuildAccelerationStructuresIndirect(De::deserialize(rest)?)
+            }
+            "vkBuildAccelerationStructuresKHR" => {
+                Call::BuildAccelerationStructures(De::deserialize(rest)?)
+            }
+            "vkGetAccelerationStructureBuildSizesKHR" => {
+                Call::GetAccelerationStructureBuildSizes(De::deserialize(rest)?)
+            }
+            "vkCmdCopyAccelerationStructureKHR" => {
+                Call::CmdCopyAccelerationStructure(De::deserialize(rest)?)
+            }
+            "vkCopyAccelerationStructureKHR" => {
+                Call::CopyAccelerationStructure(De::deserialize(rest)?)
+            }
+            "vkCmdCopyAccelerationStructureToMemoryKHR" => {
+                Call::CmdCopyAccelerationStructureToMemory(De::deserialize(rest)?)
+            }
+            "vkCmdCopyMemoryToAccelerationStructureKHR" => {
+                Call::CmdCopyMemoryToAccelerationStructure(De::deserialize(rest)?)
+            }
+            other => {
+                return Err(de::Error::custom(format!(
+                    "unknown call `{other}`; expected one of {}",
+                    CALL_NAMES.join(", ")
+                )))
+            }
+        })
+    }
+}
+
+impl<'de> Deserialize<'de> for Call {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserialize_tagged(deserializer)
+    }
+}

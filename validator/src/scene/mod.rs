@@ -1,0 +1,293 @@
+//! Scene files: a JSON description of a device, its buffers and objects, and
+//! an ordered list of API calls, checked call by call without a GPU.
+//!
+//! ```
+//! use ommcheck::scene::{Scene, CheckOptions};
+//!
+//! let scene = Scene::parse(r#"{
+//!     "buffers": [{ "name": "scratch", "size": 65536,
+//!                   "usage": "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT" }],
+//!     "calls": [{ "call": "vkCmdBuildMicromapsEXT", "pInfos": [] }]
+//! }"#, "inline.json", std::path::Path::new(".")).unwrap();
+//! let checked = scene.check(&CheckOptions::default()).unwrap();
+//! assert!(checked.report.contains(
+//!     ommcheck::vuids::vuid::vkCmdBuildMicromapsEXT::infoCount_arraylength));
+//! assert!(checked.report.findings[0].location.starts_with("calls[0]"));
+//! ```
+//!
+//! `docs/scene-format.md` describes the format; [`schema`] gives its JSON
+//! Schema.
+
+pub mod args;
+pub mod format;
+pub mod names;
+mod resolve;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+pub use resolve::{
+    read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, DEVICE_HANDLE,
+    MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,
+};
+
+use crate::report::{Finding, Report, Severity};
+use format::SceneFile;
+
+/// The built-in example scene (`ommcheck check --example`): a micromap
+/// build and a BLAS build with three realistic mistakes.
+pub const EXAMPLE: &str = include_str!("../../examples/example-scene.json");
+/// The name the example goes by in reports.
+pub const EXAMPLE_PATH: &str = "<built-in example>";
+
+/// The largest scene file ommcheck reads (binary data belongs in `file`
+/// pieces, which are limited separately).
+pub const MAX_SCENE_BYTES: u64 = 64 << 20;
+
+/// Why a scene could not be checked.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SceneError {
+    /// The file could not be read.
+    Read { path: String, message: String },
+    /// The file is not a scene: malformed JSON or a member of the wrong
+    /// shape, at a line and column (1-based).
+    Syntax {
+        path: String,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    /// The scene is well-formed but names something that does not exist or
+    /// cannot be; `json_path` says where (`calls[2].pInfos[0].dstMicromap`).
+    Semantic {
+        path: String,
+        json_path: String,
+        message: String,
+    },
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneError::Read { path, message } => write!(f, "{path}: {message}"),
+            SceneError::Syntax {
+                path,
+                line,
+                column,
+                message,
+            } => write!(f, "{path}:{line}:{column}: {message}"),
+            SceneError::Semantic {
+                path,
+                json_path,
+                message,
+            } => write!(f, "{path}: {json_path}: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// What the command line may override.
+#[derive(Clone, Debug, Default)]
+pub struct CheckOptions {
+    /// Limits to check under instead of the scene's profile and limits.
+    pub limits: Option<LimitsOverride>,
+}
+
+/// A parsed scene, ready to check.
+#[derive(Debug)]
+pub struct Scene {
+    /// The path as given (or a name for a scene from memory).
+    pub path: String,
+    /// Where relative paths inside the scene are resolved from.
+    pub base_dir: PathBuf,
+    pub file: SceneFile,
+}
+
+/// The result of checking one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneReport {
+    pub path: String,
+    /// How many calls were checked.
+    pub calls: usize,
+    /// The scene's named objects and the handles findings show for them.
+    pub objects: Vec<NamedObject>,
+    pub findings: Vec<Finding>,
+    #[serde(skip)]
+    pub report: Report,
+}
+
+impl Scene {
+    /// Reads and parses a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let shown = path.display().to_string();
+        let read_error = |message: String| SceneError::Read {
+            path: shown.clone(),
+            message,
+        };
+        let size = std::fs::metadata(path)
+            .map_err(|e| read_error(format!("cannot read: {e}")))?
+            .len();
+        if size > MAX_SCENE_BYTES {
+            return Err(read_error(format!(
+                "{size} bytes; a scene file may have at most {MAX_SCENE_BYTES} (put large data in binary files the scene names)"
+            )));
+        }
+        let text =
+            std::fs::read_to_string(path).map_err(|e| read_error(format!("cannot read: {e}")))?;
+        let base_dir = path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
+        Scene::parse(&text, &shown, &base_dir)
+    }
+
+    /// Parses scene text; `path` names it in messages and `base_dir`
+    /// anchors the relative paths it contains.
+    pub fn parse(text: &str, path: &str, base_dir: &Path) -> Result<Scene, SceneError> {
+        let file: SceneFile = serde_json::from_str(text).map_err(|e| syntax(path, &e))?;
+        Ok(Scene {
+            path: path.to_string(),
+            base_dir: base_dir.to_path_buf(),
+            file,
+        })
+    }
+
+    /// The built-in example.
+    pub fn example() -> Scene {
+        match Scene::parse(EXAMPLE, EXAMPLE_PATH, Path::new(".")) {
+            Ok(scene) => scene,
+            // A test parses the example; an unreadable one is a build defect
+            // shown as a scene with no calls rather than a panic.
+            Err(_) => Scene {
+                path: EXAMPLE_PATH.into(),
+                base_dir: PathBuf::from("."),
+                file: SceneFile {
+                    schema: None,
+                    description: None,
+                    device: None,
+                    buffers: Vec::new(),
+                    host_memory: Vec::new(),
+                    micromaps: Vec::new(),
+                    acceleration_structures: Vec::new(),
+                    query_pools: Vec::new(),
+                    deferred_operations: Vec::new(),
+                    command_buffers: Vec::new(),
+                    calls: Vec::new(),
+                },
+            },
+        }
+    }
+
+    /// Resolves every name, address and file of the scene, then checks its
+    /// calls in order. A semantic error returns before any finding.
+    pub fn check(&self, options: &CheckOptions) -> Result<SceneReport, SceneError> {
+        let checked =
+            resolve::check(&self.file, &self.base_dir, options.limits.as_ref()).map_err(|p| {
+                SceneError::Semantic {
+                    path: self.path.clone(),
+                    json_path: p.path,
+                    message: p.message,
+                }
+            })?;
+        Ok(SceneReport {
+            path: self.path.clone(),
+            calls: checked.calls,
+            objects: checked.objects,
+            findings: checked.report.findings.clone(),
+            report: checked.report,
+        })
+    }
+}
+
+fn syntax(path: &str, error: &serde_json::Error) -> SceneError {
+    let (line, column) = (error.line(), error.column());
+    let text = error.to_string();
+    // serde_json appends the position; it is shown in front instead.
+    let message = text
+        .strip_suffix(&format!(" at line {line} column {column}"))
+        .unwrap_or(&text)
+        .to_string();
+    SceneError::Syntax {
+        path: path.to_string(),
+        line,
+        column,
+        message,
+    }
+}
+
+/// Counts over every checked scene (the JSON output's `summary`).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Summary {
+    pub scenes: usize,
+    pub calls: usize,
+    pub findings: usize,
+    pub errors: usize,
+    pub warnings: usize,
+    pub info: usize,
+}
+
+impl Summary {
+    pub fn of(reports: &[SceneReport]) -> Summary {
+        let mut summary = Summary {
+            scenes: reports.len(),
+            ..Summary::default()
+        };
+        for report in reports {
+            summary.calls += report.calls;
+            for finding in &report.findings {
+                summary.findings += 1;
+                match finding.severity {
+                    Severity::Error => summary.errors += 1,
+                    Severity::Warning => summary.warnings += 1,
+                    Severity::Info => summary.info += 1,
+                }
+            }
+        }
+        summary
+    }
+}
+
+/// The JSON output of `ommcheck check --format json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Output<'a> {
+    pub scenes: &'a [SceneReport],
+    pub summary: Summary,
+}
+
+/// The JSON Schema of scene files, generated from the serde types
+/// (published as `docs/scene.schema.json`).
+pub fn schema() -> String {
+    let schema = schemars::schema_for!(SceneFile);
+    let mut text = serde_json::to_string_pretty(&schema).unwrap_or_default();
+    text.push('\n');
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_example_parses_and_checks() {
+        let scene = Scene::parse(EXAMPLE, EXAMPLE_PATH, Path::new(".")).unwrap();
+        let report = scene.check(&CheckOptions::default()).unwrap();
+        assert!(report.report.has_errors());
+    }
+
+    #[test]
+    fn syntax_errors_carry_line_and_column() {
+        let error = Scene::parse(
+            "{\n  \"calls\": [\n    {\"call\": 5}\n  ]\n}",
+            "s.json",
+            Path::new("."),
+        )
+        .unwrap_err();
+        match error {
+            SceneError::Syntax { line, .. } => assert_eq!(line, 3),
+            other => panic!("{other}"),
+        }
+    }
+}

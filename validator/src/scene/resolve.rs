@@ -1,0 +1,1838 @@
+//! Turns a scene into a device, tracked objects and model-typed calls, and
+//! checks the calls in order. Every name, address and file is resolved
+//! before a finding is handed out: a scene with a semantic error yields the
+//! error and no report.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use base64::Engine as _;
+
+use crate::device::{Device, Limits, Profile};
+use crate::model::accel::{
+    AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
+    BuildGeometryInfo, BuildRangeInfo, CopyAccelerationStructureInfo,
+    CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo, Geometry,
+    GeometryData, GeometryMicromapData, Instance, InstancesData, TrianglesData,
+    TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
+};
+use crate::model::command::{queue, CommandBuffer};
+use crate::model::micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
+use crate::model::micromap_objects::{
+    AllocationCallbacks, CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo,
+    MicromapBuildSizesInfo, MicromapCreateInfo, MicromapList, MicromapVersionInfo,
+};
+use crate::report::Report;
+use crate::state::{
+    AccelerationStructure, Buffer, BuildRecord, Handle, HostRange, MemoryBinding, Micromap,
+    QueryPool,
+};
+use crate::validator::Validator;
+
+use super::args::{AddressArg, HandleArg};
+use super::format::*;
+use super::names::Value;
+
+/// A scene problem found while resolving it: where (a JSON path) and what.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Problem {
+    pub path: String,
+    pub message: String,
+}
+
+type Result<T> = std::result::Result<T, Problem>;
+
+fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {
+    Err(Problem {
+        path: path.into(),
+        message: message.into(),
+    })
+}
+
+/// The `VkDevice` handle scene calls pass unless they say otherwise.
+pub const DEVICE_HANDLE: Handle = 0xd0;
+
+/// The most bytes of contents one buffer or host block may have: contents
+/// are held in memory, so a scene cannot make the checker allocate more.
+pub const MAX_CONTENTS_BYTES: u64 = 256 << 20;
+/// The most bytes of contents one scene may have in all.
+pub const MAX_SCENE_CONTENTS_BYTES: u64 = 1 << 30;
+
+/// Where assigned device addresses start, and the gap left after each
+/// buffer so a read past a buffer's end lands in no buffer.
+const FIRST_DEVICE_ADDRESS: u64 = 0x1_0000_0000;
+const FIRST_HOST_ADDRESS: u64 = 0x7f00_0000_0000;
+const ADDRESS_GAP: u64 = 0x1_0000;
+
+/// What kind of object a name denotes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObjectKind {
+    Buffer,
+    Micromap,
+    AccelerationStructure,
+    QueryPool,
+    DeferredOperation,
+    CommandBuffer,
+}
+
+impl ObjectKind {
+    pub fn type_name(self) -> &'static str {
+        match self {
+            ObjectKind::Buffer => "VkBuffer",
+            ObjectKind::Micromap => "VkMicromapEXT",
+            ObjectKind::AccelerationStructure => "VkAccelerationStructureKHR",
+            ObjectKind::QueryPool => "VkQueryPool",
+            ObjectKind::DeferredOperation => "VkDeferredOperationKHR",
+            ObjectKind::CommandBuffer => "VkCommandBuffer",
+        }
+    }
+
+    fn noun(self) -> &'static str {
+        match self {
+            ObjectKind::Buffer => "buffer",
+            ObjectKind::Micromap => "micromap",
+            ObjectKind::AccelerationStructure => "acceleration structure",
+            ObjectKind::QueryPool => "query pool",
+            ObjectKind::DeferredOperation => "deferred operation",
+            ObjectKind::CommandBuffer => "command buffer",
+        }
+    }
+
+    /// Handles of each kind start at their own base, so a handle in a
+    /// report tells what it is.
+    fn handle_base(self) -> Handle {
+        match self {
+            ObjectKind::Buffer => 0xb0_0001,
+            ObjectKind::Micromap => 0x33_0001,
+            ObjectKind::AccelerationStructure => 0xa5_0001,
+            ObjectKind::QueryPool => 0x99_0001,
+            ObjectKind::DeferredOperation => 0xde_0001,
+            ObjectKind::CommandBuffer => 0xcb_0001,
+        }
+    }
+}
+
+/// A named object of the scene and its handle.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct NamedObject {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    pub handle: Handle,
+}
+
+/// The findings of one scene, each location prefixed with its call.
+#[derive(Clone, Debug, Default)]
+pub struct Checked {
+    pub calls: usize,
+    pub objects: Vec<NamedObject>,
+    pub report: Report,
+}
+
+/// The limits a check runs under when the command line overrides the scene's.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LimitsOverride {
+    Profile(Profile),
+    Limits(Limits),
+}
+
+struct Object {
+    kind: ObjectKind,
+    handle: Handle,
+}
+
+struct Resolver<'a> {
+    base_dir: &'a Path,
+    objects: BTreeMap<String, Object>,
+    /// Declaration order, for the report's legend.
+    order: Vec<String>,
+    next_handle: BTreeMap<&'static str, Handle>,
+    buffer_addresses: BTreeMap<String, u64>,
+    host_addresses: BTreeMap<String, u64>,
+    command_buffers: BTreeMap<String, CommandBuffer>,
+    contents_total: u64,
+    validator: Validator,
+}
+
+/// Resolves and checks `scene`; `base_dir` anchors relative file paths.
+pub fn check(
+    scene: &SceneFile,
+    base_dir: &Path,
+    limits: Option<&LimitsOverride>,
+) -> Result<Checked> {
+    let device = device(scene.device.as_ref(), base_dir, limits)?;
+    let mut resolver = Resolver {
+        base_dir,
+        objects: BTreeMap::new(),
+        order: Vec::new(),
+        next_handle: BTreeMap::new(),
+        buffer_addresses: BTreeMap::new(),
+        host_addresses: BTreeMap::new(),
+        command_buffers: BTreeMap::new(),
+        contents_total: 0,
+        validator: Validator::new(device),
+    };
+    resolver.declare(scene)?;
+    let mut report = Report::new();
+    for (i, call) in scene.calls.iter().enumerate() {
+        let at = format!("calls[{i}]");
+        let call_report = resolver.call(call, &at)?;
+        for mut finding in call_report.findings {
+            finding.location = if finding.location.is_empty() {
+                at.clone()
+            } else {
+                format!("{at}: {}", finding.location)
+            };
+            report.push(finding);
+        }
+    }
+    let objects = resolver
+        .order
+        .iter()
+        .filter_map(|name| {
+            let object = resolver.objects.get(name)?;
+            Some(NamedObject {
+                name: name.clone(),
+                kind: object.kind.type_name(),
+                handle: object.handle,
+            })
+        })
+        .collect();
+    Ok(Checked {
+        calls: scene.calls.len(),
+        objects,
+        report,
+    })
+}
+
+/// The device a scene describes.
+fn device(
+    desc: Option<&DeviceDesc>,
+    base_dir: &Path,
+    limits_override: Option<&LimitsOverride>,
+) -> Result<Device> {
+    let default_desc = DeviceDesc::default();
+    let desc = desc.unwrap_or(&default_desc);
+    let mut device = Device::with_everything(Profile::SpecMinimum);
+    if let Some(extensions) = &desc.extensions {
+        device.extensions = extensions.iter().cloned().collect();
+    }
+    if let Some(f) = &desc.features {
+        let features = &mut device.features;
+        features.micromap_ext = f.opacity_micromap_ext.micromap;
+        features.micromap_capture_replay = f.opacity_micromap_ext.micromap_capture_replay;
+        features.micromap_host_commands = f.opacity_micromap_ext.micromap_host_commands;
+        features.micromap_khr = f.opacity_micromap_khr.micromap;
+        features.displacement_micromap = f.displacement_micromap_nv.displacement_micromap;
+        features.pipeline_opacity_micromap =
+            f.pipeline_opacity_micromap_arm.pipeline_opacity_micromap;
+        features.acceleration_structure = f.acceleration_structure.acceleration_structure;
+        features.acceleration_structure_host_commands = f
+            .acceleration_structure
+            .acceleration_structure_host_commands;
+        features.buffer_device_address = f.buffer_device_address.buffer_device_address;
+        features.buffer_device_address_multi_device =
+            f.buffer_device_address.buffer_device_address_multi_device;
+        features.synchronization2 = f.synchronization2.synchronization2;
+        features.index_type_uint8 = f.index_type_uint8.index_type_uint8;
+        features.ray_query = f.ray_query.ray_query;
+        features.ray_tracing_pipeline = f.ray_tracing_pipeline.ray_tracing_pipeline;
+    }
+    if let Some(count) = desc.physical_device_count {
+        device.physical_device_count = count;
+    }
+    if let Some(count) = desc.queue_count {
+        device.queue_count = count;
+    }
+    device.handle = DEVICE_HANDLE;
+    device.limits = match limits_override {
+        Some(LimitsOverride::Profile(profile)) => profile.limits(),
+        Some(LimitsOverride::Limits(limits)) => limits.clone(),
+        None => {
+            let mut limits = match desc.profile.as_deref() {
+                None => Profile::SpecMinimum.limits(),
+                Some(name) => match Profile::from_name(name) {
+                    Some(profile) => profile.limits(),
+                    None => read_profile_file(&base_dir.join(name)).map_err(|message| Problem {
+                        path: "device.profile".into(),
+                        message,
+                    })?,
+                },
+            };
+            if let Some(l) = &desc.limits {
+                apply_limits(&mut limits, l);
+            }
+            limits
+        }
+    };
+    Ok(device)
+}
+
+/// Reads a profile file: a JSON object of limits by spec member name over
+/// the spec-minimum profile.
+pub fn read_profile_file(path: &Path) -> std::result::Result<Limits, String> {
+    let size = std::fs::metadata(path)
+        .map_err(|e| format!("cannot read the profile file {}: {e}", path.display()))?
+        .len();
+    if size > 1 << 20 {
+        return Err(format!(
+            "the profile file {} is {size} bytes; a profile is a small JSON object of limits",
+            path.display()
+        ));
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read the profile file {}: {e}", path.display()))?;
+    Device::limits_from_json(Profile::SpecMinimum, &text).map_err(|e| {
+        format!(
+            "the profile file {} is not a JSON object of limits: {e} (expected spec member names such as maxOpacity2StateSubdivisionLevel, or a profile name: spec-minimum, permissive)",
+            path.display()
+        )
+    })
+}
+
+fn apply_limits(limits: &mut Limits, desc: &LimitsDesc) {
+    let LimitsDesc {
+        max_opacity2_state_subdivision_level,
+        max_opacity4_state_subdivision_level,
+        max_opacity_lossy4_state_subdivision_level,
+        max_micromap_triangles,
+        max_displacement_micromap_subdivision_level,
+        min_acceleration_structure_scratch_offset_alignment,
+    } = *desc;
+    if let Some(v) = max_opacity2_state_subdivision_level {
+        limits.max_opacity2_state_subdivision_level = v;
+    }
+    if let Some(v) = max_opacity4_state_subdivision_level {
+        limits.max_opacity4_state_subdivision_level = v;
+    }
+    if let Some(v) = max_opacity_lossy4_state_subdivision_level {
+        limits.max_opacity_lossy4_state_subdivision_level = v;
+    }
+    if let Some(v) = max_micromap_triangles {
+        limits.max_micromap_triangles = v;
+    }
+    if let Some(v) = max_displacement_micromap_subdivision_level {
+        limits.max_displacement_micromap_subdivision_level = v;
+    }
+    if let Some(v) = min_acceleration_structure_scratch_offset_alignment {
+        limits.min_acceleration_structure_scratch_offset_alignment = v;
+    }
+}
+
+fn align_up(value: u64, alignment: u64) -> Option<u64> {
+    let rem = value % alignment;
+    if rem == 0 {
+        Some(value)
+    } else {
+        value.checked_add(alignment - rem)
+    }
+}
+
+/// Places `size` bytes at the first address from `cursor` on that keeps
+/// clear of every range in `taken` (with the gap), 64 KiB aligned.
+fn place(cursor: u64, size: u64, taken: &[(u64, u64)]) -> Option<u64> {
+    let mut start = align_up(cursor, ADDRESS_GAP)?;
+    // Each clash moves past one taken range, so taken.len() + 1 rounds suffice.
+    for _ in 0..=taken.len() {
+        let end = start.checked_add(size.max(1))?;
+        let clash = taken.iter().find(|(t_start, t_end)| {
+            start < t_end.saturating_add(ADDRESS_GAP) && t_start.saturating_sub(ADDRESS_GAP) < end
+        });
+        match clash {
+            None => return Some(start),
+            Some((_, t_end)) => start = align_up(t_end.checked_add(ADDRESS_GAP)?, ADDRESS_GAP)?,
+        }
+    }
+    None
+}
+
+fn s_type(explicit: Option<Value<super::names::StructureType>>, default: i32) -> i32 {
+    explicit.map_or(default, Value::as_i32)
+}
+
+fn chain_s_type(chain: &ChainStruct) -> i32 {
+    use super::names::{lookup, StructureType};
+    let named = |name: &str| lookup::<StructureType>(name).unwrap_or_default() as i32;
+    match chain {
+        ChainStruct::TrianglesOpacityMicromapExt(_) => {
+            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")
+        }
+        ChainStruct::TrianglesOpacityMicromapKhr(_) => {
+            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR")
+        }
+        ChainStruct::TrianglesDisplacementMicromapNv(_) => {
+            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV")
+        }
+        ChainStruct::GeometryMicromapData(_) => {
+            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR")
+        }
+        ChainStruct::Other(other) => other.s_type.as_i32(),
+    }
+}
+
+/// The sTypes of a chain ommcheck does not interpret at this place.
+fn chain(next: &[ChainStruct]) -> Vec<i32> {
+    next.iter().map(chain_s_type).collect()
+}
+
+fn usage(desc: &UsageDesc) -> MicromapUsage {
+    MicromapUsage {
+        count: desc.count,
+        subdivision_level: desc.subdivision_level,
+        // Enum values are 32-bit; the member keeps the bit pattern.
+        format: desc.format.as_i32() as u32,
+    }
+}
+
+fn array_len(len: usize, at: &str, member: &str) -> Result<u32> {
+    u32::try_from(len).or_else(|_| problem(format!("{at}.{member}"), "more than 2^32 - 1 elements"))
+}
+
+fn usage_counts(
+    count: Option<u32>,
+    array: &Option<Vec<UsageDesc>>,
+    pointers: &Option<Vec<Option<UsageDesc>>>,
+    at: &str,
+) -> Result<UsageCounts> {
+    let implied = match (array, pointers) {
+        (Some(a), _) => array_len(a.len(), at, "pUsageCounts")?,
+        (None, Some(p)) => array_len(p.len(), at, "ppUsageCounts")?,
+        (None, None) => 0,
+    };
+    Ok(UsageCounts {
+        count: count.unwrap_or(implied),
+        array: array.as_ref().map(|a| a.iter().map(usage).collect()),
+        pointers: pointers
+            .as_ref()
+            .map(|p| p.iter().map(|u| u.as_ref().map(usage)).collect()),
+    })
+}
+
+fn allocator(desc: &Option<AllocationCallbacksDesc>) -> Option<AllocationCallbacks> {
+    desc.as_ref().map(|a| AllocationCallbacks {
+        pfn_allocation: a.pfn_allocation,
+        pfn_reallocation: a.pfn_reallocation,
+        pfn_free: a.pfn_free,
+        pfn_internal_allocation: a.pfn_internal_allocation,
+        pfn_internal_free: a.pfn_internal_free,
+    })
+}
+
+fn decode_hex(text: &str, at: &str) -> Result<Vec<u8>> {
+    let digits: Vec<u8> = text
+        .bytes()
+        .filter(|b| !b.is_ascii_whitespace() && *b != b'_')
+        .collect();
+    if digits.len() % 2 != 0 {
+        return problem(at, format!("{} hex digits: an odd count", digits.len()));
+    }
+    digits
+        .chunks(2)
+        .enumerate()
+        .map(|(i, pair)| {
+            let text = String::from_utf8_lossy(pair);
+            match (
+                pair.iter().all(u8::is_ascii_hexdigit),
+                u8::from_str_radix(&text, 16),
+            ) {
+                (true, Ok(byte)) => Ok(byte),
+                _ => problem(at, format!("`{text}` (byte {i}) is not two hex digits")),
+            }
+        })
+        .collect()
+}
+
+fn instance_from_bytes(bytes: &[u8]) -> Option<Instance> {
+    let word = |i: usize| -> Option<u32> {
+        Some(u32::from_le_bytes(bytes.get(i..i + 4)?.try_into().ok()?))
+    };
+    let mut transform = [0f32; 12];
+    for (k, t) in transform.iter_mut().enumerate() {
+        *t = f32::from_bits(word(4 * k)?);
+    }
+    let custom_and_mask = word(48)?;
+    let offset_and_flags = word(52)?;
+    let reference = u64::from_le_bytes(bytes.get(56..64)?.try_into().ok()?);
+    Some(Instance {
+        transform,
+        instance_custom_index: custom_and_mask & 0x00ff_ffff,
+        mask: (custom_and_mask >> 24) as u8,
+        instance_shader_binding_table_record_offset: offset_and_flags & 0x00ff_ffff,
+        flags: (offset_and_flags >> 24) as u8,
+        acceleration_structure_reference: reference,
+    })
+}
+
+/// `VkAccelerationStructureInstanceKHR` is 64 bytes.
+const INSTANCE_SIZE: u64 = 64;
+
+impl Resolver<'_> {
+    fn bind(&mut self, name: &str, kind: ObjectKind, at: &str) -> Result<Handle> {
+        if let Some(existing) = self.objects.get(name) {
+            return problem(
+                at,
+                format!(
+                    "`{name}` already names a {}; each object needs its own name",
+                    existing.kind.noun()
+                ),
+            );
+        }
+        let next = self
+            .next_handle
+            .entry(kind.type_name())
+            .or_insert(kind.handle_base());
+        let handle = *next;
+        *next = next.saturating_add(1);
+        self.objects
+            .insert(name.to_string(), Object { kind, handle });
+        self.order.push(name.to_string());
+        Ok(handle)
+    }
+
+    fn names_of(&self, kind: ObjectKind) -> String {
+        let names: Vec<String> = self
+            .order
+            .iter()
+            .filter(|n| self.objects.get(*n).is_some_and(|o| o.kind == kind))
+            .map(|n| format!("`{n}`"))
+            .collect();
+        if names.is_empty() {
+            format!("the scene has no {}", kind.noun())
+        } else {
+            format!("the scene's {}s are {}", kind.noun(), names.join(", "))
+        }
+    }
+
+    /// A handle member. A name of another kind of object resolves to that
+    /// object's handle, so scenes can express passing the wrong object.
+    fn handle(&self, arg: &HandleArg, kind: ObjectKind, at: &str) -> Result<Handle> {
+        match arg {
+            HandleArg::Omitted | HandleArg::Null => Ok(0),
+            HandleArg::Raw(v) => Ok(*v),
+            HandleArg::Name(name) => match self.objects.get(name) {
+                Some(object) => Ok(object.handle),
+                None => problem(
+                    at,
+                    format!(
+                        "unknown {} `{name}`: expected the name of a {} declared or created earlier ({})",
+                        kind.noun(),
+                        kind.noun(),
+                        self.names_of(kind)
+                    ),
+                ),
+            },
+        }
+    }
+
+    fn device_handle(&self, arg: &HandleArg, at: &str) -> Result<Handle> {
+        match arg {
+            HandleArg::Omitted => Ok(DEVICE_HANDLE),
+            HandleArg::Null => Ok(0),
+            HandleArg::Raw(v) => Ok(*v),
+            HandleArg::Name(name) => problem(
+                at,
+                format!("the device has no name (found `{name}`): omit `device`, or give null or a handle number"),
+            ),
+        }
+    }
+
+    fn address(&self, arg: &AddressArg, at: &str) -> Result<u64> {
+        let (base, offset) = match arg {
+            AddressArg::Null => return Ok(0),
+            AddressArg::Raw(v) => return Ok(*v),
+            AddressArg::Buffer { name, offset } => match self.buffer_addresses.get(name) {
+                Some(base) => (*base, *offset),
+                None => {
+                    return problem(
+                        format!("{at}.buffer"),
+                        format!(
+                        "unknown buffer `{name}`: expected the name of a buffer in `buffers` ({})",
+                        self.names_of(ObjectKind::Buffer)
+                    ),
+                    )
+                }
+            },
+            AddressArg::Host { name, offset } => match self.host_addresses.get(name) {
+                Some(base) => (*base, *offset),
+                None => {
+                    let known: Vec<String> = self
+                        .host_addresses
+                        .keys()
+                        .map(|n| format!("`{n}`"))
+                        .collect();
+                    return problem(
+                        format!("{at}.host"),
+                        format!(
+                            "unknown host memory `{name}`: expected the name of a block in `hostMemory` ({})",
+                            if known.is_empty() { "the scene has none".to_string() } else { known.join(", ") }
+                        ),
+                    );
+                }
+            },
+        };
+        base.checked_add(offset).map_or_else(
+            || {
+                problem(
+                    format!("{at}.offset"),
+                    format!("{base:#x} + {offset} overflows 64 bits"),
+                )
+            },
+            Ok,
+        )
+    }
+
+    fn command_buffer(&self, arg: &CommandBufferArg, at: &str) -> Result<CommandBuffer> {
+        match arg {
+            CommandBufferArg::Omitted => Ok(CommandBuffer::default()),
+            CommandBufferArg::Name(name) => self.command_buffers.get(name).cloned().map_or_else(
+                || {
+                    problem(
+                        format!("{at}.commandBuffer"),
+                        format!(
+                            "unknown command buffer `{name}`: expected a name from `commandBuffers` ({})",
+                            self.names_of(ObjectKind::CommandBuffer)
+                        ),
+                    )
+                },
+                Ok,
+            ),
+            CommandBufferArg::Inline(inline) => Ok(CommandBuffer {
+                recording: inline.recording,
+                queue_flags: inline
+                    .queue_flags
+                    .map_or(queue::GRAPHICS | queue::COMPUTE | queue::TRANSFER, Value::as_u32),
+                in_render_pass: inline.in_render_pass,
+                in_video_coding: inline.in_video_coding,
+                suspended: inline.suspended,
+                ..CommandBuffer::default()
+            }),
+        }
+    }
+
+    /// The bytes `contents` describes, `size` long.
+    fn contents(&mut self, contents: &Contents, size: u64, at: &str) -> Result<Arc<[u8]>> {
+        if size > MAX_CONTENTS_BYTES {
+            return problem(
+                at,
+                format!("{size} bytes of contents; ommcheck reads at most {MAX_CONTENTS_BYTES} bytes of one buffer (give no contents to leave them unknown)"),
+            );
+        }
+        let total = self.contents_total.saturating_add(size);
+        if total > MAX_SCENE_CONTENTS_BYTES {
+            return problem(
+                at,
+                format!("the scene's contents exceed {MAX_SCENE_CONTENTS_BYTES} bytes in all"),
+            );
+        }
+        self.contents_total = total;
+        let len = usize::try_from(size).or_else(|_| problem(at, "too large for this machine"))?;
+        let mut bytes = vec![0u8; len];
+        let pieces = contents.pieces();
+        for (k, piece) in pieces.iter().enumerate() {
+            let piece_at = match contents {
+                Contents::One(_) => at.to_string(),
+                Contents::Many(_) => format!("{at}[{k}]"),
+            };
+            let data = self.piece(piece, size, &piece_at)?;
+            let end = piece.at.checked_add(data.len() as u64);
+            match end {
+                Some(end) if end <= size => {
+                    // Both bounds are at most `size`, which fits usize.
+                    let from = usize::try_from(piece.at).unwrap_or(len);
+                    let to = usize::try_from(end).unwrap_or(len);
+                    if let Some(target) = bytes.get_mut(from..to) {
+                        target.copy_from_slice(&data);
+                    }
+                }
+                _ => {
+                    return problem(
+                        piece_at,
+                        format!(
+                            "{} bytes at {} end past the {size} bytes of the buffer",
+                            data.len(),
+                            piece.at
+                        ),
+                    )
+                }
+            }
+        }
+        Ok(Arc::from(bytes))
+    }
+
+    fn piece(&self, piece: &Piece, size: u64, at: &str) -> Result<Vec<u8>> {
+        let forms = [
+            piece.hex.is_some(),
+            piece.base64.is_some(),
+            piece.file.is_some(),
+            piece.u8.is_some(),
+            piece.u16.is_some(),
+            piece.u32.is_some(),
+            piece.u64.is_some(),
+            piece.triangles.is_some(),
+        ];
+        if forms.iter().filter(|f| **f).count() != 1 {
+            return problem(
+                at,
+                "a contents piece needs exactly one of hex, base64, file, u8, u16, u32, u64, triangles",
+            );
+        }
+        if let Some(hex) = &piece.hex {
+            return decode_hex(hex, &format!("{at}.hex"));
+        }
+        if let Some(text) = &piece.base64 {
+            let compact: String = text.chars().filter(|c| !c.is_ascii_whitespace()).collect();
+            return base64::engine::general_purpose::STANDARD
+                .decode(compact)
+                .or_else(|e| problem(format!("{at}.base64"), format!("not base64: {e}")));
+        }
+        if let Some(file) = &piece.file {
+            let path = self.base_dir.join(file);
+            let file_at = format!("{at}.file");
+            let file_size = std::fs::metadata(&path)
+                .or_else(|e| problem(&file_at, format!("cannot read {}: {e}", path.display())))?
+                .len();
+            if file_size > size {
+                return problem(
+                    file_at,
+                    format!(
+                        "{} holds {file_size} bytes, more than the {size} bytes of the buffer",
+                        path.display()
+                    ),
+                );
+            }
+            return std::fs::read(&path)
+                .or_else(|e| problem(file_at, format!("cannot read {}: {e}", path.display())));
+        }
+        if let Some(values) = &piece.u8 {
+            return Ok(values.clone());
+        }
+        if let Some(values) = &piece.u16 {
+            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+        }
+        if let Some(values) = &piece.u32 {
+            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+        }
+        if let Some(values) = &piece.u64 {
+            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+        }
+        let mut out = Vec::new();
+        for (k, t) in piece.triangles.iter().flatten().enumerate() {
+            let Some(format) = t.format.as_u16() else {
+                return problem(
+                    format!("{at}.triangles[{k}].format"),
+                    format!("{} does not fit the 16-bit format member", t.format.raw()),
+                );
+            };
+            let triangle = MicromapTriangle {
+                data_offset: t.data_offset,
+                subdivision_level: t.subdivision_level,
+                format,
+            };
+            out.extend_from_slice(&triangle.to_bytes());
+        }
+        Ok(out)
+    }
+
+    /// The objects that exist before the first call.
+    fn declare(&mut self, scene: &SceneFile) -> Result<()> {
+        // Fixed addresses first, so assigned ones keep clear of them.
+        let fixed: Vec<(u64, u64)> = scene
+            .buffers
+            .iter()
+            .filter_map(|b| Some((b.device_address?, b.device_address?.saturating_add(b.size))))
+            .collect();
+        let mut taken = fixed;
+        let mut cursor = FIRST_DEVICE_ADDRESS;
+        for (i, desc) in scene.buffers.iter().enumerate() {
+            let at = format!("buffers[{i}]");
+            let handle = self.bind(&desc.name, ObjectKind::Buffer, &format!("{at}.name"))?;
+            let address = match desc.device_address {
+                Some(address) => address,
+                None => {
+                    let Some(address) = place(cursor, desc.size, &taken) else {
+                        return problem(
+                            format!("{at}.size"),
+                            "no room left in the 64-bit address space to assign this buffer an address",
+                        );
+                    };
+                    let end = address.saturating_add(desc.size);
+                    taken.push((address, end));
+                    cursor = end.saturating_add(ADDRESS_GAP);
+                    address
+                }
+            };
+            let contents = match &desc.contents {
+                Some(contents) => {
+                    Some(self.contents(contents, desc.size, &format!("{at}.contents"))?)
+                }
+                None => None,
+            };
+            let memory = match desc.memory {
+                MemoryDesc::Unbound => None,
+                MemoryDesc::DeviceLocal => Some(MemoryBinding::default()),
+                MemoryDesc::HostVisible => Some(MemoryBinding {
+                    host_visible: true,
+                    ..Default::default()
+                }),
+                MemoryDesc::MultiInstance => Some(MemoryBinding {
+                    multi_instance: true,
+                    ..Default::default()
+                }),
+                MemoryDesc::HostVisibleMultiInstance => Some(MemoryBinding {
+                    host_visible: true,
+                    multi_instance: true,
+                }),
+            };
+            self.buffer_addresses.insert(desc.name.clone(), address);
+            self.validator.state_mut().buffers.insert(
+                handle,
+                Buffer {
+                    size: desc.size,
+                    usage: desc.usage.as_u64(),
+                    create_flags: desc.flags.as_u32(),
+                    device_address: Some(address),
+                    memory,
+                    contents,
+                },
+            );
+        }
+
+        let mut host_taken: Vec<(u64, u64)> = Vec::new();
+        let mut host_cursor = FIRST_HOST_ADDRESS;
+        for (i, desc) in scene.host_memory.iter().enumerate() {
+            let at = format!("hostMemory[{i}]");
+            if self.host_addresses.contains_key(&desc.name) || self.objects.contains_key(&desc.name)
+            {
+                return problem(
+                    format!("{at}.name"),
+                    format!("`{}` is already a name", desc.name),
+                );
+            }
+            let implied = desc.contents.as_ref().map_or(Some(0), |c| {
+                c.pieces().iter().try_fold(0u64, |end, piece| {
+                    let len = piece_len_hint(piece)?;
+                    Some(end.max(piece.at.checked_add(len)?))
+                })
+            });
+            let size = match (desc.size, implied) {
+                (Some(size), _) => size,
+                (None, Some(size)) => size,
+                (None, None) => {
+                    return problem(
+                        format!("{at}.size"),
+                        "give `size` when the contents come from a file",
+                    )
+                }
+            };
+            let bytes = match &desc.contents {
+                Some(contents) => self.contents(contents, size, &format!("{at}.contents"))?,
+                None => self.contents(&Contents::Many(Vec::new()), size, &format!("{at}.size"))?,
+            };
+            let address = match desc.address {
+                Some(address) => address,
+                None => {
+                    let Some(address) = place(host_cursor, size, &host_taken) else {
+                        return problem(format!("{at}.size"), "no room to assign a host address");
+                    };
+                    address
+                }
+            };
+            let end = address.saturating_add(size);
+            host_taken.push((address, end));
+            host_cursor = end.saturating_add(ADDRESS_GAP);
+            self.host_addresses.insert(desc.name.clone(), address);
+            self.validator
+                .state_mut()
+                .host_memory
+                .push(HostRange { address, bytes });
+        }
+
+        for (i, desc) in scene.micromaps.iter().enumerate() {
+            let at = format!("micromaps[{i}]");
+            let handle = self.bind(&desc.name, ObjectKind::Micromap, &format!("{at}.name"))?;
+            let buffer = self.handle(
+                &HandleArg::Name(desc.buffer.clone()),
+                ObjectKind::Buffer,
+                &format!("{at}.buffer"),
+            )?;
+            let device_address = self
+                .buffer_addresses
+                .get(&desc.buffer)
+                .and_then(|base| base.checked_add(desc.offset))
+                .unwrap_or(0);
+            let ty = desc.ty.map_or(
+                crate::model::values::MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
+                Value::as_i32,
+            );
+            let micromap = Micromap {
+                buffer,
+                offset: desc.offset,
+                size: desc.size,
+                ty,
+                create_flags: desc.create_flags.as_u32(),
+                device_address,
+                built: desc.built.as_ref().map(|b| BuildRecord {
+                    flags: b.flags,
+                    ty,
+                    triangle_count: b.triangle_count,
+                    ..Default::default()
+                }),
+                ..Default::default()
+            };
+            self.validator
+                .state_mut()
+                .micromaps
+                .insert(handle, micromap);
+        }
+
+        for (i, desc) in scene.acceleration_structures.iter().enumerate() {
+            let at = format!("accelerationStructures[{i}]");
+            let handle = self.bind(
+                &desc.name,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.name"),
+            )?;
+            let buffer = match &desc.buffer {
+                Some(name) => self.handle(
+                    &HandleArg::Name(name.clone()),
+                    ObjectKind::Buffer,
+                    &format!("{at}.buffer"),
+                )?,
+                None => 0,
+            };
+            let start = match (&desc.address, &desc.buffer) {
+                (Some(address), _) => Some(self.address(address, &format!("{at}.address"))?),
+                (None, Some(name)) => self
+                    .buffer_addresses
+                    .get(name)
+                    .and_then(|base| base.checked_add(desc.offset)),
+                (None, None) => None,
+            };
+            let ty = desc.ty.as_i32();
+            let structure = AccelerationStructure {
+                ty,
+                created_with_2: desc.address.is_some(),
+                buffer,
+                offset: desc.offset,
+                size: desc.size,
+                address_range: start.and_then(|s| Some((s, s.checked_add(desc.size)?))),
+                built: desc.built.as_ref().map(|b| BuildRecord {
+                    flags: b.flags,
+                    ty,
+                    triangle_count: b.triangle_count,
+                    ..Default::default()
+                }),
+            };
+            self.validator
+                .state_mut()
+                .acceleration_structures
+                .insert(handle, structure);
+        }
+
+        for (i, desc) in scene.query_pools.iter().enumerate() {
+            let at = format!("queryPools[{i}]");
+            let handle = self.bind(&desc.name, ObjectKind::QueryPool, &format!("{at}.name"))?;
+            self.validator.state_mut().query_pools.insert(
+                handle,
+                QueryPool {
+                    query_type: desc.query_type.as_i32(),
+                    query_count: desc.query_count,
+                },
+            );
+        }
+
+        for (i, name) in scene.deferred_operations.iter().enumerate() {
+            let handle = self.bind(
+                name,
+                ObjectKind::DeferredOperation,
+                &format!("deferredOperations[{i}]"),
+            )?;
+            self.validator
+                .state_mut()
+                .deferred_operations
+                .insert(handle);
+        }
+
+        for (i, desc) in scene.command_buffers.iter().enumerate() {
+            let handle = self.bind(
+                &desc.name,
+                ObjectKind::CommandBuffer,
+                &format!("commandBuffers[{i}].name"),
+            )?;
+            self.command_buffers.insert(
+                desc.name.clone(),
+                CommandBuffer {
+                    handle,
+                    recording: desc.recording,
+                    queue_flags: desc.queue_flags.map_or(
+                        queue::GRAPHICS | queue::COMPUTE | queue::TRANSFER,
+                        Value::as_u32,
+                    ),
+                    in_render_pass: desc.in_render_pass,
+                    in_video_coding: desc.in_video_coding,
+                    suspended: desc.suspended,
+                },
+            );
+        }
+        Ok(())
+    }
+
+    fn micromap_build_info(
+        &self,
+        d: &MicromapBuildInfoDesc,
+        at: &str,
+    ) -> Result<MicromapBuildInfo> {
+        let defaults = MicromapBuildInfo::default();
+        Ok(MicromapBuildInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            ty: d.ty.map_or(defaults.ty, Value::as_i32),
+            flags: d.flags.as_u32(),
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+            dst_micromap: self.handle(
+                &d.dst_micromap,
+                ObjectKind::Micromap,
+                &format!("{at}.dstMicromap"),
+            )?,
+            usage_counts: usage_counts(
+                d.usage_counts_count,
+                &d.p_usage_counts,
+                &d.pp_usage_counts,
+                at,
+            )?,
+            data: self.address(&d.data, &format!("{at}.data"))?,
+            scratch_data: self.address(&d.scratch_data, &format!("{at}.scratchData"))?,
+            triangle_array: self.address(&d.triangle_array, &format!("{at}.triangleArray"))?,
+            triangle_array_stride: d.triangle_array_stride,
+        })
+    }
+
+    fn micromap_build_infos(
+        &self,
+        infos: &[MicromapBuildInfoDesc],
+        at: &str,
+    ) -> Result<Vec<MicromapBuildInfo>> {
+        infos
+            .iter()
+            .enumerate()
+            .map(|(i, d)| self.micromap_build_info(d, &format!("{at}.pInfos[{i}]")))
+            .collect()
+    }
+
+    fn triangles(&self, d: &TrianglesDesc, at: &str) -> Result<TrianglesData> {
+        let defaults = TrianglesData::default();
+        let mut data = TrianglesData {
+            s_type: s_type(d.s_type, defaults.s_type),
+            vertex_format: d
+                .vertex_format
+                .map_or(defaults.vertex_format, Value::as_i32),
+            vertex_data: self.address(&d.vertex_data, &format!("{at}.vertexData"))?,
+            vertex_stride: d.vertex_stride.unwrap_or(defaults.vertex_stride),
+            max_vertex: d.max_vertex,
+            index_type: d.index_type.map_or(defaults.index_type, Value::as_i32),
+            index_data: self.address(&d.index_data, &format!("{at}.indexData"))?,
+            transform_data: self.address(&d.transform_data, &format!("{at}.transformData"))?,
+            ..defaults
+        };
+        for (k, next) in d.p_next.iter().enumerate() {
+            let next_at = format!("{at}.pNext[{k}]");
+            match next {
+                ChainStruct::TrianglesOpacityMicromapExt(e) if data.opacity_ext.is_none() => {
+                    let defaults = TrianglesOpacityMicromapExt::default();
+                    data.opacity_ext = Some(TrianglesOpacityMicromapExt {
+                        index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
+                        index_buffer: self
+                            .address(&e.index_buffer, &format!("{next_at}.indexBuffer"))?,
+                        index_stride: e.index_stride.unwrap_or(defaults.index_stride),
+                        base_triangle: e.base_triangle,
+                        usage_counts: usage_counts(
+                            e.usage_counts_count,
+                            &e.p_usage_counts,
+                            &e.pp_usage_counts,
+                            &next_at,
+                        )?,
+                        micromap: self.handle(
+                            &e.micromap,
+                            ObjectKind::Micromap,
+                            &format!("{next_at}.micromap"),
+                        )?,
+                        ..defaults
+                    });
+                }
+                ChainStruct::TrianglesOpacityMicromapKhr(e) if data.opacity_khr.is_none() => {
+                    let defaults = TrianglesOpacityMicromapKhr::default();
+                    data.opacity_khr = Some(TrianglesOpacityMicromapKhr {
+                        index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
+                        index_buffer: self
+                            .address(&e.index_buffer, &format!("{next_at}.indexBuffer"))?,
+                        index_stride: e.index_stride.unwrap_or(defaults.index_stride),
+                        base_triangle: e.base_triangle,
+                        micromap: self.handle(
+                            &e.micromap,
+                            ObjectKind::AccelerationStructure,
+                            &format!("{next_at}.micromap"),
+                        )?,
+                        ..defaults
+                    });
+                }
+                ChainStruct::TrianglesDisplacementMicromapNv(e)
+                    if data.displacement_nv.is_none() =>
+                {
+                    let defaults = TrianglesDisplacementMicromapNv::default();
+                    let address = |arg: &AddressArg, member: &str| {
+                        self.address(arg, &format!("{next_at}.{member}"))
+                    };
+                    data.displacement_nv = Some(TrianglesDisplacementMicromapNv {
+                        displacement_bias_and_scale_format: e
+                            .displacement_bias_and_scale_format
+                            .map_or(defaults.displacement_bias_and_scale_format, Value::as_i32),
+                        displacement_vector_format: e
+                            .displacement_vector_format
+                            .map_or(defaults.displacement_vector_format, Value::as_i32),
+                        displacement_bias_and_scale_buffer: address(
+                            &e.displacement_bias_and_scale_buffer,
+                            "displacementBiasAndScaleBuffer",
+                        )?,
+                        displacement_bias_and_scale_stride: e.displacement_bias_and_scale_stride,
+                        displacement_vector_buffer: address(
+                            &e.displacement_vector_buffer,
+                            "displacementVectorBuffer",
+                        )?,
+                        displacement_vector_stride: e.displacement_vector_stride,
+                        displaced_micromap_primitive_flags: address(
+                            &e.displaced_micromap_primitive_flags,
+                            "displacedMicromapPrimitiveFlags",
+                        )?,
+                        displaced_micromap_primitive_flags_stride: e
+                            .displaced_micromap_primitive_flags_stride,
+                        index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
+                        index_buffer: address(&e.index_buffer, "indexBuffer")?,
+                        index_stride: e.index_stride.unwrap_or(defaults.index_stride),
+                        base_triangle: e.base_triangle,
+                        usage_counts: usage_counts(
+                            e.usage_counts_count,
+                            &e.p_usage_counts,
+                            &e.pp_usage_counts,
+                            &next_at,
+                        )?,
+                        micromap: self.handle(
+                            &e.micromap,
+                            ObjectKind::Micromap,
+                            &format!("{next_at}.micromap"),
+                        )?,
+                        ..defaults
+                    });
+                }
+                // A structure the model holds once, given again, or one that
+                // does not extend triangles data: chained as is, for the
+                // pNext rules to judge.
+                other => data.next.push(chain_s_type(other)),
+            }
+        }
+        Ok(data)
+    }
+
+    fn geometry(&self, d: &GeometryDesc, at: &str) -> Result<Geometry> {
+        let defaults = Geometry::default();
+        let mut geometry = Geometry {
+            s_type: s_type(d.s_type, defaults.s_type),
+            geometry_type: d.geometry_type.as_i32(),
+            flags: d.flags.as_u32(),
+            ..defaults
+        };
+        for (k, next) in d.p_next.iter().enumerate() {
+            match next {
+                ChainStruct::GeometryMicromapData(m) if geometry.micromap.is_none() => {
+                    let next_at = format!("{at}.pNext[{k}]");
+                    let defaults = GeometryMicromapData::default();
+                    geometry.micromap = Some(GeometryMicromapData {
+                        usage_counts: usage_counts(
+                            m.usage_counts_count,
+                            &m.p_usage_counts,
+                            &m.pp_usage_counts,
+                            &next_at,
+                        )?,
+                        data: self.address(&m.data, &format!("{next_at}.data"))?,
+                        triangle_array: self
+                            .address(&m.triangle_array, &format!("{next_at}.triangleArray"))?,
+                        triangle_array_stride: m
+                            .triangle_array_stride
+                            .unwrap_or(defaults.triangle_array_stride),
+                        ..defaults
+                    });
+                }
+                other => geometry.next.push(chain_s_type(other)),
+            }
+        }
+        let union = &d.geometry;
+        let members = [
+            union.triangles.is_some(),
+            union.aabbs.is_some(),
+            union.instances.is_some(),
+        ];
+        if members.iter().filter(|m| **m).count() > 1 {
+            return problem(
+                format!("{at}.geometry"),
+                "a VkAccelerationStructureGeometryDataKHR union holds one member: give one of triangles, aabbs, instances",
+            );
+        }
+        geometry.geometry = if let Some(t) = &union.triangles {
+            GeometryData::Triangles(self.triangles(t, &format!("{at}.geometry.triangles"))?)
+        } else if let Some(a) = &union.aabbs {
+            GeometryData::Aabbs(AabbsData {
+                data: self.address(&a.data, &format!("{at}.geometry.aabbs.data"))?,
+                stride: a.stride,
+            })
+        } else if let Some(i) = &union.instances {
+            GeometryData::Instances(InstancesData {
+                array_of_pointers: i.array_of_pointers,
+                data: self.address(&i.data, &format!("{at}.geometry.instances.data"))?,
+                instances: None,
+            })
+        } else {
+            GeometryData::None
+        };
+        Ok(geometry)
+    }
+
+    fn build_geometry_info(
+        &self,
+        d: &BuildGeometryInfoDesc,
+        at: &str,
+    ) -> Result<BuildGeometryInfo> {
+        let defaults = BuildGeometryInfo::default();
+        let geometries = match &d.p_geometries {
+            Some(list) => Some(
+                list.iter()
+                    .enumerate()
+                    .map(|(g, geometry)| self.geometry(geometry, &format!("{at}.pGeometries[{g}]")))
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            None => None,
+        };
+        let geometry_pointers = match &d.pp_geometries {
+            Some(list) => Some(
+                list.iter()
+                    .enumerate()
+                    .map(|(g, geometry)| {
+                        geometry
+                            .as_ref()
+                            .map(|geometry| {
+                                self.geometry(geometry, &format!("{at}.ppGeometries[{g}]"))
+                            })
+                            .transpose()
+                    })
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            None => None,
+        };
+        let implied = match (&geometries, &geometry_pointers) {
+            (Some(list), _) => array_len(list.len(), at, "pGeometries")?,
+            (None, Some(list)) => array_len(list.len(), at, "ppGeometries")?,
+            (None, None) => 0,
+        };
+        Ok(BuildGeometryInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            ty: d.ty.as_i32(),
+            flags: d.flags.as_u32(),
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+            src_acceleration_structure: self.handle(
+                &d.src_acceleration_structure,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.srcAccelerationStructure"),
+            )?,
+            dst_acceleration_structure: self.handle(
+                &d.dst_acceleration_structure,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.dstAccelerationStructure"),
+            )?,
+            geometry_count: d.geometry_count.unwrap_or(implied),
+            geometries,
+            geometry_pointers,
+            scratch_data: self.address(&d.scratch_data, &format!("{at}.scratchData"))?,
+        })
+    }
+
+    /// The build infos of an acceleration-structure build, with the
+    /// instances of instance geometries read from memory where the scene
+    /// gives their bytes (`primitiveCount` instances from `data`).
+    fn build_geometry_infos(
+        &self,
+        infos: &[BuildGeometryInfoDesc],
+        ranges: &[Option<Vec<BuildRangeInfo>>],
+        host: bool,
+        at: &str,
+    ) -> Result<Vec<BuildGeometryInfo>> {
+        let mut resolved = infos
+            .iter()
+            .enumerate()
+            .map(|(i, d)| self.build_geometry_info(d, &format!("{at}.pInfos[{i}]")))
+            .collect::<Result<Vec<_>>>()?;
+        let state = self.validator.state();
+        for (i, info) in resolved.iter_mut().enumerate() {
+            let info_ranges = ranges.get(i).and_then(Option::as_ref);
+            for (g, geometry) in info.geometries.iter_mut().flatten().enumerate() {
+                let GeometryData::Instances(instances) = &mut geometry.geometry else {
+                    continue;
+                };
+                let Some(range) = info_ranges.and_then(|r| r.get(g)) else {
+                    continue;
+                };
+                if instances.array_of_pointers {
+                    continue;
+                }
+                let start = instances
+                    .data
+                    .checked_add(u64::from(range.primitive_offset));
+                let len = u64::from(range.primitive_count).checked_mul(INSTANCE_SIZE);
+                let bytes = match (start, len) {
+                    (Some(start), Some(len)) if host => state.read_host(start, len),
+                    (Some(start), Some(len)) => state.read_device(start, len),
+                    _ => None,
+                };
+                // The bytes exist, so the count they give is bounded by them.
+                instances.instances = bytes.map(|bytes| {
+                    bytes
+                        .chunks_exact(INSTANCE_SIZE as usize)
+                        .filter_map(instance_from_bytes)
+                        .collect()
+                });
+            }
+        }
+        Ok(resolved)
+    }
+
+    fn build_ranges(ranges: &[Option<Vec<BuildRangeDesc>>]) -> Vec<Option<Vec<BuildRangeInfo>>> {
+        ranges
+            .iter()
+            .map(|list| {
+                list.as_ref().map(|list| {
+                    list.iter()
+                        .map(|r| BuildRangeInfo {
+                            primitive_count: r.primitive_count,
+                            primitive_offset: r.primitive_offset,
+                            first_vertex: r.first_vertex,
+                            transform_offset: r.transform_offset,
+                        })
+                        .collect()
+                })
+            })
+            .collect()
+    }
+
+    fn micromap_list(
+        &self,
+        count: Option<u32>,
+        handles: &Option<Vec<HandleArg>>,
+        at: &str,
+    ) -> Result<MicromapList> {
+        let handles = match handles {
+            Some(list) => Some(
+                list.iter()
+                    .enumerate()
+                    .map(|(k, h)| {
+                        self.handle(h, ObjectKind::Micromap, &format!("{at}.pMicromaps[{k}]"))
+                    })
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            None => None,
+        };
+        let implied = match &handles {
+            Some(list) => array_len(list.len(), at, "pMicromaps")?,
+            None => 0,
+        };
+        Ok(MicromapList {
+            count: count.unwrap_or(implied),
+            handles,
+        })
+    }
+
+    fn copy_micromap_info(&self, d: &CopyMicromapInfoDesc, at: &str) -> Result<CopyMicromapInfo> {
+        let defaults = CopyMicromapInfo::default();
+        Ok(CopyMicromapInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            src: self.handle(&d.src, ObjectKind::Micromap, &format!("{at}.src"))?,
+            dst: self.handle(&d.dst, ObjectKind::Micromap, &format!("{at}.dst"))?,
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
+    fn copy_micromap_to_memory_info(
+        &self,
+        d: &CopyMicromapToMemoryInfoDesc,
+        at: &str,
+    ) -> Result<CopyMicromapToMemoryInfo> {
+        let defaults = CopyMicromapToMemoryInfo::default();
+        Ok(CopyMicromapToMemoryInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            src: self.handle(&d.src, ObjectKind::Micromap, &format!("{at}.src"))?,
+            dst: self.address(&d.dst, &format!("{at}.dst"))?,
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
+    fn copy_memory_to_micromap_info(
+        &self,
+        d: &CopyMemoryToMicromapInfoDesc,
+        at: &str,
+    ) -> Result<CopyMemoryToMicromapInfo> {
+        let defaults = CopyMemoryToMicromapInfo::default();
+        Ok(CopyMemoryToMicromapInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            src: self.address(&d.src, &format!("{at}.src"))?,
+            dst: self.handle(&d.dst, ObjectKind::Micromap, &format!("{at}.dst"))?,
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
+    fn copy_as_info(
+        &self,
+        d: &CopyAccelerationStructureInfoDesc,
+        at: &str,
+    ) -> Result<CopyAccelerationStructureInfo> {
+        let defaults = CopyAccelerationStructureInfo::default();
+        let kind = ObjectKind::AccelerationStructure;
+        Ok(CopyAccelerationStructureInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            src: self.handle(&d.src, kind, &format!("{at}.src"))?,
+            dst: self.handle(&d.dst, kind, &format!("{at}.dst"))?,
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
+    fn option<T, D>(
+        &self,
+        value: &Option<D>,
+        at: &str,
+        resolve: impl FnOnce(&Self, &D, &str) -> Result<T>,
+    ) -> Result<Option<T>> {
+        value.as_ref().map(|d| resolve(self, d, at)).transpose()
+    }
+
+    /// Resolves one call and checks it.
+    fn call(&mut self, call: &Call, at: &str) -> Result<Report> {
+        let p_info = format!("{at}.pInfo");
+        let device_at = format!("{at}.device");
+        Ok(match call {
+            Call::CreateMicromap(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let info = match &c.p_create_info {
+                    Some(d) => {
+                        let at = format!("{at}.pCreateInfo");
+                        let defaults = MicromapCreateInfo::default();
+                        Some(MicromapCreateInfo {
+                            s_type: s_type(d.s_type, defaults.s_type),
+                            next: chain(&d.p_next),
+                            create_flags: d.create_flags.as_u32(),
+                            buffer: self.handle(
+                                &d.buffer,
+                                ObjectKind::Buffer,
+                                &format!("{at}.buffer"),
+                            )?,
+                            offset: d.offset,
+                            size: d.size,
+                            ty: d.ty.map_or(defaults.ty, Value::as_i32),
+                            device_address: self
+                                .address(&d.device_address, &format!("{at}.deviceAddress"))?,
+                        })
+                    }
+                    None => None,
+                };
+                let handle = match &c.p_micromap {
+                    Some(name) => {
+                        Some(self.bind(name, ObjectKind::Micromap, &format!("{at}.pMicromap"))?)
+                    }
+                    None => None,
+                };
+                self.validator.create_micromap(
+                    device,
+                    info.as_ref(),
+                    allocator(&c.p_allocator).as_ref(),
+                    handle,
+                )
+            }
+            Call::DestroyMicromap(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let micromap =
+                    self.handle(&c.micromap, ObjectKind::Micromap, &format!("{at}.micromap"))?;
+                self.validator.destroy_micromap(
+                    device,
+                    micromap,
+                    allocator(&c.p_allocator).as_ref(),
+                )
+            }
+            Call::CmdBuildMicromaps(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let infos = self.micromap_build_infos(&c.p_infos, at)?;
+                self.validator.cmd_build_micromaps(&command_buffer, &infos)
+            }
+            Call::BuildMicromaps(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let deferred = self.handle(
+                    &c.deferred_operation,
+                    ObjectKind::DeferredOperation,
+                    &format!("{at}.deferredOperation"),
+                )?;
+                let infos = self.micromap_build_infos(&c.p_infos, at)?;
+                self.validator.build_micromaps(device, deferred, &infos)
+            }
+            Call::GetMicromapBuildSizes(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let info =
+                    self.option(&c.p_build_info, &format!("{at}.pBuildInfo"), |r, d, at| {
+                        r.micromap_build_info(d, at)
+                    })?;
+                let sizes = c.p_size_info.as_ref().map(|d| {
+                    let defaults = MicromapBuildSizesInfo::default();
+                    MicromapBuildSizesInfo {
+                        s_type: s_type(d.s_type, defaults.s_type),
+                        next: chain(&d.p_next),
+                    }
+                });
+                self.validator.get_micromap_build_sizes(
+                    device,
+                    c.build_type.as_i32(),
+                    info.as_ref(),
+                    sizes.as_ref(),
+                )
+            }
+            Call::CmdCopyMicromap(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let info = self.option(&c.p_info, &p_info, Self::copy_micromap_info)?;
+                self.validator
+                    .cmd_copy_micromap(&command_buffer, info.as_ref())
+            }
+            Call::CmdCopyMicromapToMemory(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let info = self.option(&c.p_info, &p_info, Self::copy_micromap_to_memory_info)?;
+                self.validator
+                    .cmd_copy_micromap_to_memory(&command_buffer, info.as_ref())
+            }
+            Call::CmdCopyMemoryToMicromap(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let info = self.option(&c.p_info, &p_info, Self::copy_memory_to_micromap_info)?;
+                self.validator
+                    .cmd_copy_memory_to_micromap(&command_buffer, info.as_ref())
+            }
+            Call::CopyMicromap(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let deferred = self.handle(
+                    &c.deferred_operation,
+                    ObjectKind::DeferredOperation,
+                    &format!("{at}.deferredOperation"),
+                )?;
+                let info = self.option(&c.p_info, &p_info, Self::copy_micromap_info)?;
+                self.validator
+                    .copy_micromap(device, deferred, info.as_ref())
+            }
+            Call::CopyMicromapToMemory(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let deferred = self.handle(
+                    &c.deferred_operation,
+                    ObjectKind::DeferredOperation,
+                    &format!("{at}.deferredOperation"),
+                )?;
+                let info = self.option(&c.p_info, &p_info, Self::copy_micromap_to_memory_info)?;
+                self.validator
+                    .copy_micromap_to_memory(device, deferred, info.as_ref())
+            }
+            Call::CopyMemoryToMicromap(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let deferred = self.handle(
+                    &c.deferred_operation,
+                    ObjectKind::DeferredOperation,
+                    &format!("{at}.deferredOperation"),
+                )?;
+                let info = self.option(&c.p_info, &p_info, Self::copy_memory_to_micromap_info)?;
+                self.validator
+                    .copy_memory_to_micromap(device, deferred, info.as_ref())
+            }
+            Call::CmdWriteMicromapsProperties(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let list = self.micromap_list(c.micromap_count, &c.p_micromaps, at)?;
+                let pool = self.handle(
+                    &c.query_pool,
+                    ObjectKind::QueryPool,
+                    &format!("{at}.queryPool"),
+                )?;
+                self.validator.cmd_write_micromaps_properties(
+                    &command_buffer,
+                    &list,
+                    c.query_type.as_i32(),
+                    pool,
+                    c.first_query,
+                )
+            }
+            Call::WriteMicromapsProperties(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let list = self.micromap_list(c.micromap_count, &c.p_micromaps, at)?;
+                let data = self.address(&c.p_data, &format!("{at}.pData"))?;
+                self.validator.write_micromaps_properties(
+                    device,
+                    &list,
+                    c.query_type.as_i32(),
+                    c.data_size,
+                    data,
+                    c.stride,
+                )
+            }
+            Call::GetDeviceMicromapCompatibility(c) => {
+                let device = self.device_handle(&c.device, &device_at)?;
+                let version = match &c.p_version_info {
+                    Some(d) => {
+                        let defaults = MicromapVersionInfo::default();
+                        let data_at = format!("{at}.pVersionInfo.pVersionData");
+                        Some(MicromapVersionInfo {
+                            s_type: s_type(d.s_type, defaults.s_type),
+                            next: chain(&d.p_next),
+                            version_data: match &d.p_version_data {
+                                Some(hex) => Some(decode_hex(hex, &data_at)?),
+                                None => None,
+                            },
+                        })
+                    }
+                    None => None,
+                };
+                self.validator.get_device_micromap_compatibility(
+                    device,
+                    version.as_ref(),
+                    c.p_compatibility,
+                )
+            }
+            Call::CreateAccelerationStructure(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                let d = &c.p_create_info;
+                let info_at = format!("{at}.pCreateInfo");
+                let defaults = AccelerationStructureCreateInfo::default();
+                let info = AccelerationStructureCreateInfo {
+                    s_type: s_type(d.s_type, defaults.s_type),
+                    next: chain(&d.p_next),
+                    create_flags: d.create_flags.as_u32(),
+                    buffer: self.handle(
+                        &d.buffer,
+                        ObjectKind::Buffer,
+                        &format!("{info_at}.buffer"),
+                    )?,
+                    offset: d.offset,
+                    size: d.size,
+                    ty: d.ty.as_i32(),
+                    device_address: self
+                        .address(&d.device_address, &format!("{info_at}.deviceAddress"))?,
+                };
+                let handle = match &c.p_acceleration_structure {
+                    Some(name) => self.bind(
+                        name,
+                        ObjectKind::AccelerationStructure,
+                        &format!("{at}.pAccelerationStructure"),
+                    )?,
+                    None => 0,
+                };
+                self.validator.create_acceleration_structure(&info, handle)
+            }
+            Call::CreateAccelerationStructure2(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                let d = &c.p_create_info;
+                let info_at = format!("{at}.pCreateInfo");
+                let defaults = AccelerationStructureCreateInfo2::default();
+                let info = AccelerationStructureCreateInfo2 {
+                    s_type: s_type(d.s_type, defaults.s_type),
+                    next: chain(&d.p_next),
+                    create_flags: d.create_flags.as_u32(),
+                    address: self.address(
+                        &d.address_range.address,
+                        &format!("{info_at}.addressRange.address"),
+                    )?,
+                    size: d.address_range.size,
+                    address_flags: d.address_flags.as_u32(),
+                    ty: d.ty.as_i32(),
+                };
+                let handle = match &c.p_acceleration_structure {
+                    Some(name) => self.bind(
+                        name,
+                        ObjectKind::AccelerationStructure,
+                        &format!("{at}.pAccelerationStructure"),
+                    )?,
+                    None => 0,
+                };
+                self.validator.create_acceleration_structure2(&info, handle)
+            }
+            Call::CmdBuildAccelerationStructures(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let ranges = Self::build_ranges(&c.pp_build_range_infos);
+                let infos = self.build_geometry_infos(&c.p_infos, &ranges, false, at)?;
+                self.validator
+                    .cmd_build_acceleration_structures(&command_buffer, &infos, &ranges)
+            }
+            Call::CmdBuildAccelerationStructuresIndirect(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let infos = self.build_geometry_infos(&c.p_infos, &[], false, at)?;
+                let addresses = c
+                    .p_indirect_device_addresses
+                    .iter()
+                    .enumerate()
+                    .map(|(k, a)| self.address(a, &format!("{at}.pIndirectDeviceAddresses[{k}]")))
+                    .collect::<Result<Vec<_>>>()?;
+                self.validator.cmd_build_acceleration_structures_indirect(
+                    &command_buffer,
+                    &infos,
+                    &addresses,
+                    &c.p_indirect_strides,
+                    &c.pp_max_primitive_counts,
+                )
+            }
+            Call::BuildAccelerationStructures(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                self.handle(
+                    &c.deferred_operation,
+                    ObjectKind::DeferredOperation,
+                    &format!("{at}.deferredOperation"),
+                )?;
+                let ranges = Self::build_ranges(&c.pp_build_range_infos);
+                let infos = self.build_geometry_infos(&c.p_infos, &ranges, true, at)?;
+                self.validator
+                    .build_acceleration_structures(&infos, &ranges)
+            }
+            Call::GetAccelerationStructureBuildSizes(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                let info =
+                    self.build_geometry_info(&c.p_build_info, &format!("{at}.pBuildInfo"))?;
+                self.validator.get_acceleration_structure_build_sizes(
+                    c.build_type.as_i32(),
+                    &info,
+                    c.p_max_primitive_counts.as_deref(),
+                )
+            }
+            Call::CmdCopyAccelerationStructure(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let info = self.copy_as_info(&c.p_info, &p_info)?;
+                self.validator
+                    .cmd_copy_acceleration_structure(&command_buffer, &info)
+            }
+            Call::CopyAccelerationStructure(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                self.handle(
+                    &c.deferred_operation,
+                    ObjectKind::DeferredOperation,
+                    &format!("{at}.deferredOperation"),
+                )?;
+                let info = self.copy_as_info(&c.p_info, &p_info)?;
+                self.validator.copy_acceleration_structure(&info)
+            }
+            Call::CmdCopyAccelerationStructureToMemory(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let d = &c.p_info;
+                let defaults = CopyAccelerationStructureToMemoryInfo::default();
+                let info = CopyAccelerationStructureToMemoryInfo {
+                    s_type: s_type(d.s_type, defaults.s_type),
+                    next: chain(&d.p_next),
+                    src: self.handle(
+                        &d.src,
+                        ObjectKind::AccelerationStructure,
+                        &format!("{p_info}.src"),
+                    )?,
+                    dst: self.address(&d.dst, &format!("{p_info}.dst"))?,
+                    mode: d.mode.map_or(defaults.mode, Value::as_i32),
+                };
+                self.validator
+                    .cmd_copy_acceleration_structure_to_memory(&command_buffer, &info)
+            }
+            Call::CmdCopyMemoryToAccelerationStructure(c) => {
+                let command_buffer = self.command_buffer(&c.command_buffer, at)?;
+                let d = &c.p_info;
+                let defaults = CopyMemoryToAccelerationStructureInfo::default();
+                let info = CopyMemoryToAccelerationStructureInfo {
+                    s_type: s_type(d.s_type, defaults.s_type),
+                    next: chain(&d.p_next),
+                    src: self.address(&d.src, &format!("{p_info}.src"))?,
+                    dst: self.handle(
+                        &d.dst,
+                        ObjectKind::AccelerationStructure,
+                        &format!("{p_info}.dst"),
+                    )?,
+                    mode: d.mode.map_or(defaults.mode, Value::as_i32),
+                };
+                self.validator
+                    .cmd_copy_memory_to_acceleration_structure(&command_buffer, &info)
+            }
+        })
+    }
+}
+
+/// The bytes a piece holds, where that is known without reading a file.
+fn piece_len_hint(piece: &Piece) -> Option<u64> {
+    let len = |n: usize, each: u64| (n as u64).checked_mul(each);
+    if let Some(hex) = &piece.hex {
+        let digits = hex
+            .bytes()
+            .filter(|b| !b.is_ascii_whitespace() && *b != b'_')
+            .count();
+        return Some(digits as u64 / 2);
+    }
+    if let Some(text) = &piece.base64 {
+        let compact: String = text.chars().filter(|c| !c.is_ascii_whitespace()).collect();
+        return base64::engine::general_purpose::STANDARD
+            .decode(compact)
+            .ok()
+            .map(|b| b.len() as u64);
+    }
+    if let Some(v) = &piece.u8 {
+        return len(v.len(), 1);
+    }
+    if let Some(v) = &piece.u16 {
+        return len(v.len(), 2);
+    }
+    if let Some(v) = &piece.u32 {
+        return len(v.len(), 4);
+    }
+    if let Some(v) = &piece.u64 {
+        return len(v.len(), 8);
+    }
+    if let Some(v) = &piece.triangles {
+        return len(v.len(), MicromapTriangle::SIZE);
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn placement_keeps_clear_of_fixed_ranges_and_never_overflows() {
+        let taken = [(0x1_0000_0000, 0x1_0000_1000)];
+        let start = place(0x1_0000_0000, 16, &taken).unwrap();
+        assert!(start >= 0x1_0000_1000 + ADDRESS_GAP);
+        assert_eq!(start % 256, 0);
+        assert_eq!(place(u64::MAX - 10, 16, &[]), None);
+        assert_eq!(place(1, u64::MAX, &[]), None);
+    }
+
+    #[test]
+    fn hex_decoding_reports_bad_digits() {
+        assert_eq!(decode_hex("00 ff_10", "x"), Ok(vec![0, 0xff, 0x10]));
+        assert!(decode_hex("0", "x").is_err());
+        assert!(decode_hex("zz", "x").unwrap_err().message.contains("`zz`"));
+        assert!(decode_hex("é0", "x").is_err());
+    }
+
+    #[test]
+    fn instances_decode_their_packed_fields() {
+        let mut bytes = [0u8; 64];
+        bytes[48..52].copy_from_slice(&(0xab00_0007u32).to_le_bytes());
+        bytes[52..56].copy_from_slice(&(0x1800_0003u32).to_le_bytes());
+        bytes[56..64].copy_from_slice(&0x1234u64.to_le_bytes());
+        let instance = instance_from_bytes(&bytes).unwrap();
+        assert_eq!(instance.instance_custom_index, 7);
+        assert_eq!(instance.mask, 0xab);
+        assert_eq!(instance.instance_shader_binding_table_record_offset, 3);
+        assert_eq!(instance.flags, 0x18);
+        assert_eq!(instance.acceleration_structure_reference, 0x1234);
+        assert!(instance_from_bytes(&bytes[..63]).is_none());
+    }
+}
