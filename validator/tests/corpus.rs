@@ -1,0 +1,301 @@
+//! The snapshot corpus: `tests/scenes/corpus/<family>/`, one failing scene
+//! per rule and its valid twin (see the corpus README). Every failing scene
+//! must report its rule, every twin must report nothing at all, and every
+//! report is kept as an insta snapshot under `tests/snapshots/corpus/`.
+//!
+//! To accept changed reports: `INSTA_UPDATE=always cargo test -p ommcheck
+//! --test corpus`, then review the diff of `validator/tests/snapshots/`.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use ommcheck::scene::{CheckOptions, Scene, SceneReport};
+
+/// The corpus, relative to the workspace root (as reports show it).
+const CORPUS: &str = "tests/scenes/corpus";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the crate lives in the workspace")
+        .to_path_buf()
+}
+
+/// What a corpus file is, by its name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Role {
+    /// `pass.json`: the family's valid scene, the twin of every failing
+    /// scene without a twin of its own.
+    FamilyPass,
+    /// `<rule>.fail.json`.
+    Fail(String),
+    /// `<rule>.pass.json`: the valid twin of `<rule>.fail.json`.
+    Twin(String),
+}
+
+struct CorpusScene {
+    family: String,
+    file: String,
+    role: Role,
+    report: SceneReport,
+}
+
+impl CorpusScene {
+    /// `family/file`, as messages name it.
+    fn name(&self) -> String {
+        format!("{}/{}", self.family, self.file)
+    }
+}
+
+fn role_of(file: &str) -> Option<Role> {
+    if file == "pass.json" {
+        Some(Role::FamilyPass)
+    } else if let Some(rule) = file.strip_suffix(".fail.json") {
+        Some(Role::Fail(rule.to_string()))
+    } else {
+        file.strip_suffix(".pass.json")
+            .map(|rule| Role::Twin(rule.to_string()))
+    }
+}
+
+fn sorted_entries(dir: &Path) -> Vec<PathBuf> {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("a directory entry").path())
+        .collect();
+    entries.sort();
+    entries
+}
+
+/// Every corpus scene, checked, in a stable order (family, then file name).
+fn corpus() -> Vec<CorpusScene> {
+    let dir = root().join(CORPUS);
+    let mut scenes = Vec::new();
+    for family_dir in sorted_entries(&dir) {
+        if !family_dir.is_dir() {
+            continue;
+        }
+        let family = family_dir
+            .file_name()
+            .and_then(|n| n.to_str())
+            .expect("a UTF-8 family name")
+            .to_string();
+        for path in sorted_entries(&family_dir) {
+            let file = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .expect("a UTF-8 file name")
+                .to_string();
+            if !file.ends_with(".json") {
+                continue;
+            }
+            let role = role_of(&file).unwrap_or_else(|| {
+                panic!("{family}/{file}: corpus scenes are pass.json, <rule>.fail.json or <rule>.pass.json")
+            });
+            let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{file}: {e}"));
+            // The path reports show is relative to the workspace root, so
+            // snapshots do not depend on where the repository lives.
+            let shown = format!("{CORPUS}/{family}/{file}");
+            let scene = Scene::parse(&text, &shown, &family_dir).unwrap_or_else(|e| panic!("{e}"));
+            let report = scene
+                .check(&CheckOptions::default())
+                .unwrap_or_else(|e| panic!("{e}"));
+            scenes.push(CorpusScene {
+                family: family.clone(),
+                file,
+                role,
+                report,
+            });
+        }
+    }
+    scenes
+}
+
+#[test]
+fn failing_scenes_report_their_rule_and_twins_report_nothing() {
+    let scenes = corpus();
+    assert!(scenes.len() > 100, "the corpus has {} scenes", scenes.len());
+    let mut problems = Vec::new();
+    for scene in &scenes {
+        let ids = scene.report.report.ids();
+        match &scene.role {
+            Role::Fail(rule) => {
+                if !ids.contains(&rule.as_str()) {
+                    problems.push(format!(
+                        "{}: does not report {rule}; it reports {ids:?}",
+                        scene.name()
+                    ));
+                }
+                let twin = format!("{rule}.pass.json");
+                let has_twin = scenes.iter().any(|s| {
+                    s.family == scene.family && (s.file == twin || s.role == Role::FamilyPass)
+                });
+                if !has_twin {
+                    problems.push(format!(
+                        "{}: no valid twin ({twin} or pass.json)",
+                        scene.name()
+                    ));
+                }
+            }
+            Role::FamilyPass | Role::Twin(_) => {
+                if !scene.report.findings.is_empty() {
+                    problems.push(format!("{}: a valid scene reports {ids:?}", scene.name()));
+                }
+                if let Role::Twin(rule) = &scene.role {
+                    let fail = format!("{rule}.fail.json");
+                    if !scenes
+                        .iter()
+                        .any(|s| s.family == scene.family && s.file == fail)
+                    {
+                        problems.push(format!("{}: twin of no {fail}", scene.name()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+#[test]
+fn corpus_reports_match_their_snapshots() {
+    let mut settings = insta::Settings::clone_current();
+    settings.set_snapshot_path("snapshots/corpus");
+    settings.set_prepend_module_to_snapshot(false);
+    settings.bind(|| {
+        for scene in corpus() {
+            let stem = scene.file.trim_end_matches(".json");
+            let name = format!("{}__{stem}", scene.family);
+            insta::assert_json_snapshot!(name, scene.report);
+        }
+    });
+}
+
+/// Rules the scene format cannot express: their module or parent has no
+/// call or structure in scenes, or the rule needs something a scene cannot
+/// write. Listed, not counted as missing.
+fn inexpressible(module: &str, id: &str) -> Option<&'static str> {
+    if module == "pipeline_sync" {
+        return Some("pipelines, shaders, barriers, draws, dispatches, traces, device creation and property queries have no calls in scenes");
+    }
+    const BY_PARENT: &[(&str, &str)] = &[
+        (
+            "VUID-VkClusterAccelerationStructureBuildTriangleCluster",
+            "cluster acceleration structure builds have no call in scenes",
+        ),
+        (
+            "VUID-vkCmdBeginQuery",
+            "vkCmdBeginQuery has no call in scenes",
+        ),
+    ];
+    if id.ends_with("-commandBuffer-parameter") {
+        return Some(
+            "commandBuffer is a name or an inline object; an invalid handle cannot be written",
+        );
+    }
+    if id.ends_with("-parent") || id.ends_with("-commonparent") {
+        return Some("scenes declare no objects of another device");
+    }
+    for (prefix, why) in BY_PARENT {
+        if id.starts_with(prefix) {
+            return Some(why);
+        }
+    }
+    const BY_ID: &[(&str, &str)] = &[
+        (
+            "VUID-VkAccelerationStructureGeometryMicromapDataKHR-sType-sType",
+            "a pNext structure is identified by its sType, so a wrong sType makes it another structure",
+        ),
+        (
+            "VUID-VkAccelerationStructureTrianglesOpacityMicromapEXT-sType-sType",
+            "a pNext structure is identified by its sType, so a wrong sType makes it another structure",
+        ),
+        (
+            "VUID-VkAccelerationStructureTrianglesOpacityMicromapKHR-sType-sType",
+            "a pNext structure is identified by its sType, so a wrong sType makes it another structure",
+        ),
+        (
+            "VUID-VkAccelerationStructureTrianglesDisplacementMicromapNV-sType-sType",
+            "a pNext structure is identified by its sType, so a wrong sType makes it another structure",
+        ),
+        (
+            "OMMCHECK-reader-pnext-chain",
+            "pNext chains are JSON arrays: they cannot loop",
+        ),
+        (
+            "OMMCHECK-reader-bounded",
+            "arrays in scenes are JSON arrays of what they hold; the raw reader's bound does not apply",
+        ),
+    ];
+    BY_ID
+        .iter()
+        .find(|(rule, _)| *rule == id)
+        .map(|(_, why)| *why)
+}
+
+/// How many enforced rules have a failing scene. A floor to raise as the
+/// corpus grows, not a target: the goal is every enforced rule the scene
+/// format can express.
+const COVERED_FLOOR: usize = 142;
+
+#[test]
+fn corpus_coverage_of_enforced_rules() {
+    let scenes = corpus();
+    let in_corpus: BTreeSet<String> = scenes
+        .iter()
+        .filter_map(|s| match &s.role {
+            Role::Fail(rule) => Some(rule.clone()),
+            _ => None,
+        })
+        .collect();
+    let mut enforced: Vec<(String, String)> = Vec::new();
+    for module in ommcheck::checks::coverage() {
+        for vuid in module.enforced {
+            enforced.push((module.module.to_string(), vuid.id().to_string()));
+        }
+    }
+    for rule in ommcheck::rules::ALL {
+        enforced.push(("ommcheck rules".to_string(), rule.id.to_string()));
+    }
+    let enforced_ids: BTreeSet<&str> = enforced.iter().map(|(_, id)| id.as_str()).collect();
+
+    // A corpus scene names a rule that is enforced (a typo would never fail).
+    let unknown: Vec<&String> = in_corpus
+        .iter()
+        .filter(|rule| !enforced_ids.contains(rule.as_str()))
+        .collect();
+    assert!(
+        unknown.is_empty(),
+        "corpus scenes for rules no check enforces: {unknown:?}"
+    );
+
+    let mut covered = 0;
+    let mut missing = Vec::new();
+    let mut not_expressible = Vec::new();
+    for (module, id) in &enforced {
+        if in_corpus.contains(id) {
+            covered += 1;
+        } else if let Some(why) = inexpressible(module, id) {
+            not_expressible.push(format!("{id} ({module}): {why}"));
+        } else {
+            missing.push(format!("{id} ({module})"));
+        }
+    }
+    println!(
+        "corpus: {} scenes; {covered} of {} enforced rules covered, {} missing, {} not expressible in scenes",
+        scenes.len(),
+        enforced.len(),
+        missing.len(),
+        not_expressible.len()
+    );
+    println!("missing:\n  {}", missing.join("\n  "));
+    println!("not expressible:\n  {}", not_expressible.join("\n  "));
+    assert_eq!(
+        covered + missing.len() + not_expressible.len(),
+        enforced.len()
+    );
+    assert!(
+        covered >= COVERED_FLOOR,
+        "the corpus covers {covered} enforced rules, fewer than the floor {COVERED_FLOOR}; missing:\n{}",
+        missing.join("\n")
+    );
+}
