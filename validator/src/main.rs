@@ -2,6 +2,8 @@
 
 use std::process::ExitCode;
 
+mod progress;
+
 use clap::{Parser, Subcommand};
 use ommcheck::scene::{CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary};
 use ommcheck::vuids::Vuid;
@@ -170,15 +172,25 @@ fn check_command(
         }
     }
     let mut reports: Vec<SceneReport> = Vec::new();
+    let scene_bytes: u64 = paths
+        .iter()
+        .filter_map(|p| std::fs::metadata(p).ok())
+        .map(|m| m.len())
+        .sum();
+    let progress = progress::for_scenes(scenes.len() as u64, scene_bytes);
     for scene in &scenes {
-        match scene.check(&options) {
+        let checked = scene.check(&options);
+        progress.inc(1);
+        match checked {
             Ok(report) => reports.push(report),
             Err(error) => {
+                progress.finish_and_clear();
                 eprintln!("ommcheck: {error}");
                 return ExitCode::from(2);
             }
         }
     }
+    progress.finish_and_clear();
     let summary = Summary::of(&reports);
     match format {
         Format::Json => {
