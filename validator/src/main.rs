@@ -48,6 +48,17 @@ enum Command {
         #[arg(long, value_enum)]
         deny: Option<Deny>,
     },
+    /// Check a scene's calls, then simulate each of its `rays`: the outcome
+    /// set, the micromap slot, the micro-triangles and their states, and the
+    /// rule that decided it. Exit status: 0 when every ray was simulated and
+    /// the calls had no errors, 1 when they had errors or a ray could not be
+    /// simulated, 2 when the scene could not be read.
+    Trace {
+        /// The scene file (JSON; see docs/scene-format.md).
+        scene: std::path::PathBuf,
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+    },
     /// Map barycentrics to a micro-triangle index, or an index to its micro-triangle.
     Index {
         /// Subdivision level, 0 to 12.
@@ -83,6 +94,7 @@ fn main() -> ExitCode {
             profile,
             deny,
         } => check_command(example, &scenes, format, profile.as_deref(), deny),
+        Command::Trace { scene, format } => trace_command(&scene, format),
         Command::Index {
             level,
             uv,
@@ -226,6 +238,38 @@ fn check_command(
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+/// `ommcheck trace`: the calls' findings, then each ray's answer.
+fn trace_command(path: &std::path::Path, format: Format) -> ExitCode {
+    let traced = Scene::load(path).and_then(|scene| scene.trace(&CheckOptions::default()));
+    let report = match traced {
+        Ok(report) => report,
+        Err(error) => {
+            eprintln!("ommcheck: {error}");
+            return ExitCode::from(2);
+        }
+    };
+    match format {
+        Format::Json => match serde_json::to_string_pretty(&report) {
+            Ok(text) => println!("{text}"),
+            Err(error) => {
+                eprintln!("ommcheck: cannot write the report: {error}");
+                return ExitCode::from(2);
+            }
+        },
+        Format::Text => print!("{}", report.text()),
+    }
+    for ray in &report.rays {
+        if let Some(error) = &ray.error {
+            eprintln!("ommcheck: rays[{}] not simulated: {error}", ray.ray);
+        }
+    }
+    if report.success() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
     }
 }
 

@@ -57,6 +57,71 @@ pub struct SceneFile {
     pub command_buffers: Vec<CommandBufferDesc>,
     /// The API calls, checked in order.
     pub calls: Vec<Call>,
+    /// Candidate hits `ommcheck trace` simulates after the calls, each on a
+    /// triangle of a bottom-level acceleration structure a call built.
+    #[serde(default)]
+    pub rays: Vec<RayDesc>,
+}
+
+/// One candidate hit to simulate (`ommcheck trace`): a triangle of a
+/// geometry of a bottom-level acceleration structure built by one of the
+/// calls, hit at barycentrics (`hit`) or by a ray (`ray`) intersected with
+/// the triangle's vertices as the build read them.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct RayDesc {
+    /// A label shown in the output.
+    pub name: Option<String>,
+    /// The bottom-level acceleration structure, by its name in the scene.
+    pub acceleration_structure: String,
+    /// The geometry's index in the build (default 0).
+    #[serde(default)]
+    pub geometry: u32,
+    /// The geometry triangle (0-based, below the build range's primitiveCount).
+    pub triangle: u64,
+    /// The hit as barycentrics; exactly one of `hit` and `ray`.
+    pub hit: Option<HitDesc>,
+    /// The hit as a ray against the triangle's vertices; exactly one of
+    /// `hit` and `ray`.
+    pub ray: Option<RayGeometryDesc>,
+    /// `VkGeometryInstanceFlagsKHR` of the instance the ray meets.
+    #[serde(default)]
+    pub instance_flags: Value<names::GeometryInstanceFlags>,
+    /// SPIR-V `RayFlags` of the trace (`OpaqueKHR`, `CullOpaqueKHR`,
+    /// `ForceOpacityMicromap2StateEXT`, ...).
+    #[serde(default)]
+    pub ray_flags: Value<names::RayFlags>,
+    /// The geometry's VK_GEOMETRY_OPAQUE_BIT_KHR; absent: as the build's
+    /// geometry flags say.
+    pub geometry_opaque: Option<bool>,
+    /// Whether the trace consumes opacity micromaps (the pipeline or ray
+    /// query enables them; default true).
+    #[serde(default = "yes")]
+    pub micromaps_enabled: bool,
+}
+
+/// A hit at barycentrics: u weighs vertex 1, v vertex 2 (rounded to f32, as
+/// traversal reports them).
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct HitDesc {
+    pub u: f64,
+    pub v: f64,
+    /// The error the barycentrics may carry; absent: 4 f32 ulps of 1.
+    pub delta: Option<f64>,
+}
+
+/// A ray as `traceRayEXT` takes it.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct RayGeometryDesc {
+    pub origin: [f64; 3],
+    pub direction: [f64; 3],
+    /// Default 0.
+    #[serde(default)]
+    pub t_min: f64,
+    /// Absent: unbounded.
+    pub t_max: Option<f64>,
 }
 
 /// The device: enabled extensions and features, and its limits.

@@ -22,6 +22,7 @@ pub mod args;
 pub mod format;
 pub mod names;
 mod resolve;
+pub mod trace;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -29,9 +30,10 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 pub use resolve::{
-    read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, DEVICE_HANDLE,
-    MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,
+    read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay,
+    DEVICE_HANDLE, MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,
 };
+pub use trace::{RayReport, TraceReport, TraceSummary};
 
 use crate::report::{Finding, Report, Severity};
 use format::SceneFile;
@@ -176,6 +178,7 @@ impl Scene {
                     deferred_operations: Vec::new(),
                     command_buffers: Vec::new(),
                     calls: Vec::new(),
+                    rays: Vec::new(),
                 },
             },
         }

@@ -492,6 +492,32 @@ kind!(
 );
 
 kind!(
+    /// SPIR-V `RayFlags` (the `Rayflags` operand of `OpTraceRayKHR` and
+    /// `OpRayQueryInitializeKHR`), by their SPIR-V names; the values are
+    /// the SPIR-V specification's (no Vulkan header defines them).
+    RayFlags,
+    "RayFlags",
+    U32,
+    true,
+    [
+        ("NoneKHR", 0),
+        ("OpaqueKHR", 0x1),
+        ("NoOpaqueKHR", 0x2),
+        ("TerminateOnFirstHitKHR", 0x4),
+        ("SkipClosestHitShaderKHR", 0x8),
+        ("CullBackFacingTrianglesKHR", 0x10),
+        ("CullFrontFacingTrianglesKHR", 0x20),
+        ("CullOpaqueKHR", 0x40),
+        ("CullNoOpaqueKHR", 0x80),
+        ("SkipTrianglesKHR", 0x100),
+        ("SkipBuiltinPrimitivesNV", 0x100),
+        ("SkipAABBsKHR", 0x200),
+        ("ForceOpacityMicromap2StateEXT", 0x400),
+        ("ForceOpacityMicromap2StateKHR", 0x400),
+    ]
+);
+
+kind!(
     IndexType,
     "VkIndexType",
     I32,
@@ -671,6 +697,14 @@ pub fn lookup<K: Kind>(name: &str) -> Option<i64> {
         .iter()
         .find(|(entry, _)| *entry == name)
         .map(|(_, value)| *value)
+}
+
+/// The first name `K`'s table gives `value`, if any.
+pub fn name_of<K: Kind>(value: i64) -> Option<&'static str> {
+    K::names()
+        .iter()
+        .find(|(_, v)| *v == value)
+        .map(|(name, _)| *name)
 }
 
 /// A member holding a `K` value, written as its spec name or a number (and,
@@ -967,6 +1001,30 @@ mod tests {
         unique::<BufferUsageFlags>();
         unique::<BuildAccelerationStructureFlags>();
         unique::<GeometryInstanceFlags>();
+        unique::<RayFlags>();
         unique::<IndexType>();
+    }
+
+    /// The ray flags the simulator reads have the values it tests for.
+    #[test]
+    fn ray_flag_names_agree_with_the_simulator() {
+        use crate::sim::opacity::ray_flags;
+        for (name, value) in [
+            ("OpaqueKHR", ray_flags::OPAQUE),
+            ("NoOpaqueKHR", ray_flags::NO_OPAQUE),
+            ("CullOpaqueKHR", ray_flags::CULL_OPAQUE),
+            ("CullNoOpaqueKHR", ray_flags::CULL_NO_OPAQUE),
+            (
+                "ForceOpacityMicromap2StateEXT",
+                ray_flags::FORCE_OPACITY_MICROMAP_2_STATE,
+            ),
+        ] {
+            assert_eq!(lookup::<RayFlags>(name), Some(i64::from(value)), "{name}");
+        }
+        assert_eq!(
+            from_json::<RayFlags>("[\"OpaqueKHR\", \"CullNoOpaqueKHR\"]"),
+            Ok(0x81)
+        );
+        assert!(from_json::<RayFlags>("\"gl_RayFlagsOpaqueEXT\"").is_err());
     }
 }

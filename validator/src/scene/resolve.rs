@@ -8,6 +8,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use base64::Engine as _;
+use glam::DVec3;
 
 use crate::device::{Device, Limits, Profile};
 use crate::model::accel::{
@@ -24,6 +25,8 @@ use crate::model::micromap_objects::{
     MicromapBuildSizesInfo, MicromapCreateInfo, MicromapList, MicromapVersionInfo,
 };
 use crate::report::Report;
+use crate::sim::intersect::Ray;
+use crate::sim::simulate::{HitInput, HitQuery};
 use crate::state::{
     AccelerationStructure, Buffer, BuildRecord, Handle, HostRange, MemoryBinding, Micromap,
     QueryPool,
@@ -155,12 +158,36 @@ struct Resolver<'a> {
     validator: Validator,
 }
 
+/// A ray of the scene resolved to a simulator query.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResolvedRay {
+    /// Its label, if the scene gave one.
+    pub name: Option<String>,
+    /// The acceleration structure's name in the scene.
+    pub acceleration_structure: String,
+    pub query: HitQuery,
+}
+
+/// A scene whose calls were checked, with the validator that saw them and
+/// the scene's rays, ready to simulate.
+pub struct Run {
+    pub checked: Checked,
+    pub validator: Validator,
+    pub rays: Vec<ResolvedRay>,
+}
+
 /// Resolves and checks `scene`; `base_dir` anchors relative file paths.
 pub fn check(
     scene: &SceneFile,
     base_dir: &Path,
     limits: Option<&LimitsOverride>,
 ) -> Result<Checked> {
+    run(scene, base_dir, limits).map(|run| run.checked)
+}
+
+/// Resolves `scene`, checks its calls in order, then resolves its rays
+/// (which name objects the calls may have created).
+pub fn run(scene: &SceneFile, base_dir: &Path, limits: Option<&LimitsOverride>) -> Result<Run> {
     let device = device(scene.device.as_ref(), base_dir, limits)?;
     let mut resolver = Resolver {
         base_dir,
@@ -199,10 +226,20 @@ pub fn check(
             })
         })
         .collect();
-    Ok(Checked {
-        calls: scene.calls.len(),
-        objects,
-        report,
+    let rays = scene
+        .rays
+        .iter()
+        .enumerate()
+        .map(|(i, ray)| resolver.ray(ray, &format!("rays[{i}]")))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Run {
+        checked: Checked {
+            calls: scene.calls.len(),
+            objects,
+            report,
+        },
+        validator: resolver.validator,
+        rays,
     })
 }
 
@@ -523,6 +560,87 @@ impl Resolver<'_> {
                 ),
             },
         }
+    }
+
+    /// A ray of `rays`: its acceleration structure must be one the scene
+    /// names (declared or created by a call), and it gives exactly one of
+    /// `hit` and `ray`.
+    fn ray(&self, d: &RayDesc, at: &str) -> Result<ResolvedRay> {
+        let kind = ObjectKind::AccelerationStructure;
+        let name = &d.acceleration_structure;
+        let as_at = format!("{at}.accelerationStructure");
+        let acceleration_structure = match self.objects.get(name) {
+            Some(object) if object.kind == kind => object.handle,
+            Some(object) => {
+                return problem(
+                    as_at,
+                    format!(
+                        "`{name}` names a {}; a ray needs a bottom-level acceleration structure ({})",
+                        object.kind.noun(),
+                        self.names_of(kind)
+                    ),
+                )
+            }
+            None => {
+                return problem(
+                    as_at,
+                    format!(
+                        "unknown acceleration structure `{name}`: expected the name of a bottom-level acceleration structure declared or created by a call ({})",
+                        self.names_of(kind)
+                    ),
+                )
+            }
+        };
+        let hit = match (&d.hit, &d.ray) {
+            (Some(h), None) => {
+                if let Some(delta) = h.delta {
+                    if delta.is_nan() || delta < 0.0 {
+                        return problem(
+                            format!("{at}.hit.delta"),
+                            format!("the error bound must be a non-negative number (found {delta})"),
+                        );
+                    }
+                }
+                // Traversal reports f32 barycentrics.
+                HitInput::Barycentrics {
+                    u: h.u as f32,
+                    v: h.v as f32,
+                    delta: h.delta,
+                }
+            }
+            (None, Some(r)) => HitInput::Ray(Ray {
+                origin: DVec3::from_array(r.origin),
+                direction: DVec3::from_array(r.direction),
+                t_min: r.t_min,
+                t_max: r.t_max.unwrap_or(f64::INFINITY),
+            }),
+            (Some(_), Some(_)) => {
+                return problem(
+                    at,
+                    "a ray gives `hit` (barycentrics) or `ray` (origin and direction), not both",
+                )
+            }
+            (None, None) => {
+                return problem(
+                    at,
+                    "a ray needs `hit` ({\"u\": .., \"v\": ..}) or `ray` ({\"origin\": [x, y, z], \"direction\": [x, y, z]})",
+                )
+            }
+        };
+        Ok(ResolvedRay {
+            name: d.name.clone(),
+            acceleration_structure: name.clone(),
+            query: HitQuery {
+                acceleration_structure,
+                geometry: d.geometry,
+                triangle: d.triangle,
+                hit,
+                instance_flags: d.instance_flags.as_u32(),
+                ray_flags: d.ray_flags.as_u32(),
+                geometry_opaque: d.geometry_opaque,
+                micromaps_enabled: d.micromaps_enabled,
+            },
+        })
     }
 
     fn device_handle(&self, arg: &HandleArg, at: &str) -> Result<Handle> {
