@@ -111,6 +111,13 @@ pub static OVERLAPPING_DATA: OwnRule = OwnRule {
     link: MICROMAPS,
 };
 
+/// -5 belongs to cluster geometry only.
+pub static CLUSTER_INDEX_OUTSIDE_CLUSTER: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-cluster-index-outside-cluster",
+    statement: "VK_OPACITY_MICROMAP_SPECIAL_INDEX_CLUSTER_GEOMETRY_DISABLE_OPACITY_MICROMAP_NV (-5) disables the opacity micromap for a triangle of cluster geometry (VK_NV_cluster_acceleration_structure); in an ordinary bottom-level acceleration structure it is no special index",
+    link: "https://docs.vulkan.org/spec/latest/chapters/accelstructures.html",
+};
+
 /// Every own rule, for the README and the coverage report.
 pub static ALL: &[&OwnRule] = &[
     &HISTOGRAM_MISMATCH,
@@ -126,6 +133,7 @@ pub static ALL: &[&OwnRule] = &[
     &UNUSED_BITS,
     &DUPLICATE_DATA,
     &OVERLAPPING_DATA,
+    &CLUSTER_INDEX_OUTSIDE_CLUSTER,
 ];
 
 #[cfg(test)]

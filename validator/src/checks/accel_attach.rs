@@ -160,12 +160,21 @@ fn index_size(index_type: i32) -> Option<u64> {
 /// 16-bit indices). The cluster-only -5 is no special index in the
 /// geometries checked here: it reads as an ordinary (huge) index.
 fn is_special_index(value: u32, size: u64) -> bool {
-    let max = match size {
+    u64::from(value) + 3 >= index_max(size)
+}
+
+/// The largest value an index of `size` bytes holds (-1 cast to its width).
+fn index_max(size: u64) -> u64 {
+    match size {
         1 => u64::from(u8::MAX),
         2 => u64::from(u16::MAX),
         _ => u64::from(u32::MAX),
-    };
-    u64::from(value) + 3 >= max
+    }
+}
+
+/// Whether `value` is -5 cast to the index width (0xFFFB for 16-bit).
+fn is_cluster_skip_index(value: u32, size: u64) -> bool {
+    u64::from(value) + 4 == index_max(size)
 }
 
 /// The indices of `count` triangles in `bytes` (an index buffer read from
@@ -915,6 +924,16 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
             continue;
         }
         let location = format!("{array}[{j}]");
+        if is_cluster_skip_index(index, size) {
+            tally.error(
+                ctx,
+                &rules::CLUSTER_INDEX_OUTSIDE_CLUSTER,
+                location,
+                || format!("index {index:#x} is -5 (CLUSTER_GEOMETRY_DISABLE_OPACITY_MICROMAP_NV), which only cluster geometry may use"),
+                &array,
+            );
+            continue;
+        }
         match triangles {
             None => tally.error(
                 ctx,

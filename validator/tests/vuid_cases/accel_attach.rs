@@ -52,9 +52,11 @@ const TRIANGLES: u32 = 4;
 const INDICES_OFFSET: u64 = 0x2000;
 const BAD_INDICES_OFFSET: u64 = 0x2100;
 const SPECIAL_INDICES_OFFSET: u64 = 0x2200;
+const CLUSTER_SKIP_INDICES_OFFSET: u64 = 0x2300;
 const INDICES: u64 = INPUT_ADDRESS + INDICES_OFFSET;
 const BAD_INDICES: u64 = INPUT_ADDRESS + BAD_INDICES_OFFSET;
 const SPECIAL_INDICES: u64 = INPUT_ADDRESS + SPECIAL_INDICES_OFFSET;
+const CLUSTER_SKIP_INDICES: u64 = INPUT_ADDRESS + CLUSTER_SKIP_INDICES_OFFSET;
 const INSTANCES: u64 = INPUT_ADDRESS + 0x3000;
 const INDIRECT: u64 = INPUT_ADDRESS + 0x3800;
 /// Host copies of the index regions.
@@ -67,6 +69,8 @@ const NOWHERE: u64 = 0xdead_0000;
 const GOOD: [u32; 4] = [0, 1, 2, 3];
 const PAST_THE_END: [u32; 4] = [0, 1, 2, TRIANGLES];
 const SPECIAL: [u32; 4] = [u32::MAX, u32::MAX - 1, u32::MAX - 2, u32::MAX - 3];
+/// Index 2 is -5, the cluster-only special index.
+const CLUSTER_SKIP: [u32; 4] = [0, 1, u32::MAX - 4, 3];
 
 fn le_bytes(indices: &[u32]) -> Vec<u8> {
     indices.iter().flat_map(|i| i.to_le_bytes()).collect()
@@ -114,6 +118,7 @@ fn world() -> Validator {
         (INDICES_OFFSET, GOOD),
         (BAD_INDICES_OFFSET, PAST_THE_END),
         (SPECIAL_INDICES_OFFSET, SPECIAL),
+        (CLUSTER_SKIP_INDICES_OFFSET, CLUSTER_SKIP),
     ] {
         let at = offset as usize;
         contents[at..at + 16].copy_from_slice(&le_bytes(&indices));
@@ -821,6 +826,16 @@ fn ext_cases() -> Vec<Case> {
                     ..ext_ok()
                 })
             },
+        ),
+        case(
+            &rules::CLUSTER_INDEX_OUTSIDE_CLUSTER,
+            || {
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: CLUSTER_SKIP_INDICES,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
         ),
         case(
             &rules::INDEX_IN_RANGE,
