@@ -31,7 +31,7 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{self, Tally};
-use crate::checks::{accel_attach, Coverage};
+use crate::checks::{accel_attach, hygiene, Coverage};
 use crate::device::Limits;
 use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
@@ -1158,6 +1158,7 @@ impl TriangleArrayCheck<'_> {
         let mut tally = Tally::new();
         let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
         let mut read = 0u64;
+        let mut blocks = Vec::new();
         // The loop ends at the end of `array`: each step advances >= 8 bytes.
         for m in 0..total {
             let entry = m
@@ -1186,8 +1187,14 @@ impl TriangleArrayCheck<'_> {
             if let Some(available) = data_available {
                 self.data_in_range(ctx, &mut tally, m, &triangle, available);
             }
+            blocks.push(hygiene::Block { m, triangle });
         }
         tally.finish(ctx);
+        // Information about the data itself, where the checker can read it
+        // (blocks with a bad format or range are skipped there).
+        if let Some(data_bytes) = bytes_from(state, host, data.data) {
+            hygiene::opacity_blocks(ctx, self.at, data_bytes, &blocks);
+        }
         if read == total {
             usage_counts_match(ctx, self.at, &data.usage_counts, &histogram);
         }

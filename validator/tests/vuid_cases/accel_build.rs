@@ -811,3 +811,21 @@ fn a_huge_usage_count_reads_only_what_memory_holds() {
     assert!(report.contains(micromap::count_11643));
     assert!(report.contains(cmd::micromap_11554));
 }
+
+#[test]
+fn khr_micromap_data_gets_the_hygiene_information_too() {
+    // Two level-2 4-state blocks of zeros at offsets 0 and 4: one copy would do.
+    let twice = cmd_with_triangles(
+        &[triangle(0, 2, 2), triangle(4, 2, 2)],
+        vec![usage(2, 2, 2)],
+        0,
+    );
+    assert!(twice.contains(&ommcheck::rules::DUPLICATE_DATA), "{twice}");
+    assert!(!twice.has_errors(), "{twice}");
+    let shared = cmd_with_triangles(
+        &[triangle(0, 2, 2), triangle(0, 2, 2)],
+        vec![usage(2, 2, 2)],
+        0,
+    );
+    assert!(!shared.contains(&ommcheck::rules::DUPLICATE_DATA), "{shared}");
+}
