@@ -218,6 +218,14 @@ fn inexpressible(module: &str, id: &str) -> Option<&'static str> {
             "a pNext structure is identified by its sType, so a wrong sType makes it another structure",
         ),
         (
+            "VUID-vkCmdBuildMicromapsEXT-pInfos-parameter",
+            "pInfos is a JSON array and infoCount its length: a NULL pInfos with a non-zero infoCount cannot be written",
+        ),
+        (
+            "VUID-vkBuildMicromapsEXT-pInfos-parameter",
+            "pInfos is a JSON array and infoCount its length: a NULL pInfos with a non-zero infoCount cannot be written",
+        ),
+        (
             "OMMCHECK-reader-pnext-chain",
             "pNext chains are JSON arrays: they cannot loop",
         ),
@@ -235,7 +243,7 @@ fn inexpressible(module: &str, id: &str) -> Option<&'static str> {
 /// How many enforced rules have a failing scene. A floor to raise as the
 /// corpus grows, not a target: the goal is every enforced rule the scene
 /// format can express.
-const COVERED_FLOOR: usize = 142;
+const COVERED_FLOOR: usize = 299;
 
 #[test]
 fn corpus_coverage_of_enforced_rules() {

@@ -827,5 +827,8 @@ fn khr_micromap_data_gets_the_hygiene_information_too() {
         vec![usage(2, 2, 2)],
         0,
     );
-    assert!(!shared.contains(&ommcheck::rules::DUPLICATE_DATA), "{shared}");
+    assert!(
+        !shared.contains(&ommcheck::rules::DUPLICATE_DATA),
+        "{shared}"
+    );
 }
