@@ -840,5 +840,10 @@ fn triangle_array(
         Side::SizeQuery => None,
     };
     let (data, data_start) = shared.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
-    Some(MicromapContent::at(entries, data, data_start))
+    let content = MicromapContent::at(entries, data, data_start);
+    Some(if stride == 0 {
+        content.repeating(triangles)
+    } else {
+        content
+    })
 }

@@ -24,6 +24,9 @@ pub struct MicromapContent {
     pub data: Arc<[u8]>,
     /// The offset of the build's `data` address in [`Self::data`].
     pub data_start: usize,
+    /// A build with `triangleArrayStride` 0: all this many triangles read
+    /// the one entry in [`Self::triangles`].
+    pub repeated: Option<u64>,
 }
 
 /// The work a simulation did: micromap triangles whose states were read
@@ -72,7 +75,16 @@ impl MicromapContent {
             triangles,
             data,
             data_start,
+            repeated: None,
         }
+    }
+
+    /// Content of a build with `triangleArrayStride` 0, whose `count`
+    /// triangles all read its first entry.
+    pub fn repeating(mut self, count: u64) -> Self {
+        self.triangles.truncate(1);
+        self.repeated = Some(count);
+        self
     }
 
     /// The bytes from the build's `data` address on.
@@ -82,9 +94,13 @@ impl MicromapContent {
 
     /// The bytes of triangle `m`'s states.
     pub fn triangle_data(&self, m: u64) -> Result<(&MicromapTriangle, &[u8]), LookupError> {
-        let count = self.triangles.len() as u64;
-        let triangle = usize::try_from(m)
-            .ok()
+        let count = self.repeated.unwrap_or(self.triangles.len() as u64);
+        let entry = if self.repeated.is_some() {
+            (m < count).then_some(0)
+        } else {
+            usize::try_from(m).ok()
+        };
+        let triangle = entry
             .and_then(|i| self.triangles.get(i))
             .ok_or(LookupError::TriangleOutOfRange { m, count })?;
         let size = opacity_triangle_bytes(
@@ -288,6 +304,19 @@ mod tests {
             past.all_states(0, &mut work),
             Err(LookupError::DataOutOfRange { m: 0 })
         );
+    }
+
+    #[test]
+    fn stride_zero_content_serves_every_triangle_from_one_entry() {
+        let c = content().repeating(1 << 40);
+        assert_eq!(
+            c.states(Slot::Micromap((1 << 40) - 1), 0.4, 0.4, 0.0),
+            Ok(BTreeSet::from([OpacityState::Opaque]))
+        );
+        assert!(matches!(
+            c.states(Slot::Micromap(1 << 40), 0.4, 0.4, 0.0),
+            Err(LookupError::TriangleOutOfRange { .. })
+        ));
     }
 
     #[test]
