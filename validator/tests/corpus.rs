@@ -187,14 +187,6 @@ fn inexpressible(module: &str, id: &str) -> Option<&'static str> {
             "vkCmdBeginQuery has no call in scenes",
         ),
     ];
-    if id.ends_with("-commandBuffer-parameter") {
-        return Some(
-            "commandBuffer is a name or an inline object; an invalid handle cannot be written",
-        );
-    }
-    if id.ends_with("-parent") || id.ends_with("-commonparent") {
-        return Some("scenes declare no objects of another device");
-    }
     for (prefix, why) in BY_PARENT {
         if id.starts_with(prefix) {
             return Some(why);
@@ -243,7 +235,7 @@ fn inexpressible(module: &str, id: &str) -> Option<&'static str> {
 /// How many enforced rules have a failing scene. A floor to raise as the
 /// corpus grows, not a target: the goal is every enforced rule the scene
 /// format can express.
-const COVERED_FLOOR: usize = 299;
+const COVERED_FLOOR: usize = 312;
 
 #[test]
 fn corpus_coverage_of_enforced_rules() {

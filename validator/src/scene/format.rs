@@ -55,6 +55,11 @@ pub struct SceneFile {
     /// into a primary command buffer on a graphics+compute+transfer queue.
     #[serde(default)]
     pub command_buffers: Vec<CommandBufferDesc>,
+    /// Names of objects declared above (buffers, micromaps, acceleration
+    /// structures, query pools, deferred operations, command buffers) that
+    /// belong to another `VkDevice`, not the one the calls run on.
+    #[serde(default)]
+    pub other_device_objects: Vec<String>,
     /// The API calls, checked in order.
     pub calls: Vec<Call>,
     /// Candidate hits `ommcheck trace` simulates after the calls, each on a
@@ -974,14 +979,16 @@ pub struct CopyMemoryToAccelerationStructureInfoDesc {
     pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
 }
 
-/// A command buffer parameter: the name of one in `commandBuffers`, or an
-/// inline description (without `name`).
+/// A command buffer parameter: the name of one in `commandBuffers`, an
+/// inline description (without `name`), or `null` (VK_NULL_HANDLE).
 #[derive(Debug, Default, JsonSchema)]
 #[serde(untagged)]
 pub enum CommandBufferArg {
     #[default]
     #[serde(skip)]
     Omitted,
+    /// VK_NULL_HANDLE.
+    Null,
     Name(String),
     Inline(InlineCommandBuffer),
 }
@@ -993,8 +1000,14 @@ impl<'de> Deserialize<'de> for CommandBufferArg {
             type Value = CommandBufferArg;
             fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
                 f.write_str(
-                    "the name of a command buffer in `commandBuffers`, or a command buffer object",
+                    "the name of a command buffer in `commandBuffers`, a command buffer object, or null",
                 )
+            }
+            fn visit_unit<E: de::Error>(self) -> Result<CommandBufferArg, E> {
+                Ok(CommandBufferArg::Null)
+            }
+            fn visit_none<E: de::Error>(self) -> Result<CommandBufferArg, E> {
+                Ok(CommandBufferArg::Null)
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<CommandBufferArg, E> {
                 Ok(CommandBufferArg::Name(v.to_string()))
@@ -1015,6 +1028,10 @@ impl<'de> Deserialize<'de> for CommandBufferArg {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct InlineCommandBuffer {
+    /// The raw handle the command receives; absent: a valid command buffer
+    /// handle. 0 is VK_NULL_HANDLE.
+    #[serde(default)]
+    pub handle: Option<u64>,
     #[serde(default = "yes")]
     pub recording: bool,
     pub queue_flags: Option<Value<names::QueueFlags>>,

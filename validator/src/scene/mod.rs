@@ -177,6 +177,7 @@ impl Scene {
                     query_pools: Vec::new(),
                     deferred_operations: Vec::new(),
                     command_buffers: Vec::new(),
+                    other_device_objects: Vec::new(),
                     calls: Vec::new(),
                     rays: Vec::new(),
                 },

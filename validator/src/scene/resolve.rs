@@ -541,6 +541,16 @@ impl Resolver<'_> {
         }
     }
 
+    /// The names of every object declared so far, for messages.
+    fn declared_names(&self) -> String {
+        if self.order.is_empty() {
+            "the scene declares no objects".to_string()
+        } else {
+            let names: Vec<String> = self.order.iter().map(|n| format!("`{n}`")).collect();
+            format!("the scene's objects are {}", names.join(", "))
+        }
+    }
+
     /// A handle member. A name of another kind of object resolves to that
     /// object's handle, so scenes can express passing the wrong object.
     fn handle(&self, arg: &HandleArg, kind: ObjectKind, at: &str) -> Result<Handle> {
@@ -703,6 +713,10 @@ impl Resolver<'_> {
     fn command_buffer(&self, arg: &CommandBufferArg, at: &str) -> Result<CommandBuffer> {
         match arg {
             CommandBufferArg::Omitted => Ok(CommandBuffer::default()),
+            CommandBufferArg::Null => Ok(CommandBuffer {
+                handle: 0,
+                ..CommandBuffer::default()
+            }),
             CommandBufferArg::Name(name) => self.command_buffers.get(name).cloned().map_or_else(
                 || {
                     problem(
@@ -716,6 +730,7 @@ impl Resolver<'_> {
                 Ok,
             ),
             CommandBufferArg::Inline(inline) => Ok(CommandBuffer {
+                handle: inline.handle.unwrap_or(CommandBuffer::default().handle),
                 recording: inline.recording,
                 queue_flags: inline
                     .queue_flags
@@ -723,7 +738,6 @@ impl Resolver<'_> {
                 in_render_pass: inline.in_render_pass,
                 in_video_coding: inline.in_video_coding,
                 suspended: inline.suspended,
-                ..CommandBuffer::default()
             }),
         }
     }
@@ -1092,6 +1106,24 @@ impl Resolver<'_> {
                     suspended: desc.suspended,
                 },
             );
+        }
+
+        for (i, name) in scene.other_device_objects.iter().enumerate() {
+            let at = format!("otherDeviceObjects[{i}]");
+            let Some(object) = self.objects.get(name) else {
+                return problem(
+                    at,
+                    format!(
+                        "unknown object `{name}`: expected the name of an object declared before the calls ({})",
+                        self.declared_names()
+                    ),
+                );
+            };
+            let handle = object.handle;
+            self.validator
+                .state_mut()
+                .other_device_objects
+                .insert(handle);
         }
         Ok(())
     }
