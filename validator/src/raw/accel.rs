@@ -12,15 +12,13 @@
 //! only host commands (`vkBuildAccelerationStructuresKHR`) read memory at an
 //! address, and only where the API itself describes the extent.
 
-use std::collections::HashSet;
-use std::ffi::c_void;
 use std::sync::Arc;
 
 use ash::vk;
 use ommcheck_vuids::khr;
 
 use super::{
-    bounded_len, chain_s_types, read_array, usage_counts, MAX_CHAIN, MAX_ELEMENTS, MAX_HOST_BYTES,
+    bounded_len, chain, chain_s_types, read_array, usage_counts, MAX_ELEMENTS, MAX_HOST_BYTES,
 };
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
@@ -66,50 +64,6 @@ pub(crate) fn scratch_address(value: &vk::DeviceOrHostAddressKHR) -> u64 {
     let (number, pointer) = unsafe { (value.device_address, value.host_address) };
     let _ = pointer.expose_provenance();
     number
-}
-
-/// One structure of a pNext chain: its sType and where it is.
-struct Link {
-    s_type: i32,
-    address: *const c_void,
-}
-
-/// The structures of a pNext chain, stopping at NULL, after [`MAX_CHAIN`]
-/// structures, or at an address already visited (reported as
-/// [`rules::PNEXT_CHAIN`] at `{location}.pNext`).
-///
-/// # Safety
-/// Every non-NULL `pNext` in the chain must point to a readable structure
-/// that starts with `sType` and `pNext`, as the Vulkan API requires.
-unsafe fn chain(
-    mut next: *const c_void,
-    function: &'static str,
-    location: &str,
-    findings: &mut Vec<Finding>,
-) -> Vec<Link> {
-    let mut links = Vec::new();
-    let mut visited = HashSet::new();
-    while !next.is_null() {
-        if !visited.insert(next as usize) || links.len() >= MAX_CHAIN {
-            findings.push(Finding::new(
-                &rules::PNEXT_CHAIN,
-                Severity::Error,
-                function,
-                format!("{location}.pNext"),
-                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {} of it", links.len()),
-            ));
-            break;
-        }
-        // SAFETY: the caller guarantees `next` points to a Vulkan structure,
-        // whose first members are sType and pNext (VkBaseInStructure).
-        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
-        links.push(Link {
-            s_type: base.s_type.as_raw(),
-            address: next,
-        });
-        next = base.p_next.cast();
-    }
-    links
 }
 
 /// Reads a `VkAccelerationStructureBuildGeometryInfoKHR` at `location`
@@ -1143,8 +1097,11 @@ unsafe fn read_host_instances(
 
 #[cfg(test)]
 mod tests {
+    use std::ffi::c_void;
+
     use super::*;
     use crate::model::accel::{ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, INDEX_TYPE_NONE};
+    use crate::raw::MAX_CHAIN;
     use crate::{Device, Profile};
     use ommcheck_vuids::vuid;
 

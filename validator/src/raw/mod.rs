@@ -32,38 +32,65 @@ pub const MAX_CHAIN: usize = 64;
 /// The most bytes of host memory read for one array of a host command.
 pub const MAX_HOST_BYTES: u64 = 1 << 28;
 
-/// Reads the sTypes of a pNext chain, stopping at NULL, after
-/// [`MAX_CHAIN`] structures, or at an address already visited (a cycle).
+/// One structure of a pNext chain: its sType and where it is.
+pub(crate) struct Link {
+    pub s_type: i32,
+    pub address: *const c_void,
+}
+
+/// The structures of a pNext chain, stopping at NULL, after [`MAX_CHAIN`]
+/// structures, or at an address already visited (a cycle), which is
+/// reported as [`rules::PNEXT_CHAIN`] at `{location}.pNext`.
 ///
 /// # Safety
 /// Every non-NULL `pNext` in the chain must point to a readable structure
 /// that starts with `sType` and `pNext`, as the Vulkan API requires.
-pub(crate) unsafe fn chain_s_types(
+pub(crate) unsafe fn chain(
     mut next: *const c_void,
     function: &'static str,
     location: &str,
     findings: &mut Vec<Finding>,
-) -> Vec<i32> {
-    let mut s_types = Vec::new();
+) -> Vec<Link> {
+    let mut links = Vec::new();
     let mut visited = HashSet::new();
     while !next.is_null() {
-        if !visited.insert(next as usize) || s_types.len() >= MAX_CHAIN {
+        if !visited.insert(next as usize) || links.len() >= MAX_CHAIN {
             findings.push(Finding::new(
                 &rules::PNEXT_CHAIN,
                 Severity::Error,
                 function,
                 format!("{location}.pNext"),
-                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {} of it", s_types.len()),
+                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {} of it", links.len()),
             ));
             break;
         }
         // SAFETY: the caller guarantees `next` points to a Vulkan structure,
         // whose first members are sType and pNext (VkBaseInStructure).
         let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
-        s_types.push(base.s_type.as_raw());
+        links.push(Link {
+            s_type: base.s_type.as_raw(),
+            address: next,
+        });
         next = base.p_next.cast();
     }
-    s_types
+    links
+}
+
+/// The sTypes of a pNext chain, walked as [`chain`] walks it.
+///
+/// # Safety
+/// As for [`chain`].
+pub(crate) unsafe fn chain_s_types(
+    next: *const c_void,
+    function: &'static str,
+    location: &str,
+    findings: &mut Vec<Finding>,
+) -> Vec<i32> {
+    // SAFETY: forwarded from the caller.
+    unsafe { chain(next, function, location, findings) }
+        .into_iter()
+        .map(|link| link.s_type)
+        .collect()
 }
 
 /// Copies up to [`MAX_ELEMENTS`] elements of an application array; `None`
