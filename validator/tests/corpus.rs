@@ -235,7 +235,7 @@ fn inexpressible(module: &str, id: &str) -> Option<&'static str> {
 /// How many enforced rules have a failing scene. A floor to raise as the
 /// corpus grows, not a target: the goal is every enforced rule the scene
 /// format can express.
-const COVERED_FLOOR: usize = 312;
+const COVERED_FLOOR: usize = 319;
 
 #[test]
 fn corpus_coverage_of_enforced_rules() {
