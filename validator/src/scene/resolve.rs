@@ -653,6 +653,15 @@ impl Resolver<'_> {
         })
     }
 
+    /// A host command's `deferredOperation` at `{at}.deferredOperation`.
+    fn deferred_operation(&self, arg: &HandleArg, at: &str) -> Result<Handle> {
+        self.handle(
+            arg,
+            ObjectKind::DeferredOperation,
+            &format!("{at}.deferredOperation"),
+        )
+    }
+
     fn device_handle(&self, arg: &HandleArg, at: &str) -> Result<Handle> {
         match arg {
             HandleArg::Omitted => Ok(DEVICE_HANDLE),
@@ -1624,11 +1633,7 @@ impl Resolver<'_> {
             }
             Call::BuildMicromaps(c) => {
                 let device = self.device_handle(&c.device, &device_at)?;
-                let deferred = self.handle(
-                    &c.deferred_operation,
-                    ObjectKind::DeferredOperation,
-                    &format!("{at}.deferredOperation"),
-                )?;
+                let deferred = self.deferred_operation(&c.deferred_operation, at)?;
                 let infos = self.micromap_build_infos(&c.p_infos, at)?;
                 self.validator.build_micromaps(device, deferred, &infos)
             }
@@ -1672,33 +1677,21 @@ impl Resolver<'_> {
             }
             Call::CopyMicromap(c) => {
                 let device = self.device_handle(&c.device, &device_at)?;
-                let deferred = self.handle(
-                    &c.deferred_operation,
-                    ObjectKind::DeferredOperation,
-                    &format!("{at}.deferredOperation"),
-                )?;
+                let deferred = self.deferred_operation(&c.deferred_operation, at)?;
                 let info = self.option(&c.p_info, &p_info, Self::copy_micromap_info)?;
                 self.validator
                     .copy_micromap(device, deferred, info.as_ref())
             }
             Call::CopyMicromapToMemory(c) => {
                 let device = self.device_handle(&c.device, &device_at)?;
-                let deferred = self.handle(
-                    &c.deferred_operation,
-                    ObjectKind::DeferredOperation,
-                    &format!("{at}.deferredOperation"),
-                )?;
+                let deferred = self.deferred_operation(&c.deferred_operation, at)?;
                 let info = self.option(&c.p_info, &p_info, Self::copy_micromap_to_memory_info)?;
                 self.validator
                     .copy_micromap_to_memory(device, deferred, info.as_ref())
             }
             Call::CopyMemoryToMicromap(c) => {
                 let device = self.device_handle(&c.device, &device_at)?;
-                let deferred = self.handle(
-                    &c.deferred_operation,
-                    ObjectKind::DeferredOperation,
-                    &format!("{at}.deferredOperation"),
-                )?;
+                let deferred = self.deferred_operation(&c.deferred_operation, at)?;
                 let info = self.option(&c.p_info, &p_info, Self::copy_memory_to_micromap_info)?;
                 self.validator
                     .copy_memory_to_micromap(device, deferred, info.as_ref())
@@ -1838,11 +1831,7 @@ impl Resolver<'_> {
             }
             Call::BuildAccelerationStructures(c) => {
                 self.device_handle(&c.device, &device_at)?;
-                self.handle(
-                    &c.deferred_operation,
-                    ObjectKind::DeferredOperation,
-                    &format!("{at}.deferredOperation"),
-                )?;
+                self.deferred_operation(&c.deferred_operation, at)?;
                 let ranges = Self::build_ranges(&c.pp_build_range_infos);
                 let infos = self.build_geometry_infos(&c.p_infos, &ranges, true, at)?;
                 self.validator
@@ -1866,11 +1855,7 @@ impl Resolver<'_> {
             }
             Call::CopyAccelerationStructure(c) => {
                 self.device_handle(&c.device, &device_at)?;
-                self.handle(
-                    &c.deferred_operation,
-                    ObjectKind::DeferredOperation,
-                    &format!("{at}.deferredOperation"),
-                )?;
+                self.deferred_operation(&c.deferred_operation, at)?;
                 let info = self.copy_as_info(&c.p_info, &p_info)?;
                 self.validator.copy_acceleration_structure(&info)
             }
