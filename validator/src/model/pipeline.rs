@@ -43,6 +43,10 @@ pub const CREATE_DISALLOW_OPACITY_MICROMAP_ARM: u64 =
 pub const SHADER_CREATE_DISALLOW_MIXED_SPECIAL_INDEX: u32 =
     khr::SHADER_CREATE_OPACITY_MICROMAP_DISALLOW_MIXED_SPECIAL_INDEX_BIT_EXT.as_raw();
 
+/// `VK_STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR` (VK_KHR_device_address_commands,
+/// extension 319, offset 4 in vk.xml; newer than ash 0.38).
+pub const STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR: i32 = 1_000_318_004;
+
 pub const SHADER_CODE_TYPE_SPIRV: i32 = vk::ShaderCodeTypeEXT::SPIRV.as_raw();
 
 /// The stage and access masks of one `VkMemoryBarrier2`,

@@ -10,6 +10,7 @@ use serde::Deserialize;
 
 use super::args::{deserialize_tagged, AddressArg, HandleArg, Tagged};
 use super::names::{self, Value};
+use crate::checks::pipeline_sync::WorkCommand;
 
 /// Reads a member that must be present but may be `null` (a pointer
 /// parameter: omitting it is a mistake, NULL is a case to check).
@@ -507,11 +508,22 @@ pub enum ChainStruct {
     Other(OtherStruct),
 }
 
-/// A chained structure ommcheck does not read.
+/// A chained structure ommcheck does not read, or (with `structure`) one
+/// of the structures it reads, written with another structure's sType.
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(rename_all = "camelCase")]
 pub struct OtherStruct {
     pub s_type: Value<names::StructureType>,
+    /// The structure the entry is, by its spec name, when `sType` is not
+    /// that structure's own (to express a wrong sType): one of
+    /// `VkAccelerationStructureTrianglesOpacityMicromapEXT`,
+    /// `VkAccelerationStructureTrianglesOpacityMicromapKHR`,
+    /// `VkAccelerationStructureTrianglesDisplacementMicromapNV`,
+    /// `VkAccelerationStructureGeometryMicromapDataKHR` (with their members),
+    /// or a micromap feature or property structure
+    /// (`VkPhysicalDeviceOpacityMicromapFeaturesEXT`, ...).
+    #[serde(default)]
+    pub structure: Option<String>,
 }
 
 impl Tagged for ChainStruct {
@@ -532,10 +544,79 @@ impl Tagged for ChainStruct {
         } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR") {
             Deserialize::deserialize(rest).map(ChainStruct::GeometryMicromapData)
         } else {
-            de::IgnoredAny::deserialize(rest)?;
-            Ok(ChainStruct::Other(OtherStruct { s_type: tag }))
+            misnamed(tag, rest)
         }
     }
+}
+
+/// A chain entry whose sType is none of the structures ommcheck reads: any
+/// other structure (its members are ignored), or, with `"structure"`, one
+/// of those structures written with a wrong sType.
+fn misnamed<'de, D: Deserializer<'de>>(
+    tag: Value<names::StructureType>,
+    rest: D,
+) -> Result<ChainStruct, D::Error> {
+    use serde_json::Value as Json;
+    let mut members = serde_json::Map::<String, Json>::deserialize(rest)?;
+    let structure = match members.remove("structure") {
+        None => None,
+        Some(Json::String(name)) => Some(name),
+        Some(other) => {
+            return Err(de::Error::custom(format!(
+                "`structure` is a structure name, not {other}"
+            )))
+        }
+    };
+    let given = Some(tag.as_i32());
+    let members = Json::Object(members);
+    // The members are already parsed, so errors in them carry no position;
+    // the message names the structure.
+    fn typed<T: serde::de::DeserializeOwned, E: de::Error>(
+        structure: &str,
+        members: Json,
+    ) -> Result<T, E> {
+        serde_json::from_value(members).map_err(|e| E::custom(format!("{structure}: {e}")))
+    }
+    Ok(match structure.as_deref() {
+        Some(name @ "VkAccelerationStructureTrianglesOpacityMicromapEXT") => {
+            let mut d: TrianglesOpacityMicromapExtDesc = typed(name, members)?;
+            d.given_s_type = given;
+            ChainStruct::TrianglesOpacityMicromapExt(d)
+        }
+        Some(name @ "VkAccelerationStructureTrianglesOpacityMicromapKHR") => {
+            let mut d: TrianglesOpacityMicromapKhrDesc = typed(name, members)?;
+            d.given_s_type = given;
+            ChainStruct::TrianglesOpacityMicromapKhr(d)
+        }
+        Some(name @ "VkAccelerationStructureTrianglesDisplacementMicromapNV") => {
+            let mut d: TrianglesDisplacementMicromapNvDesc = typed(name, members)?;
+            d.given_s_type = given;
+            ChainStruct::TrianglesDisplacementMicromapNv(d)
+        }
+        Some(name @ "VkAccelerationStructureGeometryMicromapDataKHR") => {
+            let mut d: GeometryMicromapDataDesc = typed(name, members)?;
+            d.given_s_type = given;
+            ChainStruct::GeometryMicromapData(d)
+        }
+        Some(name) => {
+            if crate::model::pipeline::MicromapStruct::ALL
+                .iter()
+                .all(|s| s.name() != name)
+            {
+                return Err(de::Error::custom(format!(
+                    "unknown structure `{name}`: `structure` names a structure ommcheck reads (the opacity or displacement micromap structures of a triangles geometry, VkAccelerationStructureGeometryMicromapDataKHR, or a micromap feature or property structure)"
+                )));
+            }
+            ChainStruct::Other(OtherStruct {
+                s_type: tag,
+                structure,
+            })
+        }
+        None => ChainStruct::Other(OtherStruct {
+            s_type: tag,
+            structure: None,
+        }),
+    })
 }
 
 impl<'de> Deserialize<'de> for ChainStruct {
@@ -791,6 +872,11 @@ pub struct InstancesDesc {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TrianglesOpacityMicromapExtDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
     /// Default VK_INDEX_TYPE_UINT32.
     pub index_type: Option<Value<names::IndexType>>,
     #[serde(default)]
@@ -811,6 +897,11 @@ pub struct TrianglesOpacityMicromapExtDesc {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TrianglesOpacityMicromapKhrDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
     /// Default VK_INDEX_TYPE_UINT32.
     pub index_type: Option<Value<names::IndexType>>,
     #[serde(default)]
@@ -827,6 +918,11 @@ pub struct TrianglesOpacityMicromapKhrDesc {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TrianglesDisplacementMicromapNvDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
     /// Default VK_FORMAT_R16G16_SFLOAT.
     pub displacement_bias_and_scale_format: Option<Value<names::Format>>,
     /// Default VK_FORMAT_R16G16B16A16_SFLOAT.
@@ -862,6 +958,11 @@ pub struct TrianglesDisplacementMicromapNvDesc {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct GeometryMicromapDataDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
     pub usage_counts_count: Option<u32>,
     pub p_usage_counts: Option<Vec<UsageDesc>>,
     pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
@@ -1351,10 +1452,87 @@ pub enum Call {
     CmdCopyAccelerationStructureToMemory(CmdCopyAccelerationStructureToMemory),
     #[serde(rename = "vkCmdCopyMemoryToAccelerationStructureKHR")]
     CmdCopyMemoryToAccelerationStructure(CmdCopyMemoryToAccelerationStructure),
+    #[serde(rename = "vkCreateDevice")]
+    CreateDevice(CreateDevice),
+    #[serde(rename = "vkGetPhysicalDeviceProperties2")]
+    GetPhysicalDeviceProperties2(GetPhysicalDeviceProperties2),
+    #[serde(rename = "vkCreateShaderModule")]
+    CreateShaderModule(CreateShaderModule),
+    #[serde(rename = "vkCreateComputePipelines")]
+    CreateComputePipelines(CreateComputePipelines),
+    #[serde(rename = "vkCreateGraphicsPipelines")]
+    CreateGraphicsPipelines(CreateGraphicsPipelines),
+    #[serde(rename = "vkCreateRayTracingPipelinesKHR")]
+    CreateRayTracingPipelinesKhr(CreateRayTracingPipelinesKhr),
+    #[serde(rename = "vkCreateRayTracingPipelinesNV")]
+    CreateRayTracingPipelinesNv(CreateRayTracingPipelinesNv),
+    #[serde(rename = "vkCreateShadersEXT")]
+    CreateShaders(CreateShaders),
+    #[serde(rename = "vkCmdBindPipeline")]
+    CmdBindPipeline(CmdBindPipeline),
+    #[serde(rename = "vkCmdBindShadersEXT")]
+    CmdBindShaders(CmdBindShaders),
+    #[serde(rename = "vkCmdPipelineBarrier2")]
+    CmdPipelineBarrier2(CmdPipelineBarrier2),
+    #[serde(rename = "vkCmdSetEvent2")]
+    CmdSetEvent2(CmdSetEvent2),
+    #[serde(rename = "vkCmdWaitEvents2")]
+    CmdWaitEvents2(CmdWaitEvents2),
+    #[serde(rename = "vkCmdResetEvent2")]
+    CmdResetEvent2(CmdResetEvent2),
+    #[serde(rename = "vkCmdWriteTimestamp2")]
+    CmdWriteTimestamp2(CmdWriteTimestamp2),
+    #[serde(rename = "vkCmdWriteBufferMarker2AMD")]
+    CmdWriteBufferMarker2Amd(CmdWriteBufferMarker2Amd),
+    #[serde(rename = "vkCmdWriteMarkerToMemoryAMD")]
+    CmdWriteMarkerToMemoryAmd(CmdWriteMarkerToMemoryAmd),
+    #[serde(rename = "vkQueueSubmit2")]
+    QueueSubmit2(QueueSubmit2),
+    #[serde(rename = "vkCmdBeginQuery")]
+    CmdBeginQuery(CmdBeginQuery),
+    #[serde(rename = "vkCmdBeginQueryIndexedEXT")]
+    CmdBeginQueryIndexed(CmdBeginQueryIndexed),
+    #[serde(rename = "vkCmdBuildClusterAccelerationStructureIndirectNV")]
+    CmdBuildClusterAccelerationStructureIndirect(CmdBuildClusterAccelerationStructureIndirect),
+    /// A command that runs shaders (`WORK_CALL_NAMES`).
+    #[serde(untagged)]
+    RunShaders(RunShadersCall),
+}
+
+/// A command that runs shaders, by name, with its parameters.
+#[derive(Debug, JsonSchema)]
+pub struct RunShadersCall {
+    #[serde(rename = "call")]
+    pub command: WorkCommandName,
+    #[serde(flatten)]
+    pub params: RunShaders,
+}
+
+/// The name of a command that runs shaders.
+#[derive(Clone, Copy, Debug)]
+pub struct WorkCommandName(pub WorkCommand);
+
+impl JsonSchema for WorkCommandName {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "WorkCommandName".into()
+    }
+
+    fn json_schema(_: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let names: Vec<&str> = WorkCommand::ALL.iter().map(|c| c.function()).collect();
+        schemars::json_schema!({
+            "description": "A draw, dispatch, trace-rays, generated-commands or subpass-shading command",
+            "enum": names
+        })
+    }
+}
+
+/// The names of the commands that run shaders, which share one form.
+pub fn work_call_names() -> impl Iterator<Item = &'static str> {
+    WorkCommand::ALL.iter().map(|c| c.function())
 }
 
 /// Every call name a scene may use, for messages and docs.
-pub const CALL_NAMES: [&str; 24] = [
+pub const CALL_NAMES: [&str; 45] = [
     "vkCreateMicromapEXT",
     "vkDestroyMicromapEXT",
     "vkCmdBuildMicromapsEXT",
@@ -1379,6 +1557,27 @@ pub const CALL_NAMES: [&str; 24] = [
     "vkCopyAccelerationStructureKHR",
     "vkCmdCopyAccelerationStructureToMemoryKHR",
     "vkCmdCopyMemoryToAccelerationStructureKHR",
+    "vkCreateDevice",
+    "vkGetPhysicalDeviceProperties2",
+    "vkCreateShaderModule",
+    "vkCreateComputePipelines",
+    "vkCreateGraphicsPipelines",
+    "vkCreateRayTracingPipelinesKHR",
+    "vkCreateRayTracingPipelinesNV",
+    "vkCreateShadersEXT",
+    "vkCmdBindPipeline",
+    "vkCmdBindShadersEXT",
+    "vkCmdPipelineBarrier2",
+    "vkCmdSetEvent2",
+    "vkCmdWaitEvents2",
+    "vkCmdResetEvent2",
+    "vkCmdWriteTimestamp2",
+    "vkCmdWriteBufferMarker2AMD",
+    "vkCmdWriteMarkerToMemoryAMD",
+    "vkQueueSubmit2",
+    "vkCmdBeginQuery",
+    "vkCmdBeginQueryIndexedEXT",
+    "vkCmdBuildClusterAccelerationStructureIndirectNV",
 ];
 
 impl Tagged for Call {
@@ -1439,12 +1638,50 @@ impl Tagged for Call {
             "vkCmdCopyMemoryToAccelerationStructureKHR" => {
                 Call::CmdCopyMemoryToAccelerationStructure(De::deserialize(rest)?)
             }
-            other => {
-                return Err(de::Error::custom(format!(
-                    "unknown call `{other}`; expected one of {}",
-                    CALL_NAMES.join(", ")
-                )))
+            "vkCreateDevice" => Call::CreateDevice(De::deserialize(rest)?),
+            "vkGetPhysicalDeviceProperties2" => {
+                Call::GetPhysicalDeviceProperties2(De::deserialize(rest)?)
             }
+            "vkCreateShaderModule" => Call::CreateShaderModule(De::deserialize(rest)?),
+            "vkCreateComputePipelines" => Call::CreateComputePipelines(De::deserialize(rest)?),
+            "vkCreateGraphicsPipelines" => Call::CreateGraphicsPipelines(De::deserialize(rest)?),
+            "vkCreateRayTracingPipelinesKHR" => {
+                Call::CreateRayTracingPipelinesKhr(De::deserialize(rest)?)
+            }
+            "vkCreateRayTracingPipelinesNV" => {
+                Call::CreateRayTracingPipelinesNv(De::deserialize(rest)?)
+            }
+            "vkCreateShadersEXT" => Call::CreateShaders(De::deserialize(rest)?),
+            "vkCmdBindPipeline" => Call::CmdBindPipeline(De::deserialize(rest)?),
+            "vkCmdBindShadersEXT" => Call::CmdBindShaders(De::deserialize(rest)?),
+            "vkCmdPipelineBarrier2" => Call::CmdPipelineBarrier2(De::deserialize(rest)?),
+            "vkCmdSetEvent2" => Call::CmdSetEvent2(De::deserialize(rest)?),
+            "vkCmdWaitEvents2" => Call::CmdWaitEvents2(De::deserialize(rest)?),
+            "vkCmdResetEvent2" => Call::CmdResetEvent2(De::deserialize(rest)?),
+            "vkCmdWriteTimestamp2" => Call::CmdWriteTimestamp2(De::deserialize(rest)?),
+            "vkCmdWriteBufferMarker2AMD" => Call::CmdWriteBufferMarker2Amd(De::deserialize(rest)?),
+            "vkCmdWriteMarkerToMemoryAMD" => {
+                Call::CmdWriteMarkerToMemoryAmd(De::deserialize(rest)?)
+            }
+            "vkQueueSubmit2" => Call::QueueSubmit2(De::deserialize(rest)?),
+            "vkCmdBeginQuery" => Call::CmdBeginQuery(De::deserialize(rest)?),
+            "vkCmdBeginQueryIndexedEXT" => Call::CmdBeginQueryIndexed(De::deserialize(rest)?),
+            "vkCmdBuildClusterAccelerationStructureIndirectNV" => {
+                Call::CmdBuildClusterAccelerationStructureIndirect(De::deserialize(rest)?)
+            }
+            other => match WorkCommand::ALL.iter().find(|c| c.function() == other) {
+                Some(command) => Call::RunShaders(RunShadersCall {
+                    command: WorkCommandName(*command),
+                    params: De::deserialize(rest)?,
+                }),
+                None => {
+                    return Err(de::Error::custom(format!(
+                        "unknown call `{other}`; expected one of {}, or a command that runs shaders ({})",
+                        CALL_NAMES.join(", "),
+                        work_call_names().collect::<Vec<_>>().join(", ")
+                    )))
+                }
+            },
         })
     }
 }
@@ -1454,3 +1691,7 @@ impl<'de> Deserialize<'de> for Call {
         deserialize_tagged(deserializer)
     }
 }
+
+// Device, pipeline, shader, synchronization, query and cluster calls.
+mod pipeline;
+pub use pipeline::*;

@@ -122,6 +122,30 @@ kind!(
         k!(STRUCTURE_TYPE_PHYSICAL_DEVICE_DISPLACEMENT_MICROMAP_PROPERTIES_NV),
         k!(STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_OPACITY_MICROMAP_FEATURES_ARM),
         a!(
+            "VK_STRUCTURE_TYPE_PIPELINE_CREATE_FLAGS_2_CREATE_INFO_KHR",
+            StructureType::PIPELINE_CREATE_FLAGS_2_CREATE_INFO_KHR
+        ),
+        a!(
+            "VK_STRUCTURE_TYPE_PIPELINE_LIBRARY_CREATE_INFO_KHR",
+            StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR
+        ),
+        a!(
+            "VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO",
+            StructureType::SHADER_MODULE_CREATE_INFO
+        ),
+        (
+            "VK_STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR",
+            crate::model::pipeline::STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR as i64
+        ),
+        a!(
+            "VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR",
+            StructureType::PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR
+        ),
+        a!(
+            "VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR",
+            StructureType::PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_PROPERTIES_KHR
+        ),
+        a!(
             "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_GEOMETRY_INFO_KHR",
             StructureType::ACCELERATION_STRUCTURE_BUILD_GEOMETRY_INFO_KHR
         ),
@@ -681,10 +705,315 @@ kind!(
     ]
 );
 
+kind!(
+    PipelineStageFlags2,
+    "VkPipelineStageFlags2",
+    U64,
+    true,
+    [
+        a!("VK_PIPELINE_STAGE_2_NONE", PipelineStageFlags2::NONE),
+        a!(
+            "VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT",
+            PipelineStageFlags2::TOP_OF_PIPE
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT",
+            PipelineStageFlags2::DRAW_INDIRECT
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT",
+            PipelineStageFlags2::VERTEX_INPUT
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT",
+            PipelineStageFlags2::VERTEX_SHADER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_TESSELLATION_CONTROL_SHADER_BIT",
+            PipelineStageFlags2::TESSELLATION_CONTROL_SHADER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_TESSELLATION_EVALUATION_SHADER_BIT",
+            PipelineStageFlags2::TESSELLATION_EVALUATION_SHADER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_GEOMETRY_SHADER_BIT",
+            PipelineStageFlags2::GEOMETRY_SHADER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT",
+            PipelineStageFlags2::FRAGMENT_SHADER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT",
+            PipelineStageFlags2::COMPUTE_SHADER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT",
+            PipelineStageFlags2::ALL_TRANSFER
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_BOTTOM_OF_PIPE_BIT",
+            PipelineStageFlags2::BOTTOM_OF_PIPE
+        ),
+        a!("VK_PIPELINE_STAGE_2_HOST_BIT", PipelineStageFlags2::HOST),
+        a!(
+            "VK_PIPELINE_STAGE_2_ALL_GRAPHICS_BIT",
+            PipelineStageFlags2::ALL_GRAPHICS
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT",
+            PipelineStageFlags2::ALL_COMMANDS
+        ),
+        a!("VK_PIPELINE_STAGE_2_COPY_BIT", PipelineStageFlags2::COPY),
+        a!(
+            "VK_PIPELINE_STAGE_2_PRE_RASTERIZATION_SHADERS_BIT",
+            PipelineStageFlags2::PRE_RASTERIZATION_SHADERS
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_BUILD_BIT_KHR",
+            PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_RAY_TRACING_SHADER_BIT_KHR",
+            PipelineStageFlags2::RAY_TRACING_SHADER_KHR
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_TASK_SHADER_BIT_EXT",
+            PipelineStageFlags2::TASK_SHADER_EXT
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_MESH_SHADER_BIT_EXT",
+            PipelineStageFlags2::MESH_SHADER_EXT
+        ),
+        a!(
+            "VK_PIPELINE_STAGE_2_ACCELERATION_STRUCTURE_COPY_BIT_KHR",
+            PipelineStageFlags2::ACCELERATION_STRUCTURE_COPY_KHR
+        ),
+        k!(PIPELINE_STAGE_2_MICROMAP_BUILD_BIT_EXT),
+    ]
+);
+
+kind!(
+    AccessFlags2,
+    "VkAccessFlags2",
+    U64,
+    true,
+    [
+        a!("VK_ACCESS_2_NONE", AccessFlags2::NONE),
+        a!(
+            "VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT",
+            AccessFlags2::INDIRECT_COMMAND_READ
+        ),
+        a!("VK_ACCESS_2_SHADER_READ_BIT", AccessFlags2::SHADER_READ),
+        a!("VK_ACCESS_2_SHADER_WRITE_BIT", AccessFlags2::SHADER_WRITE),
+        a!("VK_ACCESS_2_TRANSFER_READ_BIT", AccessFlags2::TRANSFER_READ),
+        a!(
+            "VK_ACCESS_2_TRANSFER_WRITE_BIT",
+            AccessFlags2::TRANSFER_WRITE
+        ),
+        a!("VK_ACCESS_2_HOST_READ_BIT", AccessFlags2::HOST_READ),
+        a!("VK_ACCESS_2_HOST_WRITE_BIT", AccessFlags2::HOST_WRITE),
+        a!("VK_ACCESS_2_MEMORY_READ_BIT", AccessFlags2::MEMORY_READ),
+        a!("VK_ACCESS_2_MEMORY_WRITE_BIT", AccessFlags2::MEMORY_WRITE),
+        a!(
+            "VK_ACCESS_2_SHADER_SAMPLED_READ_BIT",
+            AccessFlags2::SHADER_SAMPLED_READ
+        ),
+        a!(
+            "VK_ACCESS_2_SHADER_STORAGE_READ_BIT",
+            AccessFlags2::SHADER_STORAGE_READ
+        ),
+        a!(
+            "VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT",
+            AccessFlags2::SHADER_STORAGE_WRITE
+        ),
+        a!(
+            "VK_ACCESS_2_ACCELERATION_STRUCTURE_READ_BIT_KHR",
+            AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR
+        ),
+        a!(
+            "VK_ACCESS_2_ACCELERATION_STRUCTURE_WRITE_BIT_KHR",
+            AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR
+        ),
+        k!(ACCESS_2_MICROMAP_READ_BIT_EXT),
+        k!(ACCESS_2_MICROMAP_WRITE_BIT_EXT),
+    ]
+);
+
+kind!(
+    /// `VkPipelineCreateFlags` (the 32-bit `flags` of the create infos).
+    PipelineCreateFlags,
+    "VkPipelineCreateFlags",
+    U32,
+    true,
+    [
+        a!(
+            "VK_PIPELINE_CREATE_DISABLE_OPTIMIZATION_BIT",
+            PipelineCreateFlags::DISABLE_OPTIMIZATION
+        ),
+        a!("VK_PIPELINE_CREATE_LIBRARY_BIT_KHR", PipelineCreateFlags::LIBRARY_KHR),
+        k!(PIPELINE_CREATE_RAY_TRACING_OPACITY_MICROMAP_BIT_EXT),
+        k!(PIPELINE_CREATE_RAY_TRACING_OPACITY_MICROMAP_BIT_KHR),
+        k!(PIPELINE_CREATE_RAY_TRACING_DISPLACEMENT_MICROMAP_BIT_NV),
+    ]
+);
+
+kind!(
+    /// `VkPipelineCreateFlags2` (`VkPipelineCreateFlags2CreateInfo::flags`).
+    PipelineCreateFlags2,
+    "VkPipelineCreateFlags2",
+    U64,
+    true,
+    [
+        a!(
+            "VK_PIPELINE_CREATE_2_DISABLE_OPTIMIZATION_BIT",
+            PipelineCreateFlags2KHR::DISABLE_OPTIMIZATION
+        ),
+        a!("VK_PIPELINE_CREATE_2_LIBRARY_BIT_KHR", PipelineCreateFlags2KHR::LIBRARY),
+        k!(PIPELINE_CREATE_2_RAY_TRACING_OPACITY_MICROMAP_BIT_EXT),
+        k!(PIPELINE_CREATE_2_RAY_TRACING_OPACITY_MICROMAP_BIT_KHR),
+        k!(PIPELINE_CREATE_2_RAY_TRACING_DISPLACEMENT_MICROMAP_BIT_NV),
+        k!(PIPELINE_CREATE_2_OPACITY_MICROMAP_DISALLOW_MIXED_SPECIAL_INDEX_BIT_KHR),
+        k!(PIPELINE_CREATE_2_DISALLOW_OPACITY_MICROMAP_BIT_ARM),
+    ]
+);
+
+kind!(
+    ShaderStageFlags,
+    "VkShaderStageFlags",
+    U32,
+    true,
+    [
+        a!("VK_SHADER_STAGE_VERTEX_BIT", ShaderStageFlags::VERTEX),
+        a!(
+            "VK_SHADER_STAGE_TESSELLATION_CONTROL_BIT",
+            ShaderStageFlags::TESSELLATION_CONTROL
+        ),
+        a!(
+            "VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT",
+            ShaderStageFlags::TESSELLATION_EVALUATION
+        ),
+        a!("VK_SHADER_STAGE_GEOMETRY_BIT", ShaderStageFlags::GEOMETRY),
+        a!("VK_SHADER_STAGE_FRAGMENT_BIT", ShaderStageFlags::FRAGMENT),
+        a!("VK_SHADER_STAGE_COMPUTE_BIT", ShaderStageFlags::COMPUTE),
+        a!(
+            "VK_SHADER_STAGE_RAYGEN_BIT_KHR",
+            ShaderStageFlags::RAYGEN_KHR
+        ),
+        a!(
+            "VK_SHADER_STAGE_ANY_HIT_BIT_KHR",
+            ShaderStageFlags::ANY_HIT_KHR
+        ),
+        a!(
+            "VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR",
+            ShaderStageFlags::CLOSEST_HIT_KHR
+        ),
+        a!("VK_SHADER_STAGE_MISS_BIT_KHR", ShaderStageFlags::MISS_KHR),
+        a!(
+            "VK_SHADER_STAGE_INTERSECTION_BIT_KHR",
+            ShaderStageFlags::INTERSECTION_KHR
+        ),
+        a!(
+            "VK_SHADER_STAGE_CALLABLE_BIT_KHR",
+            ShaderStageFlags::CALLABLE_KHR
+        ),
+        a!("VK_SHADER_STAGE_TASK_BIT_EXT", ShaderStageFlags::TASK_EXT),
+        a!("VK_SHADER_STAGE_MESH_BIT_EXT", ShaderStageFlags::MESH_EXT),
+    ]
+);
+
+kind!(
+    ShaderCreateFlags,
+    "VkShaderCreateFlagsEXT",
+    U32,
+    true,
+    [
+        a!(
+            "VK_SHADER_CREATE_LINK_STAGE_BIT_EXT",
+            ShaderCreateFlagsEXT::LINK_STAGE
+        ),
+        k!(SHADER_CREATE_OPACITY_MICROMAP_DISALLOW_MIXED_SPECIAL_INDEX_BIT_EXT),
+    ]
+);
+
+kind!(
+    ShaderCodeType,
+    "VkShaderCodeTypeEXT",
+    I32,
+    false,
+    [
+        a!("VK_SHADER_CODE_TYPE_BINARY_EXT", ShaderCodeTypeEXT::BINARY),
+        a!("VK_SHADER_CODE_TYPE_SPIRV_EXT", ShaderCodeTypeEXT::SPIRV),
+    ]
+);
+
+kind!(
+    PipelineBindPoint,
+    "VkPipelineBindPoint",
+    I32,
+    false,
+    [
+        a!(
+            "VK_PIPELINE_BIND_POINT_GRAPHICS",
+            PipelineBindPoint::GRAPHICS
+        ),
+        a!("VK_PIPELINE_BIND_POINT_COMPUTE", PipelineBindPoint::COMPUTE),
+        a!(
+            "VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR",
+            PipelineBindPoint::RAY_TRACING_KHR
+        ),
+        a!(
+            "VK_PIPELINE_BIND_POINT_SUBPASS_SHADING_HUAWEI",
+            PipelineBindPoint::SUBPASS_SHADING_HUAWEI
+        ),
+        a!(
+            "VK_PIPELINE_BIND_POINT_EXECUTION_GRAPH_AMDX",
+            PipelineBindPoint::EXECUTION_GRAPH_AMDX
+        ),
+    ]
+);
+
+kind!(
+    /// `VkClusterAccelerationStructureIndexFormatFlagBitsNV`; values from vk.xml.
+    ClusterIndexFormat,
+    "VkClusterAccelerationStructureIndexFormatFlagsNV",
+    U32,
+    true,
+    [
+        (
+            "VK_CLUSTER_ACCELERATION_STRUCTURE_INDEX_FORMAT_8BIT_NV",
+            model_accel::CLUSTER_INDEX_FORMAT_8BIT_NV as i64
+        ),
+        (
+            "VK_CLUSTER_ACCELERATION_STRUCTURE_INDEX_FORMAT_16BIT_NV",
+            model_accel::CLUSTER_INDEX_FORMAT_16BIT_NV as i64
+        ),
+        (
+            "VK_CLUSTER_ACCELERATION_STRUCTURE_INDEX_FORMAT_32BIT_NV",
+            model_accel::CLUSTER_INDEX_FORMAT_32BIT_NV as i64
+        ),
+    ]
+);
+
+kind!(
+    /// `VkClusterAccelerationStructureOpTypeNV`: the two operations whose
+    /// inputs carry opacity micromaps; values from vk.xml.
+    ClusterOpType,
+    "VkClusterAccelerationStructureOpTypeNV",
+    I32,
+    false,
+    [
+        ("VK_CLUSTER_ACCELERATION_STRUCTURE_OP_TYPE_BUILD_TRIANGLE_CLUSTER_NV", 2),
+        ("VK_CLUSTER_ACCELERATION_STRUCTURE_OP_TYPE_BUILD_TRIANGLE_CLUSTER_TEMPLATE_NV", 3),
+    ]
+);
+
 /// Names whose values neither ash 0.38 nor the generated KHR declarations
 /// provide; their values are the model's constants, taken from vk.xml of
 /// Vulkan 1.4.360.
-pub const HAND_WRITTEN: [&str; 4] = [
+pub const HAND_WRITTEN: [&str; 5] = [
+    "VK_STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR",
     "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_DENSE_GEOMETRY_FORMAT_TRIANGLES_DATA_AMDX",
     "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_LINEAR_SWEPT_SPHERES_DATA_NV",
     "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_SPHERES_DATA_NV",
@@ -950,7 +1279,9 @@ mod tests {
                     continue;
                 }
                 let ash_name = format!("{:?}", from_raw(*value));
-                if ash_name.parse::<i64>().is_ok() || ash_name.starts_with("0x") {
+                // Unknown values print as a number (bits of a 64-bit
+                // flag type in binary).
+                if ash_name.chars().all(|c| c.is_ascii_digit()) || ash_name.starts_with("0x") {
                     // ash 0.38 does not know the value: it comes from the
                     // generated declarations, named by their identifiers.
                     continue;
@@ -986,6 +1317,14 @@ mod tests {
         check::<CopyAccelerationStructureMode, _>(|v| {
             vk::CopyAccelerationStructureModeKHR::from_raw(v as i32)
         });
+        check::<PipelineStageFlags2, _>(|v| vk::PipelineStageFlags2::from_raw(v as u64));
+        check::<AccessFlags2, _>(|v| vk::AccessFlags2::from_raw(v as u64));
+        check::<PipelineCreateFlags, _>(|v| vk::PipelineCreateFlags::from_raw(v as u32));
+        check::<PipelineCreateFlags2, _>(|v| vk::PipelineCreateFlags2KHR::from_raw(v as u64));
+        check::<ShaderStageFlags, _>(|v| vk::ShaderStageFlags::from_raw(v as u32));
+        check::<ShaderCreateFlags, _>(|v| vk::ShaderCreateFlagsEXT::from_raw(v as u32));
+        check::<ShaderCodeType, _>(|v| vk::ShaderCodeTypeEXT::from_raw(v as i32));
+        check::<PipelineBindPoint, _>(|v| vk::PipelineBindPoint::from_raw(v as i32));
     }
 
     #[test]
@@ -1003,6 +1342,16 @@ mod tests {
         unique::<GeometryInstanceFlags>();
         unique::<RayFlags>();
         unique::<IndexType>();
+        unique::<PipelineStageFlags2>();
+        unique::<AccessFlags2>();
+        unique::<PipelineCreateFlags>();
+        unique::<PipelineCreateFlags2>();
+        unique::<ShaderStageFlags>();
+        unique::<ShaderCreateFlags>();
+        unique::<ShaderCodeType>();
+        unique::<PipelineBindPoint>();
+        unique::<ClusterIndexFormat>();
+        unique::<ClusterOpType>();
     }
 
     /// The ray flags the simulator reads have the values it tests for.

@@ -46,6 +46,8 @@ pub struct Problem {
 
 type Result<T> = std::result::Result<T, Problem>;
 
+mod pipeline;
+
 fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {
     Err(Problem {
         path: path.into(),
@@ -77,6 +79,11 @@ pub enum ObjectKind {
     QueryPool,
     DeferredOperation,
     CommandBuffer,
+    ShaderModule,
+    Pipeline,
+    Shader,
+    Event,
+    Semaphore,
 }
 
 impl ObjectKind {
@@ -88,6 +95,11 @@ impl ObjectKind {
             ObjectKind::QueryPool => "VkQueryPool",
             ObjectKind::DeferredOperation => "VkDeferredOperationKHR",
             ObjectKind::CommandBuffer => "VkCommandBuffer",
+            ObjectKind::ShaderModule => "VkShaderModule",
+            ObjectKind::Pipeline => "VkPipeline",
+            ObjectKind::Shader => "VkShaderEXT",
+            ObjectKind::Event => "VkEvent",
+            ObjectKind::Semaphore => "VkSemaphore",
         }
     }
 
@@ -99,6 +111,11 @@ impl ObjectKind {
             ObjectKind::QueryPool => "query pool",
             ObjectKind::DeferredOperation => "deferred operation",
             ObjectKind::CommandBuffer => "command buffer",
+            ObjectKind::ShaderModule => "shader module",
+            ObjectKind::Pipeline => "pipeline",
+            ObjectKind::Shader => "shader object",
+            ObjectKind::Event => "event",
+            ObjectKind::Semaphore => "semaphore",
         }
     }
 
@@ -112,6 +129,11 @@ impl ObjectKind {
             ObjectKind::QueryPool => 0x99_0001,
             ObjectKind::DeferredOperation => 0xde_0001,
             ObjectKind::CommandBuffer => 0xcb_0001,
+            ObjectKind::ShaderModule => 0x5d_0001,
+            ObjectKind::Pipeline => 0x91_0001,
+            ObjectKind::Shader => 0x5e_0001,
+            ObjectKind::Event => 0xe7_0001,
+            ObjectKind::Semaphore => 0x5a_0001,
         }
     }
 }
@@ -154,6 +176,9 @@ struct Resolver<'a> {
     buffer_addresses: BTreeMap<String, u64>,
     host_addresses: BTreeMap<String, u64>,
     command_buffers: BTreeMap<String, CommandBuffer>,
+    /// What each command buffer (by handle) has bound, for the commands
+    /// that run shaders.
+    bound: BTreeMap<Handle, pipeline::Bound>,
     contents_total: u64,
     validator: Validator,
 }
@@ -197,6 +222,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, limits: Option<&LimitsOverride>) 
         buffer_addresses: BTreeMap::new(),
         host_addresses: BTreeMap::new(),
         command_buffers: BTreeMap::new(),
+        bound: BTreeMap::new(),
         contents_total: 0,
         validator: Validator::new(device),
     };
@@ -390,20 +416,26 @@ fn s_type(explicit: Option<Value<super::names::StructureType>>, default: i32) ->
 
 fn chain_s_type(chain: &ChainStruct) -> i32 {
     use super::names::{lookup, StructureType};
-    let named = |name: &str| lookup::<StructureType>(name).unwrap_or_default() as i32;
+    let named = |given: Option<i32>, name: &str| {
+        given.unwrap_or_else(|| lookup::<StructureType>(name).unwrap_or_default() as i32)
+    };
     match chain {
-        ChainStruct::TrianglesOpacityMicromapExt(_) => {
-            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")
-        }
-        ChainStruct::TrianglesOpacityMicromapKhr(_) => {
-            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR")
-        }
-        ChainStruct::TrianglesDisplacementMicromapNv(_) => {
-            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV")
-        }
-        ChainStruct::GeometryMicromapData(_) => {
-            named("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR")
-        }
+        ChainStruct::TrianglesOpacityMicromapExt(d) => named(
+            d.given_s_type,
+            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT",
+        ),
+        ChainStruct::TrianglesOpacityMicromapKhr(d) => named(
+            d.given_s_type,
+            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR",
+        ),
+        ChainStruct::TrianglesDisplacementMicromapNv(d) => named(
+            d.given_s_type,
+            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV",
+        ),
+        ChainStruct::GeometryMicromapData(d) => named(
+            d.given_s_type,
+            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR",
+        ),
         ChainStruct::Other(other) => other.s_type.as_i32(),
     }
 }
@@ -1200,6 +1232,7 @@ impl Resolver<'_> {
                 ChainStruct::TrianglesOpacityMicromapExt(e) if data.opacity_ext.is_none() => {
                     let defaults = TrianglesOpacityMicromapExt::default();
                     data.opacity_ext = Some(TrianglesOpacityMicromapExt {
+                        s_type: e.given_s_type.unwrap_or(defaults.s_type),
                         index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
                         index_buffer: self
                             .address(&e.index_buffer, &format!("{next_at}.indexBuffer"))?,
@@ -1222,6 +1255,7 @@ impl Resolver<'_> {
                 ChainStruct::TrianglesOpacityMicromapKhr(e) if data.opacity_khr.is_none() => {
                     let defaults = TrianglesOpacityMicromapKhr::default();
                     data.opacity_khr = Some(TrianglesOpacityMicromapKhr {
+                        s_type: e.given_s_type.unwrap_or(defaults.s_type),
                         index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
                         index_buffer: self
                             .address(&e.index_buffer, &format!("{next_at}.indexBuffer"))?,
@@ -1243,6 +1277,7 @@ impl Resolver<'_> {
                         self.address(arg, &format!("{next_at}.{member}"))
                     };
                     data.displacement_nv = Some(TrianglesDisplacementMicromapNv {
+                        s_type: e.given_s_type.unwrap_or(defaults.s_type),
                         displacement_bias_and_scale_format: e
                             .displacement_bias_and_scale_format
                             .map_or(defaults.displacement_bias_and_scale_format, Value::as_i32),
@@ -1306,6 +1341,7 @@ impl Resolver<'_> {
                     let next_at = format!("{at}.pNext[{k}]");
                     let defaults = GeometryMicromapData::default();
                     geometry.micromap = Some(GeometryMicromapData {
+                        s_type: m.given_s_type.unwrap_or(defaults.s_type),
                         usage_counts: usage_counts(
                             m.usage_counts_count,
                             &m.p_usage_counts,
@@ -1461,6 +1497,52 @@ impl Resolver<'_> {
             }
         }
         Ok(resolved)
+    }
+
+    /// The build ranges an indirect build reads from device memory: for
+    /// info i, geometry g, the `VkAccelerationStructureBuildRangeInfoKHR` at
+    /// `pIndirectDeviceAddresses[i] + g * pIndirectStrides[i]`, where the
+    /// scene gives those bytes (else None for the info).
+    fn indirect_ranges(
+        &self,
+        c: &CmdBuildAccelerationStructuresIndirect,
+        addresses: &[u64],
+        at: &str,
+    ) -> Result<Vec<Option<Vec<BuildRangeInfo>>>> {
+        const RANGE_SIZE: u64 = 16;
+        let state = self.validator.state();
+        let mut ranges = Vec::new();
+        for (i, d) in c.p_infos.iter().enumerate() {
+            let info = self.build_geometry_info(d, &format!("{at}.pInfos[{i}]"))?;
+            let geometries = info.geometries.iter().flatten().count() as u64;
+            let (Some(address), Some(stride)) = (addresses.get(i), c.p_indirect_strides.get(i))
+            else {
+                ranges.push(None);
+                continue;
+            };
+            let read = |g: u64| {
+                let start = u64::from(*stride)
+                    .checked_mul(g)
+                    .and_then(|offset| address.checked_add(offset))?;
+                let bytes = state.read_device(start, RANGE_SIZE)?;
+                let word = |k: usize| {
+                    u32::from_le_bytes([
+                        bytes[4 * k],
+                        bytes[4 * k + 1],
+                        bytes[4 * k + 2],
+                        bytes[4 * k + 3],
+                    ])
+                };
+                Some(BuildRangeInfo {
+                    primitive_count: word(0),
+                    primitive_offset: word(1),
+                    first_vertex: word(2),
+                    transform_offset: word(3),
+                })
+            };
+            ranges.push((0..geometries).map(read).collect::<Option<Vec<_>>>());
+        }
+        Ok(ranges)
     }
 
     fn build_ranges(ranges: &[Option<Vec<BuildRangeDesc>>]) -> Vec<Option<Vec<BuildRangeInfo>>> {
@@ -1814,13 +1896,14 @@ impl Resolver<'_> {
             }
             Call::CmdBuildAccelerationStructuresIndirect(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let infos = self.build_geometry_infos(&c.p_infos, &[], false, at)?;
                 let addresses = c
                     .p_indirect_device_addresses
                     .iter()
                     .enumerate()
                     .map(|(k, a)| self.address(a, &format!("{at}.pIndirectDeviceAddresses[{k}]")))
                     .collect::<Result<Vec<_>>>()?;
+                let ranges = self.indirect_ranges(c, &addresses, at)?;
+                let infos = self.build_geometry_infos(&c.p_infos, &ranges, false, at)?;
                 self.validator.cmd_build_acceleration_structures_indirect(
                     &command_buffer,
                     &infos,
@@ -1895,6 +1978,9 @@ impl Resolver<'_> {
                 self.validator
                     .cmd_copy_memory_to_acceleration_structure(&command_buffer, &info)
             }
+            other => self.pipeline_call(other, at).unwrap_or_else(|| {
+                problem(at, format!("internal: the call {other:?} has no resolver"))
+            })?,
         })
     }
 }
