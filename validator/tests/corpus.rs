@@ -170,6 +170,37 @@ fn corpus_reports_match_their_snapshots() {
     });
 }
 
+/// The text form (the Khronos layer's message layout) of a handful of
+/// failing scenes, one per kind of rule: parameters, content, an index
+/// buffer, SPIR-V, a command that runs shaders, synchronization.
+#[test]
+fn text_reports_match_their_snapshots() {
+    const SCENES: [&str; 6] = [
+        "ext-build/VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516.fail.json",
+        "ext-build/OMMCHECK-build-triangle-data-in-range.fail.json",
+        "blas-khr/VUID-vkCmdBuildAccelerationStructuresKHR-indexBuffer-11575.fail.json",
+        "pipelines/VUID-RuntimeSpirv-RayTracingOpacityMicromapKHR-11542.fail.json",
+        "work-ray-query/VUID-vkCmdTraceRaysKHR-micromap-11636.fail.json",
+        "synchronization/VUID-VkMemoryBarrier2-srcAccessMask-07457.fail.json",
+    ];
+    let mut settings = insta::Settings::clone_current();
+    settings.set_snapshot_path("snapshots/corpus-text");
+    settings.set_prepend_module_to_snapshot(false);
+    settings.bind(|| {
+        for scene in SCENES {
+            let path = root().join(CORPUS).join(scene);
+            let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{scene}: {e}"));
+            let dir = path.parent().expect("a family directory");
+            let report = Scene::parse(&text, scene, dir)
+                .and_then(|s| s.check(&CheckOptions::default()))
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert!(report.report.has_errors(), "{scene} reports no error");
+            let name = scene.replace('/', "__").trim_end_matches(".json").to_string();
+            insta::assert_snapshot!(name, report.report.to_string());
+        }
+    });
+}
+
 /// Rules the scene format cannot express, with the reason: they are about
 /// raw memory an application hands a layer (pointers, chains that loop,
 /// arrays past the reader's bound), which JSON arrays cannot describe. The

@@ -41,7 +41,12 @@ fn ommcheck(args: &[&str]) -> (i32, String, String) {
 
 #[test]
 fn valid_scenes_have_no_findings() {
-    for name in ["ext-quad-valid.json", "khr-micromap-blas-valid.json"] {
+    for name in [
+        "ext-quad-valid.json",
+        "ext-quad-2state-level4-valid.json",
+        "ext-4state-mixed-levels-valid.json",
+        "khr-micromap-blas-valid.json",
+    ] {
         assert_eq!(ids(name), Vec::<&str>::new(), "{name}");
     }
 }
