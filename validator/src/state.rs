@@ -154,6 +154,10 @@ pub struct State {
     pub acceleration_structures: BTreeMap<Handle, AccelerationStructure>,
     pub query_pools: BTreeMap<Handle, QueryPool>,
     pub host_memory: Vec<HostRange>,
+    /// `host_memory` holds only what the checker read for the current call
+    /// (the raw entry points a layer uses), not every range the application
+    /// described (a scene): an address outside it is not known to be invalid.
+    pub host_memory_partial: bool,
     /// `VkDeferredOperationKHR` handles the application created
     /// (`vkCreateDeferredOperationKHR`) and has not destroyed.
     pub deferred_operations: BTreeSet<Handle>,
@@ -215,6 +219,12 @@ impl State {
             let to = usize::try_from(end - start).ok()?;
             contents.get(from..to)
         })
+    }
+
+    /// Whether `host_memory` is all the host memory the application
+    /// described, so that an address outside it is outside valid memory.
+    pub fn describes_all_host_memory(&self) -> bool {
+        !self.host_memory.is_empty() && !self.host_memory_partial
     }
 
     /// The bytes `[address, address + len)` of host memory the application described.
@@ -312,5 +322,8 @@ mod tests {
         assert_eq!(state.read_host(0x40, 4), None);
         assert_eq!(state.host_bytes_from(0x57).map(<[u8]>::len), Some(1));
         assert_eq!(state.host_bytes_from(0x58), None);
+        assert!(state.describes_all_host_memory());
+        state.host_memory_partial = true;
+        assert!(!state.describes_all_host_memory());
     }
 }

@@ -314,7 +314,7 @@ impl Validator {
                         "the host address is NULL, but the build has triangles",
                     );
                 } else if needed
-                    && !ctx.state.host_memory.is_empty()
+                    && ctx.state.describes_all_host_memory()
                     && ctx.state.host_bytes_from(address).is_none()
                 {
                     ctx.error(

@@ -267,6 +267,23 @@ impl Validator {
         report
     }
 
+    /// Records a micromap the driver created from `info` without checking
+    /// the call again: a layer checks `vkCreateMicromapEXT` before calling
+    /// down ([`Self::create_micromap`] with handle 0, which records nothing)
+    /// and records the handle the driver returned with this. Handle 0 is
+    /// ignored.
+    pub fn record_micromap(
+        &mut self,
+        micromap: Handle,
+        info: &MicromapCreateInfo,
+        with_allocator: bool,
+    ) {
+        if micromap != 0 {
+            let record = self.created_micromap(info, with_allocator);
+            self.state.micromaps.insert(micromap, record);
+        }
+    }
+
     /// What the checker remembers of a micromap `info` created.
     fn created_micromap(&self, info: &MicromapCreateInfo, allocator: bool) -> Micromap {
         let buffer_address = self
@@ -1145,7 +1162,8 @@ fn serialized_host_address(
 ) {
     if address == 0 {
         ctx.error(valid, location, "the host address is NULL");
-    } else if !ctx.state.host_memory.is_empty() && ctx.state.host_bytes_from(address).is_none() {
+    } else if ctx.state.describes_all_host_memory() && ctx.state.host_bytes_from(address).is_none()
+    {
         ctx.error(
             valid,
             location,
@@ -1248,7 +1266,9 @@ fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride
         if data_size > 0 {
             ctx.error(host_write::pData_parameter, "pData", "pData is NULL");
         }
-    } else if !ctx.state.host_memory.is_empty() && ctx.state.read_host(data, data_size).is_none() {
+    } else if ctx.state.describes_all_host_memory()
+        && ctx.state.read_host(data, data_size).is_none()
+    {
         ctx.error(
             host_write::pData_parameter,
             "pData",

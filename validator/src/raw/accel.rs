@@ -887,6 +887,10 @@ impl Validator {
             )
         };
         let described_before = self.state.host_memory.len();
+        let partial_before = self.state.host_memory_partial;
+        // What is read here is not all the memory the application described,
+        // unless it described memory to the validator before the call.
+        self.state.host_memory_partial = partial_before || described_before == 0;
         for (i, info) in model.iter_mut().enumerate() {
             let info_ranges = ranges.get(i).and_then(Option::as_ref);
             // SAFETY: forwarded from the caller (host instance addresses).
@@ -901,6 +905,7 @@ impl Validator {
         report.extend(self.build_acceleration_structures(&model, &ranges));
         // Host memory read for this call is forgotten after it.
         self.state.host_memory.truncate(described_before);
+        self.state.host_memory_partial = partial_before;
         report
     }
 

@@ -11,6 +11,7 @@
 #![allow(unsafe_code)]
 
 pub mod accel;
+pub mod objects;
 
 use std::collections::HashSet;
 use std::ffi::c_void;
@@ -358,6 +359,32 @@ impl Validator {
         info_count: u32,
         infos: *const vk::MicromapBuildInfoEXT<'_>,
     ) -> Report {
+        // SAFETY: forwarded from the caller; no readable ranges are claimed.
+        unsafe {
+            self.build_micromaps_raw_reading(device, deferred_operation, info_count, infos, &[])
+        }
+    }
+
+    /// As [`Self::build_micromaps_raw`], and reads each build's micromap
+    /// data in full at the call when its host address lies inside one of
+    /// `readable` (host memory the caller knows is readable, such as a
+    /// mapped range of host-visible memory): the bytes from `data` to the
+    /// end of that range, so each triangle's data can be checked to lie
+    /// inside it (`OMMCHECK-build-triangle-data-in-range`) and decoded.
+    /// A range longer than [`MAX_HOST_BYTES`] from `data` on is reported
+    /// and not read.
+    ///
+    /// # Safety
+    /// As [`Self::build_micromaps_raw`], and each of `readable` must be
+    /// readable host memory for the whole of the call.
+    pub unsafe fn build_micromaps_raw_reading(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        info_count: u32,
+        infos: *const vk::MicromapBuildInfoEXT<'_>,
+        readable: &[ReadableHost],
+    ) -> Report {
         let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
         let model = unsafe {
@@ -375,7 +402,13 @@ impl Validator {
         // Host memory read for this call is forgotten after it: the
         // application may change or free it once the call returns.
         let described_before = self.state.host_memory.len();
+        let partial_before = self.state.host_memory_partial;
+        // What is read here is not all the memory the application described,
+        // unless it described memory to the validator before the call.
+        self.state.host_memory_partial = partial_before || described_before == 0;
         for (i, info) in model.iter().enumerate() {
+            // SAFETY: forwarded from the caller (`readable` is readable).
+            unsafe { self.read_data_in_readable(i, info.data, readable, &mut findings) };
             let triangles = info.usage_counts.total();
             let extent = triangles
                 .checked_sub(1)
@@ -416,8 +449,65 @@ impl Validator {
             &model,
         ));
         self.state.host_memory.truncate(described_before);
+        self.state.host_memory_partial = partial_before;
         report
     }
+
+    /// Copies the host memory from `data` to the end of the readable range
+    /// holding it into the tracked host memory, unless it is known already.
+    ///
+    /// # Safety
+    /// Each of `readable` must be readable host memory.
+    unsafe fn read_data_in_readable(
+        &mut self,
+        info_index: usize,
+        data: u64,
+        readable: &[ReadableHost],
+        findings: &mut Vec<Finding>,
+    ) {
+        let Some(end) = readable.iter().find_map(|range| {
+            let end = range.address.checked_add(range.len)?;
+            (range.address <= data && data < end).then_some(end)
+        }) else {
+            return;
+        };
+        let extent = end - data;
+        if extent > MAX_HOST_BYTES {
+            findings.push(Finding::new(
+                &rules::READ_BOUND,
+                Severity::Warning,
+                "vkBuildMicromapsEXT",
+                format!("pInfos[{info_index}].data"),
+                format!("the mapped memory holding data spans {extent} bytes from it, more than ommcheck reads ({MAX_HOST_BYTES}); the triangles' data is not checked"),
+            ));
+            return;
+        }
+        if self.state.read_host(data, extent).is_some() {
+            return;
+        }
+        let (Ok(address), Ok(len)) = (usize::try_from(data), usize::try_from(extent)) else {
+            return; // Not a pointer on this target.
+        };
+        // SAFETY: `[data, end)` lies inside a range the caller guarantees is
+        // readable; `len` is at most MAX_HOST_BYTES.
+        let bytes = unsafe {
+            std::slice::from_raw_parts(std::ptr::with_exposed_provenance::<u8>(address), len)
+        };
+        self.state.host_memory.push(HostRange {
+            address: data,
+            bytes: Arc::from(bytes),
+        });
+    }
+}
+
+/// Host memory an adaptor knows the application may read during a call,
+/// `[address, address + len)`: a mapped range of host-visible memory (see
+/// [`Validator::build_micromaps_raw_reading`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadableHost {
+    /// The host pointer's value (its provenance exposed).
+    pub address: u64,
+    pub len: u64,
 }
 
 #[cfg(test)]
@@ -504,13 +594,15 @@ mod tests {
         assert_eq!(findings.len(), 1);
     }
 
-    #[test]
-    fn host_build_reads_the_described_triangle_array() {
-        let triangles: [u8; 16] = [0, 0, 0, 0, 1, 0, 9, 0, 1, 0, 0, 0, 1, 0, 2, 0];
-        let usages = [usage_ext(2)];
-        let scratch = [0u8; 64];
-        let data = [0u8; 8];
-        let info = vk::MicromapBuildInfoEXT {
+    /// A valid host build: two 2-state level-1 triangles whose data sits in
+    /// `data`, away from the triangle array.
+    fn host_build_info<'a>(
+        triangles: &'a [u8; 16],
+        usages: &'a [vk::MicromapUsageEXT; 1],
+        data: &'a [u8],
+        scratch: &'a mut [u8; 64],
+    ) -> vk::MicromapBuildInfoEXT<'a> {
+        vk::MicromapBuildInfoEXT {
             usage_counts_count: 1,
             p_usage_counts: usages.as_ptr(),
             triangle_array: vk::DeviceOrHostAddressConstKHR {
@@ -520,11 +612,86 @@ mod tests {
                 host_address: data.as_ptr().cast(),
             },
             scratch_data: vk::DeviceOrHostAddressKHR {
-                host_address: scratch.as_ptr() as *mut c_void,
+                host_address: scratch.as_mut_ptr().cast(),
             },
             triangle_array_stride: 8,
             ..Default::default()
+        }
+    }
+
+    #[test]
+    fn host_data_is_read_in_full_from_a_readable_range() {
+        // Entries: dataOffset 0 and 1, level 1, format 1 (2-state, 1 byte each).
+        let triangles: [u8; 16] = [0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 0, 0, 1, 0, 1, 0];
+        let usages = [vk::MicromapUsageEXT {
+            count: 2,
+            subdivision_level: 1,
+            format: 1,
+        }];
+        let data = [0x1u8, 0x2];
+        let mut scratch = [0u8; 64];
+        let info = host_build_info(&triangles, &usages, &data, &mut scratch);
+        let device = <vk::Device as vk::Handle>::from_raw(1);
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        v.state.buffers.insert(
+            5,
+            crate::state::Buffer {
+                size: 256,
+                memory: Some(crate::state::MemoryBinding {
+                    host_visible: true,
+                    ..Default::default()
+                }),
+                ..Default::default()
+            },
+        );
+        v.state.micromaps.insert(
+            9,
+            crate::state::Micromap {
+                buffer: 5,
+                size: 256,
+                ty: vk::MicromapTypeEXT::OPACITY_MICROMAP.as_raw(),
+                ..Default::default()
+            },
+        );
+        let info = vk::MicromapBuildInfoEXT {
+            dst_micromap: vk::Handle::from_raw(9),
+            ..info
         };
+        let whole = ReadableHost {
+            address: data.as_ptr().expose_provenance() as u64,
+            len: 2,
+        };
+        let build = |v: &mut Validator, readable: &[ReadableHost]| {
+            // SAFETY: the triangle array holds the 2 entries the usage counts
+            // describe, and `readable` lies inside `data`.
+            unsafe {
+                v.build_micromaps_raw_reading(
+                    device,
+                    vk::DeferredOperationKHR::null(),
+                    1,
+                    &info,
+                    readable,
+                )
+            }
+        };
+        // Data outside the ranges the call read is not taken to be invalid.
+        let report = build(&mut v, &[]);
+        assert!(report.is_empty(), "{report}");
+        let report = build(&mut v, &[whole]);
+        assert!(report.is_empty(), "{report}");
+        // With one byte readable, the second triangle's data is past its end.
+        let report = build(&mut v, &[ReadableHost { len: 1, ..whole }]);
+        assert_eq!(report.ids(), [rules::TRIANGLE_DATA_RANGE.id], "{report}");
+        assert!(v.state.host_memory.is_empty() && !v.state.host_memory_partial);
+    }
+
+    #[test]
+    fn host_build_reads_the_described_triangle_array() {
+        let triangles: [u8; 16] = [0, 0, 0, 0, 1, 0, 9, 0, 1, 0, 0, 0, 1, 0, 2, 0];
+        let usages = [usage_ext(2)];
+        let mut scratch = [0u8; 64];
+        let data = [0u8; 8];
+        let info = host_build_info(&triangles, &usages, &data, &mut scratch);
         let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
         // SAFETY: the triangle array holds the 2 entries the usage counts describe.
         let report = unsafe {
