@@ -3,6 +3,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod layer;
+
 /// Project automation for ommcheck.
 #[derive(Parser)]
 #[command(name = "cargo xtask")]
@@ -25,6 +27,12 @@ enum Task {
     },
     /// Write VUID-COVERAGE.md (every catalog VUID's status) and README.md's table of our rules.
     Coverage,
+    /// Build the Vulkan layer in release and write its manifest, VkLayer_ommcheck.json.
+    Layer {
+        /// The directory the manifest is written to (default: target/layer).
+        #[arg(long)]
+        out_dir: Option<PathBuf>,
+    },
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
         /// Do not install missing prerequisites; report them.
@@ -71,6 +79,9 @@ fn main() -> ExitCode {
                 })
                 .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
         }
+        Task::Layer { out_dir } => layer::build(&root, out_dir).map(|dir| {
+            println!("{}", dir.display());
+        }),
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };
     match result {

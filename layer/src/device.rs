@@ -1,0 +1,854 @@
+//! Device creation and the device commands the layer intercepts: those
+//! that create what micromap builds refer to (fed to the core's tracked
+//! state, as the scene runner feeds it) and the builds themselves
+//! (checked through the core's raw entry points).
+
+#![allow(unsafe_code)]
+
+use std::collections::HashMap;
+use std::ffi::{c_void, CStr};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use ash::vk::Handle as _;
+use ommcheck::model::CommandBuffer;
+use ommcheck::raw::{objects, ReadableHost};
+use ommcheck::{Report, Validator};
+
+use crate::dispatch::{
+    next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
+};
+use crate::report::Message;
+use crate::{abi, guarded, panic_message, read, settings, testing};
+
+/// A command as the loader's `PFN_vkVoidFunction`.
+pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
+    assert_eq!(size_of::<F>(), size_of::<unsafe extern "system" fn()>());
+    // SAFETY: `F` is a function pointer type (same size, checked above);
+    // the loader casts it back to the command's real type before calling.
+    Some(unsafe { std::mem::transmute_copy::<F, unsafe extern "system" fn()>(&function) })
+}
+
+/// This layer's function for a device-level command name.
+pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkDestroyDevice" => as_void(destroy_device as vk::PFN_vkDestroyDevice),
+        b"vkCreateBuffer" => as_void(create_buffer as vk::PFN_vkCreateBuffer),
+        b"vkDestroyBuffer" => as_void(destroy_buffer as vk::PFN_vkDestroyBuffer),
+        b"vkAllocateMemory" => as_void(allocate_memory as vk::PFN_vkAllocateMemory),
+        b"vkFreeMemory" => as_void(free_memory as vk::PFN_vkFreeMemory),
+        b"vkMapMemory" => as_void(map_memory as vk::PFN_vkMapMemory),
+        b"vkUnmapMemory" => as_void(unmap_memory as vk::PFN_vkUnmapMemory),
+        b"vkBindBufferMemory" => as_void(bind_buffer_memory as vk::PFN_vkBindBufferMemory),
+        b"vkBindBufferMemory2" => as_void(bind_buffer_memory2 as vk::PFN_vkBindBufferMemory2),
+        b"vkBindBufferMemory2KHR" => {
+            as_void(bind_buffer_memory2_khr as vk::PFN_vkBindBufferMemory2)
+        }
+        b"vkGetBufferDeviceAddress" => {
+            as_void(get_buffer_device_address as vk::PFN_vkGetBufferDeviceAddress)
+        }
+        b"vkGetBufferDeviceAddressKHR" => {
+            as_void(get_buffer_device_address_khr as vk::PFN_vkGetBufferDeviceAddress)
+        }
+        b"vkGetBufferDeviceAddressEXT" => {
+            as_void(get_buffer_device_address_ext as vk::PFN_vkGetBufferDeviceAddress)
+        }
+        b"vkCreateDeferredOperationKHR" => {
+            as_void(create_deferred_operation as vk::PFN_vkCreateDeferredOperationKHR)
+        }
+        b"vkDestroyDeferredOperationKHR" => {
+            as_void(destroy_deferred_operation as vk::PFN_vkDestroyDeferredOperationKHR)
+        }
+        b"vkDeferredOperationJoinKHR" => {
+            as_void(deferred_operation_join as vk::PFN_vkDeferredOperationJoinKHR)
+        }
+        b"vkGetDeferredOperationResultKHR" => {
+            as_void(get_deferred_operation_result as vk::PFN_vkGetDeferredOperationResultKHR)
+        }
+        b"vkCreateMicromapEXT" => as_void(create_micromap as vk::PFN_vkCreateMicromapEXT),
+        b"vkDestroyMicromapEXT" => as_void(destroy_micromap as vk::PFN_vkDestroyMicromapEXT),
+        b"vkCmdBuildMicromapsEXT" => as_void(cmd_build_micromaps as vk::PFN_vkCmdBuildMicromapsEXT),
+        b"vkBuildMicromapsEXT" => as_void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
+        _ => None,
+    }
+}
+
+/// The device data for a dispatchable `handle` of a device (the device, or
+/// a command buffer) and the next layer's function `pick` selects; None
+/// when the device is unknown or the next layer lacks the function.
+fn device_and<F: Copy>(
+    handle: impl vk::Handle,
+    pick: impl FnOnce(&DeviceFns) -> Option<F>,
+) -> Option<(Arc<DeviceData>, F)> {
+    let data = DEVICES.get(handle)?;
+    let function = pick(&data.fns)?;
+    Some((data, function))
+}
+
+/// Runs a check against the device's validator and delivers its findings;
+/// a panic inside becomes one error message. Returns whether a messenger
+/// asked for the call to be skipped.
+fn check(
+    data: &DeviceData,
+    function: &'static str,
+    call_object: (vk::ObjectType, u64),
+    body: impl FnOnce(&mut DeviceState) -> Report,
+) -> bool {
+    let outcome = {
+        let mut state = data.state();
+        catch_unwind(AssertUnwindSafe(|| {
+            testing::panic_if_asked();
+            body(&mut state)
+        }))
+    };
+    let messages: Vec<Message> = match outcome {
+        Ok(report) => report
+            .findings
+            .iter()
+            .map(|finding| Message::from_finding(finding, call_object))
+            .collect(),
+        Err(payload) => vec![panic_message(
+            function,
+            payload.as_ref(),
+            "the call was passed on unchecked",
+        )],
+    };
+    !messages.is_empty() && data.instance.reporter.deliver(&messages, false)
+}
+
+/// Records what a call did in the device's state; a panic inside becomes
+/// one error message and the call's result stands.
+fn track(data: &DeviceData, function: &'static str, body: impl FnOnce(&mut DeviceState)) {
+    let outcome = {
+        let mut state = data.state();
+        catch_unwind(AssertUnwindSafe(|| body(&mut state)))
+    };
+    if let Err(payload) = outcome {
+        let message = panic_message(
+            function,
+            payload.as_ref(),
+            "what the call created is not tracked",
+        );
+        data.instance.reporter.deliver(&[message], false);
+    }
+}
+
+fn device_object(device: vk::Device) -> (vk::ObjectType, u64) {
+    (vk::ObjectType::DEVICE, device.as_raw())
+}
+
+/// `vkCreateDevice`: takes the next layer from the loader's link info,
+/// creates the device below, and sets up its checked state from the
+/// create info (extensions, chained features, queues) and the settings' limits.
+pub unsafe extern "system" fn create_device(
+    physical_device: vk::PhysicalDevice,
+    create_info: *const vk::DeviceCreateInfo<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    device_out: *mut vk::Device,
+) -> vk::Result {
+    guarded(
+        "vkCreateDevice",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            // SAFETY: the loader passes a valid create info.
+            let Some(info) = (unsafe { create_info.as_ref() }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the loader's create info, with its writable link info.
+            let Some((next_gipa, next_gdpa)) = (unsafe { abi::take_device_link(info) }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // A physical device shares its instance's dispatch key.
+            let Some(instance) = INSTANCES.get(physical_device) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let Some(create) = next_fn!(
+                next_gipa,
+                instance.handle,
+                c"vkCreateDevice",
+                vk::PFN_vkCreateDevice
+            ) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's vkCreateDevice, with the application's arguments.
+            let result = unsafe { create(physical_device, create_info, allocator, device_out) };
+            if result != vk::Result::SUCCESS {
+                return result;
+            }
+            // SAFETY: on success the next layer wrote the device.
+            let Some(handle) = (unsafe { read::value(device_out) }) else {
+                return result;
+            };
+            let memory_properties = instance
+                .fns
+                .get_physical_device_memory_properties
+                .map(|get| {
+                    let mut properties = vk::PhysicalDeviceMemoryProperties::default();
+                    // SAFETY: the next layer's function, with a physical device of
+                    // its instance and a structure to fill.
+                    unsafe { get(physical_device, &mut properties) };
+                    properties
+                });
+            let limits = settings::get().0.limits.clone();
+            // SAFETY: the create info is valid, as vkCreateDevice requires.
+            let (device, findings) =
+                unsafe { objects::device_from_create_info(info, limits, handle) };
+            let data = Arc::new(DeviceData {
+                handle,
+                next_gdpa,
+                fns: DeviceFns::load(next_gdpa, handle),
+                instance,
+                memory_properties,
+                physical_device_count: device.physical_device_count,
+                state: Mutex::new(DeviceState {
+                    validator: Validator::new(device),
+                    allocations: HashMap::new(),
+                    mappings: HashMap::new(),
+                }),
+            });
+            let messages: Vec<Message> = findings
+                .iter()
+                .map(|finding| Message::from_finding(finding, device_object(handle)))
+                .collect();
+            data.instance.reporter.deliver(&messages, false);
+            // SAFETY: the device the loader's chain just created.
+            if let Some(key) = unsafe { abi::dispatch_key(handle.as_raw()) } {
+                DEVICES.insert(key, data);
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyDevice`.
+unsafe extern "system" fn destroy_device(
+    device: vk::Device,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyDevice", (), || {
+        if device == vk::Device::null() {
+            return;
+        }
+        // SAFETY: a non-NULL device is one the loader created.
+        let Some(key) = (unsafe { abi::dispatch_key(device.as_raw()) }) else {
+            return;
+        };
+        if let Some(destroy) = DEVICES.remove(key).and_then(|data| data.fns.destroy_device) {
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { destroy(device, allocator) };
+        }
+    })
+}
+
+/// `vkCreateBuffer`: the buffer's size, usage and flags are tracked.
+unsafe extern "system" fn create_buffer(
+    device: vk::Device,
+    create_info: *const vk::BufferCreateInfo<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    buffer_out: *mut vk::Buffer,
+) -> vk::Result {
+    guarded(
+        "vkCreateBuffer",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.create_buffer) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, create_info, allocator, buffer_out) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: the create info is valid (the API's requirement); on
+                // success the next layer wrote the handle.
+                let (info, buffer) = unsafe { (create_info.as_ref(), read::value(buffer_out)) };
+                if let (Some(info), Some(buffer)) = (info, buffer) {
+                    track(&data, "vkCreateBuffer", |state| {
+                        // SAFETY: as above; the chain is well formed.
+                        let (record, _) = unsafe { objects::buffer_from_create_info(info) };
+                        state
+                            .validator
+                            .state_mut()
+                            .buffers
+                            .insert(buffer.as_raw(), record);
+                    });
+                }
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyBuffer`.
+unsafe extern "system" fn destroy_buffer(
+    device: vk::Device,
+    buffer: vk::Buffer,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyBuffer", (), || {
+        let Some((data, next)) = device_and(device, |f| f.destroy_buffer) else {
+            return;
+        };
+        track(&data, "vkDestroyBuffer", |state| {
+            state.validator.state_mut().buffers.remove(&buffer.as_raw());
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, buffer, allocator) };
+    })
+}
+
+/// `vkAllocateMemory`: whether the memory is host-visible (from its type)
+/// and multi-instance, and its size, are tracked.
+unsafe extern "system" fn allocate_memory(
+    device: vk::Device,
+    allocate_info: *const vk::MemoryAllocateInfo<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    memory_out: *mut vk::DeviceMemory,
+) -> vk::Result {
+    guarded(
+        "vkAllocateMemory",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.allocate_memory) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, allocate_info, allocator, memory_out) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: the allocate info is valid (the API's requirement); on
+                // success the next layer wrote the handle.
+                let (info, memory) =
+                    unsafe { (read::value(allocate_info), read::value(memory_out)) };
+                if let (Some(info), Some(memory)) = (info, memory) {
+                    let allocation = Allocation {
+                        size: info.allocation_size,
+                        binding: data.binding(info.memory_type_index),
+                    };
+                    track(&data, "vkAllocateMemory", |state| {
+                        state.allocations.insert(memory.as_raw(), allocation);
+                    });
+                }
+            }
+            result
+        },
+    )
+}
+
+/// `vkFreeMemory`: the allocation and its mapping are forgotten.
+unsafe extern "system" fn free_memory(
+    device: vk::Device,
+    memory: vk::DeviceMemory,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkFreeMemory", (), || {
+        let Some((data, next)) = device_and(device, |f| f.free_memory) else {
+            return;
+        };
+        track(&data, "vkFreeMemory", |state| {
+            state.allocations.remove(&memory.as_raw());
+            state.mappings.remove(&memory.as_raw());
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, memory, allocator) };
+    })
+}
+
+/// `vkMapMemory`: the mapped host range is remembered, so a host build
+/// whose data lies in it can be read in full.
+unsafe extern "system" fn map_memory(
+    device: vk::Device,
+    memory: vk::DeviceMemory,
+    offset: vk::DeviceSize,
+    size: vk::DeviceSize,
+    flags: vk::MemoryMapFlags,
+    data_out: *mut *mut c_void,
+) -> vk::Result {
+    guarded("vkMapMemory", vk::Result::ERROR_MEMORY_MAP_FAILED, || {
+        let Some((data, next)) = device_and(device, |f| f.map_memory) else {
+            return vk::Result::ERROR_MEMORY_MAP_FAILED;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        let result = unsafe { next(device, memory, offset, size, flags, data_out) };
+        if result == vk::Result::SUCCESS {
+            // SAFETY: on success the next layer wrote the pointer.
+            let mapped = unsafe { read::value(data_out) }.filter(|p| !p.is_null());
+            if let Some(mapped) = mapped {
+                track(&data, "vkMapMemory", |state| {
+                    let allocated = state.allocations.get(&memory.as_raw()).map(|a| a.size);
+                    // VK_WHOLE_SIZE maps to the end of the allocation.
+                    let len = if size == vk::WHOLE_SIZE {
+                        allocated.and_then(|total| total.checked_sub(offset))
+                    } else {
+                        Some(size)
+                    };
+                    if let Some(len) = len {
+                        let address = mapped.expose_provenance() as u64;
+                        state
+                            .mappings
+                            .insert(memory.as_raw(), ReadableHost { address, len });
+                    }
+                });
+            }
+        }
+        result
+    })
+}
+
+/// `vkUnmapMemory`.
+unsafe extern "system" fn unmap_memory(device: vk::Device, memory: vk::DeviceMemory) {
+    guarded("vkUnmapMemory", (), || {
+        let Some((data, next)) = device_and(device, |f| f.unmap_memory) else {
+            return;
+        };
+        track(&data, "vkUnmapMemory", |state| {
+            state.mappings.remove(&memory.as_raw());
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, memory) };
+    })
+}
+
+/// Records that `buffer` is bound to `memory`.
+fn bind(state: &mut DeviceState, buffer: vk::Buffer, memory: vk::DeviceMemory) {
+    let binding = state
+        .allocations
+        .get(&memory.as_raw())
+        .map(|allocation| allocation.binding)
+        .unwrap_or_default();
+    if let Some(tracked) = state
+        .validator
+        .state_mut()
+        .buffers
+        .get_mut(&buffer.as_raw())
+    {
+        tracked.memory = Some(binding);
+    }
+}
+
+/// `vkBindBufferMemory`.
+unsafe extern "system" fn bind_buffer_memory(
+    device: vk::Device,
+    buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    offset: vk::DeviceSize,
+) -> vk::Result {
+    guarded(
+        "vkBindBufferMemory",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.bind_buffer_memory) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, buffer, memory, offset) };
+            if result == vk::Result::SUCCESS {
+                track(&data, "vkBindBufferMemory", |state| {
+                    bind(state, buffer, memory)
+                });
+            }
+            result
+        },
+    )
+}
+
+/// `vkBindBufferMemory2` and its KHR alias, each with its own next function.
+unsafe fn bind_buffer_memory2_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkBindBufferMemory2>,
+    device: vk::Device,
+    bind_info_count: u32,
+    bind_infos: *const vk::BindBufferMemoryInfo<'_>,
+) -> vk::Result {
+    guarded(function, vk::Result::ERROR_INITIALIZATION_FAILED, || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return vk::Result::ERROR_INITIALIZATION_FAILED;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        let result = unsafe { next(device, bind_info_count, bind_infos) };
+        if result == vk::Result::SUCCESS {
+            track(&data, function, |state| {
+                // SAFETY: the array holds `bind_info_count` elements (the API's requirement).
+                let binds =
+                    unsafe { objects::bind_buffer_memory_infos(bind_info_count, bind_infos) };
+                for (buffer, memory) in binds {
+                    bind(state, buffer, memory);
+                }
+            });
+        }
+        result
+    })
+}
+
+unsafe extern "system" fn bind_buffer_memory2(
+    device: vk::Device,
+    bind_info_count: u32,
+    bind_infos: *const vk::BindBufferMemoryInfo<'_>,
+) -> vk::Result {
+    // SAFETY: forwarded from the application.
+    unsafe {
+        bind_buffer_memory2_with(
+            "vkBindBufferMemory2",
+            |f| f.bind_buffer_memory2,
+            device,
+            bind_info_count,
+            bind_infos,
+        )
+    }
+}
+
+unsafe extern "system" fn bind_buffer_memory2_khr(
+    device: vk::Device,
+    bind_info_count: u32,
+    bind_infos: *const vk::BindBufferMemoryInfo<'_>,
+) -> vk::Result {
+    // SAFETY: forwarded from the application.
+    unsafe {
+        bind_buffer_memory2_with(
+            "vkBindBufferMemory2KHR",
+            |f| f.bind_buffer_memory2_khr,
+            device,
+            bind_info_count,
+            bind_infos,
+        )
+    }
+}
+
+/// `vkGetBufferDeviceAddress` and its aliases: the address is tracked
+/// with the buffer, so device addresses in builds can be traced to buffers.
+unsafe fn get_buffer_device_address_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkGetBufferDeviceAddress>,
+    device: vk::Device,
+    info: *const vk::BufferDeviceAddressInfo<'_>,
+) -> vk::DeviceAddress {
+    guarded(function, 0, || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return 0;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        let address = unsafe { next(device, info) };
+        // SAFETY: the info is valid (the API's requirement).
+        if let Some(info) = unsafe { read::value(info) }.filter(|_| address != 0) {
+            track(&data, function, |state| {
+                let buffers = &mut state.validator.state_mut().buffers;
+                if let Some(buffer) = buffers.get_mut(&info.buffer.as_raw()) {
+                    buffer.device_address = Some(address);
+                }
+            });
+        }
+        address
+    })
+}
+
+unsafe extern "system" fn get_buffer_device_address(
+    device: vk::Device,
+    info: *const vk::BufferDeviceAddressInfo<'_>,
+) -> vk::DeviceAddress {
+    // SAFETY: forwarded from the application.
+    unsafe {
+        get_buffer_device_address_with(
+            "vkGetBufferDeviceAddress",
+            |f| f.get_buffer_device_address,
+            device,
+            info,
+        )
+    }
+}
+
+unsafe extern "system" fn get_buffer_device_address_khr(
+    device: vk::Device,
+    info: *const vk::BufferDeviceAddressInfo<'_>,
+) -> vk::DeviceAddress {
+    // SAFETY: forwarded from the application.
+    unsafe {
+        get_buffer_device_address_with(
+            "vkGetBufferDeviceAddressKHR",
+            |f| f.get_buffer_device_address_khr,
+            device,
+            info,
+        )
+    }
+}
+
+unsafe extern "system" fn get_buffer_device_address_ext(
+    device: vk::Device,
+    info: *const vk::BufferDeviceAddressInfo<'_>,
+) -> vk::DeviceAddress {
+    // SAFETY: forwarded from the application.
+    unsafe {
+        get_buffer_device_address_with(
+            "vkGetBufferDeviceAddressEXT",
+            |f| f.get_buffer_device_address_ext,
+            device,
+            info,
+        )
+    }
+}
+
+/// `vkCreateDeferredOperationKHR`: host builds may name the operation.
+unsafe extern "system" fn create_deferred_operation(
+    device: vk::Device,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    operation_out: *mut vk::DeferredOperationKHR,
+) -> vk::Result {
+    guarded(
+        "vkCreateDeferredOperationKHR",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.create_deferred_operation) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, allocator, operation_out) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: on success the next layer wrote the handle.
+                if let Some(operation) = unsafe { read::value(operation_out) } {
+                    track(&data, "vkCreateDeferredOperationKHR", |state| {
+                        state
+                            .validator
+                            .create_deferred_operation(operation.as_raw());
+                    });
+                }
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyDeferredOperationKHR`.
+unsafe extern "system" fn destroy_deferred_operation(
+    device: vk::Device,
+    operation: vk::DeferredOperationKHR,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyDeferredOperationKHR", (), || {
+        let Some((data, next)) = device_and(device, |f| f.destroy_deferred_operation) else {
+            return;
+        };
+        track(&data, "vkDestroyDeferredOperationKHR", |state| {
+            state
+                .validator
+                .destroy_deferred_operation(operation.as_raw());
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, operation, allocator) };
+    })
+}
+
+/// `vkDeferredOperationJoinKHR`: VK_SUCCESS means the operation's command completed.
+unsafe extern "system" fn deferred_operation_join(
+    device: vk::Device,
+    operation: vk::DeferredOperationKHR,
+) -> vk::Result {
+    guarded(
+        "vkDeferredOperationJoinKHR",
+        vk::Result::ERROR_UNKNOWN,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.deferred_operation_join) else {
+                return vk::Result::ERROR_UNKNOWN;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, operation) };
+            if result == vk::Result::SUCCESS {
+                track(&data, "vkDeferredOperationJoinKHR", |state| {
+                    state
+                        .validator
+                        .deferred_operation_completed(operation.as_raw());
+                });
+            }
+            result
+        },
+    )
+}
+
+/// `vkGetDeferredOperationResultKHR`: anything but VK_NOT_READY means the
+/// operation's command completed.
+unsafe extern "system" fn get_deferred_operation_result(
+    device: vk::Device,
+    operation: vk::DeferredOperationKHR,
+) -> vk::Result {
+    guarded(
+        "vkGetDeferredOperationResultKHR",
+        vk::Result::ERROR_UNKNOWN,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.get_deferred_operation_result) else {
+                return vk::Result::ERROR_UNKNOWN;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, operation) };
+            if result != vk::Result::NOT_READY {
+                track(&data, "vkGetDeferredOperationResultKHR", |state| {
+                    state
+                        .validator
+                        .deferred_operation_completed(operation.as_raw());
+                });
+            }
+            result
+        },
+    )
+}
+
+/// `vkCreateMicromapEXT`: checked before the call; the micromap the
+/// driver creates is tracked after it.
+unsafe extern "system" fn create_micromap(
+    device: vk::Device,
+    create_info: *const vk::MicromapCreateInfoEXT<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    micromap_out: *mut vk::MicromapEXT,
+) -> vk::Result {
+    guarded(
+        "vkCreateMicromapEXT",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.create_micromap) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let skip = check(
+                &data,
+                "vkCreateMicromapEXT",
+                device_object(device),
+                |state| {
+                    // SAFETY: the application's arguments, valid as the API requires.
+                    unsafe {
+                        state.validator.create_micromap_raw(
+                            device,
+                            create_info,
+                            allocator,
+                            !micromap_out.is_null(),
+                        )
+                    }
+                },
+            );
+            if skip {
+                return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+            }
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, create_info, allocator, micromap_out) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: the create info is valid; on success the next layer
+                // wrote the handle.
+                let (info, micromap) = unsafe { (create_info.as_ref(), read::value(micromap_out)) };
+                if let (Some(info), Some(micromap)) = (info, micromap) {
+                    track(&data, "vkCreateMicromapEXT", |state| {
+                        // SAFETY: as above.
+                        unsafe {
+                            state.validator.record_micromap_raw(
+                                info,
+                                !allocator.is_null(),
+                                micromap,
+                            )
+                        };
+                    });
+                }
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyMicromapEXT`: checked, then passed on unless a messenger asks to skip it.
+unsafe extern "system" fn destroy_micromap(
+    device: vk::Device,
+    micromap: vk::MicromapEXT,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyMicromapEXT", (), || {
+        let Some((data, next)) = device_and(device, |f| f.destroy_micromap) else {
+            return;
+        };
+        let skip = check(
+            &data,
+            "vkDestroyMicromapEXT",
+            device_object(device),
+            |state| {
+                // SAFETY: the application's allocator, valid as the API requires.
+                unsafe {
+                    state
+                        .validator
+                        .destroy_micromap_raw(device, micromap, allocator)
+                }
+            },
+        );
+        if !skip {
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { next(device, micromap, allocator) };
+        }
+    })
+}
+
+/// `vkCmdBuildMicromapsEXT`: checked, then recorded below unless a
+/// messenger asks to skip it. The command buffer's state is not tracked
+/// yet: it is taken to be recording, outside any render pass, on a queue
+/// that supports builds.
+unsafe extern "system" fn cmd_build_micromaps(
+    command_buffer: vk::CommandBuffer,
+    info_count: u32,
+    infos: *const vk::MicromapBuildInfoEXT<'_>,
+) {
+    guarded("vkCmdBuildMicromapsEXT", (), || {
+        // A command buffer shares its device's dispatch key.
+        let Some((data, next)) = device_and(command_buffer, |f| f.cmd_build_micromaps) else {
+            return;
+        };
+        let object = (vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw());
+        let skip = check(&data, "vkCmdBuildMicromapsEXT", object, |state| {
+            let recording = CommandBuffer {
+                handle: command_buffer.as_raw(),
+                ..CommandBuffer::default()
+            };
+            // SAFETY: the application's arguments, valid as the API requires.
+            unsafe {
+                state
+                    .validator
+                    .cmd_build_micromaps_raw(&recording, info_count, infos)
+            }
+        });
+        if !skip {
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { next(command_buffer, info_count, infos) };
+        }
+    })
+}
+
+/// `vkBuildMicromapsEXT`: checked at the call, reading the triangle array
+/// and (where it lies in mapped memory) the data in full, then passed on
+/// unless a messenger asks to skip it.
+unsafe extern "system" fn build_micromaps(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info_count: u32,
+    infos: *const vk::MicromapBuildInfoEXT<'_>,
+) -> vk::Result {
+    guarded(
+        "vkBuildMicromapsEXT",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.build_micromaps) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let skip = check(
+                &data,
+                "vkBuildMicromapsEXT",
+                device_object(device),
+                |state| {
+                    let mapped: Vec<ReadableHost> = state.mappings.values().copied().collect();
+                    // SAFETY: the application's arguments, valid as the API
+                    // requires; mapped ranges stay readable until unmapped.
+                    unsafe {
+                        state.validator.build_micromaps_raw_reading(
+                            device,
+                            deferred_operation,
+                            info_count,
+                            infos,
+                            &mapped,
+                        )
+                    }
+                },
+            );
+            if skip {
+                return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+            }
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { next(device, deferred_operation, info_count, infos) }
+        },
+    )
+}

@@ -1,0 +1,177 @@
+//! Instance commands: creation and destruction, and the debug-utils messengers.
+
+#![allow(unsafe_code)]
+
+use std::ffi::CStr;
+use std::sync::Arc;
+
+use ash::vk;
+use ommcheck::Severity;
+
+use crate::dispatch::{next_fn, InstanceData, InstanceFns, INSTANCES};
+use crate::report::{Message, Reporter, SETTINGS_PROBLEM};
+use crate::{abi, device, guarded, read, settings};
+
+/// This layer's function for an instance-level command name.
+pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkGetInstanceProcAddr" => {
+            device::as_void(crate::vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr)
+        }
+        b"vkGetDeviceProcAddr" => {
+            device::as_void(crate::vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr)
+        }
+        b"vkCreateInstance" => device::as_void(create_instance as vk::PFN_vkCreateInstance),
+        b"vkDestroyInstance" => device::as_void(destroy_instance as vk::PFN_vkDestroyInstance),
+        b"vkCreateDevice" => device::as_void(device::create_device as vk::PFN_vkCreateDevice),
+        b"vkCreateDebugUtilsMessengerEXT" => {
+            device::as_void(create_debug_utils_messenger as vk::PFN_vkCreateDebugUtilsMessengerEXT)
+        }
+        b"vkDestroyDebugUtilsMessengerEXT" => device::as_void(
+            destroy_debug_utils_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT,
+        ),
+        _ => None,
+    }
+}
+
+/// `vkCreateInstance`: takes the next layer from the loader's link info,
+/// creates the instance below, and resolves the next layer's functions.
+unsafe extern "system" fn create_instance(
+    create_info: *const vk::InstanceCreateInfo<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    instance_out: *mut vk::Instance,
+) -> vk::Result {
+    guarded(
+        "vkCreateInstance",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            // SAFETY: the loader passes a valid create info.
+            let Some(info) = (unsafe { create_info.as_ref() }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the loader's create info, with its writable link info.
+            let Some(next_gipa) = (unsafe { abi::take_instance_link(info) }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let Some(create) = next_fn!(
+                next_gipa,
+                vk::Instance::null(),
+                c"vkCreateInstance",
+                vk::PFN_vkCreateInstance
+            ) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the application's chain is well formed, as the API requires.
+            let reporter = Reporter::new(unsafe { read::chained_messengers(info.p_next) });
+            let problems: Vec<Message> = settings::get()
+                .1
+                .iter()
+                .map(|problem| {
+                    Message::about_layer(
+                        SETTINGS_PROBLEM,
+                        Severity::Warning,
+                        "vkCreateInstance",
+                        problem,
+                    )
+                })
+                .collect();
+            reporter.deliver(&problems, true);
+            // SAFETY: the next layer's vkCreateInstance, with the application's arguments.
+            let result = unsafe { create(create_info, allocator, instance_out) };
+            if result != vk::Result::SUCCESS {
+                return result;
+            }
+            // SAFETY: on success the next layer wrote the instance.
+            let Some(handle) = (unsafe { read::value(instance_out) }) else {
+                return result;
+            };
+            let data = InstanceData {
+                handle,
+                next_gipa,
+                fns: InstanceFns::load(next_gipa, handle),
+                reporter,
+            };
+            // SAFETY: the instance the loader's chain just created.
+            if let Some(key) = unsafe { abi::dispatch_key(vk::Handle::as_raw(handle)) } {
+                INSTANCES.insert(key, Arc::new(data));
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyInstance`.
+unsafe extern "system" fn destroy_instance(
+    instance: vk::Instance,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyInstance", (), || {
+        if instance == vk::Instance::null() {
+            return;
+        }
+        // SAFETY: a non-NULL instance is one the loader created.
+        let Some(key) = (unsafe { abi::dispatch_key(vk::Handle::as_raw(instance)) }) else {
+            return;
+        };
+        let Some(data) = INSTANCES.remove(key) else {
+            return;
+        };
+        if let Some(destroy) = data.fns.destroy_instance {
+            // SAFETY: the next layer's vkDestroyInstance, with the application's arguments.
+            unsafe { destroy(instance, allocator) };
+        }
+    })
+}
+
+/// `vkCreateDebugUtilsMessengerEXT`: creates the messenger below, then
+/// reports to it too.
+unsafe extern "system" fn create_debug_utils_messenger(
+    instance: vk::Instance,
+    create_info: *const vk::DebugUtilsMessengerCreateInfoEXT<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    messenger_out: *mut vk::DebugUtilsMessengerEXT,
+) -> vk::Result {
+    guarded(
+        "vkCreateDebugUtilsMessengerEXT",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some(data) = INSTANCES.get(instance) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let Some(create) = data.fns.create_debug_utils_messenger else {
+                return vk::Result::ERROR_EXTENSION_NOT_PRESENT;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { create(instance, create_info, allocator, messenger_out) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: the create info is valid (the API's requirement), and
+                // on success the next layer wrote the handle.
+                let (info, handle) = unsafe { (create_info.as_ref(), read::value(messenger_out)) };
+                if let (Some(info), Some(handle)) = (info, handle) {
+                    if let Some(messenger) = read::messenger(info, vk::Handle::as_raw(handle)) {
+                        data.reporter.add(messenger);
+                    }
+                }
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyDebugUtilsMessengerEXT`.
+unsafe extern "system" fn destroy_debug_utils_messenger(
+    instance: vk::Instance,
+    messenger: vk::DebugUtilsMessengerEXT,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyDebugUtilsMessengerEXT", (), || {
+        let Some(data) = INSTANCES.get(instance) else {
+            return;
+        };
+        data.reporter.remove(vk::Handle::as_raw(messenger));
+        if let Some(destroy) = data.fns.destroy_debug_utils_messenger {
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { destroy(instance, messenger, allocator) };
+        }
+    })
+}

@@ -1,0 +1,174 @@
+//! `VK_LAYER_OMMCHECK_validation`: the ommcheck checks as a Vulkan layer.
+//!
+//! The layer intercepts the calls that create the objects micromap builds
+//! refer to (buffers, memory, micromaps), feeds them to an
+//! [`ommcheck::Validator`] per device, checks `vkCmdBuildMicromapsEXT` and
+//! `vkBuildMicromapsEXT` through the core's raw entry points, and reports
+//! findings to the application's `VK_EXT_debug_utils` messengers in the
+//! Khronos validation layer's format. Every other command passes to the
+//! next layer untouched. All check logic lives in the core; this crate
+//! only adapts the loader interface to it.
+//!
+//! Every exported or intercepted function runs its body inside
+//! `std::panic::catch_unwind`: a panic becomes one error message and never
+//! unwinds into the caller.
+
+// The loader looks the library up as libVkLayer_ommcheck.so.
+#![allow(non_snake_case)]
+
+pub mod abi;
+mod device;
+mod dispatch;
+mod instance;
+mod read;
+pub mod report;
+pub mod settings;
+#[doc(hidden)]
+pub mod testing;
+
+use std::any::Any;
+use std::ffi::{c_char, CStr};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use ash::vk;
+use ommcheck::Severity;
+
+use abi::{NegotiateLayerInterface, LAYER_INTERFACE_VERSION, LAYER_NEGOTIATE_INTERFACE_STRUCT};
+use dispatch::{DEVICES, INSTANCES};
+use report::{Message, INTERNAL_ERROR};
+
+/// The layer's name, as in its manifest.
+pub const LAYER_NAME: &str = "VK_LAYER_OMMCHECK_validation";
+
+/// Runs an exported function's `body`; a panic becomes one error message to
+/// every messenger and `on_panic` is returned.
+fn guarded<R>(function: &'static str, on_panic: R, body: impl FnOnce() -> R) -> R {
+    match catch_unwind(AssertUnwindSafe(body)) {
+        Ok(result) => result,
+        Err(payload) => {
+            let message = panic_message(function, payload.as_ref(), "the call failed");
+            // Which instance the call belonged to is lost with the panic.
+            let instances = INSTANCES.all();
+            if instances.is_empty() {
+                eprintln!("{}", message.text);
+            }
+            for instance in instances {
+                instance
+                    .reporter
+                    .deliver(std::slice::from_ref(&message), false);
+            }
+            on_panic
+        }
+    }
+}
+
+/// The message for a caught panic.
+fn panic_message(function: &str, payload: &(dyn Any + Send), outcome: &str) -> Message {
+    let reason = payload
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("no reason given");
+    Message::about_layer(
+        INTERNAL_ERROR,
+        Severity::Error,
+        function,
+        &format!(
+            "ommcheck panicked ({reason}); {outcome}. Please report this as a bug in ommcheck."
+        ),
+    )
+}
+
+/// `vkNegotiateLoaderLayerInterfaceVersion`: offers interface version 2
+/// with this layer's `vkGetInstanceProcAddr` and `vkGetDeviceProcAddr`.
+///
+/// # Safety
+/// `negotiate` must be NULL or point to the loader's `VkNegotiateLayerInterface`.
+#[no_mangle]
+pub unsafe extern "system" fn vkNegotiateLoaderLayerInterfaceVersion(
+    negotiate: *mut NegotiateLayerInterface,
+) -> vk::Result {
+    guarded(
+        "vkNegotiateLoaderLayerInterfaceVersion",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            // SAFETY: the loader passes its negotiation structure (or NULL).
+            let Some(negotiate) = (unsafe { negotiate.as_mut() }) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            if negotiate.s_type != LAYER_NEGOTIATE_INTERFACE_STRUCT
+                || negotiate.loader_layer_interface_version < 2
+            {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            }
+            negotiate.loader_layer_interface_version = negotiate
+                .loader_layer_interface_version
+                .min(LAYER_INTERFACE_VERSION);
+            negotiate.pfn_get_instance_proc_addr = Some(vkGetInstanceProcAddr);
+            negotiate.pfn_get_device_proc_addr = Some(vkGetDeviceProcAddr);
+            negotiate.pfn_get_physical_device_proc_addr = None;
+            vk::Result::SUCCESS
+        },
+    )
+}
+
+/// `vkGetInstanceProcAddr`: this layer's instance commands; its device
+/// commands where the next layer has them; anything else from the next layer.
+///
+/// # Safety
+/// `name` must be NULL or NUL-terminated; `instance` NULL or an instance.
+#[no_mangle]
+pub unsafe extern "system" fn vkGetInstanceProcAddr(
+    instance: vk::Instance,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    guarded("vkGetInstanceProcAddr", None, || {
+        // SAFETY: the name is NUL-terminated (the caller's guarantee).
+        let name = unsafe { read::name(name) }?;
+        if let Some(function) = instance::intercept(name) {
+            return Some(function);
+        }
+        let data = (instance != vk::Instance::null())
+            .then(|| INSTANCES.get(instance))
+            .flatten()?;
+        // SAFETY: the next layer's GIPA, with the instance it created.
+        let next = unsafe { (data.next_gipa)(data.handle, name.as_ptr()) };
+        match device::intercept(name) {
+            Some(ours) if next.is_some() => Some(ours),
+            _ => next,
+        }
+    })
+}
+
+/// `vkGetDeviceProcAddr`: this layer's device commands where the next
+/// layer has them; anything else from the next layer.
+///
+/// # Safety
+/// `name` must be NULL or NUL-terminated; `device` NULL or a device.
+#[no_mangle]
+pub unsafe extern "system" fn vkGetDeviceProcAddr(
+    device: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    guarded("vkGetDeviceProcAddr", None, || {
+        // SAFETY: the name is NUL-terminated (the caller's guarantee).
+        let name = unsafe { read::name(name) }?;
+        if name == c"vkGetDeviceProcAddr" {
+            return device::as_void(vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr);
+        }
+        let data = (device != vk::Device::null())
+            .then(|| DEVICES.get(device))
+            .flatten()?;
+        // SAFETY: the next layer's GDPA, with the device it created.
+        let next = unsafe { (data.next_gdpa)(data.handle, name.as_ptr()) };
+        match device::intercept(name) {
+            Some(ours) if next.is_some() => Some(ours),
+            _ => next,
+        }
+    })
+}
+
+/// Whether `name` is a command this layer intercepts (for tests and tools).
+pub fn intercepts(name: &CStr) -> bool {
+    instance::intercept(name).is_some() || device::intercept(name).is_some()
+}

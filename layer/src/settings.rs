@@ -1,0 +1,253 @@
+//! The layer's settings, read once from environment variables.
+//!
+//! | variable | meaning | default |
+//! | --- | --- | --- |
+//! | `OMMCHECK_DUPLICATE_LIMIT` | reports of one rule per instance; 0: unlimited | 10 |
+//! | `OMMCHECK_LOG_FILE` | a file every reported message is appended to | none |
+//! | `OMMCHECK_REPORT` | severities reported: comma-separated `error`, `warning`, `info` | `error,warning` |
+//! | `OMMCHECK_PROFILE` | device limits: `spec-minimum`, `permissive` or a JSON limits file | `spec-minimum` |
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use ommcheck::{Device, Limits, Profile, Severity};
+
+pub const DUPLICATE_LIMIT: &str = "OMMCHECK_DUPLICATE_LIMIT";
+pub const LOG_FILE: &str = "OMMCHECK_LOG_FILE";
+pub const REPORT: &str = "OMMCHECK_REPORT";
+pub const PROFILE: &str = "OMMCHECK_PROFILE";
+
+/// A setting as the layer manifest's `features.settings` describes it
+/// (the format the Khronos layers use and vkconfig reads).
+pub struct SettingDoc {
+    /// The setting's key in the manifest.
+    pub key: &'static str,
+    /// The environment variable that sets it.
+    pub env: &'static str,
+    pub label: &'static str,
+    pub description: &'static str,
+    /// `INT`, `SAVE_FILE`, `FLAGS` or `STRING`.
+    pub kind: &'static str,
+    /// The default, as the JSON text of the manifest's `default`.
+    pub default_json: &'static str,
+    /// For `FLAGS`: the flags' keys.
+    pub flags: &'static [&'static str],
+}
+
+/// Every setting, for the manifest.
+pub const DOCUMENTED: [SettingDoc; 4] = [
+    SettingDoc {
+        key: "duplicate_message_limit",
+        env: DUPLICATE_LIMIT,
+        label: "Duplicate message limit",
+        description: "How many times one rule is reported per instance; 0 reports every time.",
+        kind: "INT",
+        default_json: "10",
+        flags: &[],
+    },
+    SettingDoc {
+        key: "log_filename",
+        env: LOG_FILE,
+        label: "Log file",
+        description: "A file every reported message is appended to.",
+        kind: "SAVE_FILE",
+        default_json: "\"\"",
+        flags: &[],
+    },
+    SettingDoc {
+        key: "report_flags",
+        env: REPORT,
+        label: "Message severities",
+        description: "The severities reported, comma-separated: error, warning, info.",
+        kind: "FLAGS",
+        default_json: "[\"error\", \"warning\"]",
+        flags: &["error", "warning", "info"],
+    },
+    SettingDoc {
+        key: "profile",
+        env: PROFILE,
+        label: "Device limits",
+        description: "The limits checks use: spec-minimum (what every device with the extension meets), permissive, or the path of a JSON object of limits overriding spec-minimum.",
+        kind: "STRING",
+        default_json: "\"spec-minimum\"",
+        flags: &[],
+    },
+];
+
+/// The Khronos layer's default duplicate-message limit.
+pub const DEFAULT_DUPLICATE_LIMIT: u32 = 10;
+
+/// What the layer reports and against which limits it checks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Messages of one rule reported per instance before it goes quiet; 0: no limit.
+    pub duplicate_limit: u32,
+    /// Where every reported message is also appended.
+    pub log_file: Option<PathBuf>,
+    /// Severities reported; findings of other severities are dropped.
+    pub report: Vec<Severity>,
+    /// The device limits checks use (no create info carries them).
+    pub limits: Limits,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            duplicate_limit: DEFAULT_DUPLICATE_LIMIT,
+            log_file: None,
+            report: vec![Severity::Error, Severity::Warning],
+            limits: Profile::SpecMinimum.limits(),
+        }
+    }
+}
+
+impl Settings {
+    pub fn reports(&self, severity: Severity) -> bool {
+        self.report.contains(&severity)
+    }
+}
+
+/// Settings from `variable` (the environment, in the layer) and
+/// `read_file` (for a JSON limits file), with a sentence for each value
+/// that could not be used; such a setting keeps its default.
+pub fn parse(
+    variable: impl Fn(&str) -> Option<String>,
+    read_file: impl Fn(&Path) -> std::io::Result<String>,
+) -> (Settings, Vec<String>) {
+    let mut settings = Settings::default();
+    let mut problems = Vec::new();
+    if let Some(value) = variable(DUPLICATE_LIMIT) {
+        match value.trim().parse::<u32>() {
+            Ok(limit) => settings.duplicate_limit = limit,
+            Err(_) => problems.push(format!(
+                "{DUPLICATE_LIMIT}={value:?} is not a whole number; using {DEFAULT_DUPLICATE_LIMIT}"
+            )),
+        }
+    }
+    if let Some(value) = variable(LOG_FILE).filter(|v| !v.is_empty()) {
+        settings.log_file = Some(PathBuf::from(value));
+    }
+    if let Some(value) = variable(REPORT) {
+        let mut report = Vec::new();
+        for word in value.split(',').map(str::trim).filter(|w| !w.is_empty()) {
+            match word.to_ascii_lowercase().as_str() {
+                "error" => report.push(Severity::Error),
+                "warning" | "warn" => report.push(Severity::Warning),
+                "info" => report.push(Severity::Info),
+                _ => problems.push(format!(
+                    "{REPORT}: `{word}` is not error, warning or info; ignored"
+                )),
+            }
+        }
+        settings.report = report;
+    }
+    if let Some(value) = variable(PROFILE).filter(|v| !v.is_empty()) {
+        match Profile::from_name(&value) {
+            Some(profile) => settings.limits = profile.limits(),
+            None => match read_file(Path::new(&value)) {
+                Ok(json) => match Device::limits_from_json(Profile::SpecMinimum, &json) {
+                    Ok(limits) => settings.limits = limits,
+                    Err(e) => problems.push(format!(
+                        "{PROFILE}: {value} is not a JSON object of limits ({e}); using spec-minimum"
+                    )),
+                },
+                Err(e) => problems.push(format!(
+                    "{PROFILE}={value:?} is neither spec-minimum, permissive nor a readable file ({e}); using spec-minimum"
+                )),
+            },
+        }
+    }
+    (settings, problems)
+}
+
+/// The settings of this process, read from the environment on first use,
+/// with the problems found reading them.
+pub fn get() -> &'static (Settings, Vec<String>) {
+    static SETTINGS: OnceLock<(Settings, Vec<String>)> = OnceLock::new();
+    SETTINGS.get_or_init(|| {
+        parse(
+            |name| std::env::var(name).ok(),
+            |path| std::fs::read_to_string(path),
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    fn parse_with(vars: &[(&str, &str)], file: Option<&str>) -> (Settings, Vec<String>) {
+        let vars: HashMap<String, String> = vars
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        parse(
+            |name| vars.get(name).cloned(),
+            |_| {
+                file.map(str::to_string)
+                    .ok_or_else(|| std::io::ErrorKind::NotFound.into())
+            },
+        )
+    }
+
+    #[test]
+    fn defaults_without_variables() {
+        let (settings, problems) = parse_with(&[], None);
+        assert_eq!(settings, Settings::default());
+        assert_eq!(settings.duplicate_limit, 10);
+        assert!(settings.reports(Severity::Error) && !settings.reports(Severity::Info));
+        assert!(problems.is_empty());
+    }
+
+    #[test]
+    fn every_variable_is_read() {
+        let (settings, problems) = parse_with(
+            &[
+                (DUPLICATE_LIMIT, "0"),
+                (LOG_FILE, "/tmp/omm.log"),
+                (REPORT, "error, INFO"),
+                (PROFILE, "permissive"),
+            ],
+            None,
+        );
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings.duplicate_limit, 0);
+        assert_eq!(settings.log_file, Some(PathBuf::from("/tmp/omm.log")));
+        assert_eq!(settings.report, [Severity::Error, Severity::Info]);
+        assert_eq!(settings.limits, Profile::Permissive.limits());
+    }
+
+    #[test]
+    fn a_limits_file_overrides_spec_minimum() {
+        let (settings, problems) = parse_with(
+            &[(PROFILE, "limits.json")],
+            Some(r#"{"maxOpacity2StateSubdivisionLevel": 9}"#),
+        );
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings.limits.max_opacity2_state_subdivision_level, 9);
+        assert_eq!(settings.limits.max_opacity4_state_subdivision_level, 3);
+    }
+
+    #[test]
+    fn bad_values_keep_defaults_and_say_why() {
+        let (settings, problems) = parse_with(
+            &[
+                (DUPLICATE_LIMIT, "-3"),
+                (REPORT, "error,loud"),
+                (PROFILE, "missing.json"),
+            ],
+            None,
+        );
+        assert_eq!(settings.duplicate_limit, DEFAULT_DUPLICATE_LIMIT);
+        assert_eq!(settings.report, [Severity::Error]);
+        assert_eq!(settings.limits, Profile::SpecMinimum.limits());
+        assert_eq!(problems.len(), 3, "{problems:?}");
+        assert!(problems[1].contains("`loud`"));
+        let (_, problems) = parse_with(&[(PROFILE, "bad.json")], Some(r#"{"maxBogus": 1}"#));
+        assert!(
+            problems[0].contains("not a JSON object of limits"),
+            "{problems:?}"
+        );
+    }
+}

@@ -1,0 +1,429 @@
+//! In-process chain tests: the test plays the loader and the driver (see
+//! `fake/`), calls the layer's exports, and checks what reaches the
+//! application's messenger and the driver.
+//!
+//! The duplicate-limit test assumes OMMCHECK_DUPLICATE_LIMIT and
+//! OMMCHECK_REPORT are not set in the environment.
+
+#![allow(non_snake_case, unsafe_code)]
+
+mod fake;
+
+use ash::vk;
+use ash::vk::Handle as _;
+use fake::{calls, device_fn, instance_fn, Chain};
+use ommcheck::report::message_id;
+use VkLayer_ommcheck as layer;
+
+const BOTH_USAGE_POINTERS: &str = "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516";
+const DATA_IN_RANGE: &str = "OMMCHECK-build-triangle-data-in-range";
+
+/// Two 2-state level-1 triangles (one byte of data each).
+const USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
+    count: 2,
+    subdivision_level: 1,
+    format: 1,
+}];
+
+/// Everything a device build reads, created through the layer.
+struct DeviceBuild {
+    micromap: vk::MicromapEXT,
+    input: u64,
+    scratch: u64,
+}
+
+impl DeviceBuild {
+    fn new(chain: &Chain) -> Self {
+        let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 0);
+        let micromap = chain.micromap(storage, 4096);
+        let input = chain.buffer(
+            4096,
+            vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            0,
+        );
+        let scratch = chain.buffer(
+            4096,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            0,
+        );
+        Self {
+            micromap,
+            input: chain.address(input),
+            scratch: chain.address(scratch),
+        }
+    }
+
+    /// A valid build info: the triangle array at the start of the input
+    /// buffer, the data 256 bytes in.
+    fn info(&self) -> vk::MicromapBuildInfoEXT<'static> {
+        vk::MicromapBuildInfoEXT {
+            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+            mode: vk::BuildMicromapModeEXT::BUILD,
+            dst_micromap: self.micromap,
+            usage_counts_count: 1,
+            p_usage_counts: USAGE.as_ptr(),
+            data: vk::DeviceOrHostAddressConstKHR {
+                device_address: self.input + 256,
+            },
+            triangle_array: vk::DeviceOrHostAddressConstKHR {
+                device_address: self.input,
+            },
+            triangle_array_stride: 8,
+            scratch_data: vk::DeviceOrHostAddressKHR {
+                device_address: self.scratch,
+            },
+            ..Default::default()
+        }
+    }
+}
+
+fn cmd_build(chain: &Chain, info: &vk::MicromapBuildInfoEXT<'_>) {
+    let build: vk::PFN_vkCmdBuildMicromapsEXT = device_fn(chain.device, c"vkCmdBuildMicromapsEXT");
+    // SAFETY: valid pointers for one info.
+    unsafe { build(chain.command_buffer, 1, info) };
+}
+
+fn ids(received: &[fake::Received]) -> Vec<&str> {
+    received.iter().map(|r| r.id.as_str()).collect()
+}
+
+#[test]
+fn a_device_build_with_both_usage_pointers_reports_07516_in_the_khronos_format() {
+    let chain = Chain::new();
+    let build = DeviceBuild::new(&chain);
+    let valid = build.info();
+    cmd_build(&chain, &valid);
+    assert!(
+        chain.collector.take().is_empty(),
+        "the valid build was reported"
+    );
+
+    let pointers = [USAGE.as_ptr()];
+    let faulty = vk::MicromapBuildInfoEXT {
+        pp_usage_counts: pointers.as_ptr(),
+        ..valid
+    };
+    cmd_build(&chain, &faulty);
+    let received = chain.collector.take();
+    assert_eq!(ids(&received), [BOTH_USAGE_POINTERS], "{received:#?}");
+    let message = &received[0];
+    assert_eq!(message.number, message_id(BOTH_USAGE_POINTERS) as i32);
+    assert_eq!(
+        message.severity,
+        vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+    );
+    assert!(message.text.starts_with(
+        "Validation Error: [ VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516 ] | MessageID = 0x"
+    ));
+    assert!(message.text.contains("vkCmdBuildMicromapsEXT(): pInfos[0]"));
+    assert!(message.text.contains("The Vulkan spec states:"));
+    assert_eq!(
+        message.objects[0],
+        (
+            vk::ObjectType::COMMAND_BUFFER,
+            chain.command_buffer.as_raw()
+        )
+    );
+
+    // Both builds reached the driver with the application's arguments.
+    let builds = calls("vkCmdBuildMicromapsEXT");
+    assert_eq!(builds.len(), 2);
+    let valid_pointer = (&valid as *const vk::MicromapBuildInfoEXT<'_>).expose_provenance() as u64;
+    let faulty_pointer =
+        (&faulty as *const vk::MicromapBuildInfoEXT<'_>).expose_provenance() as u64;
+    assert_eq!(
+        builds[0].args,
+        [chain.command_buffer.as_raw(), 1, valid_pointer, 8]
+    );
+    assert_eq!(
+        builds[1].args,
+        [chain.command_buffer.as_raw(), 1, faulty_pointer, 8]
+    );
+}
+
+/// Host memory a host build reads: the micromap data lies at the end of a
+/// mapped allocation, the triangle array and scratch in plain host memory.
+struct HostBuild {
+    micromap: vk::MicromapEXT,
+    mapped: Box<[u8; 64]>,
+    triangles: [u8; 16],
+    scratch: Box<[u8; 256]>,
+}
+
+impl HostBuild {
+    fn new(chain: &Chain) -> Self {
+        let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
+        let micromap = chain.micromap(storage, 4096);
+        let mut mapped = Box::new([0u8; 64]);
+        // The two triangles' data: the last two bytes of the mapping.
+        mapped[62] = 0x1;
+        mapped[63] = 0x2;
+        let memory = chain.memory(64, 1);
+        chain.map(memory, mapped.as_mut_ptr());
+        Self {
+            micromap,
+            mapped,
+            // dataOffset 0 and 1, subdivision level 1, format 1 (2-state).
+            triangles: [0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 0, 0, 1, 0, 1, 0],
+            scratch: Box::new([0u8; 256]),
+        }
+    }
+
+    fn info(&mut self) -> vk::MicromapBuildInfoEXT<'static> {
+        vk::MicromapBuildInfoEXT {
+            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+            mode: vk::BuildMicromapModeEXT::BUILD,
+            dst_micromap: self.micromap,
+            usage_counts_count: 1,
+            p_usage_counts: USAGE.as_ptr(),
+            data: vk::DeviceOrHostAddressConstKHR {
+                host_address: self.mapped[62..].as_ptr().cast(),
+            },
+            triangle_array: vk::DeviceOrHostAddressConstKHR {
+                host_address: self.triangles.as_ptr().cast(),
+            },
+            triangle_array_stride: 8,
+            scratch_data: vk::DeviceOrHostAddressKHR {
+                host_address: self.scratch.as_mut_ptr().cast(),
+            },
+            ..Default::default()
+        }
+    }
+}
+
+fn host_build(chain: &Chain, info: &vk::MicromapBuildInfoEXT<'_>) -> vk::Result {
+    let build: vk::PFN_vkBuildMicromapsEXT = device_fn(chain.device, c"vkBuildMicromapsEXT");
+    // SAFETY: valid pointers for one info; its host addresses are live.
+    unsafe { build(chain.device, vk::DeferredOperationKHR::null(), 1, info) }
+}
+
+#[test]
+fn a_host_build_with_data_past_the_mapped_memory_reports_the_data_range() {
+    let chain = Chain::new();
+    let mut build = HostBuild::new(&chain);
+    let info = build.info();
+    assert_eq!(host_build(&chain, &info), vk::Result::SUCCESS);
+    assert!(
+        chain.collector.take().is_empty(),
+        "the valid build was reported"
+    );
+
+    // Triangle 1's data at offset 2: one byte past the end of the mapping.
+    build.triangles[8] = 2;
+    let info = build.info();
+    assert_eq!(host_build(&chain, &info), vk::Result::SUCCESS);
+    let received = chain.collector.take();
+    assert_eq!(ids(&received), [DATA_IN_RANGE], "{received:#?}");
+    assert_eq!(received[0].number, message_id(DATA_IN_RANGE) as i32);
+    assert!(received[0]
+        .text
+        .contains("pInfos[0].triangleArray[1].dataOffset"));
+    assert_eq!(calls("vkBuildMicromapsEXT").len(), 2);
+}
+
+#[test]
+fn a_callback_returning_true_skips_the_call() {
+    let chain = Chain::new();
+    let mut build = HostBuild::new(&chain);
+    chain.collector.answer_with(vk::TRUE);
+    build.triangles[8] = 2;
+    let info = build.info();
+    assert_eq!(
+        host_build(&chain, &info),
+        vk::Result::ERROR_VALIDATION_FAILED_EXT
+    );
+    assert!(
+        calls("vkBuildMicromapsEXT").is_empty(),
+        "the skipped call reached the driver"
+    );
+    assert_eq!(ids(&chain.collector.take()), [DATA_IN_RANGE]);
+
+    let device = DeviceBuild::new(&chain);
+    let pointers = [USAGE.as_ptr()];
+    let faulty = vk::MicromapBuildInfoEXT {
+        pp_usage_counts: pointers.as_ptr(),
+        ..device.info()
+    };
+    cmd_build(&chain, &faulty);
+    assert!(calls("vkCmdBuildMicromapsEXT").is_empty());
+    // A valid call is not skipped, whatever the callback would answer.
+    cmd_build(&chain, &device.info());
+    assert_eq!(calls("vkCmdBuildMicromapsEXT").len(), 1);
+}
+
+#[test]
+fn a_rule_is_reported_up_to_the_duplicate_limit() {
+    let chain = Chain::new();
+    let build = DeviceBuild::new(&chain);
+    let pointers = [USAGE.as_ptr()];
+    let faulty = vk::MicromapBuildInfoEXT {
+        pp_usage_counts: pointers.as_ptr(),
+        ..build.info()
+    };
+    for _ in 0..12 {
+        cmd_build(&chain, &faulty);
+    }
+    let received = chain.collector.take();
+    assert_eq!(
+        received.len(),
+        layer::settings::DEFAULT_DUPLICATE_LIMIT as usize
+    );
+    assert!(received[..9]
+        .iter()
+        .all(|r| r.text.starts_with("Validation Error")));
+    assert!(received[9].text.starts_with(
+        "(Warning - This VUID has now been reported 10 times, which is the duplicate_message_limit value"
+    ));
+    assert_eq!(calls("vkCmdBuildMicromapsEXT").len(), 12);
+}
+
+#[test]
+fn a_panic_in_a_check_is_one_error_and_the_call_still_runs() {
+    let chain = Chain::new();
+    let build = DeviceBuild::new(&chain);
+    layer::testing::panic_in_next_check();
+    cmd_build(&chain, &build.info());
+    let received = chain.collector.take();
+    assert_eq!(
+        ids(&received),
+        [layer::report::INTERNAL_ERROR],
+        "{received:#?}"
+    );
+    assert!(received[0]
+        .text
+        .contains("a panic injected by ommcheck's test hook"));
+    assert_eq!(calls("vkCmdBuildMicromapsEXT").len(), 1);
+
+    // The device's state survives: the next faulty call is reported as usual.
+    let pointers = [USAGE.as_ptr()];
+    let faulty = vk::MicromapBuildInfoEXT {
+        pp_usage_counts: pointers.as_ptr(),
+        ..build.info()
+    };
+    cmd_build(&chain, &faulty);
+    assert_eq!(ids(&chain.collector.take()), [BOTH_USAGE_POINTERS]);
+}
+
+#[test]
+fn messengers_get_only_what_their_masks_select_until_destroyed() {
+    let chain = Chain::new();
+    let warnings = Box::<fake::Collector>::default();
+    let only_warnings = fake::add_messenger(
+        chain.instance,
+        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+        &warnings,
+    );
+    let build = DeviceBuild::new(&chain);
+    let pointers = [USAGE.as_ptr()];
+    let faulty = vk::MicromapBuildInfoEXT {
+        pp_usage_counts: pointers.as_ptr(),
+        ..build.info()
+    };
+    cmd_build(&chain, &faulty);
+    assert!(
+        warnings.take().is_empty(),
+        "an error reached a warnings-only messenger"
+    );
+    assert_eq!(chain.collector.take().len(), 1);
+
+    let destroy: vk::PFN_vkDestroyDebugUtilsMessengerEXT =
+        instance_fn(chain.instance, c"vkDestroyDebugUtilsMessengerEXT");
+    // SAFETY: a messenger of this instance.
+    unsafe { destroy(chain.instance, chain.messenger, std::ptr::null()) };
+    unsafe { destroy(chain.instance, only_warnings, std::ptr::null()) };
+    cmd_build(&chain, &faulty);
+    assert!(
+        chain.collector.take().is_empty(),
+        "a destroyed messenger was called"
+    );
+    assert_eq!(calls("vkDestroyDebugUtilsMessengerEXT").len(), 2);
+}
+
+#[test]
+fn micromaps_are_checked_at_creation_and_destruction() {
+    let chain = Chain::new();
+    // A buffer without VK_BUFFER_USAGE_MICROMAP_STORAGE_BIT_EXT.
+    let plain = chain.buffer(4096, vk::BufferUsageFlags::STORAGE_BUFFER, 0);
+    let micromap = chain.micromap(plain, 4096);
+    let received = chain.collector.take();
+    assert_eq!(
+        ids(&received),
+        ["VUID-VkMicromapCreateInfoEXT-buffer-07435"]
+    );
+    assert_eq!(calls("vkCreateMicromapEXT").len(), 1);
+
+    let destroy: vk::PFN_vkDestroyMicromapEXT = device_fn(chain.device, c"vkDestroyMicromapEXT");
+    // SAFETY: a micromap of this device.
+    unsafe { destroy(chain.device, micromap, std::ptr::null()) };
+    assert!(chain.collector.take().is_empty());
+    assert_eq!(calls("vkDestroyMicromapEXT")[0].args, [micromap.as_raw()]);
+}
+
+#[test]
+fn unknown_commands_pass_through_and_missing_ones_stay_missing() {
+    let chain = Chain::new();
+    let name = c"vkOmmcheckTestUnknownCommand";
+    let fake_unknown = fake::unknown_command as unsafe extern "system" fn() as usize;
+    // SAFETY: NUL-terminated names.
+    let through_instance = unsafe { layer::vkGetInstanceProcAddr(chain.instance, name.as_ptr()) };
+    let through_device = unsafe { layer::vkGetDeviceProcAddr(chain.device, name.as_ptr()) };
+    assert_eq!(through_instance.map(|f| f as usize), Some(fake_unknown));
+    assert_eq!(through_device.map(|f| f as usize), Some(fake_unknown));
+
+    // The layer intercepts vkCreateDeferredOperationKHR, but the driver
+    // lacks it: the application must get NULL.
+    let missing = c"vkCreateDeferredOperationKHR";
+    // SAFETY: NUL-terminated names.
+    assert!(unsafe { layer::vkGetDeviceProcAddr(chain.device, missing.as_ptr()) }.is_none());
+    assert!(unsafe { layer::vkGetInstanceProcAddr(chain.instance, missing.as_ptr()) }.is_none());
+
+    // Intercepted commands are the layer's own, not the driver's.
+    let build = c"vkCmdBuildMicromapsEXT";
+    let fake_build = unsafe { fake::fake_gdpa(chain.device, build.as_ptr()) };
+    let layer_build = unsafe { layer::vkGetDeviceProcAddr(chain.device, build.as_ptr()) };
+    assert!(
+        layer_build.is_some() && layer_build.map(|f| f as usize) != fake_build.map(|f| f as usize)
+    );
+    assert!(layer::intercepts(build));
+}
+
+#[test]
+fn instance_creation_needs_the_loader_link() {
+    let (result, _, _) = fake::create_instance_through_layer(false);
+    assert_eq!(result, vk::Result::ERROR_INITIALIZATION_FAILED);
+    let (result, instance, advanced) = fake::create_instance_through_layer(true);
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert!(advanced);
+    assert_eq!(calls("vkCreateInstance").last().unwrap().args, [1]);
+    let destroy: vk::PFN_vkDestroyInstance = instance_fn(instance, c"vkDestroyInstance");
+    // SAFETY: the instance just created.
+    unsafe { destroy(instance, std::ptr::null()) };
+    assert_eq!(calls("vkDestroyInstance")[0].args, [instance.as_raw()]);
+}
+
+#[test]
+fn negotiation_offers_interface_2_and_the_layer_entry_points() {
+    let mut negotiate = layer::abi::NegotiateLayerInterface {
+        s_type: layer::abi::LAYER_NEGOTIATE_INTERFACE_STRUCT,
+        p_next: std::ptr::null_mut(),
+        loader_layer_interface_version: 5,
+        pfn_get_instance_proc_addr: None,
+        pfn_get_device_proc_addr: None,
+        pfn_get_physical_device_proc_addr: None,
+    };
+    // SAFETY: a valid negotiation structure.
+    let result = unsafe { layer::vkNegotiateLoaderLayerInterfaceVersion(&mut negotiate) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    assert_eq!(negotiate.loader_layer_interface_version, 2);
+    assert_eq!(
+        negotiate.pfn_get_instance_proc_addr.map(|f| f as usize),
+        Some(layer::vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr as usize)
+    );
+    assert!(negotiate.pfn_get_device_proc_addr.is_some());
+    assert!(negotiate.pfn_get_physical_device_proc_addr.is_none());
+    negotiate.loader_layer_interface_version = 1;
+    // SAFETY: as above.
+    let result = unsafe { layer::vkNegotiateLoaderLayerInterfaceVersion(&mut negotiate) };
+    assert_eq!(result, vk::Result::ERROR_INITIALIZATION_FAILED);
+}

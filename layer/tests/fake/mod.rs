@@ -1,0 +1,645 @@
+//! A fake loader and driver for in-process chain tests: the test plays the
+//! loader (it builds the `VkLayer*CreateInfo` link chain) and the next
+//! layer (`fake_gipa` / `fake_gdpa` return recording stubs written here).
+//!
+//! Dispatchable handles are leaked boxes whose first word is a dispatch
+//! key, as the loader's are: a physical device shares its instance's key,
+//! a command buffer its device's. Each test thread records its own calls.
+
+#![allow(unsafe_code, clippy::missing_safety_doc)]
+
+use std::cell::RefCell;
+use std::ffi::{c_char, c_void, CStr};
+use std::sync::Mutex;
+
+use ash::vk;
+use ash::vk::Handle as _;
+use VkLayer_ommcheck as layer;
+
+use layer::abi::{
+    LayerDeviceCreateInfo, LayerDeviceCreateInfoUnion, LayerDeviceLink, LayerInstanceCreateInfo,
+    LayerInstanceCreateInfoUnion, LayerInstanceLink, LAYER_LINK_INFO,
+};
+
+/// A call the fake driver received: its name and the arguments a test looks at.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Call {
+    pub name: &'static str,
+    pub args: Vec<u64>,
+}
+
+#[derive(Default)]
+struct Driver {
+    calls: Vec<Call>,
+    next_handle: u64,
+    /// What vkMapMemory hands out: test-owned memory.
+    mapped: usize,
+}
+
+thread_local! {
+    static DRIVER: RefCell<Driver> = RefCell::new(Driver { next_handle: 1, ..Driver::default() });
+}
+
+fn record(name: &'static str, args: Vec<u64>) {
+    DRIVER.with_borrow_mut(|d| d.calls.push(Call { name, args }));
+}
+
+fn next_handle() -> u64 {
+    DRIVER.with_borrow_mut(|d| {
+        d.next_handle += 1;
+        d.next_handle
+    })
+}
+
+/// The calls this thread's fake driver received with `name`.
+pub fn calls(name: &str) -> Vec<Call> {
+    DRIVER.with_borrow(|d| d.calls.iter().filter(|c| c.name == name).cloned().collect())
+}
+
+/// Makes vkMapMemory return `memory`.
+pub fn map_to(memory: *mut u8) {
+    DRIVER.with_borrow_mut(|d| d.mapped = memory.expose_provenance());
+}
+
+/// A dispatchable object: the loader's dispatch pointer comes first.
+#[repr(C)]
+struct Dispatchable {
+    key: usize,
+}
+
+/// A new dispatchable handle with dispatch key `key` (leaked: handles live
+/// for the whole test process).
+pub fn dispatchable(key: usize) -> u64 {
+    Box::into_raw(Box::new(Dispatchable { key })).expose_provenance() as u64
+}
+
+/// A dispatch key no other object has.
+fn fresh_key() -> usize {
+    Box::into_raw(Box::new(0u64)).expose_provenance()
+}
+
+/// The dispatch key of a handle made by [`dispatchable`].
+pub fn key_of(handle: u64) -> usize {
+    // SAFETY: every dispatchable handle here is a leaked `Dispatchable`.
+    unsafe { (*std::ptr::with_exposed_provenance::<Dispatchable>(handle as usize)).key }
+}
+
+unsafe extern "system" fn create_instance(
+    info: *const vk::InstanceCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::Instance,
+) -> vk::Result {
+    // The layer must have advanced the link before calling down.
+    let mut next = unsafe { (*info).p_next };
+    let mut advanced = 0;
+    while !next.is_null() {
+        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+        if base.s_type == vk::StructureType::LOADER_INSTANCE_CREATE_INFO {
+            let link = unsafe { &*next.cast::<LayerInstanceCreateInfo>() };
+            advanced = u64::from(unsafe { link.u.p_layer_info.is_null() });
+        }
+        next = base.p_next.cast();
+    }
+    record("vkCreateInstance", vec![advanced]);
+    unsafe { *out = vk::Instance::from_raw(dispatchable(fresh_key())) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_instance(i: vk::Instance, _: *const vk::AllocationCallbacks<'_>) {
+    record("vkDestroyInstance", vec![i.as_raw()]);
+}
+
+unsafe extern "system" fn create_device(
+    _: vk::PhysicalDevice,
+    _: *const vk::DeviceCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::Device,
+) -> vk::Result {
+    record("vkCreateDevice", vec![]);
+    unsafe { *out = vk::Device::from_raw(dispatchable(fresh_key())) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_device(d: vk::Device, _: *const vk::AllocationCallbacks<'_>) {
+    record("vkDestroyDevice", vec![d.as_raw()]);
+}
+
+/// Memory type 0 is device-local, type 1 host-visible and coherent.
+unsafe extern "system" fn get_memory_properties(
+    _: vk::PhysicalDevice,
+    out: *mut vk::PhysicalDeviceMemoryProperties,
+) {
+    let mut properties = vk::PhysicalDeviceMemoryProperties {
+        memory_type_count: 2,
+        memory_heap_count: 1,
+        ..Default::default()
+    };
+    properties.memory_types[0].property_flags = vk::MemoryPropertyFlags::DEVICE_LOCAL;
+    properties.memory_types[1].property_flags =
+        vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+    properties.memory_heaps[0].size = 1 << 30;
+    unsafe { *out = properties };
+}
+
+unsafe extern "system" fn create_messenger(
+    _: vk::Instance,
+    _: *const vk::DebugUtilsMessengerCreateInfoEXT<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::DebugUtilsMessengerEXT,
+) -> vk::Result {
+    unsafe { *out = vk::DebugUtilsMessengerEXT::from_raw(next_handle()) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_messenger(
+    _: vk::Instance,
+    m: vk::DebugUtilsMessengerEXT,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkDestroyDebugUtilsMessengerEXT", vec![m.as_raw()]);
+}
+
+unsafe extern "system" fn create_buffer(
+    _: vk::Device,
+    info: *const vk::BufferCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::Buffer,
+) -> vk::Result {
+    let handle = next_handle();
+    record("vkCreateBuffer", vec![unsafe { (*info).size }, handle]);
+    unsafe { *out = vk::Buffer::from_raw(handle) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_buffer(
+    _: vk::Device,
+    b: vk::Buffer,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkDestroyBuffer", vec![b.as_raw()]);
+}
+
+unsafe extern "system" fn allocate_memory(
+    _: vk::Device,
+    _: *const vk::MemoryAllocateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::DeviceMemory,
+) -> vk::Result {
+    unsafe { *out = vk::DeviceMemory::from_raw(next_handle()) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn free_memory(
+    _: vk::Device,
+    m: vk::DeviceMemory,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkFreeMemory", vec![m.as_raw()]);
+}
+
+unsafe extern "system" fn map_memory(
+    _: vk::Device,
+    _: vk::DeviceMemory,
+    _: vk::DeviceSize,
+    _: vk::DeviceSize,
+    _: vk::MemoryMapFlags,
+    out: *mut *mut c_void,
+) -> vk::Result {
+    let mapped = DRIVER.with_borrow(|d| d.mapped);
+    unsafe { *out = std::ptr::with_exposed_provenance_mut(mapped) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn unmap_memory(_: vk::Device, m: vk::DeviceMemory) {
+    record("vkUnmapMemory", vec![m.as_raw()]);
+}
+
+unsafe extern "system" fn bind_buffer_memory(
+    _: vk::Device,
+    b: vk::Buffer,
+    m: vk::DeviceMemory,
+    _: vk::DeviceSize,
+) -> vk::Result {
+    record("vkBindBufferMemory", vec![b.as_raw(), m.as_raw()]);
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn bind_buffer_memory2(
+    _: vk::Device,
+    count: u32,
+    _: *const vk::BindBufferMemoryInfo<'_>,
+) -> vk::Result {
+    record("vkBindBufferMemory2", vec![u64::from(count)]);
+    vk::Result::SUCCESS
+}
+
+/// Buffer `n` lives at device address `n << 20`.
+unsafe extern "system" fn get_buffer_device_address(
+    _: vk::Device,
+    info: *const vk::BufferDeviceAddressInfo<'_>,
+) -> vk::DeviceAddress {
+    unsafe { (*info).buffer.as_raw() << 20 }
+}
+
+unsafe extern "system" fn create_micromap(
+    _: vk::Device,
+    _: *const vk::MicromapCreateInfoEXT<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::MicromapEXT,
+) -> vk::Result {
+    let handle = next_handle();
+    record("vkCreateMicromapEXT", vec![handle]);
+    unsafe { *out = vk::MicromapEXT::from_raw(handle) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_micromap(
+    _: vk::Device,
+    m: vk::MicromapEXT,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkDestroyMicromapEXT", vec![m.as_raw()]);
+}
+
+unsafe extern "system" fn cmd_build_micromaps(
+    cb: vk::CommandBuffer,
+    count: u32,
+    infos: *const vk::MicromapBuildInfoEXT<'_>,
+) {
+    let stride = if count > 0 {
+        unsafe { (*infos).triangle_array_stride }
+    } else {
+        0
+    };
+    record(
+        "vkCmdBuildMicromapsEXT",
+        vec![
+            cb.as_raw(),
+            u64::from(count),
+            infos.expose_provenance() as u64,
+            stride,
+        ],
+    );
+}
+
+unsafe extern "system" fn build_micromaps(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    count: u32,
+    infos: *const vk::MicromapBuildInfoEXT<'_>,
+) -> vk::Result {
+    record(
+        "vkBuildMicromapsEXT",
+        vec![
+            d.as_raw(),
+            op.as_raw(),
+            u64::from(count),
+            infos.expose_provenance() as u64,
+        ],
+    );
+    vk::Result::SUCCESS
+}
+
+/// A command no layer knows, which the fake driver has.
+pub unsafe extern "system" fn unknown_command() {
+    record("vkOmmcheckTestUnknownCommand", vec![]);
+}
+
+fn void<F: Copy>(f: F) -> vk::PFN_vkVoidFunction {
+    // SAFETY: `F` is always a function pointer type here.
+    Some(unsafe { std::mem::transmute_copy::<F, unsafe extern "system" fn()>(&f) })
+}
+
+/// The fake driver's device commands. It lacks vkCreateDeferredOperationKHR,
+/// which the layer intercepts, so tests can see the layer hide it too.
+fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkDestroyDevice" => void(destroy_device as vk::PFN_vkDestroyDevice),
+        b"vkCreateBuffer" => void(create_buffer as vk::PFN_vkCreateBuffer),
+        b"vkDestroyBuffer" => void(destroy_buffer as vk::PFN_vkDestroyBuffer),
+        b"vkAllocateMemory" => void(allocate_memory as vk::PFN_vkAllocateMemory),
+        b"vkFreeMemory" => void(free_memory as vk::PFN_vkFreeMemory),
+        b"vkMapMemory" => void(map_memory as vk::PFN_vkMapMemory),
+        b"vkUnmapMemory" => void(unmap_memory as vk::PFN_vkUnmapMemory),
+        b"vkBindBufferMemory" => void(bind_buffer_memory as vk::PFN_vkBindBufferMemory),
+        b"vkBindBufferMemory2" => void(bind_buffer_memory2 as vk::PFN_vkBindBufferMemory2),
+        b"vkGetBufferDeviceAddress" => {
+            void(get_buffer_device_address as vk::PFN_vkGetBufferDeviceAddress)
+        }
+        b"vkCreateMicromapEXT" => void(create_micromap as vk::PFN_vkCreateMicromapEXT),
+        b"vkDestroyMicromapEXT" => void(destroy_micromap as vk::PFN_vkDestroyMicromapEXT),
+        b"vkCmdBuildMicromapsEXT" => void(cmd_build_micromaps as vk::PFN_vkCmdBuildMicromapsEXT),
+        b"vkBuildMicromapsEXT" => void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
+        b"vkOmmcheckTestUnknownCommand" => void(unknown_command as unsafe extern "system" fn()),
+        _ => None,
+    }
+}
+
+pub unsafe extern "system" fn fake_gdpa(
+    _: vk::Device,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    device_command(unsafe { CStr::from_ptr(name) })
+}
+
+pub unsafe extern "system" fn fake_gipa(
+    _: vk::Instance,
+    name: *const c_char,
+) -> vk::PFN_vkVoidFunction {
+    let name = unsafe { CStr::from_ptr(name) };
+    match name.to_bytes() {
+        b"vkCreateInstance" => void(create_instance as vk::PFN_vkCreateInstance),
+        b"vkDestroyInstance" => void(destroy_instance as vk::PFN_vkDestroyInstance),
+        b"vkCreateDevice" => void(create_device as vk::PFN_vkCreateDevice),
+        b"vkGetPhysicalDeviceMemoryProperties" => {
+            void(get_memory_properties as vk::PFN_vkGetPhysicalDeviceMemoryProperties)
+        }
+        b"vkCreateDebugUtilsMessengerEXT" => {
+            void(create_messenger as vk::PFN_vkCreateDebugUtilsMessengerEXT)
+        }
+        b"vkDestroyDebugUtilsMessengerEXT" => {
+            void(destroy_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT)
+        }
+        b"vkGetDeviceProcAddr" => void(fake_gdpa as vk::PFN_vkGetDeviceProcAddr),
+        _ => device_command(name),
+    }
+}
+
+/// One message a messenger received.
+#[derive(Clone, Debug)]
+pub struct Received {
+    pub severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    pub id: String,
+    pub number: i32,
+    pub text: String,
+    pub objects: Vec<(vk::ObjectType, u64)>,
+}
+
+/// What a test's messenger collects, and what its callback returns.
+#[derive(Default)]
+pub struct Collector {
+    pub received: Mutex<Vec<Received>>,
+    pub answer: std::sync::atomic::AtomicU32,
+}
+
+impl Collector {
+    pub fn take(&self) -> Vec<Received> {
+        std::mem::take(&mut *self.received.lock().unwrap())
+    }
+
+    pub fn answer_with(&self, value: vk::Bool32) {
+        self.answer
+            .store(value, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+pub unsafe extern "system" fn collect(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    let collector = unsafe { &*user_data.cast::<Collector>() };
+    let data = unsafe { &*data };
+    let text = |p: *const c_char| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned();
+    let objects = unsafe { std::slice::from_raw_parts(data.p_objects, data.object_count as usize) }
+        .iter()
+        .map(|o| (o.object_type, o.object_handle))
+        .collect();
+    collector.received.lock().unwrap().push(Received {
+        severity,
+        id: text(data.p_message_id_name),
+        number: data.message_id_number,
+        text: text(data.p_message),
+        objects,
+    });
+    collector.answer.load(std::sync::atomic::Ordering::SeqCst)
+}
+
+/// The layer's function `name`, through its own vkGetInstanceProcAddr.
+pub fn instance_fn<F: Copy>(instance: vk::Instance, name: &CStr) -> F {
+    // SAFETY: a NUL-terminated name.
+    let f = unsafe { layer::vkGetInstanceProcAddr(instance, name.as_ptr()) }
+        .unwrap_or_else(|| panic!("the layer returned NULL for {name:?}"));
+    // SAFETY: the caller names the command's function type.
+    unsafe { std::mem::transmute_copy(&f) }
+}
+
+/// The layer's function `name`, through its own vkGetDeviceProcAddr.
+pub fn device_fn<F: Copy>(device: vk::Device, name: &CStr) -> F {
+    // SAFETY: a NUL-terminated name.
+    let f = unsafe { layer::vkGetDeviceProcAddr(device, name.as_ptr()) }
+        .unwrap_or_else(|| panic!("the layer returned NULL for {name:?}"));
+    // SAFETY: the caller names the command's function type.
+    unsafe { std::mem::transmute_copy(&f) }
+}
+
+/// An instance and device created through the layer over the fake driver,
+/// with a messenger for errors and warnings.
+pub struct Chain {
+    pub instance: vk::Instance,
+    pub device: vk::Device,
+    pub command_buffer: vk::CommandBuffer,
+    pub messenger: vk::DebugUtilsMessengerEXT,
+    pub collector: Box<Collector>,
+}
+
+/// Creates the instance as the loader would: a `VkLayerInstanceCreateInfo`
+/// link to the fake driver in the chain. Returns the result, the instance,
+/// and whether the layer advanced the link.
+pub fn create_instance_through_layer(with_link: bool) -> (vk::Result, vk::Instance, bool) {
+    let mut link = LayerInstanceLink {
+        p_next: std::ptr::null_mut(),
+        pfn_next_get_instance_proc_addr: Some(fake_gipa),
+        pfn_next_get_physical_device_proc_addr: None,
+    };
+    let link_info = LayerInstanceCreateInfo {
+        s_type: vk::StructureType::LOADER_INSTANCE_CREATE_INFO,
+        p_next: std::ptr::null(),
+        function: LAYER_LINK_INFO,
+        u: LayerInstanceCreateInfoUnion {
+            p_layer_info: &mut link,
+        },
+    };
+    let info = vk::InstanceCreateInfo {
+        p_next: if with_link {
+            (&link_info as *const LayerInstanceCreateInfo).cast()
+        } else {
+            std::ptr::null()
+        },
+        ..Default::default()
+    };
+    let create: vk::PFN_vkCreateInstance = instance_fn(vk::Instance::null(), c"vkCreateInstance");
+    let mut instance = vk::Instance::null();
+    // SAFETY: a valid create info as the loader builds it.
+    let result = unsafe { create(&info, std::ptr::null(), &mut instance) };
+    // SAFETY: the union holds pLayerInfo.
+    let advanced = unsafe { link_info.u.p_layer_info.is_null() };
+    (result, instance, advanced)
+}
+
+/// Registers a messenger for `severities` that collects into `collector`.
+pub fn add_messenger(
+    instance: vk::Instance,
+    severities: vk::DebugUtilsMessageSeverityFlagsEXT,
+    collector: &Collector,
+) -> vk::DebugUtilsMessengerEXT {
+    let create: vk::PFN_vkCreateDebugUtilsMessengerEXT =
+        instance_fn(instance, c"vkCreateDebugUtilsMessengerEXT");
+    let info = vk::DebugUtilsMessengerCreateInfoEXT {
+        message_severity: severities,
+        message_type: vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+            | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL,
+        pfn_user_callback: Some(collect),
+        p_user_data: (collector as *const Collector).cast_mut().cast(),
+        ..Default::default()
+    };
+    let mut messenger = vk::DebugUtilsMessengerEXT::null();
+    // SAFETY: a valid create info; the collector outlives the messenger.
+    let result = unsafe { create(instance, &info, std::ptr::null(), &mut messenger) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    messenger
+}
+
+impl Chain {
+    /// The chain, with `VK_EXT_opacity_micromap` and its `micromap` and
+    /// `micromapHostCommands` features and `bufferDeviceAddress` enabled.
+    pub fn new() -> Self {
+        let (result, instance, advanced) = create_instance_through_layer(true);
+        assert_eq!(result, vk::Result::SUCCESS);
+        assert!(advanced, "the layer did not advance the instance link");
+        let collector = Box::<Collector>::default();
+        let messenger = add_messenger(
+            instance,
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+            &collector,
+        );
+        let physical_device = vk::PhysicalDevice::from_raw(dispatchable(key_of(instance.as_raw())));
+        let mut link = LayerDeviceLink {
+            p_next: std::ptr::null_mut(),
+            pfn_next_get_instance_proc_addr: Some(fake_gipa),
+            pfn_next_get_device_proc_addr: Some(fake_gdpa),
+        };
+        let mut micromap = vk::PhysicalDeviceOpacityMicromapFeaturesEXT {
+            micromap: vk::TRUE,
+            micromap_host_commands: vk::TRUE,
+            ..Default::default()
+        };
+        let mut address = vk::PhysicalDeviceBufferDeviceAddressFeatures {
+            buffer_device_address: vk::TRUE,
+            ..Default::default()
+        };
+        let names = [
+            c"VK_EXT_opacity_micromap".as_ptr(),
+            c"VK_KHR_acceleration_structure".as_ptr(),
+            c"VK_KHR_deferred_host_operations".as_ptr(),
+        ];
+        let priorities = [1.0f32];
+        let queues = [vk::DeviceQueueCreateInfo::default().queue_priorities(&priorities)];
+        let mut info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queues)
+            .enabled_extension_names(&names)
+            .push_next(&mut micromap)
+            .push_next(&mut address);
+        let link_info = LayerDeviceCreateInfo {
+            s_type: vk::StructureType::LOADER_DEVICE_CREATE_INFO,
+            p_next: info.p_next,
+            function: LAYER_LINK_INFO,
+            u: LayerDeviceCreateInfoUnion {
+                p_layer_info: &mut link,
+            },
+        };
+        info.p_next = (&link_info as *const LayerDeviceCreateInfo).cast();
+        let create: vk::PFN_vkCreateDevice = instance_fn(instance, c"vkCreateDevice");
+        let mut device = vk::Device::null();
+        // SAFETY: a valid create info as the loader builds it.
+        let result = unsafe { create(physical_device, &info, std::ptr::null(), &mut device) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        // SAFETY: the union holds pLayerInfo.
+        assert!(
+            unsafe { link_info.u.p_layer_info.is_null() },
+            "device link not advanced"
+        );
+        let command_buffer = vk::CommandBuffer::from_raw(dispatchable(key_of(device.as_raw())));
+        Self {
+            instance,
+            device,
+            command_buffer,
+            messenger,
+            collector,
+        }
+    }
+
+    pub fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, memory_type: u32) -> vk::Buffer {
+        let create: vk::PFN_vkCreateBuffer = device_fn(self.device, c"vkCreateBuffer");
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        let mut buffer = vk::Buffer::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut buffer) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        let memory = self.memory(size, memory_type);
+        let bind: vk::PFN_vkBindBufferMemory = device_fn(self.device, c"vkBindBufferMemory");
+        // SAFETY: valid arguments.
+        assert_eq!(
+            unsafe { bind(self.device, buffer, memory, 0) },
+            vk::Result::SUCCESS
+        );
+        buffer
+    }
+
+    pub fn memory(&self, size: u64, memory_type: u32) -> vk::DeviceMemory {
+        let allocate: vk::PFN_vkAllocateMemory = device_fn(self.device, c"vkAllocateMemory");
+        let info = vk::MemoryAllocateInfo::default()
+            .allocation_size(size)
+            .memory_type_index(memory_type);
+        let mut memory = vk::DeviceMemory::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { allocate(self.device, &info, std::ptr::null(), &mut memory) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        memory
+    }
+
+    /// Maps `memory`, which the fake driver places at `host`.
+    pub fn map(&self, memory: vk::DeviceMemory, host: *mut u8) {
+        map_to(host);
+        let map: vk::PFN_vkMapMemory = device_fn(self.device, c"vkMapMemory");
+        let mut mapped = std::ptr::null_mut();
+        // SAFETY: valid arguments.
+        let result = unsafe {
+            map(
+                self.device,
+                memory,
+                0,
+                vk::WHOLE_SIZE,
+                vk::MemoryMapFlags::empty(),
+                &mut mapped,
+            )
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        assert_eq!(mapped.cast::<u8>(), host);
+    }
+
+    pub fn address(&self, buffer: vk::Buffer) -> u64 {
+        let get: vk::PFN_vkGetBufferDeviceAddress =
+            device_fn(self.device, c"vkGetBufferDeviceAddress");
+        let info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
+        // SAFETY: valid arguments.
+        unsafe { get(self.device, &info) }
+    }
+
+    pub fn micromap(&self, buffer: vk::Buffer, size: u64) -> vk::MicromapEXT {
+        let create: vk::PFN_vkCreateMicromapEXT = device_fn(self.device, c"vkCreateMicromapEXT");
+        let info = vk::MicromapCreateInfoEXT {
+            buffer,
+            size,
+            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+            ..Default::default()
+        };
+        let mut micromap = vk::MicromapEXT::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut micromap) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        micromap
+    }
+}
