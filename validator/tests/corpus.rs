@@ -195,7 +195,10 @@ fn text_reports_match_their_snapshots() {
                 .and_then(|s| s.check(&CheckOptions::default()))
                 .unwrap_or_else(|e| panic!("{e}"));
             assert!(report.report.has_errors(), "{scene} reports no error");
-            let name = scene.replace('/', "__").trim_end_matches(".json").to_string();
+            let name = scene
+                .replace('/', "__")
+                .trim_end_matches(".json")
+                .to_string();
             insta::assert_snapshot!(name, report.report.to_string());
         }
     });
