@@ -20,7 +20,7 @@ use crate::dispatch::{
     next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
 };
 use crate::report::Message;
-use crate::{abi, guarded, panic_message, read, settings, testing};
+use crate::{abi, guarded, panic_message, read, testing};
 
 /// A command as the loader's `PFN_vkVoidFunction`.
 pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
@@ -190,7 +190,7 @@ pub unsafe extern "system" fn create_device(
                     unsafe { get(physical_device, &mut properties) };
                     properties
                 });
-            let limits = settings::get().0.limits.clone();
+            let limits = instance.reporter.settings().limits.clone();
             // SAFETY: the create info is valid, as vkCreateDevice requires.
             let (device, findings) =
                 unsafe { objects::device_from_create_info(info, limits, handle) };

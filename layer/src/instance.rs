@@ -62,9 +62,12 @@ unsafe extern "system" fn create_instance(
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
             // SAFETY: the application's chain is well formed, as the API requires.
-            let reporter = Reporter::new(unsafe { read::chained_messengers(info.p_next) });
-            let problems: Vec<Message> = settings::get()
-                .1
+            let messengers = unsafe { read::chained_messengers(info.p_next) };
+            // SAFETY: as above.
+            let api = unsafe { read::layer_settings(info.p_next, crate::LAYER_NAME_C) };
+            let (settings, problems) = settings::for_instance(&api);
+            let reporter = Reporter::new(messengers, settings);
+            let problems: Vec<Message> = problems
                 .iter()
                 .map(|problem| {
                     Message::about_layer(

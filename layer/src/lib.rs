@@ -39,6 +39,8 @@ use report::{Message, INTERNAL_ERROR};
 
 /// The layer's name, as in its manifest.
 pub const LAYER_NAME: &str = "VK_LAYER_OMMCHECK_validation";
+/// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
+pub const LAYER_NAME_C: &CStr = c"VK_LAYER_OMMCHECK_validation";
 
 /// Runs an exported function's `body`; a panic becomes one error message to
 /// every messenger and `on_panic` is returned.

@@ -10,6 +10,7 @@ use std::ffi::{c_char, c_void, CStr};
 use ash::vk;
 
 use crate::report::Messenger;
+use crate::settings::{ApiSettings, ApiValue};
 
 /// The most structures walked in a pNext chain.
 const MAX_CHAIN: usize = 64;
@@ -68,4 +69,102 @@ pub unsafe fn chained_messengers(mut next: *const c_void) -> Vec<Messenger> {
         next = base.p_next.cast();
     }
     messengers
+}
+
+/// The most settings and values per setting read from a
+/// `VkLayerSettingsCreateInfoEXT`; the rest are ignored.
+const MAX_SETTINGS: usize = 256;
+const MAX_VALUES: usize = 64;
+
+/// The settings for `layer` in the `VkLayerSettingsCreateInfoEXT`
+/// structures chained at `next` (VK_EXT_layer_settings), walking at most
+/// [`MAX_CHAIN`] structures and never one address twice. Settings of other
+/// layers are skipped; values of a type this layer has no use for are
+/// skipped too.
+///
+/// # Safety
+/// The chain at `next` must be well formed, and each
+/// `VkLayerSettingsCreateInfoEXT` valid as VK_EXT_layer_settings requires:
+/// `pSettings` points to `settingCount` settings, each with NUL-terminated
+/// names and `valueCount` values of its type at `pValues`.
+pub unsafe fn layer_settings(mut next: *const c_void, layer: &CStr) -> ApiSettings {
+    let mut settings = ApiSettings::new();
+    let mut visited = HashSet::new();
+    while !next.is_null() && visited.len() < MAX_CHAIN && visited.insert(next as usize) {
+        // SAFETY: the caller guarantees a structure starting with sType and pNext.
+        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+        if base.s_type == vk::StructureType::LAYER_SETTINGS_CREATE_INFO_EXT {
+            // SAFETY: the sType says what the structure is.
+            let info = unsafe { &*next.cast::<vk::LayerSettingsCreateInfoEXT<'_>>() };
+            let count = (info.setting_count as usize).min(MAX_SETTINGS);
+            for k in 0..count {
+                if info.p_settings.is_null() {
+                    break;
+                }
+                // SAFETY: `pSettings` holds `settingCount` settings (the
+                // caller's guarantee) and k is below that count.
+                let setting = unsafe { &*info.p_settings.add(k) };
+                // SAFETY: the names are NUL-terminated (the caller's guarantee).
+                let (Some(owner), Some(name)) = (unsafe { name(setting.p_layer_name) }, unsafe {
+                    name(setting.p_setting_name)
+                }) else {
+                    continue;
+                };
+                if owner != layer {
+                    continue;
+                }
+                // SAFETY: `pValues` holds `valueCount` values of the type (the
+                // caller's guarantee).
+                let values = unsafe { setting_values(setting) };
+                settings.push((name.to_string_lossy().into_owned(), values));
+            }
+        }
+        next = base.p_next.cast();
+    }
+    settings
+}
+
+/// The values of one `VkLayerSettingEXT`, at most [`MAX_VALUES`].
+///
+/// # Safety
+/// `pValues` must hold `valueCount` values of `type`.
+unsafe fn setting_values(setting: &vk::LayerSettingEXT<'_>) -> Vec<ApiValue> {
+    let count = (setting.value_count as usize).min(MAX_VALUES);
+    let values = setting.p_values;
+    if values.is_null() {
+        return Vec::new();
+    }
+    /// The k-th value of type T.
+    ///
+    /// # Safety
+    /// As for the function: k is below the value count.
+    unsafe fn at<T: Copy>(values: *const c_void, k: usize) -> T {
+        // SAFETY: forwarded from the caller.
+        unsafe { *values.cast::<T>().add(k) }
+    }
+    use vk::LayerSettingTypeEXT as Type;
+    (0..count)
+        .filter_map(|k| {
+            // SAFETY: k is below valueCount and the type says what is there.
+            Some(unsafe {
+                match setting.ty {
+                    Type::BOOL32 => ApiValue::Bool(at::<vk::Bool32>(values, k) != vk::FALSE),
+                    Type::INT32 => ApiValue::Int(i64::from(at::<i32>(values, k))),
+                    Type::INT64 => ApiValue::Int(at::<i64>(values, k)),
+                    Type::UINT32 => ApiValue::Int(i64::from(at::<u32>(values, k))),
+                    Type::UINT64 => {
+                        ApiValue::Int(i64::try_from(at::<u64>(values, k)).unwrap_or(i64::MAX))
+                    }
+                    Type::FLOAT32 => ApiValue::Float(f64::from(at::<f32>(values, k))),
+                    Type::FLOAT64 => ApiValue::Float(at::<f64>(values, k)),
+                    Type::STRING => ApiValue::Text(
+                        name(at::<*const c_char>(values, k))?
+                            .to_string_lossy()
+                            .into_owned(),
+                    ),
+                    _ => return None,
+                }
+            })
+        })
+        .collect()
 }

@@ -15,7 +15,7 @@ use ash::vk;
 use ommcheck::report::message_id;
 use ommcheck::{Finding, Severity};
 
-use crate::settings::{self, Settings};
+use crate::settings::Settings;
 
 /// The id of a message about the layer itself (a caught panic).
 pub const INTERNAL_ERROR: &str = "OMMCHECK-layer-internal-error";
@@ -104,9 +104,12 @@ pub struct Messenger {
     pub user_data: usize,
 }
 
-/// An instance's messengers and duplicate counts.
+/// An instance's settings, messengers and duplicate counts.
 #[derive(Debug, Default)]
 pub struct Reporter {
+    settings: Settings,
+    /// The log file, opened on the first message that needs it.
+    log_file: OnceLock<Option<Mutex<std::fs::File>>>,
     messengers: Mutex<Vec<Messenger>>,
     /// Chained in `VkInstanceCreateInfo`: as the specification says, these
     /// receive messages only during `vkCreateInstance` and `vkDestroyInstance`.
@@ -116,11 +119,17 @@ pub struct Reporter {
 }
 
 impl Reporter {
-    pub fn new(instance_lifecycle: Vec<Messenger>) -> Self {
+    pub fn new(instance_lifecycle: Vec<Messenger>, settings: Settings) -> Self {
         Self {
+            settings,
             instance_lifecycle,
             ..Self::default()
         }
+    }
+
+    /// The settings of the instance this reporter belongs to.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
     }
 
     pub fn add(&self, messenger: Messenger) {
@@ -135,19 +144,22 @@ impl Reporter {
     /// messengers chained at instance creation when `instance_lifecycle`),
     /// to the log file, and to stderr when no messenger exists. Returns
     /// whether a callback returned VK_TRUE for an error: the call is to be
-    /// skipped.
+    /// skipped. With `break_on_error`, raises SIGTRAP after reporting an
+    /// error.
     pub fn deliver(&self, messages: &[Message], instance_lifecycle: bool) -> bool {
-        let settings = &settings::get().0;
+        let settings = &self.settings;
         let mut messengers = lock(&self.messengers).clone();
         if instance_lifecycle {
             messengers.extend_from_slice(&self.instance_lifecycle);
         }
         let mut skip = false;
+        let mut reported_error = false;
         for message in messages {
             let Some(text) = self.admit(settings, message) else {
                 continue;
             };
-            log(settings, &text, messengers.is_empty());
+            self.log(&text, messengers.is_empty());
+            reported_error |= message.severity == Severity::Error;
             let severity = severity_flag(message.severity);
             for messenger in &messengers {
                 if messenger.severities.contains(severity)
@@ -162,7 +174,31 @@ impl Reporter {
                 }
             }
         }
+        if reported_error && settings.break_on_error {
+            break_into_debugger();
+        }
         skip
+    }
+
+    /// Appends `text` to the log file; writes it to stderr instead when
+    /// there is neither a log file nor a messenger (as the Khronos layer's
+    /// default callback does).
+    fn log(&self, text: &str, no_messenger: bool) {
+        let file = self.log_file.get_or_init(|| {
+            let path = self.settings.log_file.as_ref()?;
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(path)
+                .ok()
+                .map(Mutex::new)
+        });
+        match file {
+            // A failed write cannot be reported anywhere better; drop it.
+            Some(file) => drop(writeln!(lock(file), "{text}\n")),
+            None if no_messenger => eprintln!("{text}\n"),
+            None => {}
+        }
     }
 
     /// The text to report for `message`, or None when its severity is not
@@ -244,25 +280,14 @@ unsafe fn call(messenger: &Messenger, message: &Message, text: &str) -> bool {
     result == vk::TRUE
 }
 
-/// Appends `text` to the log file; writes it to stderr instead when there
-/// is neither a log file nor a messenger (as the Khronos layer's default
-/// callback does).
-fn log(settings: &Settings, text: &str, no_messenger: bool) {
-    static FILE: OnceLock<Option<Mutex<std::fs::File>>> = OnceLock::new();
-    let file = FILE.get_or_init(|| {
-        let path = settings.log_file.as_ref()?;
-        std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(path)
-            .ok()
-            .map(Mutex::new)
-    });
-    match file {
-        // A failed write cannot be reported anywhere better; drop it.
-        Some(file) => drop(writeln!(lock(file), "{text}\n")),
-        None if no_messenger => eprintln!("{text}\n"),
-        None => {}
+/// Stops the process in a debugger, as the Khronos layer's break action
+/// does: SIGTRAP, which a debugger catches and which otherwise ends the
+/// process (the user asked for that with `break_on_error`).
+fn break_into_debugger() {
+    // SAFETY: raise() has no memory preconditions; SIGTRAP's disposition is
+    // the process's (a debugger's trap, or the default action).
+    unsafe {
+        libc::raise(libc::SIGTRAP);
     }
 }
 

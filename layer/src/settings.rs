@@ -1,14 +1,17 @@
-//! The layer's settings, read once from environment variables.
+//! The layer's settings: environment variables first, then the
+//! application's `VkLayerSettingsCreateInfoEXT` (VK_EXT_layer_settings)
+//! chained in `VkInstanceCreateInfo`, then the defaults; the same order of
+//! precedence as the Khronos layers. Settings are per instance.
 //!
-//! | variable | meaning | default |
-//! | --- | --- | --- |
-//! | `OMMCHECK_DUPLICATE_LIMIT` | reports of one rule per instance; 0: unlimited | 10 |
-//! | `OMMCHECK_LOG_FILE` | a file every reported message is appended to | none |
-//! | `OMMCHECK_REPORT` | severities reported: comma-separated `error`, `warning`, `info` | `error,warning` |
-//! | `OMMCHECK_PROFILE` | device limits: `spec-minimum`, `permissive` or a JSON limits file | `spec-minimum` |
+//! | variable | setting (VK_EXT_layer_settings) | meaning | default |
+//! | --- | --- | --- | --- |
+//! | `OMMCHECK_DUPLICATE_LIMIT` | `duplicate_message_limit` (integer) | reports of one rule per instance; 0: unlimited | 10 |
+//! | `OMMCHECK_LOG_FILE` | `log_filename` (string) | a file every reported message is appended to | none |
+//! | `OMMCHECK_REPORT` | `report_flags` (strings, or one comma-separated string) | severities reported: `error`, `warning`, `info` | `error,warning` |
+//! | `OMMCHECK_PROFILE` | `profile` (string) | device limits: `spec-minimum`, `permissive` or a JSON limits file | `spec-minimum` |
+//! | `OMMCHECK_BREAK_ON_ERROR` | `break_on_error` (boolean) | raise SIGTRAP after reporting an error, to stop in a debugger | false |
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use ommcheck::{Device, Limits, Profile, Severity};
 
@@ -16,6 +19,7 @@ pub const DUPLICATE_LIMIT: &str = "OMMCHECK_DUPLICATE_LIMIT";
 pub const LOG_FILE: &str = "OMMCHECK_LOG_FILE";
 pub const REPORT: &str = "OMMCHECK_REPORT";
 pub const PROFILE: &str = "OMMCHECK_PROFILE";
+pub const BREAK_ON_ERROR: &str = "OMMCHECK_BREAK_ON_ERROR";
 
 /// A setting as the layer manifest's `features.settings` describes it
 /// (the format the Khronos layers use and vkconfig reads).
@@ -35,7 +39,7 @@ pub struct SettingDoc {
 }
 
 /// Every setting, for the manifest.
-pub const DOCUMENTED: [SettingDoc; 4] = [
+pub const DOCUMENTED: [SettingDoc; 5] = [
     SettingDoc {
         key: "duplicate_message_limit",
         env: DUPLICATE_LIMIT,
@@ -72,7 +76,29 @@ pub const DOCUMENTED: [SettingDoc; 4] = [
         default_json: "\"spec-minimum\"",
         flags: &[],
     },
+    SettingDoc {
+        key: "break_on_error",
+        env: BREAK_ON_ERROR,
+        label: "Break on error",
+        description: "Raise SIGTRAP after reporting an error, so a debugger stops at the call.",
+        kind: "BOOL",
+        default_json: "false",
+        flags: &[],
+    },
 ];
+
+/// A value the application gave a setting through VK_EXT_layer_settings.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ApiValue {
+    Bool(bool),
+    Int(i64),
+    Float(f64),
+    Text(String),
+}
+
+/// The settings the application gave this layer through
+/// `VkLayerSettingsCreateInfoEXT`, by setting name, in the order given.
+pub type ApiSettings = Vec<(String, Vec<ApiValue>)>;
 
 /// The Khronos layer's default duplicate-message limit.
 pub const DEFAULT_DUPLICATE_LIMIT: u32 = 10;
@@ -88,6 +114,8 @@ pub struct Settings {
     pub report: Vec<Severity>,
     /// The device limits checks use (no create info carries them).
     pub limits: Limits,
+    /// Raise SIGTRAP after reporting an error.
+    pub break_on_error: bool,
 }
 
 impl Default for Settings {
@@ -97,6 +125,7 @@ impl Default for Settings {
             log_file: None,
             report: vec![Severity::Error, Severity::Warning],
             limits: Profile::SpecMinimum.limits(),
+            break_on_error: false,
         }
     }
 }
@@ -107,27 +136,67 @@ impl Settings {
     }
 }
 
-/// Settings from `variable` (the environment, in the layer) and
-/// `read_file` (for a JSON limits file), with a sentence for each value
-/// that could not be used; such a setting keeps its default.
+/// One setting's value as text: the environment variable, else the
+/// API's values joined by commas (booleans as true/false), else None.
+fn lookup(
+    variable: &impl Fn(&str) -> Option<String>,
+    api: &ApiSettings,
+    doc: &SettingDoc,
+) -> Option<(String, String)> {
+    if let Some(value) = variable(doc.env) {
+        return Some((doc.env.to_string(), value));
+    }
+    let (_, values) = api.iter().rev().find(|(name, _)| name == doc.key)?;
+    let text: Vec<String> = values
+        .iter()
+        .map(|v| match v {
+            ApiValue::Bool(b) => b.to_string(),
+            ApiValue::Int(i) => i.to_string(),
+            ApiValue::Float(f) => f.to_string(),
+            ApiValue::Text(t) => t.clone(),
+        })
+        .collect();
+    Some((format!("VkLayerSettingEXT {}", doc.key), text.join(",")))
+}
+
+fn doc(env: &str) -> &'static SettingDoc {
+    DOCUMENTED
+        .iter()
+        .find(|d| d.env == env)
+        .expect("every variable is documented")
+}
+
+/// Settings from `variable` (the environment, in the layer), `api` (the
+/// application's VK_EXT_layer_settings values, used where no variable is
+/// set) and `read_file` (for a JSON limits file), with a sentence for each
+/// value that could not be used; such a setting keeps its default.
 pub fn parse(
     variable: impl Fn(&str) -> Option<String>,
+    api: &ApiSettings,
     read_file: impl Fn(&Path) -> std::io::Result<String>,
 ) -> (Settings, Vec<String>) {
     let mut settings = Settings::default();
     let mut problems = Vec::new();
-    if let Some(value) = variable(DUPLICATE_LIMIT) {
+    for (name, _) in api {
+        if DOCUMENTED.iter().all(|d| d.key != name) {
+            problems.push(format!(
+                "VkLayerSettingEXT `{name}` is not a setting of this layer; ignored"
+            ));
+        }
+    }
+    let get = |env: &str| lookup(&variable, api, doc(env));
+    if let Some((from, value)) = get(DUPLICATE_LIMIT) {
         match value.trim().parse::<u32>() {
             Ok(limit) => settings.duplicate_limit = limit,
             Err(_) => problems.push(format!(
-                "{DUPLICATE_LIMIT}={value:?} is not a whole number; using {DEFAULT_DUPLICATE_LIMIT}"
+                "{from}={value:?} is not a whole number; using {DEFAULT_DUPLICATE_LIMIT}"
             )),
         }
     }
-    if let Some(value) = variable(LOG_FILE).filter(|v| !v.is_empty()) {
+    if let Some((_, value)) = get(LOG_FILE).filter(|(_, v)| !v.is_empty()) {
         settings.log_file = Some(PathBuf::from(value));
     }
-    if let Some(value) = variable(REPORT) {
+    if let Some((from, value)) = get(REPORT) {
         let mut report = Vec::new();
         for word in value.split(',').map(str::trim).filter(|w| !w.is_empty()) {
             match word.to_ascii_lowercase().as_str() {
@@ -135,41 +204,47 @@ pub fn parse(
                 "warning" | "warn" => report.push(Severity::Warning),
                 "info" => report.push(Severity::Info),
                 _ => problems.push(format!(
-                    "{REPORT}: `{word}` is not error, warning or info; ignored"
+                    "{from}: `{word}` is not error, warning or info; ignored"
                 )),
             }
         }
         settings.report = report;
     }
-    if let Some(value) = variable(PROFILE).filter(|v| !v.is_empty()) {
+    if let Some((from, value)) = get(PROFILE).filter(|(_, v)| !v.is_empty()) {
         match Profile::from_name(&value) {
             Some(profile) => settings.limits = profile.limits(),
             None => match read_file(Path::new(&value)) {
                 Ok(json) => match Device::limits_from_json(Profile::SpecMinimum, &json) {
                     Ok(limits) => settings.limits = limits,
                     Err(e) => problems.push(format!(
-                        "{PROFILE}: {value} is not a JSON object of limits ({e}); using spec-minimum"
+                        "{from}: {value} is not a JSON object of limits ({e}); using spec-minimum"
                     )),
                 },
                 Err(e) => problems.push(format!(
-                    "{PROFILE}={value:?} is neither spec-minimum, permissive nor a readable file ({e}); using spec-minimum"
+                    "{from}={value:?} is neither spec-minimum, permissive nor a readable file ({e}); using spec-minimum"
                 )),
             },
+        }
+    }
+    if let Some((from, value)) = get(BREAK_ON_ERROR) {
+        match value.trim().to_ascii_lowercase().as_str() {
+            "1" | "true" | "on" | "yes" => settings.break_on_error = true,
+            "0" | "false" | "off" | "no" | "" => settings.break_on_error = false,
+            _ => problems.push(format!(
+                "{from}={value:?} is not a boolean (true or false); not breaking"
+            )),
         }
     }
     (settings, problems)
 }
 
-/// The settings of this process, read from the environment on first use,
-/// with the problems found reading them.
-pub fn get() -> &'static (Settings, Vec<String>) {
-    static SETTINGS: OnceLock<(Settings, Vec<String>)> = OnceLock::new();
-    SETTINGS.get_or_init(|| {
-        parse(
-            |name| std::env::var(name).ok(),
-            |path| std::fs::read_to_string(path),
-        )
-    })
+/// The settings of an instance: this process's environment over `api`.
+pub fn for_instance(api: &ApiSettings) -> (Settings, Vec<String>) {
+    parse(
+        |name| std::env::var(name).ok(),
+        api,
+        |path| std::fs::read_to_string(path),
+    )
 }
 
 #[cfg(test)]
@@ -182,8 +257,17 @@ mod tests {
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect();
+        parse_with_api(vars, &Vec::new(), file)
+    }
+
+    fn parse_with_api(
+        vars: HashMap<String, String>,
+        api: &ApiSettings,
+        file: Option<&str>,
+    ) -> (Settings, Vec<String>) {
         parse(
             |name| vars.get(name).cloned(),
+            api,
             |_| {
                 file.map(str::to_string)
                     .ok_or_else(|| std::io::ErrorKind::NotFound.into())
@@ -249,5 +333,58 @@ mod tests {
             problems[0].contains("not a JSON object of limits"),
             "{problems:?}"
         );
+    }
+
+    fn api(settings: &[(&str, Vec<ApiValue>)]) -> ApiSettings {
+        settings
+            .iter()
+            .map(|(name, values)| (name.to_string(), values.clone()))
+            .collect()
+    }
+
+    #[test]
+    fn api_settings_apply_where_no_variable_is_set() {
+        let given = api(&[
+            ("duplicate_message_limit", vec![ApiValue::Int(3)]),
+            (
+                "report_flags",
+                vec![
+                    ApiValue::Text("error".into()),
+                    ApiValue::Text("info".into()),
+                ],
+            ),
+            ("break_on_error", vec![ApiValue::Bool(true)]),
+            ("profile", vec![ApiValue::Text("permissive".into())]),
+        ]);
+        let (settings, problems) = parse_with_api(HashMap::new(), &given, None);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings.duplicate_limit, 3);
+        assert_eq!(settings.report, [Severity::Error, Severity::Info]);
+        assert!(settings.break_on_error);
+        assert_eq!(settings.limits, Profile::Permissive.limits());
+    }
+
+    #[test]
+    fn variables_take_precedence_over_api_settings() {
+        let given = api(&[("duplicate_message_limit", vec![ApiValue::Int(3)])]);
+        let vars = HashMap::from([(DUPLICATE_LIMIT.to_string(), "7".to_string())]);
+        let (settings, problems) = parse_with_api(vars, &given, None);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings.duplicate_limit, 7);
+    }
+
+    #[test]
+    fn unknown_and_malformed_api_settings_are_reported() {
+        let given = api(&[
+            ("validate_sync", vec![ApiValue::Bool(true)]),
+            ("duplicate_message_limit", vec![ApiValue::Float(2.5)]),
+            ("break_on_error", vec![ApiValue::Text("sometimes".into())]),
+        ]);
+        let (settings, problems) = parse_with_api(HashMap::new(), &given, None);
+        assert_eq!(settings.duplicate_limit, DEFAULT_DUPLICATE_LIMIT);
+        assert!(!settings.break_on_error);
+        assert_eq!(problems.len(), 3, "{problems:?}");
+        assert!(problems[0].contains("`validate_sync`"), "{problems:?}");
+        assert!(problems[1].contains("VkLayerSettingEXT duplicate_message_limit"));
     }
 }

@@ -2,8 +2,9 @@
 //! `fake/`), calls the layer's exports, and checks what reaches the
 //! application's messenger and the driver.
 //!
-//! The duplicate-limit test assumes OMMCHECK_DUPLICATE_LIMIT and
-//! OMMCHECK_REPORT are not set in the environment.
+//! The duplicate-limit tests assume OMMCHECK_DUPLICATE_LIMIT and
+//! OMMCHECK_REPORT are not set in the environment (variables take
+//! precedence over the application's VK_EXT_layer_settings).
 
 #![allow(non_snake_case, unsafe_code)]
 
@@ -276,6 +277,105 @@ fn a_rule_is_reported_up_to_the_duplicate_limit() {
         "(Warning - This VUID has now been reported 10 times, which is the duplicate_message_limit value"
     ));
     assert_eq!(calls("vkCmdBuildMicromapsEXT").len(), 12);
+}
+
+/// VK_EXT_layer_settings: a `VkLayerSettingsCreateInfoEXT` for this layer
+/// sets the duplicate limit of its instance; settings for another layer
+/// are not this layer's business.
+#[test]
+fn layer_settings_from_the_application_set_the_duplicate_limit() {
+    let limit: [u32; 1] = [2];
+    let other: [u32; 1] = [5];
+    let settings = [
+        vk::LayerSettingEXT {
+            p_layer_name: c"VK_LAYER_KHRONOS_validation".as_ptr(),
+            p_setting_name: c"duplicate_message_limit".as_ptr(),
+            ty: vk::LayerSettingTypeEXT::UINT32,
+            value_count: 1,
+            p_values: other.as_ptr().cast(),
+            ..Default::default()
+        },
+        vk::LayerSettingEXT {
+            p_layer_name: layer::LAYER_NAME_C.as_ptr(),
+            p_setting_name: c"duplicate_message_limit".as_ptr(),
+            ty: vk::LayerSettingTypeEXT::UINT32,
+            value_count: 1,
+            p_values: limit.as_ptr().cast(),
+            ..Default::default()
+        },
+    ];
+    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    let chain = Chain::with_instance_next((&info as *const vk::LayerSettingsCreateInfoEXT).cast());
+    let build = DeviceBuild::new(&chain);
+    let pointers = [USAGE.as_ptr()];
+    let faulty = vk::MicromapBuildInfoEXT {
+        pp_usage_counts: pointers.as_ptr(),
+        ..build.info()
+    };
+    for _ in 0..4 {
+        cmd_build(&chain, &faulty);
+    }
+    let received = chain.collector.take();
+    assert_eq!(ids(&received), [BOTH_USAGE_POINTERS, BOTH_USAGE_POINTERS]);
+    assert!(received[1]
+        .text
+        .starts_with("(Warning - This VUID has now been reported 2 times"));
+}
+
+/// The chain with `break_on_error` set through VK_EXT_layer_settings to
+/// `value`, after one faulty build: returns only when the layer did not
+/// stop the process.
+fn build_with_break_on_error(value: vk::Bool32) {
+    let values = [value];
+    let settings = [vk::LayerSettingEXT {
+        p_layer_name: layer::LAYER_NAME_C.as_ptr(),
+        p_setting_name: c"break_on_error".as_ptr(),
+        ty: vk::LayerSettingTypeEXT::BOOL32,
+        value_count: 1,
+        p_values: values.as_ptr().cast(),
+        ..Default::default()
+    }];
+    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    let chain = Chain::with_instance_next((&info as *const vk::LayerSettingsCreateInfoEXT).cast());
+    let build = DeviceBuild::new(&chain);
+    let pointers = [USAGE.as_ptr()];
+    cmd_build(
+        &chain,
+        &vk::MicromapBuildInfoEXT {
+            pp_usage_counts: pointers.as_ptr(),
+            ..build.info()
+        },
+    );
+}
+
+/// `break_on_error` raises SIGTRAP after an error, which ends a process no
+/// debugger traces; without it the process goes on. Each case runs in a
+/// child process (this test binary, filtered to this test).
+#[test]
+fn break_on_error_stops_the_process_with_sigtrap() {
+    use std::os::unix::process::ExitStatusExt;
+    const CHILD: &str = "OMMCHECK_TEST_BREAK_CHILD";
+    if let Ok(value) = std::env::var(CHILD) {
+        build_with_break_on_error(if value == "1" { vk::TRUE } else { vk::FALSE });
+        return;
+    }
+    let run = |value: &str| {
+        std::process::Command::new(std::env::current_exe().expect("the test binary"))
+            .args([
+                "--exact",
+                "break_on_error_stops_the_process_with_sigtrap",
+                "--test-threads=1",
+            ])
+            .env(CHILD, value)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .expect("the test binary runs")
+    };
+    let broke = run("1");
+    assert_eq!(broke.signal(), Some(libc::SIGTRAP), "{broke:?}");
+    let went_on = run("0");
+    assert!(went_on.success(), "{went_on:?}");
 }
 
 #[test]

@@ -48,6 +48,10 @@ pub fn manifest(library_path: &Path) -> Value {
             "api_version": API_VERSION,
             "implementation_version": "1",
             "description": "ommcheck: checks Vulkan opacity-micromap API usage",
+            // Settings also come through VkLayerSettingsCreateInfoEXT; the
+            // loader accepts the extension because a layer lists it (and
+            // does not pass it down to drivers that lack it).
+            "instance_extensions": [{ "name": "VK_EXT_layer_settings", "spec_version": "2" }],
             "features": { "settings": settings },
         }
     })
@@ -121,10 +125,16 @@ mod tests {
                 "OMMCHECK_DUPLICATE_LIMIT",
                 "OMMCHECK_LOG_FILE",
                 "OMMCHECK_REPORT",
-                "OMMCHECK_PROFILE"
+                "OMMCHECK_PROFILE",
+                "OMMCHECK_BREAK_ON_ERROR"
             ]
         );
         assert_eq!(layer["features"]["settings"][0]["default"], 10);
         assert_eq!(layer["features"]["settings"][2]["flags"][2]["key"], "info");
+        assert_eq!(layer["features"]["settings"][4]["key"], "break_on_error");
+        assert_eq!(
+            layer["instance_extensions"][0]["name"],
+            "VK_EXT_layer_settings"
+        );
     }
 }

@@ -448,6 +448,15 @@ pub struct Chain {
 /// link to the fake driver in the chain. Returns the result, the instance,
 /// and whether the layer advanced the link.
 pub fn create_instance_through_layer(with_link: bool) -> (vk::Result, vk::Instance, bool) {
+    create_instance_with(with_link, std::ptr::null())
+}
+
+/// As [`create_instance_through_layer`], with the application's own pNext
+/// chain `next` after the loader's link info.
+pub fn create_instance_with(
+    with_link: bool,
+    next: *const std::ffi::c_void,
+) -> (vk::Result, vk::Instance, bool) {
     let mut link = LayerInstanceLink {
         p_next: std::ptr::null_mut(),
         pfn_next_get_instance_proc_addr: Some(fake_gipa),
@@ -455,7 +464,7 @@ pub fn create_instance_through_layer(with_link: bool) -> (vk::Result, vk::Instan
     };
     let link_info = LayerInstanceCreateInfo {
         s_type: vk::StructureType::LOADER_INSTANCE_CREATE_INFO,
-        p_next: std::ptr::null(),
+        p_next: next,
         function: LAYER_LINK_INFO,
         u: LayerInstanceCreateInfoUnion {
             p_layer_info: &mut link,
@@ -465,7 +474,7 @@ pub fn create_instance_through_layer(with_link: bool) -> (vk::Result, vk::Instan
         p_next: if with_link {
             (&link_info as *const LayerInstanceCreateInfo).cast()
         } else {
-            std::ptr::null()
+            next
         },
         ..Default::default()
     };
@@ -505,7 +514,13 @@ impl Chain {
     /// The chain, with `VK_EXT_opacity_micromap` and its `micromap` and
     /// `micromapHostCommands` features and `bufferDeviceAddress` enabled.
     pub fn new() -> Self {
-        let (result, instance, advanced) = create_instance_through_layer(true);
+        Self::with_instance_next(std::ptr::null())
+    }
+
+    /// As [`Chain::new`], with `next` (the application's structures, such
+    /// as a `VkLayerSettingsCreateInfoEXT`) chained to `VkInstanceCreateInfo`.
+    pub fn with_instance_next(next: *const std::ffi::c_void) -> Self {
+        let (result, instance, advanced) = create_instance_with(true, next);
         assert_eq!(result, vk::Result::SUCCESS);
         assert!(advanced, "the layer did not advance the instance link");
         let collector = Box::<Collector>::default();
