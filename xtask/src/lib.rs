@@ -4,6 +4,7 @@
 
 pub mod ash_names;
 pub mod catalog;
+mod drivers;
 pub mod khr;
 pub mod registry;
 pub mod testing;

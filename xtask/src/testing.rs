@@ -45,14 +45,14 @@ fn run_step(description: &str, command: &mut Command) -> Result<(), Error> {
     }
 }
 
-fn is_root() -> bool {
+pub(crate) fn is_root() -> bool {
     Command::new("id")
         .arg("-u")
         .output()
         .is_ok_and(|out| String::from_utf8_lossy(&out.stdout).trim() == "0")
 }
 
-fn apt_install(packages: &[&str]) -> Result<(), Error> {
+pub(crate) fn apt_install(packages: &[&str]) -> Result<(), Error> {
     let sudo: &[&str] = if is_root() { &[] } else { &["sudo"] };
     let mut update = Command::new(sudo.first().copied().unwrap_or("apt-get"));
     if !sudo.is_empty() {
@@ -133,6 +133,7 @@ fn ensure_components() -> Result<(), Error> {
 /// The whole test run.
 pub fn run(root: &Path, install: bool) -> Result<(), Error> {
     ensure_prerequisites(install)?;
+    let driver_vars = crate::drivers::prepare(root, install)?;
     ensure_components()?;
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     run_step(
@@ -155,7 +156,8 @@ pub fn run(root: &Path, install: bool) -> Result<(), Error> {
     run_tests(
         Command::new(&cargo)
             .current_dir(root)
-            .args(["test", "--workspace"]),
+            .args(["test", "--workspace"])
+            .envs(driver_vars),
     )
 }
 
