@@ -191,18 +191,22 @@ pub unsafe extern "system" fn create_device(
                     properties
                 });
             let limits = instance.reporter.settings().limits.clone();
+            let tier = instance.reporter.settings().tier;
             // SAFETY: the create info is valid, as vkCreateDevice requires.
             let (device, findings) =
                 unsafe { objects::device_from_create_info(info, limits, handle) };
+            let physical_device_count = device.physical_device_count;
+            let mut validator = Validator::new(device);
+            validator.set_tier(tier);
             let data = Arc::new(DeviceData {
                 handle,
                 next_gdpa,
                 fns: DeviceFns::load(next_gdpa, handle),
                 instance,
                 memory_properties,
-                physical_device_count: device.physical_device_count,
+                physical_device_count,
                 state: Mutex::new(DeviceState {
-                    validator: Validator::new(device),
+                    validator,
                     allocations: HashMap::new(),
                     mappings: HashMap::new(),
                 }),

@@ -10,16 +10,18 @@
 //! | `OMMCHECK_REPORT` | `report_flags` (strings, or one comma-separated string) | severities reported: `error`, `warning`, `info` | `error,warning` |
 //! | `OMMCHECK_PROFILE` | `profile` (string) | device limits: `spec-minimum`, `permissive` or a JSON limits file | `spec-minimum` |
 //! | `OMMCHECK_BREAK_ON_ERROR` | `break_on_error` (boolean) | raise SIGTRAP after reporting an error, to stop in a debugger | false |
+//! | `OMMCHECK_TIER` | `tier` (string) | how far checks look: `params`, `state`, `content`, `simulate` | `content` |
 
 use std::path::{Path, PathBuf};
 
-use ommcheck::{Device, Limits, Profile, Severity};
+use ommcheck::{Device, Limits, Profile, Severity, Tier};
 
 pub const DUPLICATE_LIMIT: &str = "OMMCHECK_DUPLICATE_LIMIT";
 pub const LOG_FILE: &str = "OMMCHECK_LOG_FILE";
 pub const REPORT: &str = "OMMCHECK_REPORT";
 pub const PROFILE: &str = "OMMCHECK_PROFILE";
 pub const BREAK_ON_ERROR: &str = "OMMCHECK_BREAK_ON_ERROR";
+pub const TIER: &str = "OMMCHECK_TIER";
 
 /// A setting as the layer manifest's `features.settings` describes it
 /// (the format the Khronos layers use and vkconfig reads).
@@ -39,7 +41,7 @@ pub struct SettingDoc {
 }
 
 /// Every setting, for the manifest.
-pub const DOCUMENTED: [SettingDoc; 5] = [
+pub const DOCUMENTED: [SettingDoc; 6] = [
     SettingDoc {
         key: "duplicate_message_limit",
         env: DUPLICATE_LIMIT,
@@ -85,6 +87,15 @@ pub const DOCUMENTED: [SettingDoc; 5] = [
         default_json: "false",
         flags: &[],
     },
+    SettingDoc {
+        key: "tier",
+        env: TIER,
+        label: "Validation tier",
+        description: "How far the checks look: params (the call's parameters and the device), state (+ tracked objects, buffers and memory), content (+ the bytes builds read: triangle arrays, data, index buffers), simulate (as content in the layer).",
+        kind: "ENUM",
+        default_json: "\"content\"",
+        flags: &["params", "state", "content", "simulate"],
+    },
 ];
 
 /// A value the application gave a setting through VK_EXT_layer_settings.
@@ -116,6 +127,8 @@ pub struct Settings {
     pub limits: Limits,
     /// Raise SIGTRAP after reporting an error.
     pub break_on_error: bool,
+    /// How far the checks look.
+    pub tier: Tier,
 }
 
 impl Default for Settings {
@@ -126,6 +139,7 @@ impl Default for Settings {
             report: vec![Severity::Error, Severity::Warning],
             limits: Profile::SpecMinimum.limits(),
             break_on_error: false,
+            tier: Tier::default(),
         }
     }
 }
@@ -233,6 +247,12 @@ pub fn parse(
             _ => problems.push(format!(
                 "{from}={value:?} is not a boolean (true or false); not breaking"
             )),
+        }
+    }
+    if let Some((from, value)) = get(TIER) {
+        match value.parse::<Tier>() {
+            Ok(tier) => settings.tier = tier,
+            Err(e) => problems.push(format!("{from}: {e}; using content")),
         }
     }
     (settings, problems)
@@ -355,6 +375,7 @@ mod tests {
             ),
             ("break_on_error", vec![ApiValue::Bool(true)]),
             ("profile", vec![ApiValue::Text("permissive".into())]),
+            ("tier", vec![ApiValue::Text("state".into())]),
         ]);
         let (settings, problems) = parse_with_api(HashMap::new(), &given, None);
         assert!(problems.is_empty(), "{problems:?}");
@@ -362,6 +383,7 @@ mod tests {
         assert_eq!(settings.report, [Severity::Error, Severity::Info]);
         assert!(settings.break_on_error);
         assert_eq!(settings.limits, Profile::Permissive.limits());
+        assert_eq!(settings.tier, Tier::State);
     }
 
     #[test]

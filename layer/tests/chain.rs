@@ -322,6 +322,43 @@ fn layer_settings_from_the_application_set_the_duplicate_limit() {
         .starts_with("(Warning - This VUID has now been reported 2 times"));
 }
 
+/// The `tier` setting: at `params` the layer decides what the parameters
+/// decide (07516) and leaves what needs tracked objects (an unknown
+/// dstMicromap, 07463) alone; the default tier reports both.
+#[test]
+fn the_tier_setting_limits_what_is_checked() {
+    const UNKNOWN_MICROMAP: &str = "VUID-vkCmdBuildMicromapsEXT-dstMicromap-07463";
+    let run = |chain: &Chain| {
+        let build = DeviceBuild::new(chain);
+        let pointers = [USAGE.as_ptr()];
+        cmd_build(
+            chain,
+            &vk::MicromapBuildInfoEXT {
+                pp_usage_counts: pointers.as_ptr(),
+                dst_micromap: vk::MicromapEXT::from_raw(0xdead),
+                ..build.info()
+            },
+        );
+        let mut ids: Vec<String> = chain.collector.take().into_iter().map(|r| r.id).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids
+    };
+    let tier = [c"params".as_ptr()];
+    let settings = [vk::LayerSettingEXT {
+        p_layer_name: layer::LAYER_NAME_C.as_ptr(),
+        p_setting_name: c"tier".as_ptr(),
+        ty: vk::LayerSettingTypeEXT::STRING,
+        value_count: 1,
+        p_values: tier.as_ptr().cast(),
+        ..Default::default()
+    }];
+    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    let params = Chain::with_instance_next((&info as *const vk::LayerSettingsCreateInfoEXT).cast());
+    assert_eq!(run(&params), [BOTH_USAGE_POINTERS]);
+    assert_eq!(run(&Chain::new()), [BOTH_USAGE_POINTERS, UNKNOWN_MICROMAP]);
+}
+
 /// The chain with `break_on_error` set through VK_EXT_layer_settings to
 /// `value`, after one faulty build: returns only when the layer did not
 /// stop the process.

@@ -8,6 +8,56 @@ use ommcheck_vuids::{Extensions, Vuid, VuidKind, REGISTRY_VERSION};
 
 use crate::checks;
 use crate::rules;
+use crate::scene::{CheckOptions, Scene};
+use crate::tier::Tier;
+
+/// The corpus of failing and valid scenes, relative to the workspace root.
+pub const CORPUS: &str = "tests/scenes/corpus";
+
+/// The lowest tier at which each rule's failing scene in the corpus
+/// (`<family>/<rule>.fail.json`) reports it: which tier decides the rule,
+/// measured, not declared.
+pub fn corpus_tiers(corpus: &std::path::Path) -> Result<BTreeMap<String, Tier>, String> {
+    let entries = |dir: &std::path::Path| -> Result<Vec<std::path::PathBuf>, String> {
+        let mut paths: Vec<_> = std::fs::read_dir(dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect();
+        paths.sort();
+        Ok(paths)
+    };
+    let mut tiers = BTreeMap::new();
+    for family in entries(corpus)?.into_iter().filter(|p| p.is_dir()) {
+        for path in entries(&family)? {
+            let Some(rule) = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_suffix(".fail.json"))
+            else {
+                continue;
+            };
+            let scene = Scene::load(&path).map_err(|e| e.to_string())?;
+            let mut decided = None;
+            for tier in Tier::ALL {
+                let options = CheckOptions {
+                    tier,
+                    ..CheckOptions::default()
+                };
+                let report = scene.check(&options).map_err(|e| e.to_string())?;
+                if report.report.ids().contains(&rule) {
+                    decided = Some(tier);
+                    break;
+                }
+            }
+            let tier =
+                decided.ok_or_else(|| format!("{}: reports {rule} at no tier", path.display()))?;
+            // A rule with scenes in several families takes the lowest tier.
+            let entry = tiers.entry(rule.to_string()).or_insert(tier);
+            *entry = (*entry).min(tier);
+        }
+    }
+    Ok(tiers)
+}
 
 /// A VUID's status.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -82,8 +132,8 @@ pub fn distinct_rules(statuses: &BTreeMap<Vuid, Status>) -> (usize, usize, usize
     (by_number.len(), all, some, undecidable)
 }
 
-/// The markdown report.
-pub fn render() -> String {
+/// The markdown report; `tiers` is what [`corpus_tiers`] measured.
+pub fn render(tiers: &BTreeMap<String, Tier>) -> String {
     let statuses = statuses();
     let mut out = String::new();
     let w = &mut out;
@@ -120,6 +170,27 @@ pub fn render() -> String {
         w,
         "\nDistinct explicit rules (by VUID number): {rules_total}; enforced on every command they apply to: {rules_all}; on some: {rules_some}; not decidable: {rules_undecidable}.\n"
     );
+
+    let _ = writeln!(w, "## Tiers\n");
+    let _ = writeln!(
+        w,
+        "The tier a rule needs is measured: its failing scene in the corpus (`{CORPUS}`) is checked at each tier, and the lowest tier that reports the rule decides it. Each tier decides the rules of the tiers below it too. Rules without a corpus scene (the raw-memory rules) have no measured tier.\n"
+    );
+    let _ = writeln!(w, "| tier | sees | rules first decided | decided in all |");
+    let _ = writeln!(w, "| --- | --- | ---: | ---: |");
+    let mut all = 0;
+    for tier in Tier::ALL {
+        let first = tiers.values().filter(|t| **t == tier).count();
+        all += first;
+        let sees = match tier {
+            Tier::Params => "the call's parameters and the device (extensions, features, limits)",
+            Tier::State => "+ the objects earlier calls created (buffers, memory, addresses, micromaps, acceleration structures, pipelines, queries)",
+            Tier::Content => "+ the bytes builds read (triangle arrays, data, index buffers, instances)",
+            Tier::Simulate => "+ traversal of the rays a user asks about",
+        };
+        let _ = writeln!(w, "| `{tier}` | {sees} | {first} | {all} |");
+    }
+    let _ = writeln!(w);
 
     let _ = writeln!(w, "## By extension\n");
     let _ = writeln!(
@@ -166,20 +237,21 @@ pub fn render() -> String {
     }
 
     let _ = writeln!(w, "\n## Rules of ours\n");
-    let _ = writeln!(w, "| id | enforces |");
-    let _ = writeln!(w, "| --- | --- |");
+    let _ = writeln!(w, "| id | tier | enforces |");
+    let _ = writeln!(w, "| --- | --- | --- |");
     for rule in rules::ALL {
         let _ = writeln!(
             w,
-            "| `{}` | {} |",
+            "| `{}` | {} | {} |",
             rule.id,
+            tiers.get(rule.id).map_or(String::new(), |t| t.to_string()),
             rule.statement.replace('|', "\\|")
         );
     }
 
     let _ = writeln!(w, "\n## Every VUID\n");
-    let _ = writeln!(w, "| VUID | kind | status | Khronos |");
-    let _ = writeln!(w, "| --- | --- | --- | --- |");
+    let _ = writeln!(w, "| VUID | kind | status | tier | Khronos |");
+    let _ = writeln!(w, "| --- | --- | --- | --- | --- |");
     let modules: BTreeSet<&str> = checks::coverage().iter().map(|c| c.module).collect();
     debug_assert!(!modules.is_empty());
     for (v, status) in &statuses {
@@ -197,7 +269,12 @@ pub fn render() -> String {
         } else {
             ""
         };
-        let _ = writeln!(w, "| `{}` | {kind} | {status} | {khronos} |", v.id());
+        let tier = tiers.get(v.id()).map_or(String::new(), |t| t.to_string());
+        let _ = writeln!(
+            w,
+            "| `{}` | {kind} | {status} | {tier} | {khronos} |",
+            v.id()
+        );
     }
     out
 }
@@ -275,8 +352,12 @@ mod tests {
     fn committed_report_is_current() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../VUID-COVERAGE.md");
         let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        let corpus = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(CORPUS);
+        let tiers = corpus_tiers(&corpus).unwrap_or_else(|e| panic!("{e}"));
         assert!(
-            committed == render(),
+            committed == render(&tiers),
             "{} is stale: run `cargo xtask coverage`",
             path.display()
         );

@@ -78,8 +78,10 @@ pub mod scene;
 pub mod sim;
 pub mod state;
 pub mod summary;
+pub mod tier;
 mod validator;
 
 pub use device::{Device, Features, Limits, Profile};
 pub use report::{Finding, Report, RuleId, Severity};
+pub use tier::Tier;
 pub use validator::Validator;

@@ -47,6 +47,12 @@ enum Command {
         /// Treat findings of this severity as errors for the exit status.
         #[arg(long, value_enum)]
         deny: Option<Deny>,
+        /// How far the checks look: params (the calls' parameters and the
+        /// device), state (+ the objects earlier calls created), content
+        /// (+ the bytes builds read), simulate (as content; `ommcheck trace`
+        /// simulates the rays).
+        #[arg(long, default_value_t = ommcheck::Tier::Content)]
+        tier: ommcheck::Tier,
     },
     /// Check a scene's calls, then simulate each of its `rays`: the outcome
     /// set, the micromap slot, the micro-triangles and their states, and the
@@ -93,7 +99,8 @@ fn main() -> ExitCode {
             format,
             profile,
             deny,
-        } => check_command(example, &scenes, format, profile.as_deref(), deny),
+            tier,
+        } => check_command(example, &scenes, format, profile.as_deref(), deny, tier),
         Command::Trace { scene, format } => trace_command(&scene, format),
         Command::Index {
             level,
@@ -151,6 +158,7 @@ fn check_command(
     format: Format,
     profile: Option<&str>,
     deny: Option<Deny>,
+    tier: ommcheck::Tier,
 ) -> ExitCode {
     if !example && paths.is_empty() {
         eprintln!("ommcheck: give scene files or --example");
@@ -169,7 +177,7 @@ fn check_command(
             },
         },
     };
-    let options = CheckOptions { limits };
+    let options = CheckOptions { limits, tier };
     let mut scenes = Vec::new();
     if example {
         scenes.push(Scene::example());
@@ -243,7 +251,12 @@ fn check_command(
 
 /// `ommcheck trace`: the calls' findings, then each ray's answer.
 fn trace_command(path: &std::path::Path, format: Format) -> ExitCode {
-    let traced = Scene::load(path).and_then(|scene| scene.trace(&CheckOptions::default()));
+    let traced = Scene::load(path).and_then(|scene| {
+        scene.trace(&CheckOptions {
+            tier: ommcheck::Tier::Simulate,
+            ..CheckOptions::default()
+        })
+    });
     let report = match traced {
         Ok(report) => report,
         Err(error) => {

@@ -4,6 +4,7 @@
 use crate::device::Device;
 use crate::report::{Finding, Report, RuleId, Severity};
 use crate::state::{Handle, State};
+use crate::tier::Tier;
 
 /// Checks calls against a device and the objects earlier calls created.
 ///
@@ -14,6 +15,7 @@ use crate::state::{Handle, State};
 pub struct Validator {
     pub(crate) device: Device,
     pub(crate) state: State,
+    pub(crate) tier: Tier,
 }
 
 impl Validator {
@@ -21,7 +23,19 @@ impl Validator {
         Self {
             device,
             state: State::default(),
+            tier: Tier::default(),
         }
+    }
+
+    /// Checks from now on look as far as `tier` (default: content).
+    /// Objects are tracked whatever the tier, so raising it later checks
+    /// later calls in full.
+    pub fn set_tier(&mut self, tier: Tier) {
+        self.tier = tier;
+    }
+
+    pub fn tier(&self) -> Tier {
+        self.tier
     }
 
     pub fn device(&self) -> &Device {
@@ -66,23 +80,32 @@ impl Validator {
     pub(crate) fn ctx(&self, function: &'static str) -> Ctx<'_> {
         Ctx {
             device: &self.device,
-            state: &self.state,
+            state: (self.tier >= Tier::State).then_some(&self.state),
+            contents: self.tier >= Tier::Content,
             function,
             report: Report::new(),
         }
     }
 }
 
-/// What one check runs with: the device, the tracked state, the function
-/// being checked, and the findings so far.
+/// What one check runs with: the device, the tracked state (None below the
+/// state tier), whether buffer contents may be read, the function being
+/// checked, and the findings so far.
 pub(crate) struct Ctx<'a> {
     pub device: &'a Device,
-    pub state: &'a State,
+    pub state: Option<&'a State>,
+    pub contents: bool,
     pub function: &'static str,
     pub report: Report,
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
+    /// The tracked state where the tier reads contents too (content reads
+    /// go through this, so a lower tier never decodes a byte).
+    pub fn contents(&self) -> Option<&'a State> {
+        self.state.filter(|_| self.contents)
+    }
+
     /// Reports a finding of `severity`.
     pub fn report(
         &mut self,

@@ -170,6 +170,57 @@ fn corpus_reports_match_their_snapshots() {
     });
 }
 
+/// Tiers decide more as they go up and never guess: a valid scene reports
+/// nothing at any tier, and a failing scene that reports its rule at one
+/// tier reports it at every tier above.
+#[test]
+fn tiers_only_add_findings_and_valid_scenes_stay_clean() {
+    let dir = root().join(CORPUS);
+    let mut problems = Vec::new();
+    for family_dir in sorted_entries(&dir).into_iter().filter(|p| p.is_dir()) {
+        for path in sorted_entries(&family_dir) {
+            let file = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or_default();
+            let Some(role) = role_of(file) else {
+                continue;
+            };
+            let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            let mut reported_below = false;
+            for tier in ommcheck::Tier::ALL {
+                let options = CheckOptions {
+                    tier,
+                    ..CheckOptions::default()
+                };
+                let report = scene.check(&options).unwrap_or_else(|e| panic!("{e}"));
+                let ids = report.report.ids();
+                match &role {
+                    Role::Fail(rule) => {
+                        let reported = ids.contains(&rule.as_str());
+                        if reported_below && !reported {
+                            problems.push(format!(
+                                "{}: reports {rule} below the {tier} tier but not at it",
+                                path.display()
+                            ));
+                        }
+                        reported_below |= reported;
+                    }
+                    Role::FamilyPass | Role::Twin(_) => {
+                        if !report.findings.is_empty() {
+                            problems.push(format!(
+                                "{}: a valid scene reports {ids:?} at the {tier} tier",
+                                path.display()
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
 /// The text form (the Khronos layer's message layout) of a handful of
 /// failing scenes, one per kind of rule: parameters, content, an index
 /// buffer, SPIR-V, a command that runs shaders, synchronization.

@@ -126,7 +126,8 @@ mod tests {
                 "OMMCHECK_LOG_FILE",
                 "OMMCHECK_REPORT",
                 "OMMCHECK_PROFILE",
-                "OMMCHECK_BREAK_ON_ERROR"
+                "OMMCHECK_BREAK_ON_ERROR",
+                "OMMCHECK_TIER"
             ]
         );
         assert_eq!(layer["features"]["settings"][0]["default"], 10);

@@ -65,8 +65,12 @@ fn main() -> ExitCode {
         Task::Coverage => {
             let path = root.join("VUID-COVERAGE.md");
             let readme_path = root.join("README.md");
-            std::fs::write(&path, ommcheck::coverage::render())
-                .map_err(|source| xtask::Error::Io { path, source })
+            ommcheck::coverage::corpus_tiers(&root.join(ommcheck::coverage::CORPUS))
+                .map_err(xtask::Error::Tool)
+                .and_then(|tiers| {
+                    std::fs::write(&path, ommcheck::coverage::render(&tiers))
+                        .map_err(|source| xtask::Error::Io { path, source })
+                })
                 .and_then(|()| xtask::read(&readme_path))
                 .and_then(|readme| {
                     let updated = ommcheck::coverage::update_readme(&readme).ok_or_else(|| {

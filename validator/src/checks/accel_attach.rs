@@ -472,10 +472,10 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
         }
         index_alignment(ctx, a, size, vuids.stride_multiple.is_none());
     }
-    if a.micromap != 0 {
+    if let (true, Some(state)) = (a.micromap != 0, ctx.state) {
         let known = match a.kind {
-            Kind::Ext | Kind::Nv => ctx.state.micromaps.contains_key(&a.micromap),
-            Kind::Khr => ctx.state.acceleration_structures.contains_key(&a.micromap),
+            Kind::Ext | Kind::Nv => state.micromaps.contains_key(&a.micromap),
+            Kind::Khr => state.acceleration_structures.contains_key(&a.micromap),
         };
         let handle_type = match a.kind {
             Kind::Ext | Kind::Nv => "VkMicromapEXT",
@@ -621,8 +621,8 @@ fn ext_attachment(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>) 
 
 /// The usage counts of an EXT attachment against the micromap's type.
 fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
-    let (Some(micromap), Some(counts)) = (ctx.state.micromaps.get(&a.micromap), a.usage_counts)
-    else {
+    let micromap = ctx.state.and_then(|state| state.micromaps.get(&a.micromap));
+    let (Some(micromap), Some(counts)) = (micromap, a.usage_counts) else {
         return;
     };
     let opacity = micromap.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
@@ -753,7 +753,10 @@ fn khr_attachment(
 /// 11624: a KHR attachment's micromap was built (or, unbuilt, can only be
 /// built) with type OPACITY_MICROMAP.
 fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vuid) {
-    let Some(structure) = ctx.state.acceleration_structures.get(&a.micromap) else {
+    let Some(structure) = ctx
+        .state
+        .and_then(|state| state.acceleration_structures.get(&a.micromap))
+    else {
         return;
     };
     let built_type = structure.built.as_ref().map(|b| b.ty);
@@ -785,12 +788,15 @@ fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vui
 /// 11577: `[indexBuffer, indexBuffer + indexStride * primitiveCount)` lies in one buffer.
 fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count: u64) {
     // An address inside no buffer is 11572's finding.
-    if count == 0 || ctx.state.buffers_at(a.index_buffer).next().is_none() {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if count == 0 || state.buffers_at(a.index_buffer).next().is_none() {
         return;
     }
     // A stride below the index size still reads whole indices.
     let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
-    let inside = len.is_some_and(|len| ctx.state.range_in_one_buffer(a.index_buffer, len));
+    let inside = len.is_some_and(|len| state.range_in_one_buffer(a.index_buffer, len));
     if !inside {
         ctx.error(
             cmd::indexBuffer_11577,
@@ -867,10 +873,13 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
     if a.kind == Kind::Nv || count == 0 || khr_host_micromap {
         return;
     }
+    let Some(state) = ctx.state else {
+        return; // Below the state tier neither the micromap nor the buffer is known.
+    };
     let triangles = if a.micromap == 0 {
         None
     } else {
-        match micromap_triangle_count(ctx.state, a) {
+        match micromap_triangle_count(state, a) {
             Some(triangles) => Some(triangles),
             None => return, // The micromap's build is unknown: nothing to compare with.
         }
@@ -905,7 +914,9 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         }
         return;
     };
-    let state = ctx.state;
+    let Some(state) = ctx.contents() else {
+        return; // Below the content tier no index is read.
+    };
     let bytes = match command {
         BuildCommand::Host => state.host_bytes_from(a.index_buffer),
         _ => state.device_bytes_from(a.index_buffer),
@@ -968,7 +979,9 @@ fn usage_counts_match_indices(
     a: &Attachment<'_>,
     count: u64,
 ) {
-    let state = ctx.state;
+    let Some(state) = ctx.contents() else {
+        return; // Below the content tier neither indices nor micromap data are read.
+    };
     let (Some(counts), Some(content)) = (
         a.usage_counts,
         state
@@ -1081,7 +1094,8 @@ pub(crate) fn instances(
     instances: &InstancesData,
 ) {
     let _ = info;
-    let Some(list) = &instances.instances else {
+    // Instances are buffer contents: decided from the content tier on.
+    let (Some(list), Some(state)) = (&instances.instances, ctx.contents()) else {
         return;
     };
     let force = khr_values::GEOMETRY_INSTANCE_FORCE_OPACITY_MICROMAP_2_STATE_BIT_KHR.as_raw() as u8;
@@ -1111,11 +1125,8 @@ pub(crate) fn instances(
         if instance.flags & disable == 0 {
             continue;
         }
-        let referenced = referenced_structure(
-            ctx.state,
-            command,
-            instance.acceleration_structure_reference,
-        );
+        let referenced =
+            referenced_structure(state, command, instance.acceleration_structure_reference);
         let built_flags = referenced.and_then(|s| s.built.as_ref()).map(|b| b.flags);
         if let Some(flags) = built_flags.filter(|flags| flags & allow_disable == 0) {
             tally.error(
@@ -1191,8 +1202,10 @@ fn khr_micromaps(i: usize, info: &BuildGeometryInfo) -> Vec<(String, Handle)> {
 }
 
 fn micromaps_against_destinations(ctx: &mut Ctx<'_>, infos: &[BuildGeometryInfo]) {
+    // Below the state tier only the handles are compared (11548).
     let state = ctx.state;
     let range_of = |handle: Handle| {
+        let state = state?;
         state
             .acceleration_structures
             .get(&handle)
@@ -1233,7 +1246,9 @@ fn update_matches_original(
 ) {
     // The state outlives the context's borrow, so findings can be reported
     // while reading the record.
-    let state = ctx.state;
+    let Some(state) = ctx.state else {
+        return;
+    };
     let Some(original) = state
         .original_attachments
         .get(&info.src_acceleration_structure)
@@ -1432,7 +1447,10 @@ fn cluster_opacity(
 /// An optional cluster address that is set must lie in a buffer, where the
 /// checker knows buffer addresses.
 fn cluster_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) {
-    if ctx.state.knows_addresses() && ctx.state.buffers_at(address).next().is_none() {
+    if ctx
+        .state
+        .is_some_and(|state| state.knows_addresses() && state.buffers_at(address).next().is_none())
+    {
         ctx.error(
             vuid,
             location,

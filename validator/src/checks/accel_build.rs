@@ -411,8 +411,7 @@ impl Validator {
         let mut ctx = self.ctx("vkCmdCopyAccelerationStructureToMemoryKHR");
         let micromap_source = ctx
             .state
-            .acceleration_structures
-            .get(&info.src)
+            .and_then(|state| state.acceleration_structures.get(&info.src))
             .is_some_and(|src| built_type(src) == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP);
         if micromap_source {
             common::aligned(
@@ -442,8 +441,7 @@ impl Validator {
         // one, so the destination's creation type tells what src holds.
         let micromap_destination = ctx
             .state
-            .acceleration_structures
-            .get(&info.dst)
+            .and_then(|state| state.acceleration_structures.get(&info.dst))
             .is_some_and(|dst| dst.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP);
         if micromap_destination {
             common::aligned(
@@ -706,8 +704,11 @@ fn cmd_rules(
         );
         let dst_type = ctx
             .state
-            .acceleration_structures
-            .get(&info.dst_acceleration_structure)
+            .and_then(|state| {
+                state
+                    .acceleration_structures
+                    .get(&info.dst_acceleration_structure)
+            })
             .map(|dst| dst.ty);
         if let Some(ty) = dst_type {
             ctx.require(
@@ -1091,11 +1092,14 @@ fn micromap_inputs(
 fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData) {
     let total = data.usage_counts.total();
     let start = data.triangle_array;
-    if total == 0 || ctx.state.buffers_at(start).next().is_none() {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if total == 0 || state.buffers_at(start).next().is_none() {
         return;
     }
     let len = u128::from(total) * u128::from(data.triangle_array_stride);
-    let fits = u64::try_from(len).is_ok_and(|len| ctx.state.range_in_one_buffer(start, len));
+    let fits = u64::try_from(len).is_ok_and(|len| state.range_in_one_buffer(start, len));
     ctx.require(
         fits,
         cmd::micromap_11554,
@@ -1148,8 +1152,10 @@ impl TriangleArrayCheck<'_> {
             return;
         }
         // The bytes borrow the tracked state, not the context, so findings
-        // can be reported while reading.
-        let state = ctx.state;
+        // can be reported while reading. Below the content tier nothing is read.
+        let Some(state) = ctx.contents() else {
+            return;
+        };
         let host = self.command.reads_host_memory();
         let Some(array) = bytes_from(state, host, data.triangle_array) else {
             return; // Contents not available to the checker.

@@ -98,7 +98,10 @@ pub(crate) fn device_handle(ctx: &mut Ctx<'_>, device: Handle, vuid: Vuid) {
 /// Whether `handle` belongs to another `VkDevice`; reports `vuid` (a
 /// `-parent` or `-commonparent` rule) at `location` when it does.
 pub(crate) fn other_device(ctx: &mut Ctx<'_>, handle: Handle, vuid: Vuid, location: &str) -> bool {
-    let foreign = handle != 0 && ctx.state.other_device_objects.contains(&handle);
+    let foreign = handle != 0
+        && ctx
+            .state
+            .is_some_and(|state| state.other_device_objects.contains(&handle));
     if foreign {
         ctx.error(
             vuid,
@@ -127,14 +130,17 @@ pub(crate) fn deferred_operation(
     if handle == 0 || other_device(ctx, handle, vuids.parent, "deferredOperation") {
         return;
     }
-    if !ctx.state.deferred_operations.contains(&handle) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if !state.deferred_operations.contains(&handle) {
         ctx.error(
             vuids.parameter,
             "deferredOperation",
             format!("{handle:#x} is not a VkDeferredOperationKHR created on this device"),
         );
     } else if let Some(vuid) = vuids.complete {
-        if ctx.state.pending_deferred_operations.contains(&handle) {
+        if state.pending_deferred_operations.contains(&handle) {
             ctx.error(vuid, "deferredOperation", format!("{handle:#x} still runs an earlier deferred command (no vkDeferredOperationJoinKHR or vkGetDeferredOperationResultKHR has reported it complete)"));
         }
     }
@@ -145,7 +151,10 @@ pub(crate) fn deferred_operation(
 pub(crate) fn valid_device_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) {
     if address == 0 {
         ctx.error(vuid, location, "the address is 0");
-    } else if ctx.state.knows_addresses() && ctx.state.buffers_at(address).next().is_none() {
+    } else if ctx
+        .state
+        .is_some_and(|state| state.knows_addresses() && state.buffers_at(address).next().is_none())
+    {
         ctx.error(
             vuid,
             location,
@@ -164,8 +173,10 @@ pub(crate) fn device_address_usage(
     vuid: Vuid,
     location: &str,
 ) {
-    let buffers: Vec<(Handle, u64)> = ctx
-        .state
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let buffers: Vec<(Handle, u64)> = state
         .buffers_at(address)
         .map(|(h, b)| (h, b.usage))
         .collect();

@@ -149,10 +149,10 @@ impl Validator {
             if let Some(micromap) =
                 dst_micromap(&mut ctx, i, info, cmd::dstMicromap_07463, cmd::pInfos_07464)
             {
+                // dst_micromap found the micromap, so the state is known.
                 let bound = ctx
                     .state
-                    .buffers
-                    .get(&micromap)
+                    .and_then(|state| state.buffers.get(&micromap))
                     .is_some_and(|b| b.memory.is_some());
                 ctx.require(bound, cmd::pInfos_07508, || format!("{at}.dstMicromap"), || format!("the buffer VkBuffer {micromap:#x} of dstMicromap is not bound to device memory"));
             }
@@ -193,9 +193,9 @@ impl Validator {
                 );
             }
             if info.scratch_data != 0 {
-                if ctx.state.knows_addresses()
-                    && ctx.state.buffers_at(info.scratch_data).next().is_none()
-                {
+                if ctx.state.is_some_and(|state| {
+                    state.knows_addresses() && state.buffers_at(info.scratch_data).next().is_none()
+                }) {
                     ctx.error(
                         cmd::pInfos_07512,
                         format!("{at}.scratchData.deviceAddress"),
@@ -288,7 +288,11 @@ impl Validator {
                 host::dstMicromap_07463,
                 host::pInfos_07464,
             ) {
-                let memory = ctx.state.buffers.get(&buffer).and_then(|b| b.memory);
+                // dst_micromap found the micromap, so the state is known.
+                let memory = ctx
+                    .state
+                    .and_then(|state| state.buffers.get(&buffer))
+                    .and_then(|b| b.memory);
                 ctx.require(
                     memory.is_some_and(|m| m.host_visible),
                     host::pInfos_07552,
@@ -314,8 +318,10 @@ impl Validator {
                         "the host address is NULL, but the build has triangles",
                     );
                 } else if needed
-                    && ctx.state.describes_all_host_memory()
-                    && ctx.state.host_bytes_from(address).is_none()
+                    && ctx.state.is_some_and(|state| {
+                        state.describes_all_host_memory()
+                            && state.host_bytes_from(address).is_none()
+                    })
                 {
                     ctx.error(
                         vuid,
@@ -365,7 +371,8 @@ impl Validator {
 }
 
 /// Looks up `dstMicromap` (07463) and checks the build type matches its
-/// creation type (07464). Returns the buffer backing it.
+/// creation type (07464). Returns the buffer backing it; None also below
+/// the state tier, where nothing is known of it.
 fn dst_micromap(
     ctx: &mut Ctx<'_>,
     i: usize,
@@ -374,7 +381,8 @@ fn dst_micromap(
     same_type: ommcheck_vuids::Vuid,
 ) -> Option<Handle> {
     let at = format!("pInfos[{i}].dstMicromap");
-    let Some(micromap) = ctx.state.micromaps.get(&info.dst_micromap) else {
+    let state = ctx.state?;
+    let Some(micromap) = state.micromaps.get(&info.dst_micromap) else {
         ctx.error(
             valid,
             at,
@@ -422,9 +430,12 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
             host::scratchData_11669,
         ),
     };
+    let Some(state) = ctx.state else {
+        return;
+    };
     let dst_range = |info: &MicromapBuildInfo| -> Option<(u64, u64)> {
-        let micromap = ctx.state.micromaps.get(&info.dst_micromap)?;
-        let (start, _) = ctx.state.buffers.get(&micromap.buffer)?.address_range()?;
+        let micromap = state.micromaps.get(&info.dst_micromap)?;
+        let (start, _) = state.buffers.get(&micromap.buffer)?.address_range()?;
         let begin = start.checked_add(micromap.offset)?;
         Some((begin, begin.checked_add(micromap.size)?))
     };
@@ -659,8 +670,8 @@ fn triangle_array(
         return None;
     }
     // The bytes borrow the tracked state, not the context, so findings can
-    // be reported while reading.
-    let state = ctx.state;
+    // be reported while reading. Below the content tier nothing is read.
+    let state = ctx.contents()?;
     let read_from = |address: u64| match side {
         Side::Device => state.device_bytes_from(address),
         Side::Host => state.host_bytes_from(address),

@@ -590,7 +590,12 @@ impl Validator {
                     .enumerate()
                     .map(|(k, h)| (format!("pMicromaps[{k}]"), *h)),
             )
-            .find(|(_, h)| *h != 0 && ctx.state.other_device_objects.contains(h));
+            .find(|(_, h)| {
+                *h != 0
+                    && ctx
+                        .state
+                        .is_some_and(|state| state.other_device_objects.contains(h))
+            });
         if let Some((location, handle)) = foreign {
             common::other_device(&mut ctx, handle, cmd_write::commonparent, &location);
         }
@@ -612,7 +617,10 @@ impl Validator {
                 &at,
             );
         }
-        let Some(pool) = ctx.state.query_pools.get(&query_pool) else {
+        let Some(state) = ctx.state else {
+            return ctx.finish();
+        };
+        let Some(pool) = state.query_pools.get(&query_pool) else {
             ctx.error(
                 cmd_write::queryPool_parameter,
                 "queryPool",
@@ -903,7 +911,7 @@ fn tracked_micromap<'s>(
     vuid: Vuid,
     location: &str,
 ) -> Option<&'s Micromap> {
-    let state = ctx.state;
+    let state = ctx.state?;
     let found = state.micromaps.get(&handle);
     if found.is_none() && !state.other_device_objects.contains(&handle) {
         ctx.error(
@@ -923,7 +931,9 @@ fn tracked_micromap<'s>(
 /// The memory a micromap's buffer is bound to: `None` when the buffer is not
 /// tracked (nothing to decide), `Some(None)` when it is tracked but unbound.
 fn backing_memory(ctx: &Ctx<'_>, micromap: &Micromap) -> Option<Option<MemoryBinding>> {
-    ctx.state.buffers.get(&micromap.buffer).map(|b| b.memory)
+    ctx.state
+        .and_then(|state| state.buffers.get(&micromap.buffer))
+        .map(|b| b.memory)
 }
 
 /// The buffer a micromap was created on must be bound to device memory.
@@ -1162,8 +1172,9 @@ fn serialized_host_address(
 ) {
     if address == 0 {
         ctx.error(valid, location, "the host address is NULL");
-    } else if ctx.state.describes_all_host_memory() && ctx.state.host_bytes_from(address).is_none()
-    {
+    } else if ctx.state.is_some_and(|state| {
+        state.describes_all_host_memory() && state.host_bytes_from(address).is_none()
+    }) {
         ctx.error(
             valid,
             location,
@@ -1266,9 +1277,9 @@ fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride
         if data_size > 0 {
             ctx.error(host_write::pData_parameter, "pData", "pData is NULL");
         }
-    } else if ctx.state.describes_all_host_memory()
-        && ctx.state.read_host(data, data_size).is_none()
-    {
+    } else if ctx.state.is_some_and(|state| {
+        state.describes_all_host_memory() && state.read_host(data, data_size).is_none()
+    }) {
         ctx.error(
             host_write::pData_parameter,
             "pData",
@@ -1387,7 +1398,10 @@ fn capture_replay(ctx: &mut Ctx<'_>, info: &MicromapCreateInfo) {
 /// not sparse-resident, and large enough.
 fn backing_buffer(ctx: &mut Ctx<'_>, info: &MicromapCreateInfo) {
     let handle = info.buffer;
-    let Some(buffer) = ctx.state.buffers.get(&handle) else {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let Some(buffer) = state.buffers.get(&handle) else {
         ctx.error(
             create_info::buffer_parameter,
             "pCreateInfo->buffer",
@@ -1425,7 +1439,10 @@ fn backing_buffer(ctx: &mut Ctx<'_>, info: &MicromapCreateInfo) {
 /// `queryPool` of `vkCmdBeginQuery*` must not be a micromap size pool; a
 /// pool the checker does not track is left to the pool's own rules.
 fn not_a_micromap_pool(ctx: &mut Ctx<'_>, query_pool: Handle, vuid: Vuid) {
-    let Some(pool) = ctx.state.query_pools.get(&query_pool) else {
+    let Some(pool) = ctx
+        .state
+        .and_then(|state| state.query_pools.get(&query_pool))
+    else {
         return;
     };
     let query_type = pool.query_type;

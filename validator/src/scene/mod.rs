@@ -96,6 +96,8 @@ impl std::error::Error for SceneError {}
 pub struct CheckOptions {
     /// Limits to check under instead of the scene's profile and limits.
     pub limits: Option<LimitsOverride>,
+    /// How far the checks look (default: content).
+    pub tier: crate::Tier,
 }
 
 /// A parsed scene, ready to check.
@@ -188,14 +190,13 @@ impl Scene {
     /// Resolves every name, address and file of the scene, then checks its
     /// calls in order. A semantic error returns before any finding.
     pub fn check(&self, options: &CheckOptions) -> Result<SceneReport, SceneError> {
-        let checked =
-            resolve::check(&self.file, &self.base_dir, options.limits.as_ref()).map_err(|p| {
-                SceneError::Semantic {
-                    path: self.path.clone(),
-                    json_path: p.path,
-                    message: p.message,
-                }
-            })?;
+        let checked = resolve::check(&self.file, &self.base_dir, options).map_err(|p| {
+            SceneError::Semantic {
+                path: self.path.clone(),
+                json_path: p.path,
+                message: p.message,
+            }
+        })?;
         Ok(SceneReport {
             path: self.path.clone(),
             calls: checked.calls,

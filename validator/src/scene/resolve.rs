@@ -202,18 +202,16 @@ pub struct Run {
 }
 
 /// Resolves and checks `scene`; `base_dir` anchors relative file paths.
-pub fn check(
-    scene: &SceneFile,
-    base_dir: &Path,
-    limits: Option<&LimitsOverride>,
-) -> Result<Checked> {
-    run(scene, base_dir, limits).map(|run| run.checked)
+pub fn check(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) -> Result<Checked> {
+    run(scene, base_dir, options).map(|run| run.checked)
 }
 
 /// Resolves `scene`, checks its calls in order, then resolves its rays
 /// (which name objects the calls may have created).
-pub fn run(scene: &SceneFile, base_dir: &Path, limits: Option<&LimitsOverride>) -> Result<Run> {
-    let device = device(scene.device.as_ref(), base_dir, limits)?;
+pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) -> Result<Run> {
+    let device = device(scene.device.as_ref(), base_dir, options.limits.as_ref())?;
+    let mut validator = Validator::new(device);
+    validator.set_tier(options.tier);
     let mut resolver = Resolver {
         base_dir,
         objects: BTreeMap::new(),
@@ -224,7 +222,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, limits: Option<&LimitsOverride>) 
         command_buffers: BTreeMap::new(),
         bound: BTreeMap::new(),
         contents_total: 0,
-        validator: Validator::new(device),
+        validator,
     };
     resolver.declare(scene)?;
     let mut report = Report::new();

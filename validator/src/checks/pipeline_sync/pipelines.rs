@@ -343,7 +343,7 @@ fn libraries_have(
         "pLibraryInfo->pLibraries"
     };
     for (k, library) in info.libraries.iter().flatten().enumerate() {
-        if let Some(record) = ctx.state.pipelines.get(library) {
+        if let Some(record) = ctx.state.and_then(|state| state.pipelines.get(library)) {
             if record.flags & bit == 0 {
                 ctx.error(
                     vuid,
@@ -378,8 +378,7 @@ fn stages(
             ),
             None => (
                 ctx.state
-                    .shader_modules
-                    .get(&stage.module)
+                    .and_then(|state| state.shader_modules.get(&stage.module))
                     .and_then(|code| SpirvModule::parse(code)),
                 ConstantsChecked::SpecializedOnly,
                 format!("{stage_at}.module"),
@@ -441,7 +440,7 @@ fn pipeline_record(
     mut stages: Vec<(u32, ShaderFacts)>,
 ) -> PipelineRecord {
     for library in info.libraries.iter().flatten() {
-        if let Some(record) = ctx.state.pipelines.get(library) {
+        if let Some(record) = ctx.state.and_then(|state| state.pipelines.get(library)) {
             stages.extend(record.stages.iter().copied());
         }
     }

@@ -14,6 +14,7 @@ use crate::model::pipeline::*;
 use crate::model::CommandBuffer;
 use crate::report::{ObjectRef, Report};
 use crate::state::State;
+use crate::tier::Tier;
 use crate::validator::{Ctx, Validator};
 
 const DESERIALIZED: &str = "needs the serialized bytes of the micromaps an acceleration structure was deserialized from and of those it was built with, which are device memory contents the application never hands over";
@@ -116,8 +117,7 @@ impl Validator {
         for access in &bound.accesses {
             let Some(geometry) = ctx
                 .state
-                .micromap_geometry
-                .get(&access.acceleration_structure)
+                .and_then(|state| state.micromap_geometry.get(&access.acceleration_structure))
                 .copied()
             else {
                 continue; // How it was built is unknown.
@@ -153,7 +153,7 @@ impl Validator {
                     .map_or(0, |r| r.primitive_count);
                 let found = match &entry.geometry {
                     GeometryData::Triangles(triangles) => {
-                        triangles_geometry(&self.state, triangles, primitives)
+                        triangles_geometry(&self.state, self.tier, triangles, primitives)
                     }
                     GeometryData::Instances(instances) => instances
                         .instances
@@ -195,8 +195,11 @@ fn referenced(state: &State, reference: u64) -> Option<MicromapGeometry> {
     state.micromap_geometry.get(handle).copied()
 }
 
+/// `tier`: below the content tier the index buffer is not read, so mixed
+/// special indices are not known.
 fn triangles_geometry(
     state: &State,
+    tier: Tier,
     triangles: &TrianglesData,
     primitives: u32,
 ) -> MicromapGeometry {
@@ -215,9 +218,10 @@ fn triangles_geometry(
     MicromapGeometry {
         opacity_ext: triangles.opacity_ext.is_some(),
         opacity_khr: triangles.opacity_khr.is_some(),
-        mixed_special_indices: indices.any(|(ty, address, stride)| {
-            index_mix(state, ty, address, stride, primitives) == Some((true, true))
-        }),
+        mixed_special_indices: tier >= Tier::Content
+            && indices.any(|(ty, address, stride)| {
+                index_mix(state, ty, address, stride, primitives) == Some((true, true))
+            }),
     }
 }
 
@@ -322,7 +326,10 @@ fn ray_query_mode(
     {
         return;
     }
-    if declares_opacity_micromap_id(ctx.state, bound, access) == Some(false) {
+    let declares = ctx
+        .state
+        .and_then(|state| declares_opacity_micromap_id(state, bound, access));
+    if declares == Some(false) {
         ctx.error(
             vuids.ray_query_mode,
             shader_location(bound, access),
@@ -346,7 +353,10 @@ fn mixed_special_indices(
         return;
     }
     let as_handle = access.acceleration_structure;
-    if let Some(record) = ctx.state.pipelines.get(&bound.pipeline) {
+    if let Some(record) = ctx
+        .state
+        .and_then(|state| state.pipelines.get(&bound.pipeline))
+    {
         if record.flags & CREATE_DISALLOW_MIXED_SPECIAL_INDEX != 0 {
             ctx.error(
                 vuids.pipeline_mixed,
@@ -358,7 +368,10 @@ fn mixed_special_indices(
         }
     }
     if let AccessingShader::ShaderObject(shader) = access.shader {
-        let flags = ctx.state.shader_objects.get(&shader).map_or(0, |s| s.flags);
+        let flags = ctx
+            .state
+            .and_then(|state| state.shader_objects.get(&shader))
+            .map_or(0, |s| s.flags);
         if flags & SHADER_CREATE_DISALLOW_MIXED_SPECIAL_INDEX != 0 {
             ctx.error(
                 vuids.shader_mixed,
@@ -383,7 +396,10 @@ fn pipeline_opacity(
     if access.ray_query || !(geometry.opacity_khr || geometry.opacity_ext) {
         return;
     }
-    let Some(record) = ctx.state.pipelines.get(&bound.pipeline) else {
+    let Some(record) = ctx
+        .state
+        .and_then(|state| state.pipelines.get(&bound.pipeline))
+    else {
         return;
     };
     if record.flags & CREATE_RAY_TRACING_OPACITY_MICROMAP == 0 {
