@@ -5,6 +5,7 @@
 pub mod ash_names;
 pub mod catalog;
 mod drivers;
+pub mod faults;
 pub mod khr;
 pub mod registry;
 pub mod testing;

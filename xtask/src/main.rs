@@ -33,6 +33,12 @@ enum Task {
         #[arg(long)]
         out_dir: Option<PathBuf>,
     },
+    /// Check the seeded fault corpus at each tier and print the accuracy table.
+    Accuracy {
+        /// The corpus seed.
+        #[arg(long, default_value_t = xtask::faults::SEED)]
+        seed: u64,
+    },
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
         /// Do not install missing prerequisites; report them.
@@ -86,6 +92,12 @@ fn main() -> ExitCode {
         Task::Layer { out_dir } => layer::build(&root, out_dir).map(|dir| {
             println!("{}", dir.display());
         }),
+        Task::Accuracy { seed } => {
+            let classes = xtask::faults::classes().len();
+            xtask::faults::accuracy(&xtask::faults::corpus(seed))
+                .map_err(xtask::Error::Tool)
+                .map(|table| print!("{}", xtask::faults::render(&table, classes)))
+        }
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };
     match result {
