@@ -12,7 +12,6 @@ use std::sync::{Arc, Mutex};
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::model::CommandBuffer;
 use ommcheck::raw::{objects, ReadableHost};
 use ommcheck::{Report, Validator};
 
@@ -20,7 +19,7 @@ use crate::dispatch::{
     next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
 };
 use crate::report::Message;
-use crate::{abi, guarded, panic_message, read, testing};
+use crate::{abi, commands, guarded, panic_message, read, testing};
 
 /// A command as the loader's `PFN_vkVoidFunction`.
 pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
@@ -70,14 +69,14 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkDestroyMicromapEXT" => as_void(destroy_micromap as vk::PFN_vkDestroyMicromapEXT),
         b"vkCmdBuildMicromapsEXT" => as_void(cmd_build_micromaps as vk::PFN_vkCmdBuildMicromapsEXT),
         b"vkBuildMicromapsEXT" => as_void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
-        _ => None,
+        _ => crate::accel::intercept(name).or_else(|| crate::commands::intercept(name)),
     }
 }
 
 /// The device data for a dispatchable `handle` of a device (the device, or
 /// a command buffer) and the next layer's function `pick` selects; None
 /// when the device is unknown or the next layer lacks the function.
-fn device_and<F: Copy>(
+pub(crate) fn device_and<F: Copy>(
     handle: impl vk::Handle,
     pick: impl FnOnce(&DeviceFns) -> Option<F>,
 ) -> Option<(Arc<DeviceData>, F)> {
@@ -89,7 +88,7 @@ fn device_and<F: Copy>(
 /// Runs a check against the device's validator and delivers its findings;
 /// a panic inside becomes one error message. Returns whether a messenger
 /// asked for the call to be skipped.
-fn check(
+pub(crate) fn check(
     data: &DeviceData,
     function: &'static str,
     call_object: (vk::ObjectType, u64),
@@ -119,7 +118,11 @@ fn check(
 
 /// Records what a call did in the device's state; a panic inside becomes
 /// one error message and the call's result stands.
-fn track(data: &DeviceData, function: &'static str, body: impl FnOnce(&mut DeviceState)) {
+pub(crate) fn track(
+    data: &DeviceData,
+    function: &'static str,
+    body: impl FnOnce(&mut DeviceState),
+) {
     let outcome = {
         let mut state = data.state();
         catch_unwind(AssertUnwindSafe(|| body(&mut state)))
@@ -134,7 +137,7 @@ fn track(data: &DeviceData, function: &'static str, body: impl FnOnce(&mut Devic
     }
 }
 
-fn device_object(device: vk::Device) -> (vk::ObjectType, u64) {
+pub(crate) fn device_object(device: vk::Device) -> (vk::ObjectType, u64) {
     (vk::ObjectType::DEVICE, device.as_raw())
 }
 
@@ -190,6 +193,12 @@ pub unsafe extern "system" fn create_device(
                     unsafe { get(physical_device, &mut properties) };
                     properties
                 });
+            let queue_family_flags = instance
+                .fns
+                .get_physical_device_queue_family_properties
+                // SAFETY: the next layer's function, with a physical device of its instance.
+                .map(|get| unsafe { read::queue_family_flags(get, physical_device) })
+                .unwrap_or_default();
             let limits = instance.reporter.settings().limits.clone();
             let tier = instance.reporter.settings().tier;
             // SAFETY: the create info is valid, as vkCreateDevice requires.
@@ -205,10 +214,12 @@ pub unsafe extern "system" fn create_device(
                 instance,
                 memory_properties,
                 physical_device_count,
+                queue_family_flags,
                 state: Mutex::new(DeviceState {
                     validator,
                     allocations: HashMap::new(),
                     mappings: HashMap::new(),
+                    memory_layout: Default::default(),
                 }),
             });
             let messages: Vec<Message> = findings
@@ -294,6 +305,7 @@ unsafe extern "system" fn destroy_buffer(
         };
         track(&data, "vkDestroyBuffer", |state| {
             state.validator.state_mut().buffers.remove(&buffer.as_raw());
+            state.memory_layout.forget_buffer(buffer.as_raw());
         });
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, buffer, allocator) };
@@ -350,6 +362,7 @@ unsafe extern "system" fn free_memory(
         track(&data, "vkFreeMemory", |state| {
             state.allocations.remove(&memory.as_raw());
             state.mappings.remove(&memory.as_raw());
+            state.memory_layout.unmap(memory.as_raw());
         });
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, memory, allocator) };
@@ -389,6 +402,7 @@ unsafe extern "system" fn map_memory(
                         state
                             .mappings
                             .insert(memory.as_raw(), ReadableHost { address, len });
+                        state.memory_layout.map(memory.as_raw(), offset);
                     }
                 });
             }
@@ -405,14 +419,23 @@ unsafe extern "system" fn unmap_memory(device: vk::Device, memory: vk::DeviceMem
         };
         track(&data, "vkUnmapMemory", |state| {
             state.mappings.remove(&memory.as_raw());
+            state.memory_layout.unmap(memory.as_raw());
         });
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, memory) };
     })
 }
 
-/// Records that `buffer` is bound to `memory`.
-fn bind(state: &mut DeviceState, buffer: vk::Buffer, memory: vk::DeviceMemory) {
+/// Records that `buffer` is bound to `memory` at `offset`.
+fn bind(
+    state: &mut DeviceState,
+    buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    offset: vk::DeviceSize,
+) {
+    state
+        .memory_layout
+        .bind(buffer.as_raw(), memory.as_raw(), offset);
     let binding = state
         .allocations
         .get(&memory.as_raw())
@@ -446,7 +469,7 @@ unsafe extern "system" fn bind_buffer_memory(
             let result = unsafe { next(device, buffer, memory, offset) };
             if result == vk::Result::SUCCESS {
                 track(&data, "vkBindBufferMemory", |state| {
-                    bind(state, buffer, memory)
+                    bind(state, buffer, memory, offset)
                 });
             }
             result
@@ -473,8 +496,8 @@ unsafe fn bind_buffer_memory2_with(
                 // SAFETY: the array holds `bind_info_count` elements (the API's requirement).
                 let binds =
                     unsafe { objects::bind_buffer_memory_infos(bind_info_count, bind_infos) };
-                for (buffer, memory) in binds {
-                    bind(state, buffer, memory);
+                for (buffer, memory, offset) in binds {
+                    bind(state, buffer, memory, offset);
                 }
             });
         }
@@ -779,10 +802,9 @@ unsafe extern "system" fn destroy_micromap(
     })
 }
 
-/// `vkCmdBuildMicromapsEXT`: checked, then recorded below unless a
-/// messenger asks to skip it. The command buffer's state is not tracked
-/// yet: it is taken to be recording, outside any render pass, on a queue
-/// that supports builds.
+/// `vkCmdBuildMicromapsEXT`: checked against the command buffer's tracked
+/// state, then recorded below unless a messenger asks to skip it. The
+/// build's contents are checked when the command buffer is submitted.
 unsafe extern "system" fn cmd_build_micromaps(
     command_buffer: vk::CommandBuffer,
     info_count: u32,
@@ -793,20 +815,23 @@ unsafe extern "system" fn cmd_build_micromaps(
         let Some((data, next)) = device_and(command_buffer, |f| f.cmd_build_micromaps) else {
             return;
         };
+        let recording = commands::model(command_buffer);
         let object = (vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw());
+        let mut kept = None;
         let skip = check(&data, "vkCmdBuildMicromapsEXT", object, |state| {
-            let recording = CommandBuffer {
-                handle: command_buffer.as_raw(),
-                ..CommandBuffer::default()
-            };
             // SAFETY: the application's arguments, valid as the API requires.
-            unsafe {
+            let (report, build) = unsafe {
                 state
                     .validator
-                    .cmd_build_micromaps_raw(&recording, info_count, infos)
-            }
+                    .cmd_build_micromaps_raw_kept(&recording, info_count, infos)
+            };
+            kept = build;
+            report
         });
         if !skip {
+            if let Some(build) = kept {
+                commands::keep_for_submission(command_buffer, &recording, build);
+            }
             // SAFETY: the next layer's function, with the application's arguments.
             unsafe { next(command_buffer, info_count, infos) };
         }

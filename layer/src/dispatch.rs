@@ -34,6 +34,8 @@ pub(crate) use next_fn;
 pub struct InstanceFns {
     pub destroy_instance: Option<vk::PFN_vkDestroyInstance>,
     pub get_physical_device_memory_properties: Option<vk::PFN_vkGetPhysicalDeviceMemoryProperties>,
+    pub get_physical_device_queue_family_properties:
+        Option<vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties>,
     pub create_debug_utils_messenger: Option<vk::PFN_vkCreateDebugUtilsMessengerEXT>,
     pub destroy_debug_utils_messenger: Option<vk::PFN_vkDestroyDebugUtilsMessengerEXT>,
 }
@@ -52,6 +54,12 @@ impl InstanceFns {
                 instance,
                 c"vkGetPhysicalDeviceMemoryProperties",
                 vk::PFN_vkGetPhysicalDeviceMemoryProperties
+            ),
+            get_physical_device_queue_family_properties: next_fn!(
+                gipa,
+                instance,
+                c"vkGetPhysicalDeviceQueueFamilyProperties",
+                vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties
             ),
             create_debug_utils_messenger: next_fn!(
                 gipa,
@@ -100,6 +108,10 @@ pub struct DeviceFns {
     pub destroy_micromap: Option<vk::PFN_vkDestroyMicromapEXT>,
     pub cmd_build_micromaps: Option<vk::PFN_vkCmdBuildMicromapsEXT>,
     pub build_micromaps: Option<vk::PFN_vkBuildMicromapsEXT>,
+    /// Acceleration-structure, micromap copy and query commands.
+    pub accel: crate::accel::AccelFns,
+    /// Command pools and buffers, their state commands, and queue submission.
+    pub commands: crate::commands::CommandFns,
 }
 
 impl DeviceFns {
@@ -196,6 +208,8 @@ impl DeviceFns {
                 c"vkBuildMicromapsEXT",
                 vk::PFN_vkBuildMicromapsEXT
             ),
+            accel: crate::accel::AccelFns::load(gdpa, device),
+            commands: crate::commands::CommandFns::load(gdpa, device),
         }
     }
 }
@@ -215,6 +229,9 @@ pub struct DeviceState {
     /// Host ranges of mapped allocations, by allocation handle: memory a
     /// host build may read its micromap data from.
     pub mappings: HashMap<u64, ReadableHost>,
+    /// Where buffers lie in memory and where memory is mapped, for reading
+    /// device builds' contents at submission.
+    pub memory_layout: crate::submit::MemoryLayout,
 }
 
 /// What the layer keeps of a `VkDevice`.
@@ -230,6 +247,9 @@ pub struct DeviceData {
     pub memory_properties: Option<vk::PhysicalDeviceMemoryProperties>,
     /// Devices in the device group (multi-instance memory needs more than one).
     pub physical_device_count: u32,
+    /// `VkQueueFlags` of each queue family, by index (empty: the next layer
+    /// could not say).
+    pub queue_family_flags: Vec<vk::QueueFlags>,
     pub state: Mutex<DeviceState>,
 }
 

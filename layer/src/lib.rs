@@ -17,12 +17,15 @@
 #![allow(non_snake_case)]
 
 pub mod abi;
+mod accel;
+mod commands;
 mod device;
 mod dispatch;
 mod instance;
 mod read;
 pub mod report;
 pub mod settings;
+mod submit;
 #[doc(hidden)]
 pub mod testing;
 

@@ -6,8 +6,10 @@
 
 use std::collections::HashSet;
 use std::ffi::{c_char, c_void, CStr};
+use std::sync::Arc;
 
 use ash::vk;
+use ommcheck::raw::MAX_ELEMENTS;
 
 use crate::report::Messenger;
 use crate::settings::{ApiSettings, ApiValue};
@@ -167,4 +169,102 @@ unsafe fn setting_values(setting: &vk::LayerSettingEXT<'_>) -> Vec<ApiValue> {
             })
         })
         .collect()
+}
+
+/// The first `count` elements of an application array, at most
+/// [`MAX_ELEMENTS`] of them; empty for NULL.
+///
+/// # Safety
+/// A non-NULL `pointer` must point to `count` readable, initialised `T`s
+/// that stay so for `'a`, as the API requires of the parameter.
+pub unsafe fn array<'a, T>(pointer: *const T, count: u32) -> &'a [T] {
+    if pointer.is_null() {
+        return &[];
+    }
+    let len = usize::try_from(count)
+        .unwrap_or(usize::MAX)
+        .min(MAX_ELEMENTS);
+    // SAFETY: the caller guarantees `count` elements; `len <= count`.
+    unsafe { std::slice::from_raw_parts(pointer, len) }
+}
+
+/// The command buffers of `vkQueueSubmit`'s `pSubmits`, at most
+/// [`MAX_ELEMENTS`] in all.
+///
+/// # Safety
+/// A non-NULL `submits` must point to `count` `VkSubmitInfo`s whose
+/// `pCommandBuffers` are valid for their counts.
+pub unsafe fn submitted_command_buffers(
+    count: u32,
+    submits: *const vk::SubmitInfo<'_>,
+) -> Vec<vk::CommandBuffer> {
+    let mut command_buffers = Vec::new();
+    // SAFETY: forwarded from the caller.
+    for submit in unsafe { array(submits, count) } {
+        // SAFETY: forwarded from the caller.
+        let list = unsafe { array(submit.p_command_buffers, submit.command_buffer_count) };
+        let room = MAX_ELEMENTS.saturating_sub(command_buffers.len());
+        command_buffers.extend(list.iter().take(room).copied());
+    }
+    command_buffers
+}
+
+/// The command buffers of `vkQueueSubmit2`'s `pSubmits`, at most
+/// [`MAX_ELEMENTS`] in all.
+///
+/// # Safety
+/// A non-NULL `submits` must point to `count` `VkSubmitInfo2`s whose
+/// `pCommandBufferInfos` are valid for their counts.
+pub unsafe fn submitted_command_buffers2(
+    count: u32,
+    submits: *const vk::SubmitInfo2<'_>,
+) -> Vec<vk::CommandBuffer> {
+    let mut command_buffers = Vec::new();
+    // SAFETY: forwarded from the caller.
+    for submit in unsafe { array(submits, count) } {
+        // SAFETY: forwarded from the caller.
+        let list = unsafe {
+            array(
+                submit.p_command_buffer_infos,
+                submit.command_buffer_info_count,
+            )
+        };
+        let room = MAX_ELEMENTS.saturating_sub(command_buffers.len());
+        command_buffers.extend(list.iter().take(room).map(|info| info.command_buffer));
+    }
+    command_buffers
+}
+
+/// `VkQueueFlags` of each queue family of `physical_device` (at most 64
+/// families, more than any device has).
+///
+/// # Safety
+/// `get` must be the next layer's `vkGetPhysicalDeviceQueueFamilyProperties`
+/// and `physical_device` one of its instance's.
+pub unsafe fn queue_family_flags(
+    get: vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties,
+    physical_device: vk::PhysicalDevice,
+) -> Vec<vk::QueueFlags> {
+    const MAX_FAMILIES: u32 = 64;
+    let mut count = 0;
+    // SAFETY: the count query, as the API defines it.
+    unsafe { get(physical_device, &mut count, std::ptr::null_mut()) };
+    let mut families = vec![vk::QueueFamilyProperties::default(); count.min(MAX_FAMILIES) as usize];
+    let mut written = families.len() as u32;
+    // SAFETY: `families` holds `written` elements for the next layer to fill.
+    unsafe { get(physical_device, &mut written, families.as_mut_ptr()) };
+    families.truncate(written as usize);
+    families.iter().map(|family| family.queue_flags).collect()
+}
+
+/// A copy of `len` bytes of mapped device memory at host address `address`.
+///
+/// # Safety
+/// `[address, address + len)` must lie inside a range the application
+/// mapped with `vkMapMemory` and has not unmapped.
+pub unsafe fn mapped_bytes(address: usize, len: usize) -> Arc<[u8]> {
+    // SAFETY: forwarded from the caller: mapped memory is readable host memory.
+    Arc::from(unsafe {
+        std::slice::from_raw_parts(std::ptr::with_exposed_provenance::<u8>(address), len)
+    })
 }

@@ -12,72 +12,12 @@ mod fake;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use fake::{calls, device_fn, instance_fn, Chain};
+use fake::{calls, device_fn, instance_fn, Chain, DeviceBuild, USAGE};
 use ommcheck::report::message_id;
 use VkLayer_ommcheck as layer;
 
 const BOTH_USAGE_POINTERS: &str = "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516";
 const DATA_IN_RANGE: &str = "OMMCHECK-build-triangle-data-in-range";
-
-/// Two 2-state level-1 triangles (one byte of data each).
-const USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
-    count: 2,
-    subdivision_level: 1,
-    format: 1,
-}];
-
-/// Everything a device build reads, created through the layer.
-struct DeviceBuild {
-    micromap: vk::MicromapEXT,
-    input: u64,
-    scratch: u64,
-}
-
-impl DeviceBuild {
-    fn new(chain: &Chain) -> Self {
-        let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 0);
-        let micromap = chain.micromap(storage, 4096);
-        let input = chain.buffer(
-            4096,
-            vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            0,
-        );
-        let scratch = chain.buffer(
-            4096,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            0,
-        );
-        Self {
-            micromap,
-            input: chain.address(input),
-            scratch: chain.address(scratch),
-        }
-    }
-
-    /// A valid build info: the triangle array at the start of the input
-    /// buffer, the data 256 bytes in.
-    fn info(&self) -> vk::MicromapBuildInfoEXT<'static> {
-        vk::MicromapBuildInfoEXT {
-            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
-            mode: vk::BuildMicromapModeEXT::BUILD,
-            dst_micromap: self.micromap,
-            usage_counts_count: 1,
-            p_usage_counts: USAGE.as_ptr(),
-            data: vk::DeviceOrHostAddressConstKHR {
-                device_address: self.input + 256,
-            },
-            triangle_array: vk::DeviceOrHostAddressConstKHR {
-                device_address: self.input,
-            },
-            triangle_array_stride: 8,
-            scratch_data: vk::DeviceOrHostAddressKHR {
-                device_address: self.scratch,
-            },
-            ..Default::default()
-        }
-    }
-}
 
 fn cmd_build(chain: &Chain, info: &vk::MicromapBuildInfoEXT<'_>) {
     let build: vk::PFN_vkCmdBuildMicromapsEXT = device_fn(chain.device, c"vkCmdBuildMicromapsEXT");

@@ -7,6 +7,8 @@
 //! a command buffer its device's. Each test thread records its own calls.
 
 #![allow(unsafe_code, clippy::missing_safety_doc)]
+// Each test binary uses a part of the fake.
+#![allow(dead_code)]
 
 use std::cell::RefCell;
 use std::ffi::{c_char, c_void, CStr};
@@ -300,6 +302,131 @@ unsafe extern "system" fn build_micromaps(
     vk::Result::SUCCESS
 }
 
+/// One queue family with graphics, compute and transfer.
+unsafe extern "system" fn get_queue_family_properties(
+    _: vk::PhysicalDevice,
+    count: *mut u32,
+    out: *mut vk::QueueFamilyProperties,
+) {
+    if out.is_null() {
+        unsafe { *count = 1 };
+        return;
+    }
+    if unsafe { *count } >= 1 {
+        unsafe {
+            *out = vk::QueueFamilyProperties {
+                queue_flags: vk::QueueFlags::GRAPHICS
+                    | vk::QueueFlags::COMPUTE
+                    | vk::QueueFlags::TRANSFER,
+                queue_count: 1,
+                ..Default::default()
+            };
+            *count = 1;
+        }
+    }
+}
+
+unsafe extern "system" fn create_command_pool(
+    _: vk::Device,
+    _: *const vk::CommandPoolCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::CommandPool,
+) -> vk::Result {
+    unsafe { *out = vk::CommandPool::from_raw(next_handle()) };
+    vk::Result::SUCCESS
+}
+
+/// Command buffers share their device's dispatch key.
+unsafe extern "system" fn allocate_command_buffers(
+    device: vk::Device,
+    info: *const vk::CommandBufferAllocateInfo<'_>,
+    out: *mut vk::CommandBuffer,
+) -> vk::Result {
+    let count = unsafe { (*info).command_buffer_count } as usize;
+    for i in 0..count {
+        let handle = dispatchable(key_of(device.as_raw()));
+        unsafe { *out.add(i) = vk::CommandBuffer::from_raw(handle) };
+    }
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn begin_command_buffer(
+    cb: vk::CommandBuffer,
+    _: *const vk::CommandBufferBeginInfo<'_>,
+) -> vk::Result {
+    record("vkBeginCommandBuffer", vec![cb.as_raw()]);
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn end_command_buffer(cb: vk::CommandBuffer) -> vk::Result {
+    record("vkEndCommandBuffer", vec![cb.as_raw()]);
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn cmd_begin_render_pass(
+    cb: vk::CommandBuffer,
+    _: *const vk::RenderPassBeginInfo<'_>,
+    _: vk::SubpassContents,
+) {
+    record("vkCmdBeginRenderPass", vec![cb.as_raw()]);
+}
+
+unsafe extern "system" fn cmd_end_render_pass(cb: vk::CommandBuffer) {
+    record("vkCmdEndRenderPass", vec![cb.as_raw()]);
+}
+
+unsafe extern "system" fn cmd_begin_rendering(
+    cb: vk::CommandBuffer,
+    _: *const vk::RenderingInfo<'_>,
+) {
+    record("vkCmdBeginRendering", vec![cb.as_raw()]);
+}
+
+unsafe extern "system" fn cmd_end_rendering(cb: vk::CommandBuffer) {
+    record("vkCmdEndRendering", vec![cb.as_raw()]);
+}
+
+unsafe extern "system" fn queue_submit(
+    queue: vk::Queue,
+    count: u32,
+    _: *const vk::SubmitInfo<'_>,
+    _: vk::Fence,
+) -> vk::Result {
+    record("vkQueueSubmit", vec![queue.as_raw(), u64::from(count)]);
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn create_acceleration_structure(
+    _: vk::Device,
+    _: *const vk::AccelerationStructureCreateInfoKHR<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::AccelerationStructureKHR,
+) -> vk::Result {
+    let handle = next_handle();
+    record("vkCreateAccelerationStructureKHR", vec![handle]);
+    unsafe { *out = vk::AccelerationStructureKHR::from_raw(handle) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn cmd_build_acceleration_structures(
+    cb: vk::CommandBuffer,
+    count: u32,
+    _: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    _: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+) {
+    record(
+        "vkCmdBuildAccelerationStructuresKHR",
+        vec![cb.as_raw(), u64::from(count)],
+    );
+}
+
+unsafe extern "system" fn cmd_copy_micromap(
+    cb: vk::CommandBuffer,
+    _: *const vk::CopyMicromapInfoEXT<'_>,
+) {
+    record("vkCmdCopyMicromapEXT", vec![cb.as_raw()]);
+}
+
 /// A command no layer knows, which the fake driver has.
 pub unsafe extern "system" fn unknown_command() {
     record("vkOmmcheckTestUnknownCommand", vec![]);
@@ -331,6 +458,24 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdBuildMicromapsEXT" => void(cmd_build_micromaps as vk::PFN_vkCmdBuildMicromapsEXT),
         b"vkBuildMicromapsEXT" => void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
         b"vkOmmcheckTestUnknownCommand" => void(unknown_command as unsafe extern "system" fn()),
+        b"vkCreateCommandPool" => void(create_command_pool as vk::PFN_vkCreateCommandPool),
+        b"vkAllocateCommandBuffers" => {
+            void(allocate_command_buffers as vk::PFN_vkAllocateCommandBuffers)
+        }
+        b"vkBeginCommandBuffer" => void(begin_command_buffer as vk::PFN_vkBeginCommandBuffer),
+        b"vkEndCommandBuffer" => void(end_command_buffer as vk::PFN_vkEndCommandBuffer),
+        b"vkCmdCopyMicromapEXT" => void(cmd_copy_micromap as vk::PFN_vkCmdCopyMicromapEXT),
+        b"vkCmdBeginRenderPass" => void(cmd_begin_render_pass as vk::PFN_vkCmdBeginRenderPass),
+        b"vkCmdEndRenderPass" => void(cmd_end_render_pass as vk::PFN_vkCmdEndRenderPass),
+        b"vkCmdBeginRendering" => void(cmd_begin_rendering as vk::PFN_vkCmdBeginRendering),
+        b"vkCmdEndRendering" => void(cmd_end_rendering as vk::PFN_vkCmdEndRendering),
+        b"vkQueueSubmit" => void(queue_submit as vk::PFN_vkQueueSubmit),
+        b"vkCreateAccelerationStructureKHR" => {
+            void(create_acceleration_structure as vk::PFN_vkCreateAccelerationStructureKHR)
+        }
+        b"vkCmdBuildAccelerationStructuresKHR" => {
+            void(cmd_build_acceleration_structures as vk::PFN_vkCmdBuildAccelerationStructuresKHR)
+        }
         _ => None,
     }
 }
@@ -351,6 +496,9 @@ pub unsafe extern "system" fn fake_gipa(
         b"vkCreateInstance" => void(create_instance as vk::PFN_vkCreateInstance),
         b"vkDestroyInstance" => void(destroy_instance as vk::PFN_vkDestroyInstance),
         b"vkCreateDevice" => void(create_device as vk::PFN_vkCreateDevice),
+        b"vkGetPhysicalDeviceQueueFamilyProperties" => {
+            void(get_queue_family_properties as vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties)
+        }
         b"vkGetPhysicalDeviceMemoryProperties" => {
             void(get_memory_properties as vk::PFN_vkGetPhysicalDeviceMemoryProperties)
         }
@@ -587,6 +735,16 @@ impl Chain {
     }
 
     pub fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, memory_type: u32) -> vk::Buffer {
+        self.buffer_and_memory(size, usage, memory_type).0
+    }
+
+    /// A buffer bound at offset 0 to memory of its own, and the memory.
+    pub fn buffer_and_memory(
+        &self,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        memory_type: u32,
+    ) -> (vk::Buffer, vk::DeviceMemory) {
         let create: vk::PFN_vkCreateBuffer = device_fn(self.device, c"vkCreateBuffer");
         let info = vk::BufferCreateInfo::default().size(size).usage(usage);
         let mut buffer = vk::Buffer::null();
@@ -600,7 +758,7 @@ impl Chain {
             unsafe { bind(self.device, buffer, memory, 0) },
             vk::Result::SUCCESS
         );
-        buffer
+        (buffer, memory)
     }
 
     pub fn memory(&self, size: u64, memory_type: u32) -> vk::DeviceMemory {
@@ -656,5 +814,65 @@ impl Chain {
         let result = unsafe { create(self.device, &info, std::ptr::null(), &mut micromap) };
         assert_eq!(result, vk::Result::SUCCESS);
         micromap
+    }
+}
+
+/// Two 2-state level-1 triangles (one byte of data each).
+pub const USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
+    count: 2,
+    subdivision_level: 1,
+    format: 1,
+}];
+
+/// Everything a device build reads, created through the layer.
+pub struct DeviceBuild {
+    pub micromap: vk::MicromapEXT,
+    pub input: u64,
+    pub scratch: u64,
+}
+
+impl DeviceBuild {
+    pub fn new(chain: &Chain) -> Self {
+        let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 0);
+        let micromap = chain.micromap(storage, 4096);
+        let input = chain.buffer(
+            4096,
+            vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            0,
+        );
+        let scratch = chain.buffer(
+            4096,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            0,
+        );
+        Self {
+            micromap,
+            input: chain.address(input),
+            scratch: chain.address(scratch),
+        }
+    }
+
+    /// A valid build info: the triangle array at the start of the input
+    /// buffer, the data 256 bytes in.
+    pub fn info(&self) -> vk::MicromapBuildInfoEXT<'static> {
+        vk::MicromapBuildInfoEXT {
+            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+            mode: vk::BuildMicromapModeEXT::BUILD,
+            dst_micromap: self.micromap,
+            usage_counts_count: 1,
+            p_usage_counts: USAGE.as_ptr(),
+            data: vk::DeviceOrHostAddressConstKHR {
+                device_address: self.input + 256,
+            },
+            triangle_array: vk::DeviceOrHostAddressConstKHR {
+                device_address: self.input,
+            },
+            triangle_array_stride: 8,
+            scratch_data: vk::DeviceOrHostAddressKHR {
+                device_address: self.scratch,
+            },
+            ..Default::default()
+        }
     }
 }

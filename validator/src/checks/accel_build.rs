@@ -539,7 +539,7 @@ fn record_builds(
 /// A micromap geometry's triangle array as far as it is readable (at most
 /// Σcount entries, a stride below 8 or not a multiple of 4 reads none:
 /// 11646/11647 report it) and its data, shared.
-fn micromap_content(
+pub(crate) fn micromap_content(
     state: &State,
     host: bool,
     data: &GeometryMicromapData,
@@ -625,7 +625,7 @@ fn micromap_triangle_count(info: &BuildGeometryInfo) -> u64 {
 /// The checks every build command shares: each info, its command's own
 /// rules, each micromap geometry's inputs, each geometry's attachments (in
 /// `accel_attach`), and rules across infos.
-fn builds(
+pub(crate) fn builds(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
     infos: &[BuildGeometryInfo],

@@ -104,130 +104,7 @@ impl Validator {
         infos: &[MicromapBuildInfo],
     ) -> Report {
         let mut ctx = self.ctx("vkCmdBuildMicromapsEXT");
-        common::command_buffer(
-            &mut ctx,
-            command_buffer,
-            &CommandBufferVuids {
-                parameter: cmd::commandBuffer_parameter,
-                recording: cmd::commandBuffer_recording,
-                cmdpool: cmd::commandBuffer_cmdpool,
-                renderpass: Some(cmd::renderpass),
-                videocoding: Some(cmd::videocoding),
-                suspended: Some(cmd::suspended),
-            },
-        );
-        ctx.require(
-            !infos.is_empty(),
-            cmd::infoCount_arraylength,
-            || "infoCount".into(),
-            || "infoCount is 0".into(),
-        );
-        ctx.require(
-            ctx.device.features.micromap_ext,
-            cmd::micromap_11648,
-            String::new,
-            || {
-                "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled"
-                    .into()
-            },
-        );
-        let mut contents = Vec::with_capacity(infos.len());
-        for (i, info) in infos.iter().enumerate() {
-            contents.push(build_info(
-                &mut ctx,
-                &format!("pInfos[{i}]"),
-                info,
-                Side::Device,
-            ));
-            let at = format!("pInfos[{i}]");
-            ctx.require(
-                info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
-                cmd::mode_07462,
-                || format!("{at}.mode"),
-                || format!("{} is not a VkBuildMicromapModeEXT value", info.mode),
-            );
-            if let Some(micromap) =
-                dst_micromap(&mut ctx, i, info, cmd::dstMicromap_07463, cmd::pInfos_07464)
-            {
-                // dst_micromap found the micromap, so the state is known.
-                let bound = ctx
-                    .state
-                    .and_then(|state| state.buffers.get(&micromap))
-                    .is_some_and(|b| b.memory.is_some());
-                ctx.require(bound, cmd::pInfos_07508, || format!("{at}.dstMicromap"), || format!("the buffer VkBuffer {micromap:#x} of dstMicromap is not bound to device memory"));
-            }
-            common::valid_device_address(
-                &mut ctx,
-                info.data,
-                cmd::pInfos_10896,
-                &format!("{at}.data.deviceAddress"),
-            );
-            common::valid_device_address(
-                &mut ctx,
-                info.triangle_array,
-                cmd::pInfos_10897,
-                &format!("{at}.triangleArray.deviceAddress"),
-            );
-            common::aligned(
-                &mut ctx,
-                info.data,
-                256,
-                cmd::pInfos_07515,
-                &format!("{at}.data.deviceAddress"),
-            );
-            common::aligned(
-                &mut ctx,
-                info.triangle_array,
-                256,
-                cmd::pInfos_07515,
-                &format!("{at}.triangleArray.deviceAddress"),
-            );
-            for (address, member) in [(info.data, "data"), (info.triangle_array, "triangleArray")] {
-                common::device_address_usage(
-                    &mut ctx,
-                    address,
-                    BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT,
-                    "VK_BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT",
-                    cmd::data_07510,
-                    &format!("{at}.{member}.deviceAddress"),
-                );
-            }
-            if info.scratch_data != 0 {
-                if ctx.state.is_some_and(|state| {
-                    state.knows_addresses() && state.buffers_at(info.scratch_data).next().is_none()
-                }) {
-                    ctx.error(
-                        cmd::pInfos_07512,
-                        format!("{at}.scratchData.deviceAddress"),
-                        format!(
-                            "{:#x} is inside no buffer's device-address range",
-                            info.scratch_data
-                        ),
-                    );
-                }
-                common::device_address_usage(
-                    &mut ctx,
-                    info.scratch_data,
-                    BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                    "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
-                    cmd::pInfos_07511,
-                    &format!("{at}.scratchData.deviceAddress"),
-                );
-            }
-            let alignment = u64::from(
-                ctx.device
-                    .limits
-                    .min_acceleration_structure_scratch_offset_alignment,
-            );
-            common::aligned(
-                &mut ctx,
-                info.scratch_data,
-                alignment,
-                cmd::pInfos_07514,
-                &format!("{at}.scratchData.deviceAddress"),
-            );
-        }
-        overlaps(&mut ctx, infos, Side::Device);
+        let contents = cmd_build_micromaps_rules(&mut ctx, command_buffer, infos);
         let report = ctx.finish();
         self.record_builds(infos, contents);
         report
@@ -368,6 +245,132 @@ impl Validator {
             }
         }
     }
+}
+
+/// The rules of `vkCmdBuildMicromapsEXT` (without recording the builds);
+/// returns each info's content as far as the checker could read it.
+pub(crate) fn cmd_build_micromaps_rules(
+    ctx: &mut Ctx<'_>,
+    command_buffer: &CommandBuffer,
+    infos: &[MicromapBuildInfo],
+) -> Vec<Option<MicromapContent>> {
+    common::command_buffer(
+        ctx,
+        command_buffer,
+        &CommandBufferVuids {
+            parameter: cmd::commandBuffer_parameter,
+            recording: cmd::commandBuffer_recording,
+            cmdpool: cmd::commandBuffer_cmdpool,
+            renderpass: Some(cmd::renderpass),
+            videocoding: Some(cmd::videocoding),
+            suspended: Some(cmd::suspended),
+        },
+    );
+    ctx.require(
+        !infos.is_empty(),
+        cmd::infoCount_arraylength,
+        || "infoCount".into(),
+        || "infoCount is 0".into(),
+    );
+    ctx.require(
+        ctx.device.features.micromap_ext,
+        cmd::micromap_11648,
+        String::new,
+        || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into(),
+    );
+    let mut contents = Vec::with_capacity(infos.len());
+    for (i, info) in infos.iter().enumerate() {
+        contents.push(build_info(ctx, &format!("pInfos[{i}]"), info, Side::Device));
+        let at = format!("pInfos[{i}]");
+        ctx.require(
+            info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
+            cmd::mode_07462,
+            || format!("{at}.mode"),
+            || format!("{} is not a VkBuildMicromapModeEXT value", info.mode),
+        );
+        if let Some(micromap) =
+            dst_micromap(ctx, i, info, cmd::dstMicromap_07463, cmd::pInfos_07464)
+        {
+            // dst_micromap found the micromap, so the state is known.
+            let bound = ctx
+                .state
+                .and_then(|state| state.buffers.get(&micromap))
+                .is_some_and(|b| b.memory.is_some());
+            ctx.require(bound, cmd::pInfos_07508, || format!("{at}.dstMicromap"), || format!("the buffer VkBuffer {micromap:#x} of dstMicromap is not bound to device memory"));
+        }
+        common::valid_device_address(
+            ctx,
+            info.data,
+            cmd::pInfos_10896,
+            &format!("{at}.data.deviceAddress"),
+        );
+        common::valid_device_address(
+            ctx,
+            info.triangle_array,
+            cmd::pInfos_10897,
+            &format!("{at}.triangleArray.deviceAddress"),
+        );
+        common::aligned(
+            ctx,
+            info.data,
+            256,
+            cmd::pInfos_07515,
+            &format!("{at}.data.deviceAddress"),
+        );
+        common::aligned(
+            ctx,
+            info.triangle_array,
+            256,
+            cmd::pInfos_07515,
+            &format!("{at}.triangleArray.deviceAddress"),
+        );
+        for (address, member) in [(info.data, "data"), (info.triangle_array, "triangleArray")] {
+            common::device_address_usage(
+                ctx,
+                address,
+                BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT,
+                "VK_BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT",
+                cmd::data_07510,
+                &format!("{at}.{member}.deviceAddress"),
+            );
+        }
+        if info.scratch_data != 0 {
+            if ctx.state.is_some_and(|state| {
+                state.knows_addresses() && state.buffers_at(info.scratch_data).next().is_none()
+            }) {
+                ctx.error(
+                    cmd::pInfos_07512,
+                    format!("{at}.scratchData.deviceAddress"),
+                    format!(
+                        "{:#x} is inside no buffer's device-address range",
+                        info.scratch_data
+                    ),
+                );
+            }
+            common::device_address_usage(
+                ctx,
+                info.scratch_data,
+                BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
+                cmd::pInfos_07511,
+                &format!("{at}.scratchData.deviceAddress"),
+            );
+        }
+        let alignment = u64::from(
+            ctx.device
+                .limits
+                .min_acceleration_structure_scratch_offset_alignment,
+        );
+        common::aligned(
+            ctx,
+            info.scratch_data,
+            alignment,
+            cmd::pInfos_07514,
+            &format!("{at}.scratchData.deviceAddress"),
+        );
+    }
+    overlaps(ctx, infos, Side::Device);
+    contents
 }
 
 /// Looks up `dstMicromap` (07463) and checks the build type matches its

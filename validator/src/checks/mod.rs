@@ -8,6 +8,7 @@ use ommcheck_vuids::Vuid;
 pub mod accel_attach;
 pub mod accel_build;
 pub(crate) mod common;
+pub mod device_contents;
 pub(crate) mod hygiene;
 pub mod micromap_build;
 pub mod micromap_objects;

@@ -186,6 +186,34 @@ pub struct TrianglesData {
     pub displacement_nv: Option<TrianglesDisplacementMicromapNv>,
 }
 
+/// An opacity micromap attachment's index buffer: the attachment's
+/// structure name, `indexType`, `indexBuffer` and `indexStride`.
+pub struct OpacityIndexBuffer {
+    pub structure: &'static str,
+    pub index_type: i32,
+    pub address: u64,
+    pub stride: u64,
+}
+
+impl TrianglesData {
+    /// The index buffers of the EXT and KHR opacity attachments, EXT first.
+    pub fn opacity_index_buffers(&self) -> Vec<OpacityIndexBuffer> {
+        let ext = self.opacity_ext.as_ref().map(|a| OpacityIndexBuffer {
+            structure: "VkAccelerationStructureTrianglesOpacityMicromapEXT",
+            index_type: a.index_type,
+            address: a.index_buffer,
+            stride: a.index_stride,
+        });
+        let khr = self.opacity_khr.as_ref().map(|a| OpacityIndexBuffer {
+            structure: "VkAccelerationStructureTrianglesOpacityMicromapKHR",
+            index_type: a.index_type,
+            address: a.index_buffer,
+            stride: a.index_stride,
+        });
+        ext.into_iter().chain(khr).collect()
+    }
+}
+
 impl Default for TrianglesData {
     fn default() -> Self {
         Self {

@@ -20,6 +20,7 @@ use ommcheck_vuids::khr;
 use super::{
     bounded_len, chain, chain_s_types, read_array, usage_counts, MAX_ELEMENTS, MAX_HOST_BYTES,
 };
+use crate::checks::device_contents::DeviceBuild;
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, GeometryMicromapData, Instance,
@@ -635,32 +636,17 @@ fn host_reads(
         let Some(count) = ranges.and_then(|r| r.get(g)).map(|r| r.primitive_count) else {
             continue;
         };
-        let attachments = [
-            triangles.opacity_ext.as_ref().map(|a| {
-                (
-                    "VkAccelerationStructureTrianglesOpacityMicromapEXT",
-                    a.index_type,
-                    a.index_buffer,
-                    a.index_stride,
-                )
-            }),
-            triangles.opacity_khr.as_ref().map(|a| {
-                (
-                    "VkAccelerationStructureTrianglesOpacityMicromapKHR",
-                    a.index_type,
-                    a.index_buffer,
-                    a.index_stride,
-                )
-            }),
-        ];
-        for (name, index_type, address, stride) in attachments.into_iter().flatten() {
-            let Some(size) = index_size(index_type) else {
+        for buffer in triangles.opacity_index_buffers() {
+            let Some(size) = index_size(buffer.index_type) else {
                 continue; // NONE (or not an index type): no index buffer is read.
             };
             reads.push(HostRead {
-                address,
-                extent: strided_extent(u64::from(count), stride, size),
-                location: format!("{at}.geometry.triangles.pNext<{name}>.indexBuffer"),
+                address: buffer.address,
+                extent: strided_extent(u64::from(count), buffer.stride, size),
+                location: format!(
+                    "{at}.geometry.triangles.pNext<{}>.indexBuffer",
+                    buffer.structure
+                ),
             });
         }
     }
@@ -769,6 +755,31 @@ impl Validator {
         infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
         build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
     ) -> Report {
+        // SAFETY: forwarded from the caller.
+        unsafe {
+            self.cmd_build_acceleration_structures_raw_kept(
+                command_buffer,
+                info_count,
+                infos,
+                build_range_infos,
+            )
+        }
+        .0
+    }
+
+    /// As [`Self::cmd_build_acceleration_structures_raw`], and returns the
+    /// build as read, to check its contents when the command buffer is
+    /// submitted ([`Validator::check_device_build_contents`]).
+    ///
+    /// # Safety
+    /// As [`Self::cmd_build_acceleration_structures_raw`].
+    pub unsafe fn cmd_build_acceleration_structures_raw_kept(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info_count: u32,
+        infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+        build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+    ) -> (Report, DeviceBuild) {
         let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
         let (infos, ranges) = unsafe {
@@ -781,10 +792,17 @@ impl Validator {
             )
         };
         // SAFETY: forwarded from the caller.
-        let mut report =
-            unsafe { self.cmd_build_acceleration_structures_ash(command_buffer, infos, ranges) };
-        findings.append(&mut report.findings);
-        Report { findings }
+        let model = unsafe { build_geometry_infos(infos, CMD_BUILD, &mut findings) };
+        // SAFETY: forwarded from the caller.
+        let ranges =
+            unsafe { read_build_range_infos(infos, model.len(), ranges, CMD_BUILD, &mut findings) };
+        let mut report = Report { findings };
+        report.extend(self.cmd_build_acceleration_structures(command_buffer, &model, &ranges));
+        let build = DeviceBuild::AccelerationStructures {
+            infos: model,
+            ranges,
+        };
+        (report, build)
     }
 
     /// Checks `vkBuildAccelerationStructuresKHR(device, deferredOperation,

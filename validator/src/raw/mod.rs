@@ -11,6 +11,7 @@
 #![allow(unsafe_code)]
 
 pub mod accel;
+pub mod commands;
 pub mod objects;
 
 use std::collections::HashSet;
@@ -19,6 +20,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::checks::device_contents::DeviceBuild;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
@@ -244,7 +246,7 @@ pub unsafe fn micromap_build_info(
 ///
 /// # Safety
 /// As [`micromap_build_info`] for each of `count` elements at `infos`.
-unsafe fn micromap_build_infos(
+pub(crate) unsafe fn micromap_build_infos(
     infos: *const vk::MicromapBuildInfoEXT<'_>,
     count: u32,
     function: &'static str,
@@ -304,6 +306,23 @@ impl Validator {
         info_count: u32,
         infos: *const vk::MicromapBuildInfoEXT<'_>,
     ) -> Report {
+        // SAFETY: forwarded from the caller.
+        unsafe { self.cmd_build_micromaps_raw_kept(command_buffer, info_count, infos) }.0
+    }
+
+    /// As [`Self::cmd_build_micromaps_raw`], and returns the build as read,
+    /// to check its contents when the command buffer is submitted
+    /// ([`Validator::check_device_build_contents`]); None when `pInfos` is
+    /// NULL with a count.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_build_micromaps_raw`].
+    pub unsafe fn cmd_build_micromaps_raw_kept(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info_count: u32,
+        infos: *const vk::MicromapBuildInfoEXT<'_>,
+    ) -> (Report, Option<DeviceBuild>) {
         let mut findings = Vec::new();
         let function = "vkCmdBuildMicromapsEXT";
         // SAFETY: forwarded from the caller.
@@ -318,10 +337,10 @@ impl Validator {
         };
         let mut report = Report { findings };
         if infos.is_null() && info_count != 0 {
-            return report;
+            return (report, None);
         }
         report.extend(self.cmd_build_micromaps(command_buffer, &model));
-        report
+        (report, Some(DeviceBuild::Micromaps(model)))
     }
 
     /// Checks `vkBuildMicromapsEXT` called with ash structures whose

@@ -328,15 +328,15 @@ impl Validator {
     }
 }
 
-/// Reads `count` elements of an application array of binds, at most
-/// [`super::MAX_ELEMENTS`]; empty for NULL.
+/// Reads `count` elements of an application array of binds (buffer,
+/// memory, memoryOffset), at most [`super::MAX_ELEMENTS`]; empty for NULL.
 ///
 /// # Safety
 /// A non-NULL `binds` must point to `count` readable elements.
 pub unsafe fn bind_buffer_memory_infos(
     count: u32,
     binds: *const vk::BindBufferMemoryInfo<'_>,
-) -> Vec<(vk::Buffer, vk::DeviceMemory)> {
+) -> Vec<(vk::Buffer, vk::DeviceMemory, vk::DeviceSize)> {
     if binds.is_null() {
         return Vec::new();
     }
@@ -344,7 +344,7 @@ pub unsafe fn bind_buffer_memory_infos(
     // SAFETY: the caller guarantees `count` elements; `len <= count`.
     unsafe { std::slice::from_raw_parts(binds, len) }
         .iter()
-        .map(|bind| (bind.buffer, bind.memory))
+        .map(|bind| (bind.buffer, bind.memory, bind.memory_offset))
         .collect()
 }
 

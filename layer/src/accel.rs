@@ -1,0 +1,893 @@
+//! The acceleration-structure commands (creation, builds, size queries,
+//! copies) and the micromap commands besides creation and builds (copies,
+//! serialization, property queries, size queries, compatibility), with the
+//! query pools the property queries write to. Each is checked through the
+//! core's raw entry points and passed on unless a messenger asks to skip it;
+//! device builds keep their model for the checks of their contents at
+//! submission.
+
+#![allow(unsafe_code)]
+
+use std::ffi::{c_void, CStr};
+
+use ash::vk;
+use ash::vk::Handle as _;
+use ommcheck::model::CommandBuffer;
+use ommcheck::vuids::khr;
+use ommcheck::Report;
+
+use crate::commands;
+use crate::device::{as_void, check, device_and, device_object, track};
+use crate::dispatch::{next_fn, DeviceFns, DeviceState};
+use crate::{guarded, read};
+
+/// `vkCreateAccelerationStructure2KHR` (VK_KHR_opacity_micromap), newer than ash 0.38.
+pub type PfnCreateAccelerationStructure2KHR = unsafe extern "system" fn(
+    vk::Device,
+    *const khr::AccelerationStructureCreateInfo2KHR,
+    *const vk::AllocationCallbacks<'_>,
+    *mut vk::AccelerationStructureKHR,
+) -> vk::Result;
+
+/// The next layer's acceleration-structure, micromap copy and query functions.
+pub struct AccelFns {
+    pub create_acceleration_structure: Option<vk::PFN_vkCreateAccelerationStructureKHR>,
+    pub create_acceleration_structure2: Option<PfnCreateAccelerationStructure2KHR>,
+    pub destroy_acceleration_structure: Option<vk::PFN_vkDestroyAccelerationStructureKHR>,
+    pub cmd_build_acceleration_structures: Option<vk::PFN_vkCmdBuildAccelerationStructuresKHR>,
+    pub cmd_build_acceleration_structures_indirect:
+        Option<vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR>,
+    pub build_acceleration_structures: Option<vk::PFN_vkBuildAccelerationStructuresKHR>,
+    pub get_acceleration_structure_build_sizes:
+        Option<vk::PFN_vkGetAccelerationStructureBuildSizesKHR>,
+    pub cmd_copy_acceleration_structure: Option<vk::PFN_vkCmdCopyAccelerationStructureKHR>,
+    pub copy_acceleration_structure: Option<vk::PFN_vkCopyAccelerationStructureKHR>,
+    pub cmd_copy_acceleration_structure_to_memory:
+        Option<vk::PFN_vkCmdCopyAccelerationStructureToMemoryKHR>,
+    pub cmd_copy_memory_to_acceleration_structure:
+        Option<vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR>,
+    pub cmd_copy_micromap: Option<vk::PFN_vkCmdCopyMicromapEXT>,
+    pub copy_micromap: Option<vk::PFN_vkCopyMicromapEXT>,
+    pub cmd_copy_micromap_to_memory: Option<vk::PFN_vkCmdCopyMicromapToMemoryEXT>,
+    pub copy_micromap_to_memory: Option<vk::PFN_vkCopyMicromapToMemoryEXT>,
+    pub cmd_copy_memory_to_micromap: Option<vk::PFN_vkCmdCopyMemoryToMicromapEXT>,
+    pub copy_memory_to_micromap: Option<vk::PFN_vkCopyMemoryToMicromapEXT>,
+    pub cmd_write_micromaps_properties: Option<vk::PFN_vkCmdWriteMicromapsPropertiesEXT>,
+    pub write_micromaps_properties: Option<vk::PFN_vkWriteMicromapsPropertiesEXT>,
+    pub get_micromap_build_sizes: Option<vk::PFN_vkGetMicromapBuildSizesEXT>,
+    pub get_device_micromap_compatibility: Option<vk::PFN_vkGetDeviceMicromapCompatibilityEXT>,
+    pub create_query_pool: Option<vk::PFN_vkCreateQueryPool>,
+    pub destroy_query_pool: Option<vk::PFN_vkDestroyQueryPool>,
+}
+
+impl AccelFns {
+    pub fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> Self {
+        macro_rules! load {
+            ($name:literal, $ty:ty) => {
+                next_fn!(gdpa, device, $name, $ty)
+            };
+        }
+        Self {
+            create_acceleration_structure: load!(
+                c"vkCreateAccelerationStructureKHR",
+                vk::PFN_vkCreateAccelerationStructureKHR
+            ),
+            create_acceleration_structure2: load!(
+                c"vkCreateAccelerationStructure2KHR",
+                PfnCreateAccelerationStructure2KHR
+            ),
+            destroy_acceleration_structure: load!(
+                c"vkDestroyAccelerationStructureKHR",
+                vk::PFN_vkDestroyAccelerationStructureKHR
+            ),
+            cmd_build_acceleration_structures: load!(
+                c"vkCmdBuildAccelerationStructuresKHR",
+                vk::PFN_vkCmdBuildAccelerationStructuresKHR
+            ),
+            cmd_build_acceleration_structures_indirect: load!(
+                c"vkCmdBuildAccelerationStructuresIndirectKHR",
+                vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR
+            ),
+            build_acceleration_structures: load!(
+                c"vkBuildAccelerationStructuresKHR",
+                vk::PFN_vkBuildAccelerationStructuresKHR
+            ),
+            get_acceleration_structure_build_sizes: load!(
+                c"vkGetAccelerationStructureBuildSizesKHR",
+                vk::PFN_vkGetAccelerationStructureBuildSizesKHR
+            ),
+            cmd_copy_acceleration_structure: load!(
+                c"vkCmdCopyAccelerationStructureKHR",
+                vk::PFN_vkCmdCopyAccelerationStructureKHR
+            ),
+            copy_acceleration_structure: load!(
+                c"vkCopyAccelerationStructureKHR",
+                vk::PFN_vkCopyAccelerationStructureKHR
+            ),
+            cmd_copy_acceleration_structure_to_memory: load!(
+                c"vkCmdCopyAccelerationStructureToMemoryKHR",
+                vk::PFN_vkCmdCopyAccelerationStructureToMemoryKHR
+            ),
+            cmd_copy_memory_to_acceleration_structure: load!(
+                c"vkCmdCopyMemoryToAccelerationStructureKHR",
+                vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR
+            ),
+            cmd_copy_micromap: load!(c"vkCmdCopyMicromapEXT", vk::PFN_vkCmdCopyMicromapEXT),
+            copy_micromap: load!(c"vkCopyMicromapEXT", vk::PFN_vkCopyMicromapEXT),
+            cmd_copy_micromap_to_memory: load!(
+                c"vkCmdCopyMicromapToMemoryEXT",
+                vk::PFN_vkCmdCopyMicromapToMemoryEXT
+            ),
+            copy_micromap_to_memory: load!(
+                c"vkCopyMicromapToMemoryEXT",
+                vk::PFN_vkCopyMicromapToMemoryEXT
+            ),
+            cmd_copy_memory_to_micromap: load!(
+                c"vkCmdCopyMemoryToMicromapEXT",
+                vk::PFN_vkCmdCopyMemoryToMicromapEXT
+            ),
+            copy_memory_to_micromap: load!(
+                c"vkCopyMemoryToMicromapEXT",
+                vk::PFN_vkCopyMemoryToMicromapEXT
+            ),
+            cmd_write_micromaps_properties: load!(
+                c"vkCmdWriteMicromapsPropertiesEXT",
+                vk::PFN_vkCmdWriteMicromapsPropertiesEXT
+            ),
+            write_micromaps_properties: load!(
+                c"vkWriteMicromapsPropertiesEXT",
+                vk::PFN_vkWriteMicromapsPropertiesEXT
+            ),
+            get_micromap_build_sizes: load!(
+                c"vkGetMicromapBuildSizesEXT",
+                vk::PFN_vkGetMicromapBuildSizesEXT
+            ),
+            get_device_micromap_compatibility: load!(
+                c"vkGetDeviceMicromapCompatibilityEXT",
+                vk::PFN_vkGetDeviceMicromapCompatibilityEXT
+            ),
+            create_query_pool: load!(c"vkCreateQueryPool", vk::PFN_vkCreateQueryPool),
+            destroy_query_pool: load!(c"vkDestroyQueryPool", vk::PFN_vkDestroyQueryPool),
+        }
+    }
+}
+
+/// This layer's function for an acceleration-structure, micromap copy or
+/// query command name.
+pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkCreateAccelerationStructureKHR" => {
+            as_void(create_acceleration_structure as vk::PFN_vkCreateAccelerationStructureKHR)
+        }
+        b"vkCreateAccelerationStructure2KHR" => {
+            as_void(create_acceleration_structure2 as PfnCreateAccelerationStructure2KHR)
+        }
+        b"vkDestroyAccelerationStructureKHR" => {
+            as_void(destroy_acceleration_structure as vk::PFN_vkDestroyAccelerationStructureKHR)
+        }
+        b"vkCmdBuildAccelerationStructuresKHR" => as_void(
+            cmd_build_acceleration_structures as vk::PFN_vkCmdBuildAccelerationStructuresKHR,
+        ),
+        b"vkCmdBuildAccelerationStructuresIndirectKHR" => as_void(
+            cmd_build_acceleration_structures_indirect
+                as vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR,
+        ),
+        b"vkBuildAccelerationStructuresKHR" => {
+            as_void(build_acceleration_structures as vk::PFN_vkBuildAccelerationStructuresKHR)
+        }
+        b"vkGetAccelerationStructureBuildSizesKHR" => as_void(
+            get_acceleration_structure_build_sizes
+                as vk::PFN_vkGetAccelerationStructureBuildSizesKHR,
+        ),
+        b"vkCmdCopyAccelerationStructureKHR" => {
+            as_void(cmd_copy_acceleration_structure as vk::PFN_vkCmdCopyAccelerationStructureKHR)
+        }
+        b"vkCopyAccelerationStructureKHR" => {
+            as_void(copy_acceleration_structure as vk::PFN_vkCopyAccelerationStructureKHR)
+        }
+        b"vkCmdCopyAccelerationStructureToMemoryKHR" => as_void(
+            cmd_copy_acceleration_structure_to_memory
+                as vk::PFN_vkCmdCopyAccelerationStructureToMemoryKHR,
+        ),
+        b"vkCmdCopyMemoryToAccelerationStructureKHR" => as_void(
+            cmd_copy_memory_to_acceleration_structure
+                as vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR,
+        ),
+        b"vkCmdCopyMicromapEXT" => as_void(cmd_copy_micromap as vk::PFN_vkCmdCopyMicromapEXT),
+        b"vkCopyMicromapEXT" => as_void(copy_micromap as vk::PFN_vkCopyMicromapEXT),
+        b"vkCmdCopyMicromapToMemoryEXT" => {
+            as_void(cmd_copy_micromap_to_memory as vk::PFN_vkCmdCopyMicromapToMemoryEXT)
+        }
+        b"vkCopyMicromapToMemoryEXT" => {
+            as_void(copy_micromap_to_memory as vk::PFN_vkCopyMicromapToMemoryEXT)
+        }
+        b"vkCmdCopyMemoryToMicromapEXT" => {
+            as_void(cmd_copy_memory_to_micromap as vk::PFN_vkCmdCopyMemoryToMicromapEXT)
+        }
+        b"vkCopyMemoryToMicromapEXT" => {
+            as_void(copy_memory_to_micromap as vk::PFN_vkCopyMemoryToMicromapEXT)
+        }
+        b"vkCmdWriteMicromapsPropertiesEXT" => {
+            as_void(cmd_write_micromaps_properties as vk::PFN_vkCmdWriteMicromapsPropertiesEXT)
+        }
+        b"vkWriteMicromapsPropertiesEXT" => {
+            as_void(write_micromaps_properties as vk::PFN_vkWriteMicromapsPropertiesEXT)
+        }
+        b"vkGetMicromapBuildSizesEXT" => {
+            as_void(get_micromap_build_sizes as vk::PFN_vkGetMicromapBuildSizesEXT)
+        }
+        b"vkGetDeviceMicromapCompatibilityEXT" => as_void(
+            get_device_micromap_compatibility as vk::PFN_vkGetDeviceMicromapCompatibilityEXT,
+        ),
+        b"vkCreateQueryPool" => as_void(create_query_pool as vk::PFN_vkCreateQueryPool),
+        b"vkDestroyQueryPool" => as_void(destroy_query_pool as vk::PFN_vkDestroyQueryPool),
+        _ => None,
+    }
+}
+
+/// A `vkCmd*` command: checked against the command buffer's tracked state,
+/// then recorded below unless a messenger asks to skip it.
+fn recorded<F: Copy>(
+    function: &'static str,
+    command_buffer: vk::CommandBuffer,
+    pick: fn(&DeviceFns) -> Option<F>,
+    checks: impl FnOnce(&mut DeviceState, &CommandBuffer) -> Report,
+    call_down: impl FnOnce(F),
+) {
+    guarded(function, (), || {
+        // A command buffer shares its device's dispatch key.
+        let Some((data, next)) = device_and(command_buffer, pick) else {
+            return;
+        };
+        let model = commands::model(command_buffer);
+        let object = (vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw());
+        if !check(&data, function, object, |state| checks(state, &model)) {
+            call_down(next);
+        }
+    })
+}
+
+/// A device command that returns a `VkResult`: checked, then passed on
+/// unless a messenger asks to skip it (VK_ERROR_VALIDATION_FAILED_EXT).
+fn host_command<F: Copy>(
+    function: &'static str,
+    device: vk::Device,
+    pick: fn(&DeviceFns) -> Option<F>,
+    checks: impl FnOnce(&mut DeviceState) -> Report,
+    call_down: impl FnOnce(F) -> vk::Result,
+) -> vk::Result {
+    guarded(function, vk::Result::ERROR_INITIALIZATION_FAILED, || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return vk::Result::ERROR_INITIALIZATION_FAILED;
+        };
+        if check(&data, function, device_object(device), checks) {
+            return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+        }
+        call_down(next)
+    })
+}
+
+/// A device command without a result: checked, then passed on unless a
+/// messenger asks to skip it.
+fn query_command<F: Copy>(
+    function: &'static str,
+    device: vk::Device,
+    pick: fn(&DeviceFns) -> Option<F>,
+    checks: impl FnOnce(&mut DeviceState) -> Report,
+    call_down: impl FnOnce(F),
+) {
+    guarded(function, (), || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return;
+        };
+        if !check(&data, function, device_object(device), checks) {
+            call_down(next);
+        }
+    })
+}
+
+/// `vkCreateAccelerationStructureKHR`: checked before the call; the
+/// structure the driver creates is tracked after it.
+unsafe extern "system" fn create_acceleration_structure(
+    device: vk::Device,
+    create_info: *const vk::AccelerationStructureCreateInfoKHR<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    structure_out: *mut vk::AccelerationStructureKHR,
+) -> vk::Result {
+    let function = "vkCreateAccelerationStructureKHR";
+    // SAFETY: the create info is valid (the API's requirement).
+    let info = unsafe { create_info.as_ref() };
+    let result = host_command(
+        function,
+        device,
+        |f| f.accel.create_acceleration_structure,
+        |state| match info {
+            // SAFETY: as above; no handle yet, so nothing is tracked.
+            Some(info) => unsafe {
+                state
+                    .validator
+                    .create_acceleration_structure_ash(info, vk::AccelerationStructureKHR::null())
+            },
+            None => Report::default(),
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, create_info, allocator, structure_out) },
+    );
+    // SAFETY: on success the next layer wrote the handle.
+    let created = unsafe { read::value(structure_out) };
+    if let (vk::Result::SUCCESS, Some(info), Some(structure)) = (result, info, created) {
+        record_created(device, function, |state| {
+            // SAFETY: as above; the report was given before the call.
+            drop(unsafe {
+                state
+                    .validator
+                    .create_acceleration_structure_ash(info, structure)
+            });
+        });
+    }
+    result
+}
+
+/// Tracks what a creation made, for the device of `device`.
+fn record_created(device: vk::Device, function: &'static str, body: impl FnOnce(&mut DeviceState)) {
+    guarded(function, (), || {
+        if let Some(data) = crate::dispatch::DEVICES.get(device) {
+            track(&data, function, body);
+        }
+    });
+}
+
+/// `vkCreateAccelerationStructure2KHR`: as [`create_acceleration_structure`].
+unsafe extern "system" fn create_acceleration_structure2(
+    device: vk::Device,
+    create_info: *const khr::AccelerationStructureCreateInfo2KHR,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    structure_out: *mut vk::AccelerationStructureKHR,
+) -> vk::Result {
+    let function = "vkCreateAccelerationStructure2KHR";
+    // SAFETY: the create info is valid (the API's requirement).
+    let info = unsafe { create_info.as_ref() };
+    let result = host_command(
+        function,
+        device,
+        |f| f.accel.create_acceleration_structure2,
+        |state| match info {
+            // SAFETY: as above; no handle yet, so nothing is tracked.
+            Some(info) => unsafe {
+                state
+                    .validator
+                    .create_acceleration_structure2_ash(info, vk::AccelerationStructureKHR::null())
+            },
+            None => Report::default(),
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, create_info, allocator, structure_out) },
+    );
+    // SAFETY: on success the next layer wrote the handle.
+    let created = unsafe { read::value(structure_out) };
+    if let (vk::Result::SUCCESS, Some(info), Some(structure)) = (result, info, created) {
+        record_created(device, function, |state| {
+            // SAFETY: as above; the report was given before the call.
+            drop(unsafe {
+                state
+                    .validator
+                    .create_acceleration_structure2_ash(info, structure)
+            });
+        });
+    }
+    result
+}
+
+/// `vkDestroyAccelerationStructureKHR`: the structure is forgotten.
+unsafe extern "system" fn destroy_acceleration_structure(
+    device: vk::Device,
+    structure: vk::AccelerationStructureKHR,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    let function = "vkDestroyAccelerationStructureKHR";
+    guarded(function, (), || {
+        let Some((data, next)) = device_and(device, |f| f.accel.destroy_acceleration_structure)
+        else {
+            return;
+        };
+        track(&data, function, |state| {
+            let tracked = state.validator.state_mut();
+            tracked.acceleration_structures.remove(&structure.as_raw());
+            tracked.original_attachments.remove(&structure.as_raw());
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, structure, allocator) };
+    })
+}
+
+/// `vkCmdBuildAccelerationStructuresKHR`: checked at recording; its
+/// contents (index buffers, micromap inputs) when the command buffer is submitted.
+unsafe extern "system" fn cmd_build_acceleration_structures(
+    command_buffer: vk::CommandBuffer,
+    info_count: u32,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+) {
+    // The build as read and the command buffer as checked, kept for the
+    // content checks at submission once the command is recorded below.
+    let kept = std::cell::Cell::new(None);
+    recorded(
+        "vkCmdBuildAccelerationStructuresKHR",
+        command_buffer,
+        |f| f.accel.cmd_build_acceleration_structures,
+        |state, model| {
+            // SAFETY: the application's arguments, valid as the API requires.
+            let (report, build) = unsafe {
+                state.validator.cmd_build_acceleration_structures_raw_kept(
+                    model,
+                    info_count,
+                    infos,
+                    build_range_infos,
+                )
+            };
+            kept.set(Some((build, model.clone())));
+            report
+        },
+        |next| {
+            if let Some((build, model)) = kept.take() {
+                commands::keep_for_submission(command_buffer, &model, build);
+            }
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { next(command_buffer, info_count, infos, build_range_infos) }
+        },
+    );
+}
+
+/// `vkCmdBuildAccelerationStructuresIndirectKHR`: its build ranges are in
+/// device memory, so only what the parameters decide is checked.
+unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
+    command_buffer: vk::CommandBuffer,
+    info_count: u32,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    addresses: *const vk::DeviceAddress,
+    strides: *const u32,
+    max_primitive_counts: *const *const u32,
+) {
+    recorded(
+        "vkCmdBuildAccelerationStructuresIndirectKHR",
+        command_buffer,
+        |f| f.accel.cmd_build_acceleration_structures_indirect,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe {
+            state
+                .validator
+                .cmd_build_acceleration_structures_indirect_raw(
+                    model,
+                    info_count,
+                    infos,
+                    addresses,
+                    strides,
+                    max_primitive_counts,
+                )
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe {
+            next(
+                command_buffer,
+                info_count,
+                infos,
+                addresses,
+                strides,
+                max_primitive_counts,
+            )
+        },
+    );
+}
+
+/// `vkBuildAccelerationStructuresKHR`: a host build, whose host memory the
+/// core reads where the API describes its extent.
+unsafe extern "system" fn build_acceleration_structures(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info_count: u32,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+) -> vk::Result {
+    host_command(
+        "vkBuildAccelerationStructuresKHR",
+        device,
+        |f| f.accel.build_acceleration_structures,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .build_acceleration_structures_raw(info_count, infos, build_range_infos)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe {
+            next(
+                device,
+                deferred_operation,
+                info_count,
+                infos,
+                build_range_infos,
+            )
+        },
+    )
+}
+
+/// `vkGetAccelerationStructureBuildSizesKHR`.
+unsafe extern "system" fn get_acceleration_structure_build_sizes(
+    device: vk::Device,
+    build_type: vk::AccelerationStructureBuildTypeKHR,
+    build_info: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    max_primitive_counts: *const u32,
+    size_info: *mut vk::AccelerationStructureBuildSizesInfoKHR<'_>,
+) {
+    query_command(
+        "vkGetAccelerationStructureBuildSizesKHR",
+        device,
+        |f| f.accel.get_acceleration_structure_build_sizes,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| match unsafe { build_info.as_ref() } {
+            // SAFETY: as above.
+            Some(info) => unsafe {
+                state.validator.get_acceleration_structure_build_sizes_ash(
+                    build_type,
+                    info,
+                    max_primitive_counts,
+                )
+            },
+            None => Report::default(),
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe {
+            next(
+                device,
+                build_type,
+                build_info,
+                max_primitive_counts,
+                size_info,
+            )
+        },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_acceleration_structure(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
+) {
+    recorded(
+        "vkCmdCopyAccelerationStructureKHR",
+        command_buffer,
+        |f| f.accel.cmd_copy_acceleration_structure,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe {
+            state
+                .validator
+                .cmd_copy_acceleration_structure_raw(model, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn copy_acceleration_structure(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
+) -> vk::Result {
+    host_command(
+        "vkCopyAccelerationStructureKHR",
+        device,
+        |f| f.accel.copy_acceleration_structure,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe { state.validator.copy_acceleration_structure_raw(info) },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
+}
+
+unsafe extern "system" fn cmd_copy_acceleration_structure_to_memory(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
+) {
+    recorded(
+        "vkCmdCopyAccelerationStructureToMemoryKHR",
+        command_buffer,
+        |f| f.accel.cmd_copy_acceleration_structure_to_memory,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe {
+            state
+                .validator
+                .cmd_copy_acceleration_structure_to_memory_raw(model, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_memory_to_acceleration_structure(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+) {
+    recorded(
+        "vkCmdCopyMemoryToAccelerationStructureKHR",
+        command_buffer,
+        |f| f.accel.cmd_copy_memory_to_acceleration_structure,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe {
+            state
+                .validator
+                .cmd_copy_memory_to_acceleration_structure_raw(model, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_micromap(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyMicromapInfoEXT<'_>,
+) {
+    recorded(
+        "vkCmdCopyMicromapEXT",
+        command_buffer,
+        |f| f.accel.cmd_copy_micromap,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe { state.validator.cmd_copy_micromap_raw(model, info) },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn copy_micromap(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMicromapInfoEXT<'_>,
+) -> vk::Result {
+    host_command(
+        "vkCopyMicromapEXT",
+        device,
+        |f| f.accel.copy_micromap,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_micromap_raw(device, deferred_operation, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
+}
+
+unsafe extern "system" fn cmd_copy_micromap_to_memory(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+) {
+    recorded(
+        "vkCmdCopyMicromapToMemoryEXT",
+        command_buffer,
+        |f| f.accel.cmd_copy_micromap_to_memory,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe { state.validator.cmd_copy_micromap_to_memory_raw(model, info) },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn copy_micromap_to_memory(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+) -> vk::Result {
+    host_command(
+        "vkCopyMicromapToMemoryEXT",
+        device,
+        |f| f.accel.copy_micromap_to_memory,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_micromap_to_memory_raw(device, deferred_operation, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
+}
+
+unsafe extern "system" fn cmd_copy_memory_to_micromap(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
+) {
+    recorded(
+        "vkCmdCopyMemoryToMicromapEXT",
+        command_buffer,
+        |f| f.accel.cmd_copy_memory_to_micromap,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe { state.validator.cmd_copy_memory_to_micromap_raw(model, info) },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn copy_memory_to_micromap(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
+) -> vk::Result {
+    host_command(
+        "vkCopyMemoryToMicromapEXT",
+        device,
+        |f| f.accel.copy_memory_to_micromap,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_memory_to_micromap_raw(device, deferred_operation, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
+}
+
+unsafe extern "system" fn cmd_write_micromaps_properties(
+    command_buffer: vk::CommandBuffer,
+    micromap_count: u32,
+    micromaps: *const vk::MicromapEXT,
+    query_type: vk::QueryType,
+    query_pool: vk::QueryPool,
+    first_query: u32,
+) {
+    recorded(
+        "vkCmdWriteMicromapsPropertiesEXT",
+        command_buffer,
+        |f| f.accel.cmd_write_micromaps_properties,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe {
+            state.validator.cmd_write_micromaps_properties_raw(
+                model,
+                micromap_count,
+                micromaps,
+                query_type,
+                query_pool,
+                first_query,
+            )
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe {
+            next(
+                command_buffer,
+                micromap_count,
+                micromaps,
+                query_type,
+                query_pool,
+                first_query,
+            )
+        },
+    );
+}
+
+unsafe extern "system" fn write_micromaps_properties(
+    device: vk::Device,
+    micromap_count: u32,
+    micromaps: *const vk::MicromapEXT,
+    query_type: vk::QueryType,
+    data_size: usize,
+    data: *mut c_void,
+    stride: usize,
+) -> vk::Result {
+    host_command(
+        "vkWriteMicromapsPropertiesEXT",
+        device,
+        |f| f.accel.write_micromaps_properties,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state.validator.write_micromaps_properties_raw(
+                device,
+                micromap_count,
+                micromaps,
+                query_type,
+                data_size,
+                data.cast_const(),
+                stride,
+            )
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe {
+            next(
+                device,
+                micromap_count,
+                micromaps,
+                query_type,
+                data_size,
+                data,
+                stride,
+            )
+        },
+    )
+}
+
+unsafe extern "system" fn get_micromap_build_sizes(
+    device: vk::Device,
+    build_type: vk::AccelerationStructureBuildTypeKHR,
+    build_info: *const vk::MicromapBuildInfoEXT<'_>,
+    size_info: *mut vk::MicromapBuildSizesInfoEXT<'_>,
+) {
+    query_command(
+        "vkGetMicromapBuildSizesEXT",
+        device,
+        |f| f.accel.get_micromap_build_sizes,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state.validator.get_micromap_build_sizes_raw(
+                device,
+                build_type,
+                build_info,
+                size_info.cast_const(),
+            )
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, build_type, build_info, size_info) },
+    );
+}
+
+unsafe extern "system" fn get_device_micromap_compatibility(
+    device: vk::Device,
+    version_info: *const vk::MicromapVersionInfoEXT<'_>,
+    compatibility: *mut vk::AccelerationStructureCompatibilityKHR,
+) {
+    query_command(
+        "vkGetDeviceMicromapCompatibilityEXT",
+        device,
+        |f| f.accel.get_device_micromap_compatibility,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state.validator.get_device_micromap_compatibility_raw(
+                device,
+                version_info,
+                compatibility.cast_const(),
+            )
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, version_info, compatibility) },
+    );
+}
+
+/// `vkCreateQueryPool`: the pool's type and size decide the micromap query rules.
+unsafe extern "system" fn create_query_pool(
+    device: vk::Device,
+    create_info: *const vk::QueryPoolCreateInfo<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    pool_out: *mut vk::QueryPool,
+) -> vk::Result {
+    let function = "vkCreateQueryPool";
+    guarded(function, vk::Result::ERROR_INITIALIZATION_FAILED, || {
+        let Some((data, next)) = device_and(device, |f| f.accel.create_query_pool) else {
+            return vk::Result::ERROR_INITIALIZATION_FAILED;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        let result = unsafe { next(device, create_info, allocator, pool_out) };
+        // SAFETY: on success the next layer wrote the handle.
+        if let (vk::Result::SUCCESS, Some(pool)) = (result, unsafe { read::value(pool_out) }) {
+            track(&data, function, |state| {
+                // SAFETY: the create info is valid (the API's requirement).
+                unsafe { state.validator.record_query_pool_raw(create_info, pool) };
+            });
+        }
+        result
+    })
+}
+
+unsafe extern "system" fn destroy_query_pool(
+    device: vk::Device,
+    pool: vk::QueryPool,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    let function = "vkDestroyQueryPool";
+    guarded(function, (), || {
+        let Some((data, next)) = device_and(device, |f| f.accel.destroy_query_pool) else {
+            return;
+        };
+        track(&data, function, |state| {
+            state.validator.forget_query_pool(pool.as_raw());
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, pool, allocator) };
+    })
+}

@@ -1,0 +1,767 @@
+//! Command pools and command buffers: what the checks need to know of a
+//! command buffer when a `vkCmd*` command is recorded into it (recording or
+//! not, its pool's queue flags, inside a render pass, a video coding scope or
+//! between suspended render pass instances), the device builds recorded
+//! into it whose contents are checked at submission, and the secondary
+//! command buffers it executes.
+//!
+//! Command buffers are recorded on many threads at once, so their state is
+//! kept apart from the device's checked state, in a map split into shards
+//! by handle: recording on different command buffers rarely waits on one
+//! lock, and no lock here is held while the next layer runs or a check runs.
+
+#![allow(unsafe_code)]
+
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError};
+
+use ash::vk;
+use ash::vk::Handle as _;
+use ommcheck::checks::device_contents::DeviceBuild;
+use ommcheck::model::CommandBuffer;
+
+use crate::abi::dispatch_key;
+use crate::device::{as_void, device_and};
+use crate::dispatch::{next_fn, DeviceFns};
+use crate::{guarded, read, submit};
+
+/// The next layer's command pool, command buffer and submission functions.
+pub struct CommandFns {
+    pub create_command_pool: Option<vk::PFN_vkCreateCommandPool>,
+    pub destroy_command_pool: Option<vk::PFN_vkDestroyCommandPool>,
+    pub reset_command_pool: Option<vk::PFN_vkResetCommandPool>,
+    pub allocate_command_buffers: Option<vk::PFN_vkAllocateCommandBuffers>,
+    pub free_command_buffers: Option<vk::PFN_vkFreeCommandBuffers>,
+    pub begin_command_buffer: Option<vk::PFN_vkBeginCommandBuffer>,
+    pub end_command_buffer: Option<vk::PFN_vkEndCommandBuffer>,
+    pub reset_command_buffer: Option<vk::PFN_vkResetCommandBuffer>,
+    pub cmd_begin_render_pass: Option<vk::PFN_vkCmdBeginRenderPass>,
+    pub cmd_begin_render_pass2: Option<vk::PFN_vkCmdBeginRenderPass2>,
+    pub cmd_begin_render_pass2_khr: Option<vk::PFN_vkCmdBeginRenderPass2>,
+    pub cmd_end_render_pass: Option<vk::PFN_vkCmdEndRenderPass>,
+    pub cmd_end_render_pass2: Option<vk::PFN_vkCmdEndRenderPass2>,
+    pub cmd_end_render_pass2_khr: Option<vk::PFN_vkCmdEndRenderPass2>,
+    pub cmd_begin_rendering: Option<vk::PFN_vkCmdBeginRendering>,
+    pub cmd_begin_rendering_khr: Option<vk::PFN_vkCmdBeginRendering>,
+    pub cmd_end_rendering: Option<vk::PFN_vkCmdEndRendering>,
+    pub cmd_end_rendering_khr: Option<vk::PFN_vkCmdEndRendering>,
+    pub cmd_begin_video_coding: Option<vk::PFN_vkCmdBeginVideoCodingKHR>,
+    pub cmd_end_video_coding: Option<vk::PFN_vkCmdEndVideoCodingKHR>,
+    pub cmd_execute_commands: Option<vk::PFN_vkCmdExecuteCommands>,
+    pub queue_submit: Option<vk::PFN_vkQueueSubmit>,
+    pub queue_submit2: Option<vk::PFN_vkQueueSubmit2>,
+    pub queue_submit2_khr: Option<vk::PFN_vkQueueSubmit2>,
+}
+
+impl CommandFns {
+    pub fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> Self {
+        macro_rules! load {
+            ($name:literal, $ty:ty) => {
+                next_fn!(gdpa, device, $name, $ty)
+            };
+        }
+        Self {
+            create_command_pool: load!(c"vkCreateCommandPool", vk::PFN_vkCreateCommandPool),
+            destroy_command_pool: load!(c"vkDestroyCommandPool", vk::PFN_vkDestroyCommandPool),
+            reset_command_pool: load!(c"vkResetCommandPool", vk::PFN_vkResetCommandPool),
+            allocate_command_buffers: load!(
+                c"vkAllocateCommandBuffers",
+                vk::PFN_vkAllocateCommandBuffers
+            ),
+            free_command_buffers: load!(c"vkFreeCommandBuffers", vk::PFN_vkFreeCommandBuffers),
+            begin_command_buffer: load!(c"vkBeginCommandBuffer", vk::PFN_vkBeginCommandBuffer),
+            end_command_buffer: load!(c"vkEndCommandBuffer", vk::PFN_vkEndCommandBuffer),
+            reset_command_buffer: load!(c"vkResetCommandBuffer", vk::PFN_vkResetCommandBuffer),
+            cmd_begin_render_pass: load!(c"vkCmdBeginRenderPass", vk::PFN_vkCmdBeginRenderPass),
+            cmd_begin_render_pass2: load!(c"vkCmdBeginRenderPass2", vk::PFN_vkCmdBeginRenderPass2),
+            cmd_begin_render_pass2_khr: load!(
+                c"vkCmdBeginRenderPass2KHR",
+                vk::PFN_vkCmdBeginRenderPass2
+            ),
+            cmd_end_render_pass: load!(c"vkCmdEndRenderPass", vk::PFN_vkCmdEndRenderPass),
+            cmd_end_render_pass2: load!(c"vkCmdEndRenderPass2", vk::PFN_vkCmdEndRenderPass2),
+            cmd_end_render_pass2_khr: load!(c"vkCmdEndRenderPass2KHR", vk::PFN_vkCmdEndRenderPass2),
+            cmd_begin_rendering: load!(c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering),
+            cmd_begin_rendering_khr: load!(c"vkCmdBeginRenderingKHR", vk::PFN_vkCmdBeginRendering),
+            cmd_end_rendering: load!(c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering),
+            cmd_end_rendering_khr: load!(c"vkCmdEndRenderingKHR", vk::PFN_vkCmdEndRendering),
+            cmd_begin_video_coding: load!(
+                c"vkCmdBeginVideoCodingKHR",
+                vk::PFN_vkCmdBeginVideoCodingKHR
+            ),
+            cmd_end_video_coding: load!(c"vkCmdEndVideoCodingKHR", vk::PFN_vkCmdEndVideoCodingKHR),
+            cmd_execute_commands: load!(c"vkCmdExecuteCommands", vk::PFN_vkCmdExecuteCommands),
+            queue_submit: load!(c"vkQueueSubmit", vk::PFN_vkQueueSubmit),
+            queue_submit2: load!(c"vkQueueSubmit2", vk::PFN_vkQueueSubmit2),
+            queue_submit2_khr: load!(c"vkQueueSubmit2KHR", vk::PFN_vkQueueSubmit2),
+        }
+    }
+}
+
+/// This layer's function for a command-pool, command-buffer or submission
+/// command name.
+pub fn intercept(name: &std::ffi::CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkCreateCommandPool" => as_void(create_command_pool as vk::PFN_vkCreateCommandPool),
+        b"vkDestroyCommandPool" => as_void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),
+        b"vkResetCommandPool" => as_void(reset_command_pool as vk::PFN_vkResetCommandPool),
+        b"vkAllocateCommandBuffers" => {
+            as_void(allocate_command_buffers as vk::PFN_vkAllocateCommandBuffers)
+        }
+        b"vkFreeCommandBuffers" => as_void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
+        b"vkBeginCommandBuffer" => as_void(begin_command_buffer as vk::PFN_vkBeginCommandBuffer),
+        b"vkEndCommandBuffer" => as_void(end_command_buffer as vk::PFN_vkEndCommandBuffer),
+        b"vkResetCommandBuffer" => as_void(reset_command_buffer as vk::PFN_vkResetCommandBuffer),
+        b"vkCmdBeginRenderPass" => as_void(cmd_begin_render_pass as vk::PFN_vkCmdBeginRenderPass),
+        b"vkCmdBeginRenderPass2" => {
+            as_void(cmd_begin_render_pass2 as vk::PFN_vkCmdBeginRenderPass2)
+        }
+        b"vkCmdBeginRenderPass2KHR" => {
+            as_void(cmd_begin_render_pass2_khr as vk::PFN_vkCmdBeginRenderPass2)
+        }
+        b"vkCmdEndRenderPass" => as_void(cmd_end_render_pass as vk::PFN_vkCmdEndRenderPass),
+        b"vkCmdEndRenderPass2" => as_void(cmd_end_render_pass2 as vk::PFN_vkCmdEndRenderPass2),
+        b"vkCmdEndRenderPass2KHR" => {
+            as_void(cmd_end_render_pass2_khr as vk::PFN_vkCmdEndRenderPass2)
+        }
+        b"vkCmdBeginRendering" => as_void(cmd_begin_rendering as vk::PFN_vkCmdBeginRendering),
+        b"vkCmdBeginRenderingKHR" => {
+            as_void(cmd_begin_rendering_khr as vk::PFN_vkCmdBeginRendering)
+        }
+        b"vkCmdEndRendering" => as_void(cmd_end_rendering as vk::PFN_vkCmdEndRendering),
+        b"vkCmdEndRenderingKHR" => as_void(cmd_end_rendering_khr as vk::PFN_vkCmdEndRendering),
+        b"vkCmdBeginVideoCodingKHR" => {
+            as_void(cmd_begin_video_coding as vk::PFN_vkCmdBeginVideoCodingKHR)
+        }
+        b"vkCmdEndVideoCodingKHR" => {
+            as_void(cmd_end_video_coding as vk::PFN_vkCmdEndVideoCodingKHR)
+        }
+        b"vkCmdExecuteCommands" => as_void(cmd_execute_commands as vk::PFN_vkCmdExecuteCommands),
+        _ => submit::intercept(name),
+    }
+}
+
+/// A device build recorded into a command buffer, whose contents are
+/// checked each time the command buffer is submitted.
+#[derive(Clone, Debug)]
+pub struct KeptBuild {
+    /// The command buffer as the checks saw it when the build was recorded.
+    pub recorded_in: CommandBuffer,
+    pub build: Arc<DeviceBuild>,
+}
+
+/// What the layer keeps of one command buffer.
+#[derive(Clone, Debug, Default)]
+struct Tracked {
+    secondary: bool,
+    model: CommandBuffer,
+    /// The render pass instance begun by vkCmdBeginRendering has
+    /// VK_RENDERING_SUSPENDING_BIT: its end suspends it.
+    rendering_suspends: bool,
+    builds: Vec<KeptBuild>,
+    /// Secondary command buffers vkCmdExecuteCommands recorded.
+    executed: Vec<u64>,
+}
+
+impl Tracked {
+    /// The initial state (after allocation or a reset): nothing recorded.
+    fn reset(&mut self) {
+        self.model.recording = false;
+        self.model.in_render_pass = false;
+        self.model.in_video_coding = false;
+        self.model.suspended = false;
+        self.rendering_suspends = false;
+        self.builds.clear();
+        self.executed.clear();
+    }
+}
+
+/// Command buffers by handle, in shards each behind its own lock.
+struct CommandBuffers {
+    shards: [Mutex<HashMap<u64, Tracked>>; SHARDS],
+}
+
+const SHARDS: usize = 16;
+
+static COMMAND_BUFFERS: LazyLock<CommandBuffers> = LazyLock::new(|| CommandBuffers {
+    shards: std::array::from_fn(|_| Mutex::new(HashMap::new())),
+});
+
+/// Command pools by (device dispatch key, pool handle): the queue flags of
+/// the pool's family and the command buffers allocated from it.
+#[derive(Default)]
+struct Pool {
+    queue_flags: u32,
+    command_buffers: HashSet<u64>,
+}
+
+static POOLS: LazyLock<Mutex<HashMap<(usize, u64), Pool>>> =
+    LazyLock::new(|| Mutex::new(HashMap::new()));
+
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    // The data behind these locks is plain maps updated in single steps;
+    // nothing that can panic runs while they are held.
+    mutex.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+impl CommandBuffers {
+    fn shard(&self, handle: u64) -> MutexGuard<'_, HashMap<u64, Tracked>> {
+        // Handles are pointers: the low bits are alignment, the next ones spread.
+        lock(&self.shards[(handle >> 4) as usize % SHARDS])
+    }
+
+    /// Runs `update` on a tracked command buffer; untracked ones are left alone.
+    fn update(&self, handle: u64, update: impl FnOnce(&mut Tracked)) {
+        if let Some(tracked) = self.shard(handle).get_mut(&handle) {
+            update(tracked);
+        }
+    }
+}
+
+/// The command buffer as the checks see it now. One the layer did not see
+/// allocated (created before the layer was loaded, or through another path)
+/// is taken to be recording on a compute-capable queue outside any render
+/// pass, so no rule fires on a guess.
+pub fn model(command_buffer: vk::CommandBuffer) -> CommandBuffer {
+    let handle = command_buffer.as_raw();
+    COMMAND_BUFFERS.shard(handle).get(&handle).map_or_else(
+        || CommandBuffer {
+            handle,
+            ..CommandBuffer::default()
+        },
+        |tracked| tracked.model.clone(),
+    )
+}
+
+/// Keeps a device build recorded into `command_buffer` for the checks of
+/// its contents at submission.
+pub fn keep_for_submission(
+    command_buffer: vk::CommandBuffer,
+    recorded_in: &CommandBuffer,
+    build: DeviceBuild,
+) {
+    let kept = KeptBuild {
+        recorded_in: recorded_in.clone(),
+        build: Arc::new(build),
+    };
+    let handle = command_buffer.as_raw();
+    COMMAND_BUFFERS
+        .shard(handle)
+        .entry(handle)
+        .or_insert_with(|| Tracked {
+            model: recorded_in.clone(),
+            ..Tracked::default()
+        })
+        .builds
+        .push(kept);
+}
+
+/// The builds a submission of `command_buffer` runs: its own, then those
+/// of the secondary command buffers it executes, in recording order.
+pub fn builds_run_by(command_buffer: vk::CommandBuffer) -> Vec<(u64, KeptBuild)> {
+    let handle = command_buffer.as_raw();
+    let (own, executed) = match COMMAND_BUFFERS.shard(handle).get(&handle) {
+        Some(tracked) => (tracked.builds.clone(), tracked.executed.clone()),
+        None => return Vec::new(),
+    };
+    let mut builds: Vec<(u64, KeptBuild)> = own.into_iter().map(|b| (handle, b)).collect();
+    for secondary in executed {
+        if let Some(tracked) = COMMAND_BUFFERS.shard(secondary).get(&secondary) {
+            builds.extend(tracked.builds.iter().cloned().map(|b| (secondary, b)));
+        }
+    }
+    builds
+}
+
+/// The device's dispatch key, for keying its pools.
+fn device_key(device: vk::Device) -> usize {
+    // SAFETY: a device handle the application passed, which the loader created.
+    unsafe { dispatch_key(device.as_raw()) }.unwrap_or(0)
+}
+
+/// `vkCreateCommandPool`: the pool's queue family decides its command
+/// buffers' queue flags.
+unsafe extern "system" fn create_command_pool(
+    device: vk::Device,
+    create_info: *const vk::CommandPoolCreateInfo<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    pool_out: *mut vk::CommandPool,
+) -> vk::Result {
+    guarded(
+        "vkCreateCommandPool",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((data, next)) = device_and(device, |f| f.commands.create_command_pool) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, create_info, allocator, pool_out) };
+            // SAFETY: the create info is valid (the API's requirement); on
+            // success the next layer wrote the handle.
+            let (info, pool) = unsafe { (read::value(create_info), read::value(pool_out)) };
+            if let (vk::Result::SUCCESS, Some(info), Some(pool)) = (result, info, pool) {
+                // An unknown family (the next layer could not say) supports
+                // everything, so no rule fires on a guess.
+                let queue_flags = data
+                    .queue_family_flags
+                    .get(info.queue_family_index as usize)
+                    .map_or(u32::MAX, |flags| flags.as_raw());
+                lock(&POOLS).insert(
+                    (device_key(device), pool.as_raw()),
+                    Pool {
+                        queue_flags,
+                        command_buffers: HashSet::new(),
+                    },
+                );
+            }
+            result
+        },
+    )
+}
+
+/// Forgets the command buffers of a pool destroyed.
+fn forget_pool(device: vk::Device, pool: vk::CommandPool) {
+    let removed = lock(&POOLS).remove(&(device_key(device), pool.as_raw()));
+    for handle in removed.into_iter().flat_map(|p| p.command_buffers) {
+        COMMAND_BUFFERS.shard(handle).remove(&handle);
+    }
+}
+
+/// `vkDestroyCommandPool`: its command buffers are freed with it.
+unsafe extern "system" fn destroy_command_pool(
+    device: vk::Device,
+    pool: vk::CommandPool,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyCommandPool", (), || {
+        let Some((_, next)) = device_and(device, |f| f.commands.destroy_command_pool) else {
+            return;
+        };
+        forget_pool(device, pool);
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, pool, allocator) };
+    })
+}
+
+/// `vkResetCommandPool`: every command buffer of the pool goes back to the
+/// initial state.
+unsafe extern "system" fn reset_command_pool(
+    device: vk::Device,
+    pool: vk::CommandPool,
+    flags: vk::CommandPoolResetFlags,
+) -> vk::Result {
+    guarded("vkResetCommandPool", vk::Result::ERROR_UNKNOWN, || {
+        let Some((_, next)) = device_and(device, |f| f.commands.reset_command_pool) else {
+            return vk::Result::ERROR_UNKNOWN;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        let result = unsafe { next(device, pool, flags) };
+        if result == vk::Result::SUCCESS {
+            let members: Vec<u64> = lock(&POOLS)
+                .get(&(device_key(device), pool.as_raw()))
+                .map(|p| p.command_buffers.iter().copied().collect())
+                .unwrap_or_default();
+            for handle in members {
+                COMMAND_BUFFERS.update(handle, Tracked::reset);
+            }
+        }
+        result
+    })
+}
+
+/// `vkAllocateCommandBuffers`: each new command buffer is tracked in the
+/// initial state with its pool's queue flags.
+unsafe extern "system" fn allocate_command_buffers(
+    device: vk::Device,
+    allocate_info: *const vk::CommandBufferAllocateInfo<'_>,
+    command_buffers_out: *mut vk::CommandBuffer,
+) -> vk::Result {
+    guarded(
+        "vkAllocateCommandBuffers",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((_, next)) = device_and(device, |f| f.commands.allocate_command_buffers)
+            else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(device, allocate_info, command_buffers_out) };
+            // SAFETY: the allocate info is valid (the API's requirement).
+            let Some(info) = (unsafe { read::value(allocate_info) }) else {
+                return result;
+            };
+            if result != vk::Result::SUCCESS {
+                return result;
+            }
+            // SAFETY: on success the next layer wrote `commandBufferCount` handles.
+            let handles =
+                unsafe { read::array(command_buffers_out.cast_const(), info.command_buffer_count) };
+            let pool_key = (device_key(device), info.command_pool.as_raw());
+            let mut pools = lock(&POOLS);
+            let pool = pools.entry(pool_key).or_insert_with(|| Pool {
+                queue_flags: u32::MAX,
+                ..Pool::default()
+            });
+            for command_buffer in handles {
+                let handle = command_buffer.as_raw();
+                pool.command_buffers.insert(handle);
+                let tracked = Tracked {
+                    secondary: info.level == vk::CommandBufferLevel::SECONDARY,
+                    model: CommandBuffer {
+                        handle,
+                        recording: false,
+                        queue_flags: pool.queue_flags,
+                        ..CommandBuffer::default()
+                    },
+                    ..Tracked::default()
+                };
+                COMMAND_BUFFERS.shard(handle).insert(handle, tracked);
+            }
+            result
+        },
+    )
+}
+
+/// `vkFreeCommandBuffers`.
+unsafe extern "system" fn free_command_buffers(
+    device: vk::Device,
+    pool: vk::CommandPool,
+    count: u32,
+    command_buffers: *const vk::CommandBuffer,
+) {
+    guarded("vkFreeCommandBuffers", (), || {
+        let Some((_, next)) = device_and(device, |f| f.commands.free_command_buffers) else {
+            return;
+        };
+        // SAFETY: the array holds `count` handles (the API's requirement).
+        let handles = unsafe { read::array(command_buffers, count) };
+        {
+            let mut pools = lock(&POOLS);
+            let mut members = pools.get_mut(&(device_key(device), pool.as_raw()));
+            for command_buffer in handles {
+                let handle = command_buffer.as_raw();
+                if let Some(members) = members.as_mut() {
+                    members.command_buffers.remove(&handle);
+                }
+                COMMAND_BUFFERS.shard(handle).remove(&handle);
+            }
+        }
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, pool, count, command_buffers) };
+    })
+}
+
+/// `vkBeginCommandBuffer`: the command buffer is reset and recording; a
+/// secondary one that continues a render pass is inside it.
+unsafe extern "system" fn begin_command_buffer(
+    command_buffer: vk::CommandBuffer,
+    begin_info: *const vk::CommandBufferBeginInfo<'_>,
+) -> vk::Result {
+    guarded(
+        "vkBeginCommandBuffer",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((_, next)) = device_and(command_buffer, |f| f.commands.begin_command_buffer)
+            else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(command_buffer, begin_info) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: the begin info is valid (the API's requirement).
+                let flags = unsafe { read::value(begin_info) }.map(|info| info.flags);
+                let continues = flags
+                    .is_some_and(|f| f.contains(vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE));
+                COMMAND_BUFFERS.update(command_buffer.as_raw(), |tracked| {
+                    tracked.reset();
+                    tracked.model.recording = true;
+                    tracked.model.in_render_pass = tracked.secondary && continues;
+                });
+            }
+            result
+        },
+    )
+}
+
+/// `vkEndCommandBuffer`: recording ends (also when it fails: the command
+/// buffer is then invalid, not recording).
+unsafe extern "system" fn end_command_buffer(command_buffer: vk::CommandBuffer) -> vk::Result {
+    guarded(
+        "vkEndCommandBuffer",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((_, next)) = device_and(command_buffer, |f| f.commands.end_command_buffer)
+            else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(command_buffer) };
+            COMMAND_BUFFERS.update(command_buffer.as_raw(), |tracked| {
+                tracked.model.recording = false;
+            });
+            result
+        },
+    )
+}
+
+/// `vkResetCommandBuffer`: back to the initial state.
+unsafe extern "system" fn reset_command_buffer(
+    command_buffer: vk::CommandBuffer,
+    flags: vk::CommandBufferResetFlags,
+) -> vk::Result {
+    guarded(
+        "vkResetCommandBuffer",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some((_, next)) = device_and(command_buffer, |f| f.commands.reset_command_buffer)
+            else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { next(command_buffer, flags) };
+            if result == vk::Result::SUCCESS {
+                COMMAND_BUFFERS.update(command_buffer.as_raw(), Tracked::reset);
+            }
+            result
+        },
+    )
+}
+
+/// A state command: updates the tracked command buffer, then records the
+/// command below (state commands carry no micromap rule).
+fn state_command<F: Copy>(
+    function: &'static str,
+    command_buffer: vk::CommandBuffer,
+    pick: fn(&DeviceFns) -> Option<F>,
+    update: impl FnOnce(&mut Tracked),
+    call_down: impl FnOnce(F),
+) {
+    guarded(function, (), || {
+        let Some((_, next)) = device_and(command_buffer, pick) else {
+            return;
+        };
+        COMMAND_BUFFERS.update(command_buffer.as_raw(), update);
+        call_down(next);
+    })
+}
+
+fn enter_render_pass(tracked: &mut Tracked) {
+    tracked.model.in_render_pass = true;
+}
+
+fn leave_render_pass(tracked: &mut Tracked) {
+    tracked.model.in_render_pass = false;
+}
+
+unsafe extern "system" fn cmd_begin_render_pass(
+    command_buffer: vk::CommandBuffer,
+    begin: *const vk::RenderPassBeginInfo<'_>,
+    contents: vk::SubpassContents,
+) {
+    state_command(
+        "vkCmdBeginRenderPass",
+        command_buffer,
+        |f| f.commands.cmd_begin_render_pass,
+        enter_render_pass,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, begin, contents) },
+    );
+}
+
+unsafe extern "system" fn cmd_begin_render_pass2(
+    command_buffer: vk::CommandBuffer,
+    begin: *const vk::RenderPassBeginInfo<'_>,
+    subpass: *const vk::SubpassBeginInfo<'_>,
+) {
+    state_command(
+        "vkCmdBeginRenderPass2",
+        command_buffer,
+        |f| f.commands.cmd_begin_render_pass2,
+        enter_render_pass,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, begin, subpass) },
+    );
+}
+
+unsafe extern "system" fn cmd_begin_render_pass2_khr(
+    command_buffer: vk::CommandBuffer,
+    begin: *const vk::RenderPassBeginInfo<'_>,
+    subpass: *const vk::SubpassBeginInfo<'_>,
+) {
+    state_command(
+        "vkCmdBeginRenderPass2KHR",
+        command_buffer,
+        |f| f.commands.cmd_begin_render_pass2_khr,
+        enter_render_pass,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, begin, subpass) },
+    );
+}
+
+unsafe extern "system" fn cmd_end_render_pass(command_buffer: vk::CommandBuffer) {
+    state_command(
+        "vkCmdEndRenderPass",
+        command_buffer,
+        |f| f.commands.cmd_end_render_pass,
+        leave_render_pass,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer) },
+    );
+}
+
+unsafe extern "system" fn cmd_end_render_pass2(
+    command_buffer: vk::CommandBuffer,
+    end: *const vk::SubpassEndInfo<'_>,
+) {
+    state_command(
+        "vkCmdEndRenderPass2",
+        command_buffer,
+        |f| f.commands.cmd_end_render_pass2,
+        leave_render_pass,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, end) },
+    );
+}
+
+unsafe extern "system" fn cmd_end_render_pass2_khr(
+    command_buffer: vk::CommandBuffer,
+    end: *const vk::SubpassEndInfo<'_>,
+) {
+    state_command(
+        "vkCmdEndRenderPass2KHR",
+        command_buffer,
+        |f| f.commands.cmd_end_render_pass2_khr,
+        leave_render_pass,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, end) },
+    );
+}
+
+/// vkCmdBeginRendering starts a render pass instance (resuming a suspended
+/// one, if it was suspended); whether its end suspends it is in its flags.
+fn begin_rendering(tracked: &mut Tracked, flags: vk::RenderingFlags) {
+    tracked.model.in_render_pass = true;
+    tracked.model.suspended = false;
+    tracked.rendering_suspends = flags.contains(vk::RenderingFlags::SUSPENDING);
+}
+
+/// vkCmdEndRendering ends the instance; with VK_RENDERING_SUSPENDING_BIT
+/// it is suspended until a resuming vkCmdBeginRendering.
+fn end_rendering(tracked: &mut Tracked) {
+    tracked.model.in_render_pass = false;
+    tracked.model.suspended = tracked.rendering_suspends;
+    tracked.rendering_suspends = false;
+}
+
+/// The flags of a `VkRenderingInfo`.
+///
+/// # Safety
+/// A non-NULL `info` must point to a `VkRenderingInfo`, as the API requires.
+unsafe fn rendering_flags(info: *const vk::RenderingInfo<'_>) -> vk::RenderingFlags {
+    // SAFETY: forwarded from the caller.
+    unsafe { info.as_ref() }.map_or(vk::RenderingFlags::empty(), |info| info.flags)
+}
+
+unsafe extern "system" fn cmd_begin_rendering(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::RenderingInfo<'_>,
+) {
+    // SAFETY: the application's rendering info.
+    let flags = unsafe { rendering_flags(info) };
+    state_command(
+        "vkCmdBeginRendering",
+        command_buffer,
+        |f| f.commands.cmd_begin_rendering,
+        |tracked| begin_rendering(tracked, flags),
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_begin_rendering_khr(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::RenderingInfo<'_>,
+) {
+    // SAFETY: the application's rendering info.
+    let flags = unsafe { rendering_flags(info) };
+    state_command(
+        "vkCmdBeginRenderingKHR",
+        command_buffer,
+        |f| f.commands.cmd_begin_rendering_khr,
+        |tracked| begin_rendering(tracked, flags),
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_end_rendering(command_buffer: vk::CommandBuffer) {
+    state_command(
+        "vkCmdEndRendering",
+        command_buffer,
+        |f| f.commands.cmd_end_rendering,
+        end_rendering,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer) },
+    );
+}
+
+unsafe extern "system" fn cmd_end_rendering_khr(command_buffer: vk::CommandBuffer) {
+    state_command(
+        "vkCmdEndRenderingKHR",
+        command_buffer,
+        |f| f.commands.cmd_end_rendering_khr,
+        end_rendering,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer) },
+    );
+}
+
+unsafe extern "system" fn cmd_begin_video_coding(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::VideoBeginCodingInfoKHR<'_>,
+) {
+    state_command(
+        "vkCmdBeginVideoCodingKHR",
+        command_buffer,
+        |f| f.commands.cmd_begin_video_coding,
+        |tracked| tracked.model.in_video_coding = true,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_end_video_coding(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::VideoEndCodingInfoKHR<'_>,
+) {
+    state_command(
+        "vkCmdEndVideoCodingKHR",
+        command_buffer,
+        |f| f.commands.cmd_end_video_coding,
+        |tracked| tracked.model.in_video_coding = false,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+/// `vkCmdExecuteCommands`: a submission of the primary runs the builds the
+/// secondaries recorded.
+unsafe extern "system" fn cmd_execute_commands(
+    command_buffer: vk::CommandBuffer,
+    count: u32,
+    secondaries: *const vk::CommandBuffer,
+) {
+    // SAFETY: the array holds `count` handles (the API's requirement).
+    let handles: Vec<u64> = unsafe { read::array(secondaries, count) }
+        .iter()
+        .map(|cb| cb.as_raw())
+        .collect();
+    state_command(
+        "vkCmdExecuteCommands",
+        command_buffer,
+        |f| f.commands.cmd_execute_commands,
+        |tracked| tracked.executed.extend(handles),
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, count, secondaries) },
+    );
+}

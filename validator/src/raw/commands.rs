@@ -1,0 +1,600 @@
+//! The `Validator` entry points a layer calls for the micromap and
+//! acceleration-structure commands that copy, serialize, query and size
+//! (the builds are in [`super`] and [`super::accel`]), and for the indirect
+//! build as a layer receives it. Each reads the ash structure behind a
+//! pointer into the owned model and runs the check of the same name.
+//!
+//! The bounds of [`crate::raw`] hold: arrays up to [`MAX_ELEMENTS`]
+//! elements, pNext chains walked as [`super::chain`] walks them. Device
+//! addresses stay numbers; no memory at an address is read here.
+
+use ash::vk;
+
+use super::accel::{address, scratch_address};
+use super::{bounded_len, chain_s_types, micromap_build_info, read_array, MAX_ELEMENTS};
+use crate::model::accel::{
+    CopyAccelerationStructureInfo, CopyAccelerationStructureToMemoryInfo,
+    CopyMemoryToAccelerationStructureInfo,
+};
+use crate::model::micromap_objects::{
+    CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo, MicromapBuildSizesInfo,
+    MicromapList, MicromapVersionInfo,
+};
+use crate::model::CommandBuffer;
+use crate::report::{Finding, Report};
+use crate::state::{Handle, QueryPool};
+use crate::Validator;
+
+/// Reads the structure at `info` with `read`; None for NULL.
+///
+/// # Safety
+/// A non-NULL `info` must point to a readable `T`.
+unsafe fn optional<T, M>(info: *const T, read: impl FnOnce(&T) -> M) -> Option<M> {
+    // SAFETY: forwarded from the caller.
+    unsafe { info.as_ref() }.map(read)
+}
+
+/// Reads `micromapCount` handles at `micromaps` (at most [`MAX_ELEMENTS`]).
+///
+/// # Safety
+/// A non-NULL `micromaps` must point to `count` handles.
+unsafe fn micromap_list(
+    count: u32,
+    micromaps: *const vk::MicromapEXT,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> MicromapList {
+    // SAFETY: forwarded from the caller.
+    let handles = unsafe { read_array(micromaps, count, function, "pMicromaps", findings) };
+    MicromapList {
+        count,
+        handles: handles.map(|list| list.into_iter().map(vk::Handle::as_raw).collect()),
+    }
+}
+
+impl Validator {
+    /// Checks `vkCmdCopyMicromapEXT(commandBuffer, pInfo)` as a layer receives it.
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a `VkCopyMicromapInfoEXT` with a
+    /// well-formed pNext chain.
+    pub unsafe fn cmd_copy_micromap_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: *const vk::CopyMicromapInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| {
+                copy_micromap_info(i, "vkCmdCopyMicromapEXT", &mut findings)
+            })
+        };
+        with_findings(
+            findings,
+            self.cmd_copy_micromap(command_buffer, model.as_ref()),
+        )
+    }
+
+    /// Checks `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_copy_micromap_raw`].
+    pub unsafe fn copy_micromap_raw(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        info: *const vk::CopyMicromapInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| {
+                copy_micromap_info(i, "vkCopyMicromapEXT", &mut findings)
+            })
+        };
+        let report = self.copy_micromap(
+            vk::Handle::as_raw(device),
+            vk::Handle::as_raw(deferred_operation),
+            model.as_ref(),
+        );
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`.
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a `VkCopyMicromapToMemoryInfoEXT`
+    /// with a well-formed pNext chain.
+    pub unsafe fn cmd_copy_micromap_to_memory_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| {
+                copy_micromap_to_memory_info(i, "vkCmdCopyMicromapToMemoryEXT", &mut findings)
+            })
+        };
+        let report = self.cmd_copy_micromap_to_memory(command_buffer, model.as_ref());
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_copy_micromap_to_memory_raw`].
+    pub unsafe fn copy_micromap_to_memory_raw(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| {
+                copy_micromap_to_memory_info(i, "vkCopyMicromapToMemoryEXT", &mut findings)
+            })
+        };
+        let report = self.copy_micromap_to_memory(
+            vk::Handle::as_raw(device),
+            vk::Handle::as_raw(deferred_operation),
+            model.as_ref(),
+        );
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`.
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a `VkCopyMemoryToMicromapInfoEXT`
+    /// with a well-formed pNext chain.
+    pub unsafe fn cmd_copy_memory_to_micromap_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| {
+                copy_memory_to_micromap_info(i, "vkCmdCopyMemoryToMicromapEXT", &mut findings)
+            })
+        };
+        let report = self.cmd_copy_memory_to_micromap(command_buffer, model.as_ref());
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_copy_memory_to_micromap_raw`].
+    pub unsafe fn copy_memory_to_micromap_raw(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| {
+                copy_memory_to_micromap_info(i, "vkCopyMemoryToMicromapEXT", &mut findings)
+            })
+        };
+        let report = self.copy_memory_to_micromap(
+            vk::Handle::as_raw(device),
+            vk::Handle::as_raw(deferred_operation),
+            model.as_ref(),
+        );
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCmdWriteMicromapsPropertiesEXT(commandBuffer,
+    /// micromapCount, pMicromaps, queryType, queryPool, firstQuery)`.
+    ///
+    /// # Safety
+    /// A non-NULL `micromaps` must point to `micromap_count` handles.
+    pub unsafe fn cmd_write_micromaps_properties_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        micromap_count: u32,
+        micromaps: *const vk::MicromapEXT,
+        query_type: vk::QueryType,
+        query_pool: vk::QueryPool,
+        first_query: u32,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCmdWriteMicromapsPropertiesEXT";
+        // SAFETY: forwarded from the caller.
+        let list = unsafe { micromap_list(micromap_count, micromaps, function, &mut findings) };
+        let report = self.cmd_write_micromaps_properties(
+            command_buffer,
+            &list,
+            query_type.as_raw(),
+            vk::Handle::as_raw(query_pool),
+            first_query,
+        );
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkWriteMicromapsPropertiesEXT(device, micromapCount,
+    /// pMicromaps, queryType, dataSize, pData, stride)`; `pData` is only
+    /// looked at as an address, never written or read.
+    ///
+    /// # Safety
+    /// A non-NULL `micromaps` must point to `micromap_count` handles.
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn write_micromaps_properties_raw(
+        &mut self,
+        device: vk::Device,
+        micromap_count: u32,
+        micromaps: *const vk::MicromapEXT,
+        query_type: vk::QueryType,
+        data_size: usize,
+        data: *const std::ffi::c_void,
+        stride: usize,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkWriteMicromapsPropertiesEXT";
+        // SAFETY: forwarded from the caller.
+        let list = unsafe { micromap_list(micromap_count, micromaps, function, &mut findings) };
+        let report = self.write_micromaps_properties(
+            vk::Handle::as_raw(device),
+            &list,
+            query_type.as_raw(),
+            data_size as u64,
+            data.addr() as u64,
+            stride as u64,
+        );
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkGetMicromapBuildSizesEXT(device, buildType, pBuildInfo,
+    /// pSizeInfo)`; the command ignores the build's addresses and contents.
+    ///
+    /// # Safety
+    /// A non-NULL `build_info` must be valid as for
+    /// [`super::micromap_build_info`], a non-NULL `size_info` must point to a
+    /// `VkMicromapBuildSizesInfoEXT` with a well-formed pNext chain.
+    pub unsafe fn get_micromap_build_sizes_raw(
+        &mut self,
+        device: vk::Device,
+        build_type: vk::AccelerationStructureBuildTypeKHR,
+        build_info: *const vk::MicromapBuildInfoEXT<'_>,
+        size_info: *const vk::MicromapBuildSizesInfoEXT<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkGetMicromapBuildSizesEXT";
+        // SAFETY: forwarded from the caller.
+        let build = unsafe {
+            optional(build_info, |i| {
+                micromap_build_info(i, function, "pBuildInfo", &mut findings)
+            })
+        };
+        // SAFETY: forwarded from the caller.
+        let sizes = unsafe {
+            optional(size_info, |i| MicromapBuildSizesInfo {
+                s_type: i.s_type.as_raw(),
+                // SAFETY: forwarded from the caller.
+                next: chain_s_types(i.p_next, function, "pSizeInfo", &mut findings),
+            })
+        };
+        let report = self.get_micromap_build_sizes(
+            vk::Handle::as_raw(device),
+            build_type.as_raw(),
+            build.as_ref(),
+            sizes.as_ref(),
+        );
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkGetDeviceMicromapCompatibilityEXT(device, pVersionInfo,
+    /// pCompatibility)`: `2 × VK_UUID_SIZE` bytes of `pVersionData` are read,
+    /// the length the API gives it.
+    ///
+    /// # Safety
+    /// A non-NULL `version_info` must point to a `VkMicromapVersionInfoEXT`
+    /// with a well-formed pNext chain and a `pVersionData` NULL or readable
+    /// for `2 × VK_UUID_SIZE` bytes.
+    pub unsafe fn get_device_micromap_compatibility_raw(
+        &mut self,
+        device: vk::Device,
+        version_info: *const vk::MicromapVersionInfoEXT<'_>,
+        compatibility: *const vk::AccelerationStructureCompatibilityKHR,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkGetDeviceMicromapCompatibilityEXT";
+        // SAFETY: forwarded from the caller.
+        let version = unsafe {
+            optional(version_info, |i| MicromapVersionInfo {
+                s_type: i.s_type.as_raw(),
+                // SAFETY: forwarded from the caller.
+                next: chain_s_types(i.p_next, function, "pVersionInfo", &mut findings),
+                // SAFETY: the API defines pVersionData as 2 × VK_UUID_SIZE bytes.
+                version_data: i.p_version_data.as_ref().map(|bytes| bytes.to_vec()),
+            })
+        };
+        let report = self.get_device_micromap_compatibility(
+            vk::Handle::as_raw(device),
+            version.as_ref(),
+            !compatibility.is_null(),
+        );
+        with_findings(findings, report)
+    }
+
+    /// Tracks the query pool `vkCreateQueryPool` returned (its type and
+    /// count decide the micromap query rules).
+    ///
+    /// # Safety
+    /// `info` must point to a `VkQueryPoolCreateInfo` (or be NULL).
+    pub unsafe fn record_query_pool_raw(
+        &mut self,
+        info: *const vk::QueryPoolCreateInfo<'_>,
+        query_pool: vk::QueryPool,
+    ) {
+        // SAFETY: forwarded from the caller.
+        let Some(info) = (unsafe { info.as_ref() }) else {
+            return;
+        };
+        if query_pool != vk::QueryPool::null() {
+            self.state.query_pools.insert(
+                vk::Handle::as_raw(query_pool),
+                QueryPool {
+                    query_type: info.query_type.as_raw(),
+                    query_count: info.query_count,
+                },
+            );
+        }
+    }
+
+    /// Forgets a query pool `vkDestroyQueryPool` destroyed.
+    pub fn forget_query_pool(&mut self, query_pool: Handle) {
+        self.state.query_pools.remove(&query_pool);
+    }
+
+    /// Checks `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`; a
+    /// NULL `pInfo` is not checked (no micromap rule concerns it).
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a `VkCopyAccelerationStructureInfoKHR`
+    /// with a well-formed pNext chain.
+    pub unsafe fn cmd_copy_acceleration_structure_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCmdCopyAccelerationStructureKHR";
+        // SAFETY: forwarded from the caller.
+        let model = unsafe { optional(info, |i| copy_as_info(i, function, &mut findings)) };
+        let Some(model) = model else {
+            return Report { findings };
+        };
+        with_findings(
+            findings,
+            self.cmd_copy_acceleration_structure(command_buffer, &model),
+        )
+    }
+
+    /// Checks `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_copy_acceleration_structure_raw`].
+    pub unsafe fn copy_acceleration_structure_raw(
+        &mut self,
+        info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCopyAccelerationStructureKHR";
+        // SAFETY: forwarded from the caller.
+        let model = unsafe { optional(info, |i| copy_as_info(i, function, &mut findings)) };
+        let Some(model) = model else {
+            return Report { findings };
+        };
+        with_findings(findings, self.copy_acceleration_structure(&model))
+    }
+
+    /// Checks `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`.
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a
+    /// `VkCopyAccelerationStructureToMemoryInfoKHR` with a well-formed pNext chain.
+    pub unsafe fn cmd_copy_acceleration_structure_to_memory_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCmdCopyAccelerationStructureToMemoryKHR";
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| CopyAccelerationStructureToMemoryInfo {
+                s_type: i.s_type.as_raw(),
+                // SAFETY: forwarded from the caller.
+                next: chain_s_types(i.p_next, function, "pInfo", &mut findings),
+                src: vk::Handle::as_raw(i.src),
+                dst: scratch_address(&i.dst),
+                mode: i.mode.as_raw(),
+            })
+        };
+        let Some(model) = model else {
+            return Report { findings };
+        };
+        let report = self.cmd_copy_acceleration_structure_to_memory(command_buffer, &model);
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`.
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a
+    /// `VkCopyMemoryToAccelerationStructureInfoKHR` with a well-formed pNext chain.
+    pub unsafe fn cmd_copy_memory_to_acceleration_structure_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCmdCopyMemoryToAccelerationStructureKHR";
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            optional(info, |i| CopyMemoryToAccelerationStructureInfo {
+                s_type: i.s_type.as_raw(),
+                // SAFETY: forwarded from the caller.
+                next: chain_s_types(i.p_next, function, "pInfo", &mut findings),
+                src: address(&i.src),
+                dst: vk::Handle::as_raw(i.dst),
+                mode: i.mode.as_raw(),
+            })
+        };
+        let Some(model) = model else {
+            return Report { findings };
+        };
+        let report = self.cmd_copy_memory_to_acceleration_structure(command_buffer, &model);
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer,
+    /// infoCount, pInfos, pIndirectDeviceAddresses, pIndirectStrides,
+    /// ppMaxPrimitiveCounts)` as a layer receives it: at most
+    /// [`MAX_ELEMENTS`] infos; `ppMaxPrimitiveCounts[i]` is read for
+    /// `pInfos[i].geometryCount` counts (at most [`MAX_ELEMENTS`]).
+    ///
+    /// # Safety
+    /// Non-NULL arrays must be valid for `info_count` elements, each info
+    /// valid as for [`super::accel::build_geometry_info`] and each non-NULL
+    /// `ppMaxPrimitiveCounts[i]` for `pInfos[i].geometryCount` counts.
+    pub unsafe fn cmd_build_acceleration_structures_indirect_raw(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info_count: u32,
+        infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+        indirect_device_addresses: *const vk::DeviceAddress,
+        indirect_strides: *const u32,
+        max_primitive_counts: *const *const u32,
+    ) -> Report {
+        let function = "vkCmdBuildAccelerationStructuresIndirectKHR";
+        let mut findings = Vec::new();
+        let len = bounded_len(info_count, function, "pInfos", &mut findings);
+        /// `len` elements at a non-NULL `pointer`, else none.
+        ///
+        /// # Safety
+        /// A non-NULL `pointer` must be valid for `len` elements.
+        unsafe fn slice<'a, T>(pointer: *const T, len: usize) -> &'a [T] {
+            if pointer.is_null() {
+                &[]
+            } else {
+                // SAFETY: forwarded from the caller.
+                unsafe { std::slice::from_raw_parts(pointer, len) }
+            }
+        }
+        // SAFETY: the caller guarantees `info_count` elements; `len <= info_count`.
+        let (infos, addresses, strides, count_pointers) = unsafe {
+            (
+                slice(infos, len),
+                slice(indirect_device_addresses, len),
+                slice(indirect_strides, len),
+                slice(max_primitive_counts, len),
+            )
+        };
+        let max_counts: Vec<&[u32]> = count_pointers
+            .iter()
+            .zip(infos)
+            .map(|(&counts, info)| {
+                let n = (info.geometry_count as usize).min(MAX_ELEMENTS);
+                // SAFETY: the caller guarantees geometryCount counts at a
+                // non-NULL pointer; `n` is at most that.
+                unsafe { slice(counts, n) }
+            })
+            .collect();
+        // SAFETY: forwarded from the caller.
+        let report = unsafe {
+            self.cmd_build_acceleration_structures_indirect_ash(
+                command_buffer,
+                infos,
+                addresses,
+                strides,
+                &max_counts,
+            )
+        };
+        with_findings(findings, report)
+    }
+}
+
+/// The reader's findings first, then the check's.
+fn with_findings(mut findings: Vec<Finding>, report: Report) -> Report {
+    findings.extend(report.findings);
+    Report { findings }
+}
+
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+unsafe fn copy_micromap_info(
+    info: &vk::CopyMicromapInfoEXT<'_>,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> CopyMicromapInfo {
+    CopyMicromapInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
+        src: vk::Handle::as_raw(info.src),
+        dst: vk::Handle::as_raw(info.dst),
+        mode: info.mode.as_raw(),
+    }
+}
+
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+unsafe fn copy_micromap_to_memory_info(
+    info: &vk::CopyMicromapToMemoryInfoEXT<'_>,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> CopyMicromapToMemoryInfo {
+    CopyMicromapToMemoryInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
+        src: vk::Handle::as_raw(info.src),
+        dst: scratch_address(&info.dst),
+        mode: info.mode.as_raw(),
+    }
+}
+
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+unsafe fn copy_memory_to_micromap_info(
+    info: &vk::CopyMemoryToMicromapInfoEXT<'_>,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> CopyMemoryToMicromapInfo {
+    CopyMemoryToMicromapInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
+        src: address(&info.src),
+        dst: vk::Handle::as_raw(info.dst),
+        mode: info.mode.as_raw(),
+    }
+}
+
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+unsafe fn copy_as_info(
+    info: &vk::CopyAccelerationStructureInfoKHR<'_>,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> CopyAccelerationStructureInfo {
+    CopyAccelerationStructureInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
+        src: vk::Handle::as_raw(info.src),
+        dst: vk::Handle::as_raw(info.dst),
+        mode: info.mode.as_raw(),
+    }
+}
