@@ -12,6 +12,7 @@
 
 pub mod accel;
 pub mod objects;
+pub mod pipeline;
 
 use std::collections::HashSet;
 use std::ffi::c_void;
