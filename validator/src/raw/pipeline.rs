@@ -840,6 +840,196 @@ pub unsafe fn reported_limits(next: *const c_void, base: &Limits) -> Limits {
     limits
 }
 
+/// Reads `count` handles of the array `member` (NULL reads as none).
+///
+/// # Safety
+/// A non-NULL `array` must point to `count` handles.
+pub unsafe fn handles<H: vk::Handle + Copy>(
+    array: *const H,
+    count: u32,
+    function: &'static str,
+    member: &str,
+    findings: &mut Vec<Finding>,
+) -> Vec<Handle> {
+    // SAFETY: forwarded from the caller.
+    unsafe { read_array(array, count, function, member, findings) }
+        .unwrap_or_default()
+        .into_iter()
+        .map(vk::Handle::as_raw)
+        .collect()
+}
+
+/// Reads `count` `VkShaderStageFlags` of the array `member` (NULL reads as none).
+///
+/// # Safety
+/// A non-NULL `array` must point to `count` flags.
+pub unsafe fn stage_flags(
+    array: *const vk::ShaderStageFlags,
+    count: u32,
+    function: &'static str,
+    member: &str,
+    findings: &mut Vec<Finding>,
+) -> Vec<u32> {
+    // SAFETY: forwarded from the caller.
+    unsafe { read_array(array, count, function, member, findings) }
+        .unwrap_or_default()
+        .into_iter()
+        .map(vk::ShaderStageFlags::as_raw)
+        .collect()
+}
+
+/// Whether a `VkDescriptorType` holds acceleration structures (KHR or NV).
+fn holds_acceleration_structures(ty: vk::DescriptorType) -> bool {
+    ty == vk::DescriptorType::ACCELERATION_STRUCTURE_KHR
+        || ty == vk::DescriptorType::ACCELERATION_STRUCTURE_NV
+}
+
+/// The acceleration-structure bindings of a `VkDescriptorSetLayoutCreateInfo`:
+/// `(binding, stageFlags)`.
+///
+/// # Safety
+/// `pBindings` must be NULL or hold `bindingCount` bindings.
+pub unsafe fn acceleration_structure_bindings(
+    info: &vk::DescriptorSetLayoutCreateInfo<'_>,
+    findings: &mut Vec<Finding>,
+) -> Vec<(u32, u32)> {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        read_array(
+            info.p_bindings,
+            info.binding_count,
+            "vkCreateDescriptorSetLayout",
+            "pCreateInfo->pBindings",
+            findings,
+        )
+    }
+    .unwrap_or_default()
+    .iter()
+    .filter(|b| holds_acceleration_structures(b.descriptor_type))
+    .map(|b| (b.binding, b.stage_flags.as_raw()))
+    .collect()
+}
+
+/// Acceleration structures one `VkWriteDescriptorSet` writes.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct AccelerationStructureWrite {
+    pub dst_set: Handle,
+    pub dst_binding: u32,
+    pub dst_array_element: u32,
+    /// From the chained `VkWriteDescriptorSetAccelerationStructure{KHR,NV}`.
+    pub structures: Vec<Handle>,
+}
+
+/// The acceleration-structure writes among `count` `VkWriteDescriptorSet`
+/// (other descriptor types are left out; NULL reads as none).
+///
+/// # Safety
+/// A non-NULL `writes` must point to `count` structures valid as
+/// `vkUpdateDescriptorSets` requires (chains well formed, arrays valid).
+pub unsafe fn acceleration_structure_writes(
+    writes: *const vk::WriteDescriptorSet<'_>,
+    count: u32,
+    findings: &mut Vec<Finding>,
+) -> Vec<AccelerationStructureWrite> {
+    let function = "vkUpdateDescriptorSets";
+    // SAFETY: forwarded from the caller.
+    let all = unsafe {
+        each(
+            writes,
+            count,
+            function,
+            "pDescriptorWrites",
+            findings,
+            |write, at, findings| {
+                if !holds_acceleration_structures(write.descriptor_type) {
+                    return None;
+                }
+                let mut structures = Vec::new();
+                for link in chain(write.p_next, function, at, findings) {
+                    let s_type = vk::StructureType::from_raw(link.s_type);
+                    // Both structures are {sType, pNext, count, handles}; the
+                    // sType says which.
+                    let (count, array) = if s_type
+                        == vk::StructureType::WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR
+                    {
+                        let w: vk::WriteDescriptorSetAccelerationStructureKHR<'_> =
+                            structure(link.address);
+                        (
+                            w.acceleration_structure_count,
+                            w.p_acceleration_structures.cast::<u64>(),
+                        )
+                    } else if s_type
+                        == vk::StructureType::WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_NV
+                    {
+                        let w: vk::WriteDescriptorSetAccelerationStructureNV<'_> =
+                            structure(link.address);
+                        (
+                            w.acceleration_structure_count,
+                            w.p_acceleration_structures.cast::<u64>(),
+                        )
+                    } else {
+                        continue;
+                    };
+                    let member = format!("{at}.pNext.pAccelerationStructures");
+                    structures.extend(
+                        read_array(array, count, function, &member, findings).unwrap_or_default(),
+                    );
+                }
+                Some(AccelerationStructureWrite {
+                    dst_set: vk::Handle::as_raw(write.dst_set),
+                    dst_binding: write.dst_binding,
+                    dst_array_element: write.dst_array_element,
+                    structures,
+                })
+            },
+        )
+    };
+    all.into_iter().flatten().collect()
+}
+
+/// One `VkCopyDescriptorSet`: (srcSet, srcBinding, srcArrayElement), (dstSet,
+/// dstBinding, dstArrayElement), descriptorCount.
+pub type DescriptorCopy = ((Handle, u32, u32), (Handle, u32, u32), u32);
+
+/// Reads `count` `VkCopyDescriptorSet` (NULL reads as none).
+///
+/// # Safety
+/// A non-NULL `copies` must point to `count` structures.
+pub unsafe fn descriptor_copies(
+    copies: *const vk::CopyDescriptorSet<'_>,
+    count: u32,
+    findings: &mut Vec<Finding>,
+) -> Vec<DescriptorCopy> {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        read_array(
+            copies,
+            count,
+            "vkUpdateDescriptorSets",
+            "pDescriptorCopies",
+            findings,
+        )
+    }
+    .unwrap_or_default()
+    .iter()
+    .map(|c| {
+        (
+            (
+                vk::Handle::as_raw(c.src_set),
+                c.src_binding,
+                c.src_array_element,
+            ),
+            (
+                vk::Handle::as_raw(c.dst_set),
+                c.dst_binding,
+                c.dst_array_element,
+            ),
+            c.descriptor_count,
+        )
+    })
+    .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use std::mem::{align_of, offset_of, size_of};
@@ -1164,5 +1354,56 @@ mod tests {
             (read.stage, read.dst_address, read.marker),
             (STAGE_MICROMAP_BUILD, 0x1000, 7)
         );
+    }
+
+    #[test]
+    fn descriptor_writes_keep_only_acceleration_structures() {
+        let structures = [
+            <vk::AccelerationStructureKHR as vk::Handle>::from_raw(0xa1),
+            <vk::AccelerationStructureKHR as vk::Handle>::from_raw(0xa2),
+        ];
+        let mut chained = vk::WriteDescriptorSetAccelerationStructureKHR::default()
+            .acceleration_structures(&structures);
+        let writes = [
+            vk::WriteDescriptorSet {
+                dst_set: <vk::DescriptorSet as vk::Handle>::from_raw(0x5e),
+                dst_binding: 2,
+                dst_array_element: 1,
+                descriptor_count: 2,
+                descriptor_type: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+                ..Default::default()
+            }
+            .push_next(&mut chained),
+            vk::WriteDescriptorSet {
+                descriptor_type: vk::DescriptorType::STORAGE_BUFFER,
+                ..Default::default()
+            },
+        ];
+        let mut findings = Vec::new();
+        // SAFETY: two live writes; the first chains a live structure.
+        let read = unsafe { acceleration_structure_writes(writes.as_ptr(), 2, &mut findings) };
+        assert!(findings.is_empty());
+        assert_eq!(
+            read,
+            [AccelerationStructureWrite {
+                dst_set: 0x5e,
+                dst_binding: 2,
+                dst_array_element: 1,
+                structures: vec![0xa1, 0xa2],
+            }]
+        );
+        let bindings = [
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(3)
+                .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+                .stage_flags(vk::ShaderStageFlags::RAYGEN_KHR),
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(4)
+                .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER),
+        ];
+        let layout = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: the bindings are alive.
+        let read = unsafe { acceleration_structure_bindings(&layout, &mut findings) };
+        assert_eq!(read, [(3, vk::ShaderStageFlags::RAYGEN_KHR.as_raw())]);
     }
 }
