@@ -20,7 +20,7 @@ use crate::dispatch::{
     next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
 };
 use crate::report::Message;
-use crate::{abi, guarded, panic_message, read, settings, testing};
+use crate::{abi, guarded, panic_message, pipelines, properties, read, settings, testing};
 
 /// A command as the loader's `PFN_vkVoidFunction`.
 pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
@@ -70,14 +70,14 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkDestroyMicromapEXT" => as_void(destroy_micromap as vk::PFN_vkDestroyMicromapEXT),
         b"vkCmdBuildMicromapsEXT" => as_void(cmd_build_micromaps as vk::PFN_vkCmdBuildMicromapsEXT),
         b"vkBuildMicromapsEXT" => as_void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
-        _ => None,
+        _ => crate::pipe::intercept(name),
     }
 }
 
 /// The device data for a dispatchable `handle` of a device (the device, or
 /// a command buffer) and the next layer's function `pick` selects; None
 /// when the device is unknown or the next layer lacks the function.
-fn device_and<F: Copy>(
+pub(crate) fn device_and<F: Copy>(
     handle: impl vk::Handle,
     pick: impl FnOnce(&DeviceFns) -> Option<F>,
 ) -> Option<(Arc<DeviceData>, F)> {
@@ -89,7 +89,7 @@ fn device_and<F: Copy>(
 /// Runs a check against the device's validator and delivers its findings;
 /// a panic inside becomes one error message. Returns whether a messenger
 /// asked for the call to be skipped.
-fn check(
+pub(crate) fn check(
     data: &DeviceData,
     function: &'static str,
     call_object: (vk::ObjectType, u64),
@@ -119,7 +119,11 @@ fn check(
 
 /// Records what a call did in the device's state; a panic inside becomes
 /// one error message and the call's result stands.
-fn track(data: &DeviceData, function: &'static str, body: impl FnOnce(&mut DeviceState)) {
+pub(crate) fn track(
+    data: &DeviceData,
+    function: &'static str,
+    body: impl FnOnce(&mut DeviceState),
+) {
     let outcome = {
         let mut state = data.state();
         catch_unwind(AssertUnwindSafe(|| body(&mut state)))
@@ -134,7 +138,7 @@ fn track(data: &DeviceData, function: &'static str, body: impl FnOnce(&mut Devic
     }
 }
 
-fn device_object(device: vk::Device) -> (vk::ObjectType, u64) {
+pub(crate) fn device_object(device: vk::Device) -> (vk::ObjectType, u64) {
     (vk::ObjectType::DEVICE, device.as_raw())
 }
 
@@ -171,6 +175,10 @@ pub unsafe extern "system" fn create_device(
             ) else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
+            // SAFETY: the create info's chain is well formed, as vkCreateDevice requires.
+            if unsafe { properties::check_device_chain(&instance, physical_device, info) } {
+                return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+            }
             // SAFETY: the next layer's vkCreateDevice, with the application's arguments.
             let result = unsafe { create(physical_device, create_info, allocator, device_out) };
             if result != vk::Result::SUCCESS {
@@ -192,8 +200,9 @@ pub unsafe extern "system" fn create_device(
                 });
             let limits = settings::get().0.limits.clone();
             // SAFETY: the create info is valid, as vkCreateDevice requires.
-            let (device, findings) =
+            let (mut device, findings) =
                 unsafe { objects::device_from_create_info(info, limits, handle) };
+            device.limits = properties::device_limits(&instance, physical_device, &device);
             let data = Arc::new(DeviceData {
                 handle,
                 next_gdpa,
@@ -205,6 +214,7 @@ pub unsafe extern "system" fn create_device(
                     validator: Validator::new(device),
                     allocations: HashMap::new(),
                     mappings: HashMap::new(),
+                    pipe: Default::default(),
                 }),
             });
             let messages: Vec<Message> = findings
@@ -653,6 +663,7 @@ unsafe extern "system" fn deferred_operation_join(
                     state
                         .validator
                         .deferred_operation_completed(operation.as_raw());
+                    pipelines::deferred_operation_completed(state, operation.as_raw());
                 });
             }
             result
@@ -680,6 +691,7 @@ unsafe extern "system" fn get_deferred_operation_result(
                     state
                         .validator
                         .deferred_operation_completed(operation.as_raw());
+                    pipelines::deferred_operation_completed(state, operation.as_raw());
                 });
             }
             result

@@ -36,6 +36,8 @@ pub struct InstanceFns {
     pub get_physical_device_memory_properties: Option<vk::PFN_vkGetPhysicalDeviceMemoryProperties>,
     pub create_debug_utils_messenger: Option<vk::PFN_vkCreateDebugUtilsMessengerEXT>,
     pub destroy_debug_utils_messenger: Option<vk::PFN_vkDestroyDebugUtilsMessengerEXT>,
+    pub get_physical_device_properties2: Option<vk::PFN_vkGetPhysicalDeviceProperties2>,
+    pub get_physical_device_properties2_khr: Option<vk::PFN_vkGetPhysicalDeviceProperties2>,
 }
 
 impl InstanceFns {
@@ -64,6 +66,18 @@ impl InstanceFns {
                 instance,
                 c"vkDestroyDebugUtilsMessengerEXT",
                 vk::PFN_vkDestroyDebugUtilsMessengerEXT
+            ),
+            get_physical_device_properties2: next_fn!(
+                gipa,
+                instance,
+                c"vkGetPhysicalDeviceProperties2",
+                vk::PFN_vkGetPhysicalDeviceProperties2
+            ),
+            get_physical_device_properties2_khr: next_fn!(
+                gipa,
+                instance,
+                c"vkGetPhysicalDeviceProperties2KHR",
+                vk::PFN_vkGetPhysicalDeviceProperties2
             ),
         }
     }
@@ -100,6 +114,8 @@ pub struct DeviceFns {
     pub destroy_micromap: Option<vk::PFN_vkDestroyMicromapEXT>,
     pub cmd_build_micromaps: Option<vk::PFN_vkCmdBuildMicromapsEXT>,
     pub build_micromaps: Option<vk::PFN_vkBuildMicromapsEXT>,
+    /// The pipeline, shader, synchronization and shader-running commands.
+    pub pipe: crate::pipe::PipeFns,
 }
 
 impl DeviceFns {
@@ -196,6 +212,7 @@ impl DeviceFns {
                 c"vkBuildMicromapsEXT",
                 vk::PFN_vkBuildMicromapsEXT
             ),
+            pipe: crate::pipe::PipeFns::load(gdpa, device),
         }
     }
 }
@@ -215,6 +232,8 @@ pub struct DeviceState {
     /// Host ranges of mapped allocations, by allocation handle: memory a
     /// host build may read its micromap data from.
     pub mappings: HashMap<u64, ReadableHost>,
+    /// Bound pipelines, shaders and descriptor sets, and what pipelines' stages use.
+    pub pipe: crate::work::PipeState,
 }
 
 /// What the layer keeps of a `VkDevice`.
