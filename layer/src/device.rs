@@ -19,7 +19,7 @@ use crate::dispatch::{
     next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
 };
 use crate::report::Message;
-use crate::{abi, commands, guarded, panic_message, read, testing};
+use crate::{abi, commands, guarded, panic_message, pipelines, properties, read, testing};
 
 /// A command as the loader's `PFN_vkVoidFunction`.
 pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
@@ -69,7 +69,9 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkDestroyMicromapEXT" => as_void(destroy_micromap as vk::PFN_vkDestroyMicromapEXT),
         b"vkCmdBuildMicromapsEXT" => as_void(cmd_build_micromaps as vk::PFN_vkCmdBuildMicromapsEXT),
         b"vkBuildMicromapsEXT" => as_void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
-        _ => crate::accel::intercept(name).or_else(|| crate::commands::intercept(name)),
+        _ => crate::accel::intercept(name)
+            .or_else(|| crate::commands::intercept(name))
+            .or_else(|| crate::pipe::intercept(name)),
     }
 }
 
@@ -174,6 +176,10 @@ pub unsafe extern "system" fn create_device(
             ) else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
+            // SAFETY: the create info's chain is well formed, as vkCreateDevice requires.
+            if unsafe { properties::check_device_chain(&instance, physical_device, info) } {
+                return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+            }
             // SAFETY: the next layer's vkCreateDevice, with the application's arguments.
             let result = unsafe { create(physical_device, create_info, allocator, device_out) };
             if result != vk::Result::SUCCESS {
@@ -202,8 +208,9 @@ pub unsafe extern "system" fn create_device(
             let limits = instance.reporter.settings().limits.clone();
             let tier = instance.reporter.settings().tier;
             // SAFETY: the create info is valid, as vkCreateDevice requires.
-            let (device, findings) =
+            let (mut device, findings) =
                 unsafe { objects::device_from_create_info(info, limits, handle) };
+            device.limits = properties::device_limits(&instance, physical_device, &device);
             let physical_device_count = device.physical_device_count;
             let mut validator = Validator::new(device);
             validator.set_tier(tier);
@@ -220,6 +227,7 @@ pub unsafe extern "system" fn create_device(
                     allocations: HashMap::new(),
                     mappings: HashMap::new(),
                     memory_layout: Default::default(),
+                    pipe: Default::default(),
                 }),
             });
             let messages: Vec<Message> = findings
@@ -680,6 +688,7 @@ unsafe extern "system" fn deferred_operation_join(
                     state
                         .validator
                         .deferred_operation_completed(operation.as_raw());
+                    pipelines::deferred_operation_completed(state, operation.as_raw());
                 });
             }
             result
@@ -707,6 +716,7 @@ unsafe extern "system" fn get_deferred_operation_result(
                     state
                         .validator
                         .deferred_operation_completed(operation.as_raw());
+                    pipelines::deferred_operation_completed(state, operation.as_raw());
                 });
             }
             result

@@ -38,6 +38,8 @@ pub struct InstanceFns {
         Option<vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties>,
     pub create_debug_utils_messenger: Option<vk::PFN_vkCreateDebugUtilsMessengerEXT>,
     pub destroy_debug_utils_messenger: Option<vk::PFN_vkDestroyDebugUtilsMessengerEXT>,
+    pub get_physical_device_properties2: Option<vk::PFN_vkGetPhysicalDeviceProperties2>,
+    pub get_physical_device_properties2_khr: Option<vk::PFN_vkGetPhysicalDeviceProperties2>,
 }
 
 impl InstanceFns {
@@ -72,6 +74,18 @@ impl InstanceFns {
                 instance,
                 c"vkDestroyDebugUtilsMessengerEXT",
                 vk::PFN_vkDestroyDebugUtilsMessengerEXT
+            ),
+            get_physical_device_properties2: next_fn!(
+                gipa,
+                instance,
+                c"vkGetPhysicalDeviceProperties2",
+                vk::PFN_vkGetPhysicalDeviceProperties2
+            ),
+            get_physical_device_properties2_khr: next_fn!(
+                gipa,
+                instance,
+                c"vkGetPhysicalDeviceProperties2KHR",
+                vk::PFN_vkGetPhysicalDeviceProperties2
             ),
         }
     }
@@ -112,6 +126,8 @@ pub struct DeviceFns {
     pub accel: crate::accel::AccelFns,
     /// Command pools and buffers, their state commands, and queue submission.
     pub commands: crate::commands::CommandFns,
+    /// The pipeline, shader, synchronization and shader-running commands.
+    pub pipe: crate::pipe::PipeFns,
 }
 
 impl DeviceFns {
@@ -210,6 +226,7 @@ impl DeviceFns {
             ),
             accel: crate::accel::AccelFns::load(gdpa, device),
             commands: crate::commands::CommandFns::load(gdpa, device),
+            pipe: crate::pipe::PipeFns::load(gdpa, device),
         }
     }
 }
@@ -232,6 +249,8 @@ pub struct DeviceState {
     /// Where buffers lie in memory and where memory is mapped, for reading
     /// device builds' contents at submission.
     pub memory_layout: crate::submit::MemoryLayout,
+    /// Bound pipelines, shaders and descriptor sets, and what pipelines' stages use.
+    pub pipe: crate::work::PipeState,
 }
 
 /// What the layer keeps of a `VkDevice`.

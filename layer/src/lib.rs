@@ -22,12 +22,17 @@ mod commands;
 mod device;
 mod dispatch;
 mod instance;
+mod pipe;
+mod pipelines;
+mod properties;
 mod read;
 pub mod report;
 pub mod settings;
 mod submit;
+mod sync;
 #[doc(hidden)]
 pub mod testing;
+mod work;
 
 use std::any::Any;
 use std::ffi::{c_char, CStr};
@@ -138,7 +143,7 @@ pub unsafe extern "system" fn vkGetInstanceProcAddr(
             .flatten()?;
         // SAFETY: the next layer's GIPA, with the instance it created.
         let next = unsafe { (data.next_gipa)(data.handle, name.as_ptr()) };
-        match device::intercept(name) {
+        match device::intercept(name).or_else(|| properties::intercept(name)) {
             Some(ours) if next.is_some() => Some(ours),
             _ => next,
         }
@@ -175,5 +180,7 @@ pub unsafe extern "system" fn vkGetDeviceProcAddr(
 
 /// Whether `name` is a command this layer intercepts (for tests and tools).
 pub fn intercepts(name: &CStr) -> bool {
-    instance::intercept(name).is_some() || device::intercept(name).is_some()
+    instance::intercept(name).is_some()
+        || device::intercept(name).is_some()
+        || properties::intercept(name).is_some()
 }

@@ -125,6 +125,9 @@ pub struct Settings {
     pub report: Vec<Severity>,
     /// The device limits checks use (no create info carries them).
     pub limits: Limits,
+    /// Whether the `profile` setting chose `limits`; otherwise the layer
+    /// takes the limits the physical device reports over them.
+    pub profile_chosen: bool,
     /// Raise SIGTRAP after reporting an error.
     pub break_on_error: bool,
     /// How far the checks look.
@@ -138,6 +141,7 @@ impl Default for Settings {
             log_file: None,
             report: vec![Severity::Error, Severity::Warning],
             limits: Profile::SpecMinimum.limits(),
+            profile_chosen: false,
             break_on_error: false,
             tier: Tier::default(),
         }
@@ -226,10 +230,16 @@ pub fn parse(
     }
     if let Some((from, value)) = get(PROFILE).filter(|(_, v)| !v.is_empty()) {
         match Profile::from_name(&value) {
-            Some(profile) => settings.limits = profile.limits(),
+            Some(profile) => {
+                settings.limits = profile.limits();
+                settings.profile_chosen = true;
+            }
             None => match read_file(Path::new(&value)) {
                 Ok(json) => match Device::limits_from_json(Profile::SpecMinimum, &json) {
-                    Ok(limits) => settings.limits = limits,
+                    Ok(limits) => {
+                        settings.limits = limits;
+                        settings.profile_chosen = true;
+                    }
                     Err(e) => problems.push(format!(
                         "{from}: {value} is not a JSON object of limits ({e}); using spec-minimum"
                     )),

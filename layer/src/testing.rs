@@ -19,3 +19,22 @@ pub(crate) fn panic_if_asked() {
         panic!("a panic injected by ommcheck's test hook");
     }
 }
+
+/// Records in `device`'s checked state that `acceleration_structure` was
+/// built with `geometry`, as the acceleration-structure build intercepts
+/// will once the layer has them; lets tests reach the draw, dispatch and
+/// trace-rays rules. Returns false for an unknown device.
+#[doc(hidden)]
+pub fn seed_micromap_geometry(
+    device: ash::vk::Device,
+    acceleration_structure: u64,
+    geometry: ommcheck::model::pipeline::MicromapGeometry,
+) -> bool {
+    let Some(data) = crate::dispatch::DEVICES.get(device) else {
+        return false;
+    };
+    let mut state = data.state();
+    let known = &mut state.validator.state_mut().micromap_geometry;
+    known.insert(acceleration_structure, geometry);
+    true
+}

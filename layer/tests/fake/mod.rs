@@ -6,9 +6,8 @@
 //! key, as the loader's are: a physical device shares its instance's key,
 //! a command buffer its device's. Each test thread records its own calls.
 
-#![allow(unsafe_code, clippy::missing_safety_doc)]
-// Each test binary uses a part of the fake.
-#![allow(dead_code)]
+// Each test crate uses part of the fake driver.
+#![allow(unsafe_code, clippy::missing_safety_doc, dead_code)]
 
 use std::cell::RefCell;
 use std::ffi::{c_char, c_void, CStr};
@@ -36,10 +35,12 @@ struct Driver {
     next_handle: u64,
     /// What vkMapMemory hands out: test-owned memory.
     mapped: usize,
+    /// The maxOpacity2StateSubdivisionLevel vkGetPhysicalDeviceProperties2 reports.
+    reported_2_state_level: u32,
 }
 
 thread_local! {
-    static DRIVER: RefCell<Driver> = RefCell::new(Driver { next_handle: 1, ..Driver::default() });
+    static DRIVER: RefCell<Driver> = RefCell::new(Driver { next_handle: 1, reported_2_state_level: 3, ..Driver::default() });
 }
 
 fn record(name: &'static str, args: Vec<u64>) {
@@ -61,6 +62,12 @@ pub fn calls(name: &str) -> Vec<Call> {
 /// Makes vkMapMemory return `memory`.
 pub fn map_to(memory: *mut u8) {
     DRIVER.with_borrow_mut(|d| d.mapped = memory.expose_provenance());
+}
+
+/// Makes vkGetPhysicalDeviceProperties2 report `level` as the EXT
+/// maxOpacity2StateSubdivisionLevel (3, the specification's minimum, unless set).
+pub fn report_2_state_level(level: u32) {
+    DRIVER.with_borrow_mut(|d| d.reported_2_state_level = level);
 }
 
 /// A dispatchable object: the loader's dispatch pointer comes first.
@@ -427,6 +434,180 @@ unsafe extern "system" fn cmd_copy_micromap(
     record("vkCmdCopyMicromapEXT", vec![cb.as_raw()]);
 }
 
+/// Fills the opacity micromap properties chained in `properties`.
+unsafe extern "system" fn get_properties2(
+    _: vk::PhysicalDevice,
+    properties: *mut vk::PhysicalDeviceProperties2<'_>,
+) {
+    let level = DRIVER.with_borrow(|d| d.reported_2_state_level);
+    let mut next = unsafe { (*properties).p_next };
+    while !next.is_null() {
+        let base = unsafe { &mut *next.cast::<vk::BaseOutStructure<'_>>() };
+        if base.s_type == vk::StructureType::PHYSICAL_DEVICE_OPACITY_MICROMAP_PROPERTIES_EXT {
+            let p =
+                unsafe { &mut *next.cast::<vk::PhysicalDeviceOpacityMicromapPropertiesEXT<'_>>() };
+            p.max_opacity2_state_subdivision_level = level;
+            p.max_opacity4_state_subdivision_level = level;
+        }
+        next = base.p_next.cast();
+    }
+    record("vkGetPhysicalDeviceProperties2", vec![]);
+}
+
+/// Writes `count` fresh handles to `out`.
+unsafe fn fresh_handles<H: vk::Handle>(count: u32, out: *mut H) -> Vec<u64> {
+    (0..count as usize)
+        .map(|i| {
+            let handle = next_handle();
+            unsafe { *out.add(i) = H::from_raw(handle) };
+            handle
+        })
+        .collect()
+}
+
+unsafe extern "system" fn create_shader_module(
+    _: vk::Device,
+    _: *const vk::ShaderModuleCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::ShaderModule,
+) -> vk::Result {
+    let handles = unsafe { fresh_handles(1, out) };
+    record("vkCreateShaderModule", handles);
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn create_compute_pipelines(
+    _: vk::Device,
+    _: vk::PipelineCache,
+    count: u32,
+    _: *const vk::ComputePipelineCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::Pipeline,
+) -> vk::Result {
+    let handles = unsafe { fresh_handles(count, out) };
+    record("vkCreateComputePipelines", handles);
+    vk::Result::SUCCESS
+}
+
+/// Writes the handles at once; with a deferred operation it says the
+/// creation was deferred.
+unsafe extern "system" fn create_ray_tracing_pipelines(
+    _: vk::Device,
+    deferred: vk::DeferredOperationKHR,
+    _: vk::PipelineCache,
+    count: u32,
+    _: *const vk::RayTracingPipelineCreateInfoKHR<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::Pipeline,
+) -> vk::Result {
+    let handles = unsafe { fresh_handles(count, out) };
+    record("vkCreateRayTracingPipelinesKHR", handles);
+    if deferred == vk::DeferredOperationKHR::null() {
+        vk::Result::SUCCESS
+    } else {
+        vk::Result::OPERATION_DEFERRED_KHR
+    }
+}
+
+unsafe extern "system" fn deferred_operation_join(
+    _: vk::Device,
+    operation: vk::DeferredOperationKHR,
+) -> vk::Result {
+    record("vkDeferredOperationJoinKHR", vec![operation.as_raw()]);
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn cmd_pipeline_barrier2(
+    cb: vk::CommandBuffer,
+    _: *const vk::DependencyInfo<'_>,
+) {
+    record("vkCmdPipelineBarrier2", vec![cb.as_raw()]);
+}
+
+unsafe extern "system" fn create_descriptor_set_layout(
+    _: vk::Device,
+    _: *const vk::DescriptorSetLayoutCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::DescriptorSetLayout,
+) -> vk::Result {
+    unsafe { fresh_handles(1, out) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn allocate_descriptor_sets(
+    _: vk::Device,
+    info: *const vk::DescriptorSetAllocateInfo<'_>,
+    out: *mut vk::DescriptorSet,
+) -> vk::Result {
+    unsafe { fresh_handles((*info).descriptor_set_count, out) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn update_descriptor_sets(
+    _: vk::Device,
+    writes: u32,
+    _: *const vk::WriteDescriptorSet<'_>,
+    copies: u32,
+    _: *const vk::CopyDescriptorSet<'_>,
+) {
+    record(
+        "vkUpdateDescriptorSets",
+        vec![u64::from(writes), u64::from(copies)],
+    );
+}
+
+#[allow(clippy::too_many_arguments)]
+unsafe extern "system" fn cmd_bind_descriptor_sets(
+    _: vk::CommandBuffer,
+    _: vk::PipelineBindPoint,
+    _: vk::PipelineLayout,
+    first: u32,
+    count: u32,
+    _: *const vk::DescriptorSet,
+    _: u32,
+    _: *const u32,
+) {
+    record(
+        "vkCmdBindDescriptorSets",
+        vec![u64::from(first), u64::from(count)],
+    );
+}
+
+unsafe extern "system" fn cmd_bind_pipeline(
+    _: vk::CommandBuffer,
+    point: vk::PipelineBindPoint,
+    pipeline: vk::Pipeline,
+) {
+    record(
+        "vkCmdBindPipeline",
+        vec![point.as_raw() as u64, pipeline.as_raw()],
+    );
+}
+
+type Region = *const vk::StridedDeviceAddressRegionKHR;
+
+#[allow(clippy::too_many_arguments)]
+unsafe extern "system" fn cmd_trace_rays(
+    cb: vk::CommandBuffer,
+    _: Region,
+    _: Region,
+    _: Region,
+    _: Region,
+    width: u32,
+    height: u32,
+    depth: u32,
+) {
+    record(
+        "vkCmdTraceRaysKHR",
+        vec![
+            cb.as_raw(),
+            u64::from(width),
+            u64::from(height),
+            u64::from(depth),
+        ],
+    );
+}
+
 /// A command no layer knows, which the fake driver has.
 pub unsafe extern "system" fn unknown_command() {
     record("vkOmmcheckTestUnknownCommand", vec![]);
@@ -476,6 +657,29 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdBuildAccelerationStructuresKHR" => {
             void(cmd_build_acceleration_structures as vk::PFN_vkCmdBuildAccelerationStructuresKHR)
         }
+        b"vkCreateShaderModule" => void(create_shader_module as vk::PFN_vkCreateShaderModule),
+        b"vkCreateComputePipelines" => {
+            void(create_compute_pipelines as vk::PFN_vkCreateComputePipelines)
+        }
+        b"vkCreateRayTracingPipelinesKHR" => {
+            void(create_ray_tracing_pipelines as vk::PFN_vkCreateRayTracingPipelinesKHR)
+        }
+        b"vkDeferredOperationJoinKHR" => {
+            void(deferred_operation_join as vk::PFN_vkDeferredOperationJoinKHR)
+        }
+        b"vkCmdPipelineBarrier2" => void(cmd_pipeline_barrier2 as vk::PFN_vkCmdPipelineBarrier2),
+        b"vkCreateDescriptorSetLayout" => {
+            void(create_descriptor_set_layout as vk::PFN_vkCreateDescriptorSetLayout)
+        }
+        b"vkAllocateDescriptorSets" => {
+            void(allocate_descriptor_sets as vk::PFN_vkAllocateDescriptorSets)
+        }
+        b"vkUpdateDescriptorSets" => void(update_descriptor_sets as vk::PFN_vkUpdateDescriptorSets),
+        b"vkCmdBindDescriptorSets" => {
+            void(cmd_bind_descriptor_sets as vk::PFN_vkCmdBindDescriptorSets)
+        }
+        b"vkCmdBindPipeline" => void(cmd_bind_pipeline as vk::PFN_vkCmdBindPipeline),
+        b"vkCmdTraceRaysKHR" => void(cmd_trace_rays as vk::PFN_vkCmdTraceRaysKHR),
         _ => None,
     }
 }
@@ -509,6 +713,9 @@ pub unsafe extern "system" fn fake_gipa(
             void(destroy_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT)
         }
         b"vkGetDeviceProcAddr" => void(fake_gdpa as vk::PFN_vkGetDeviceProcAddr),
+        b"vkGetPhysicalDeviceProperties2" => {
+            void(get_properties2 as vk::PFN_vkGetPhysicalDeviceProperties2)
+        }
         _ => device_command(name),
     }
 }
@@ -587,6 +794,7 @@ pub fn device_fn<F: Copy>(device: vk::Device, name: &CStr) -> F {
 pub struct Chain {
     pub instance: vk::Instance,
     pub device: vk::Device,
+    pub physical_device: vk::PhysicalDevice,
     pub command_buffer: vk::CommandBuffer,
     pub messenger: vk::DebugUtilsMessengerEXT,
     pub collector: Box<Collector>,
@@ -668,6 +876,24 @@ impl Chain {
     /// As [`Chain::new`], with `next` (the application's structures, such
     /// as a `VkLayerSettingsCreateInfoEXT`) chained to `VkInstanceCreateInfo`.
     pub fn with_instance_next(next: *const std::ffi::c_void) -> Self {
+        let chain = Self::with_chains(next, std::ptr::null_mut());
+        assert_eq!(chain.1, vk::Result::SUCCESS);
+        chain.0
+    }
+
+    /// As [`Chain::new`], with `extra` (NULL, or a structure with a NULL
+    /// pNext) chained to the device create info too; returns what
+    /// vkCreateDevice returned.
+    pub fn with_device_chain(extra: *mut vk::BaseOutStructure<'_>) -> (Self, vk::Result) {
+        Self::with_chains(std::ptr::null(), extra)
+    }
+
+    /// The chain with `next` after the instance's link info and `extra` in
+    /// the device create info.
+    fn with_chains(
+        next: *const std::ffi::c_void,
+        extra: *mut vk::BaseOutStructure<'_>,
+    ) -> (Self, vk::Result) {
         let (result, instance, advanced) = create_instance_with(true, next);
         assert_eq!(result, vk::Result::SUCCESS);
         assert!(advanced, "the layer did not advance the instance link");
@@ -691,6 +917,7 @@ impl Chain {
         };
         let mut address = vk::PhysicalDeviceBufferDeviceAddressFeatures {
             buffer_device_address: vk::TRUE,
+            p_next: extra.cast(),
             ..Default::default()
         };
         let names = [
@@ -718,20 +945,22 @@ impl Chain {
         let mut device = vk::Device::null();
         // SAFETY: a valid create info as the loader builds it.
         let result = unsafe { create(physical_device, &info, std::ptr::null(), &mut device) };
-        assert_eq!(result, vk::Result::SUCCESS);
         // SAFETY: the union holds pLayerInfo.
+        let advanced = unsafe { link_info.u.p_layer_info.is_null() };
         assert!(
-            unsafe { link_info.u.p_layer_info.is_null() },
+            advanced || result != vk::Result::SUCCESS,
             "device link not advanced"
         );
         let command_buffer = vk::CommandBuffer::from_raw(dispatchable(key_of(device.as_raw())));
-        Self {
+        let chain = Self {
             instance,
             device,
+            physical_device,
             command_buffer,
             messenger,
             collector,
-        }
+        };
+        (chain, result)
     }
 
     pub fn buffer(&self, size: u64, usage: vk::BufferUsageFlags, memory_type: u32) -> vk::Buffer {

@@ -13,6 +13,7 @@
 pub mod accel;
 pub mod commands;
 pub mod objects;
+pub mod pipeline;
 
 use std::collections::HashSet;
 use std::ffi::c_void;
