@@ -66,8 +66,6 @@ pipe_commands! {
     cmd_write_timestamp2_khr: vk::PFN_vkCmdWriteTimestamp2 = c"vkCmdWriteTimestamp2KHR" => sync::cmd_write_timestamp2_khr;
     cmd_write_buffer_marker2_amd: vk::PFN_vkCmdWriteBufferMarker2AMD = c"vkCmdWriteBufferMarker2AMD" => sync::cmd_write_buffer_marker2_amd;
     cmd_write_marker_to_memory_amd: PfnCmdWriteMarkerToMemoryAMD = c"vkCmdWriteMarkerToMemoryAMD" => sync::cmd_write_marker_to_memory_amd;
-    queue_submit2: vk::PFN_vkQueueSubmit2 = c"vkQueueSubmit2" => sync::queue_submit2;
-    queue_submit2_khr: vk::PFN_vkQueueSubmit2 = c"vkQueueSubmit2KHR" => sync::queue_submit2_khr;
 
     create_descriptor_set_layout: vk::PFN_vkCreateDescriptorSetLayout = c"vkCreateDescriptorSetLayout" => work::create_descriptor_set_layout;
     destroy_descriptor_set_layout: vk::PFN_vkDestroyDescriptorSetLayout = c"vkDestroyDescriptorSetLayout" => work::destroy_descriptor_set_layout;

@@ -246,6 +246,14 @@ unsafe fn queue_submit2_with(
     submits: *const vk::SubmitInfo2<'_>,
     fence: vk::Fence,
 ) -> vk::Result {
+    // The semaphores' stage masks first (guarded like every check).
+    let skip = guarded(function, false, || {
+        // SAFETY: the application's submit infos, valid as the API requires.
+        unsafe { crate::sync::check_submit2(function, queue, count, submits) }
+    });
+    if skip {
+        return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+    }
     submit_with(
         function,
         queue,

@@ -239,38 +239,28 @@ pub unsafe extern "system" fn cmd_write_marker_to_memory_amd(
     )
 }
 
-macro_rules! submit_commands {
-    ($($ours:ident, $field:ident, $name:literal;)*) => {$(
-        /// `vkQueueSubmit2` or its KHR alias: the semaphores' stage masks are checked.
-        pub unsafe extern "system" fn $ours(
-            queue: vk::Queue,
-            count: u32,
-            submits: *const vk::SubmitInfo2<'_>,
-            fence: vk::Fence,
-        ) -> vk::Result {
-            guarded($name, vk::Result::ERROR_INITIALIZATION_FAILED, || {
-                // A queue shares its device's dispatch key.
-                let Some((data, next)) = device_and(queue, |f| f.pipe.$field) else {
-                    return vk::Result::ERROR_INITIALIZATION_FAILED;
-                };
-                let object = (vk::ObjectType::QUEUE, queue.as_raw());
-                let skip = check(&data, $name, object, |state| {
-                    let mut findings = Vec::new();
-                    // SAFETY: the submits are valid for `count` (the API's requirement).
-                    let model = unsafe { raw::submit_infos(submits, count, $name, &mut findings) };
-                    with_findings(state.validator.queue_submit2(&model), findings)
-                });
-                if skip {
-                    return vk::Result::ERROR_VALIDATION_FAILED_EXT;
-                }
-                // SAFETY: the next layer's function, with the application's arguments.
-                unsafe { next(queue, count, submits, fence) }
-            })
-        }
-    )*};
-}
-
-submit_commands! {
-    queue_submit2, queue_submit2, "vkQueueSubmit2";
-    queue_submit2_khr, queue_submit2_khr, "vkQueueSubmit2KHR";
+/// The semaphores' stage masks of `vkQueueSubmit2` or its KHR alias
+/// (`function`); returns whether a messenger asked for the submission to be
+/// skipped. `crate::submit` calls it before checking the builds the
+/// submission runs, so one intercept serves both.
+///
+/// # Safety
+/// `submits` must be valid for `count`, as the API requires.
+pub unsafe fn check_submit2(
+    function: &'static str,
+    queue: vk::Queue,
+    count: u32,
+    submits: *const vk::SubmitInfo2<'_>,
+) -> bool {
+    // A queue shares its device's dispatch key.
+    let Some(data) = crate::dispatch::DEVICES.get(queue) else {
+        return false;
+    };
+    let object = (vk::ObjectType::QUEUE, queue.as_raw());
+    check(&data, function, object, |state| {
+        let mut findings = Vec::new();
+        // SAFETY: forwarded from the caller.
+        let model = unsafe { raw::submit_infos(submits, count, function, &mut findings) };
+        with_findings(state.validator.queue_submit2(&model), findings)
+    })
 }
