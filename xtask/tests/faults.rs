@@ -48,6 +48,15 @@ fn the_fault_corpus_is_caught_as_each_tier_promises() {
         content.caught, content.faults,
         "the content tier misses faults"
     );
+
+    // The README quotes the table `cargo xtask accuracy` prints.
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md"))
+            .expect("README.md");
+    assert!(
+        readme.contains(&faults::render(&table, classes.len())),
+        "README.md's accuracy table is stale: paste what `cargo xtask accuracy` prints"
+    );
 }
 
 #[test]
