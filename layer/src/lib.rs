@@ -1,13 +1,25 @@
 //! `VK_LAYER_OMMCHECK_validation`: the ommcheck checks as a Vulkan layer.
 //!
-//! The layer intercepts the calls that create the objects micromap builds
-//! refer to (buffers, memory, micromaps), feeds them to an
-//! [`ommcheck::Validator`] per device, checks `vkCmdBuildMicromapsEXT` and
-//! `vkBuildMicromapsEXT` through the core's raw entry points, and reports
-//! findings to the application's `VK_EXT_debug_utils` messengers in the
-//! Khronos validation layer's format. Every other command passes to the
-//! next layer untouched. All check logic lives in the core; this crate
-//! only adapts the loader interface to it.
+//! The layer feeds an [`ommcheck::Validator`] per device with what the
+//! application creates and records, checks each call the micromap rules
+//! concern through the core's raw entry points, and reports findings to the
+//! application's `VK_EXT_debug_utils` messengers in the Khronos validation
+//! layer's format. Every other command passes to the next layer untouched.
+//! All check logic lives in the core; this crate only adapts the loader
+//! interface to it. By module:
+//!
+//! - `instance`, `device`, `dispatch`, `abi`: the loader interface, instance
+//!   and device creation, messengers, buffers, memory, micromap objects and
+//!   micromap builds;
+//! - `accel`: acceleration-structure objects and builds, micromap copies,
+//!   queries, size queries and compatibility;
+//! - `commands`, `submit`: command-pool and command-buffer state, and the
+//!   contents of device builds read from mapped memory at submission;
+//! - `pipe`, `pipelines`, `sync`, `work`, `properties`: shaders, pipelines,
+//!   synchronization, the commands that run shaders (with descriptor
+//!   tracking) and the feature and property chains;
+//! - `settings`, `report`, `read`: settings, message delivery and the small
+//!   raw reads of the layer's own.
 //!
 //! Every exported or intercepted function runs its body inside
 //! `std::panic::catch_unwind`: a panic becomes one error message and never
