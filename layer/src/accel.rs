@@ -58,6 +58,8 @@ pub struct AccelFns {
     pub get_device_micromap_compatibility: Option<vk::PFN_vkGetDeviceMicromapCompatibilityEXT>,
     pub create_query_pool: Option<vk::PFN_vkCreateQueryPool>,
     pub destroy_query_pool: Option<vk::PFN_vkDestroyQueryPool>,
+    pub cmd_begin_query: Option<vk::PFN_vkCmdBeginQuery>,
+    pub cmd_begin_query_indexed: Option<vk::PFN_vkCmdBeginQueryIndexedEXT>,
 }
 
 impl AccelFns {
@@ -148,6 +150,11 @@ impl AccelFns {
             ),
             create_query_pool: load!(c"vkCreateQueryPool", vk::PFN_vkCreateQueryPool),
             destroy_query_pool: load!(c"vkDestroyQueryPool", vk::PFN_vkDestroyQueryPool),
+            cmd_begin_query: load!(c"vkCmdBeginQuery", vk::PFN_vkCmdBeginQuery),
+            cmd_begin_query_indexed: load!(
+                c"vkCmdBeginQueryIndexedEXT",
+                vk::PFN_vkCmdBeginQueryIndexedEXT
+            ),
         }
     }
 }
@@ -221,6 +228,10 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         ),
         b"vkCreateQueryPool" => as_void(create_query_pool as vk::PFN_vkCreateQueryPool),
         b"vkDestroyQueryPool" => as_void(destroy_query_pool as vk::PFN_vkDestroyQueryPool),
+        b"vkCmdBeginQuery" => as_void(cmd_begin_query as vk::PFN_vkCmdBeginQuery),
+        b"vkCmdBeginQueryIndexedEXT" => {
+            as_void(cmd_begin_query_indexed as vk::PFN_vkCmdBeginQueryIndexedEXT)
+        }
         _ => None,
     }
 }
@@ -760,6 +771,46 @@ unsafe extern "system" fn cmd_write_micromaps_properties(
                 first_query,
             )
         },
+    );
+}
+
+/// `vkCmdBeginQuery`: the micromap rule only (the pool must not be a
+/// micromap size pool).
+unsafe extern "system" fn cmd_begin_query(
+    command_buffer: vk::CommandBuffer,
+    query_pool: vk::QueryPool,
+    query: u32,
+    flags: vk::QueryControlFlags,
+) {
+    recorded(
+        "vkCmdBeginQuery",
+        command_buffer,
+        |f| f.accel.cmd_begin_query,
+        |state, model| state.validator.cmd_begin_query(model, query_pool.as_raw()),
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, query_pool, query, flags) },
+    );
+}
+
+/// `vkCmdBeginQueryIndexedEXT`: the micromap rule only.
+unsafe extern "system" fn cmd_begin_query_indexed(
+    command_buffer: vk::CommandBuffer,
+    query_pool: vk::QueryPool,
+    query: u32,
+    flags: vk::QueryControlFlags,
+    index: u32,
+) {
+    recorded(
+        "vkCmdBeginQueryIndexedEXT",
+        command_buffer,
+        |f| f.accel.cmd_begin_query_indexed,
+        |state, model| {
+            state
+                .validator
+                .cmd_begin_query_indexed(model, query_pool.as_raw())
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, query_pool, query, flags, index) },
     );
 }
 

@@ -96,4 +96,15 @@ pipe_commands! {
     cmd_trace_rays: vk::PFN_vkCmdTraceRaysKHR = c"vkCmdTraceRaysKHR" => work::cmd_trace_rays;
     cmd_trace_rays_indirect: vk::PFN_vkCmdTraceRaysIndirectKHR = c"vkCmdTraceRaysIndirectKHR" => work::cmd_trace_rays_indirect;
     cmd_trace_rays_indirect2: vk::PFN_vkCmdTraceRaysIndirect2KHR = c"vkCmdTraceRaysIndirect2KHR" => work::cmd_trace_rays_indirect2;
+    cmd_draw_multi: vk::PFN_vkCmdDrawMultiEXT = c"vkCmdDrawMultiEXT" => work::cmd_draw_multi;
+    cmd_draw_multi_indexed: vk::PFN_vkCmdDrawMultiIndexedEXT = c"vkCmdDrawMultiIndexedEXT" => work::cmd_draw_multi_indexed;
+    cmd_draw_mesh_tasks_nv: vk::PFN_vkCmdDrawMeshTasksNV = c"vkCmdDrawMeshTasksNV" => work::cmd_draw_mesh_tasks_nv;
+    cmd_draw_mesh_tasks_indirect_nv: vk::PFN_vkCmdDrawMeshTasksIndirectNV = c"vkCmdDrawMeshTasksIndirectNV" => work::cmd_draw_mesh_tasks_indirect_nv;
+    cmd_draw_mesh_tasks_indirect_count_nv: vk::PFN_vkCmdDrawMeshTasksIndirectCountNV = c"vkCmdDrawMeshTasksIndirectCountNV" => work::cmd_draw_mesh_tasks_indirect_count_nv;
+    cmd_draw_indirect_byte_count: vk::PFN_vkCmdDrawIndirectByteCountEXT = c"vkCmdDrawIndirectByteCountEXT" => work::cmd_draw_indirect_byte_count;
+    cmd_trace_rays_nv: vk::PFN_vkCmdTraceRaysNV = c"vkCmdTraceRaysNV" => work::cmd_trace_rays_nv;
+    cmd_draw_cluster_huawei: vk::PFN_vkCmdDrawClusterHUAWEI = c"vkCmdDrawClusterHUAWEI" => work::cmd_draw_cluster_huawei;
+    cmd_draw_cluster_indirect_huawei: vk::PFN_vkCmdDrawClusterIndirectHUAWEI = c"vkCmdDrawClusterIndirectHUAWEI" => work::cmd_draw_cluster_indirect_huawei;
+    cmd_subpass_shading_huawei: vk::PFN_vkCmdSubpassShadingHUAWEI = c"vkCmdSubpassShadingHUAWEI" => work::cmd_subpass_shading_huawei;
+    cmd_execute_generated_commands_nv: vk::PFN_vkCmdExecuteGeneratedCommandsNV = c"vkCmdExecuteGeneratedCommandsNV" => work::cmd_execute_generated_commands_nv;
 }

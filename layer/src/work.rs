@@ -59,13 +59,17 @@ fn shader_object_stages(bind_point: i32) -> u32 {
     }
 }
 
-/// The bind point whose pipeline a command runs.
+/// The bind point whose pipeline a command runs. vkCmdExecuteGeneratedCommandsNV
+/// runs the one its `VkGeneratedCommandsInfoNV` names; the layer does not
+/// read that structure and takes graphics, the common case.
 fn bind_point(command: WorkCommand) -> i32 {
     let name = command.function();
     if name.starts_with("vkCmdTraceRays") {
         BIND_POINT_RAY_TRACING
     } else if name.starts_with("vkCmdDispatch") {
         BIND_POINT_COMPUTE
+    } else if name == "vkCmdSubpassShadingHUAWEI" {
+        vk::PipelineBindPoint::SUBPASS_SHADING_HUAWEI.as_raw()
     } else {
         BIND_POINT_GRAPHICS
     }
@@ -629,4 +633,25 @@ work_commands! {
     cmd_trace_rays_indirect, cmd_trace_rays_indirect, vkCmdTraceRaysIndirectKHR,
         (raygen: Region, miss: Region, hit: Region, callable: Region, indirect: u64);
     cmd_trace_rays_indirect2, cmd_trace_rays_indirect2, vkCmdTraceRaysIndirect2KHR, (indirect: u64);
+    cmd_draw_multi, cmd_draw_multi, vkCmdDrawMultiEXT,
+        (draws: u32, vertex_info: *const vk::MultiDrawInfoEXT, instances: u32, first_instance: u32, stride: u32);
+    cmd_draw_multi_indexed, cmd_draw_multi_indexed, vkCmdDrawMultiIndexedEXT,
+        (draws: u32, index_info: *const vk::MultiDrawIndexedInfoEXT, instances: u32, first_instance: u32, stride: u32, vertex_offset: *const i32);
+    cmd_draw_mesh_tasks_nv, cmd_draw_mesh_tasks_nv, vkCmdDrawMeshTasksNV, (tasks: u32, first_task: u32);
+    cmd_draw_mesh_tasks_indirect_nv, cmd_draw_mesh_tasks_indirect_nv, vkCmdDrawMeshTasksIndirectNV,
+        (buffer: vk::Buffer, offset: u64, draws: u32, stride: u32);
+    cmd_draw_mesh_tasks_indirect_count_nv, cmd_draw_mesh_tasks_indirect_count_nv, vkCmdDrawMeshTasksIndirectCountNV,
+        (buffer: vk::Buffer, offset: u64, count_buffer: vk::Buffer, count_offset: u64, max_draws: u32, stride: u32);
+    cmd_draw_indirect_byte_count, cmd_draw_indirect_byte_count, vkCmdDrawIndirectByteCountEXT,
+        (instances: u32, first_instance: u32, counter_buffer: vk::Buffer, counter_buffer_offset: u64, counter_offset: u32, vertex_stride: u32);
+    cmd_trace_rays_nv, cmd_trace_rays_nv, vkCmdTraceRaysNV,
+        (raygen: vk::Buffer, raygen_offset: u64, miss: vk::Buffer, miss_offset: u64, miss_stride: u64,
+         hit: vk::Buffer, hit_offset: u64, hit_stride: u64, callable: vk::Buffer, callable_offset: u64,
+         callable_stride: u64, width: u32, height: u32, depth: u32);
+    cmd_draw_cluster_huawei, cmd_draw_cluster_huawei, vkCmdDrawClusterHUAWEI, (x: u32, y: u32, z: u32);
+    cmd_draw_cluster_indirect_huawei, cmd_draw_cluster_indirect_huawei, vkCmdDrawClusterIndirectHUAWEI,
+        (buffer: vk::Buffer, offset: u64);
+    cmd_subpass_shading_huawei, cmd_subpass_shading_huawei, vkCmdSubpassShadingHUAWEI, ();
+    cmd_execute_generated_commands_nv, cmd_execute_generated_commands_nv, vkCmdExecuteGeneratedCommandsNV,
+        (preprocessed: vk::Bool32, info: *const vk::GeneratedCommandsInfoNV<'_>);
 }

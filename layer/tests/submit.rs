@@ -473,3 +473,38 @@ fn acceleration_structure_and_micromap_copy_commands_are_checked_and_passed_on()
     };
     assert!(missing.is_none());
 }
+
+/// vkCmdBeginQuery on a micromap size pool breaks 08972; on an occlusion
+/// pool it is fine; both reach the driver.
+#[test]
+fn begin_query_on_a_micromap_size_pool_is_reported() {
+    let chain = chain();
+    let create: vk::PFN_vkCreateQueryPool = device_fn(chain.device, c"vkCreateQueryPool");
+    let pool_of = |query_type| {
+        let info = vk::QueryPoolCreateInfo::default()
+            .query_type(query_type)
+            .query_count(1);
+        let mut pool = vk::QueryPool::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(chain.device, &info, std::ptr::null(), &mut pool) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        pool
+    };
+    let sizes = pool_of(vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT);
+    let occlusion = pool_of(vk::QueryType::OCCLUSION);
+    let command_buffer = allocate_command_buffer(&chain);
+    begin(&chain, command_buffer);
+    let begin_query: vk::PFN_vkCmdBeginQuery = device_fn(chain.device, c"vkCmdBeginQuery");
+    // SAFETY: valid arguments.
+    unsafe { begin_query(command_buffer, sizes, 0, vk::QueryControlFlags::empty()) };
+    let received = chain.collector.take();
+    assert_eq!(
+        ids(&received),
+        ["VUID-vkCmdBeginQuery-queryType-08972"],
+        "{received:#?}"
+    );
+    // SAFETY: valid arguments.
+    unsafe { begin_query(command_buffer, occlusion, 0, vk::QueryControlFlags::empty()) };
+    assert!(chain.collector.take().is_empty());
+    assert_eq!(calls("vkCmdBeginQuery").len(), 2);
+}

@@ -343,6 +343,28 @@ unsafe extern "system" fn create_command_pool(
     vk::Result::SUCCESS
 }
 
+unsafe extern "system" fn create_query_pool(
+    _: vk::Device,
+    _: *const vk::QueryPoolCreateInfo<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::QueryPool,
+) -> vk::Result {
+    unsafe { *out = vk::QueryPool::from_raw(next_handle()) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn cmd_begin_query(
+    cb: vk::CommandBuffer,
+    pool: vk::QueryPool,
+    query: u32,
+    _: vk::QueryControlFlags,
+) {
+    record(
+        "vkCmdBeginQuery",
+        vec![cb.as_raw(), pool.as_raw(), u64::from(query)],
+    );
+}
+
 /// Command buffers share their device's dispatch key.
 unsafe extern "system" fn allocate_command_buffers(
     device: vk::Device,
@@ -640,6 +662,8 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkBuildMicromapsEXT" => void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
         b"vkOmmcheckTestUnknownCommand" => void(unknown_command as unsafe extern "system" fn()),
         b"vkCreateCommandPool" => void(create_command_pool as vk::PFN_vkCreateCommandPool),
+        b"vkCreateQueryPool" => void(create_query_pool as vk::PFN_vkCreateQueryPool),
+        b"vkCmdBeginQuery" => void(cmd_begin_query as vk::PFN_vkCmdBeginQuery),
         b"vkAllocateCommandBuffers" => {
             void(allocate_command_buffers as vk::PFN_vkAllocateCommandBuffers)
         }
