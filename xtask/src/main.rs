@@ -33,6 +33,12 @@ enum Task {
         #[arg(long)]
         out_dir: Option<PathBuf>,
     },
+    /// Run the ommcheck benchmarks; write target/bench/README-table.md and tiers.svg.
+    Bench {
+        /// criterion's short run: 1 s warm-up, 2 s measurement per benchmark.
+        #[arg(long)]
+        quick: bool,
+    },
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
         /// Do not install missing prerequisites; report them.
@@ -86,6 +92,7 @@ fn main() -> ExitCode {
         Task::Layer { out_dir } => layer::build(&root, out_dir).map(|dir| {
             println!("{}", dir.display());
         }),
+        Task::Bench { quick } => xtask::bench::run(&root, quick),
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };
     match result {
