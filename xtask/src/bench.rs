@@ -551,10 +551,11 @@ pub fn run(root: &Path, quick: bool) -> Result<(), Error> {
     let target = crate::target_dir(root);
     let criterion_dir = target.join("criterion");
     let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-    // --benches: only the criterion targets, whose harness takes the options below.
+    // Only the bench targets (`--benches` would add the library, whose libtest
+    // harness rejects criterion's options).
     command
         .current_dir(root)
-        .args(["bench", "-p", "ommcheck", "--benches", "--"])
+        .args(["bench", "-p", "ommcheck", "--bench", "*", "--"])
         .env("CRITERION_HOME", &criterion_dir);
     if quick {
         command.args(QUICK_ARGS);
