@@ -69,16 +69,7 @@ pub fn build(root: &Path, out_dir: Option<PathBuf>) -> Result<PathBuf, xtask::Er
     if !status.success() {
         return Err(xtask::Error::Tool(format!("cargo build failed ({status})")));
     }
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .map(|dir| {
-            if dir.is_absolute() {
-                dir
-            } else {
-                root.join(dir)
-            }
-        })
-        .unwrap_or_else(|| root.join("target"));
+    let target = xtask::target_dir(root);
     let file = format!(
         "{}VkLayer_ommcheck{}",
         std::env::consts::DLL_PREFIX,

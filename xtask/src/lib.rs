@@ -3,6 +3,7 @@
 //! generators directly.
 
 pub mod ash_names;
+pub mod bench;
 pub mod catalog;
 mod drivers;
 pub mod faults;
@@ -42,6 +43,21 @@ pub fn workspace_root() -> PathBuf {
         .parent()
         .expect("xtask lives inside the workspace")
         .to_path_buf()
+}
+
+/// The target directory cargo uses here: `$CARGO_TARGET_DIR` (relative to
+/// the workspace root), else `target/`.
+pub fn target_dir(root: &Path) -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .map(|dir| {
+            if dir.is_absolute() {
+                dir
+            } else {
+                root.join(dir)
+            }
+        })
+        .unwrap_or_else(|| root.join("target"))
 }
 
 /// `../shared/vulkan-registry` beside the workspace, where the project keeps

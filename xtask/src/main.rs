@@ -39,6 +39,12 @@ enum Task {
         #[arg(long, default_value_t = xtask::faults::SEED)]
         seed: u64,
     },
+    /// Run the ommcheck benchmarks; write target/bench/README-table.md and tiers.svg.
+    Bench {
+        /// criterion's short run: 1 s warm-up, 2 s measurement per benchmark.
+        #[arg(long)]
+        quick: bool,
+    },
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
         /// Do not install missing prerequisites; report them.
@@ -98,6 +104,7 @@ fn main() -> ExitCode {
                 .map_err(xtask::Error::Tool)
                 .map(|table| print!("{}", xtask::faults::render(&table, classes)))
         }
+        Task::Bench { quick } => xtask::bench::run(&root, quick),
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };
     match result {

@@ -1,0 +1,73 @@
+//! What each validation tier costs per build: (a) the time to check one
+//! micromap build at the params, state and content tiers against the
+//! number of micromap triangles N (1 to 10^6), for both formats, built
+//! through EXT (`vkCmdBuildMicromapsEXT`) and KHR
+//! (`vkCmdBuildAccelerationStructuresKHR` of type OPACITY_MICROMAP); and
+//! (d) the per-call cost of the params tier on one small build.
+
+use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
+use ommcheck::Tier;
+
+mod workload;
+use workload::{time_check, Api, Format, MicromapBuild, MicromapWorkload, ReferencingBuild};
+
+/// Subdivision level of the N sweep: 8 (2-state) or 16 (4-state) bytes a
+/// triangle, so that 10^6 triangles stay at 16 or 24 MB with the array.
+const SWEEP_LEVEL: u16 = 3;
+const SWEEP_TRIANGLES: [u32; 7] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000];
+const TIERS: [Tier; 3] = [Tier::Params, Tier::State, Tier::Content];
+
+fn build_time(c: &mut Criterion) {
+    let mut group = c.benchmark_group("build-time");
+    // The largest builds take a tenth of a second and more; ten samples
+    // keep the sweep within minutes.
+    group.sample_size(10);
+    for api in Api::ALL {
+        for format in Format::ALL {
+            for n in SWEEP_TRIANGLES {
+                let workload = MicromapWorkload::new(n, SWEEP_LEVEL, format);
+                let mut build = MicromapBuild::new(&workload, api);
+                group.throughput(Throughput::Elements(u64::from(n)));
+                for tier in TIERS {
+                    build.validator.set_tier(tier);
+                    let id = format!("{}-{}-{}", api.name(), format.name(), tier.name());
+                    group.bench_with_input(BenchmarkId::new(id, n), &build, |b, build| {
+                        time_check(
+                            b,
+                            &build.validator,
+                            |v| build.check(v),
+                            BatchSize::LargeInput,
+                        )
+                    });
+                }
+            }
+        }
+    }
+    group.finish();
+}
+
+fn params_per_call(c: &mut Criterion) {
+    let mut group = c.benchmark_group("params-per-call");
+    let one = MicromapWorkload::new(1, SWEEP_LEVEL, Format::FourState);
+    for api in Api::ALL {
+        let mut build = MicromapBuild::new(&one, api);
+        build.validator.set_tier(Tier::Params);
+        group.bench_function(format!("{}-micromap", api.name()), |b| {
+            time_check(
+                b,
+                &build.validator,
+                |v| build.check(v),
+                BatchSize::SmallInput,
+            )
+        });
+        let mut blas = ReferencingBuild::new(&one, 1, api);
+        blas.validator.set_tier(Tier::Params);
+        group.bench_function(format!("{}-blas", api.name()), |b| {
+            time_check(b, &blas.validator, |v| blas.check(v), BatchSize::SmallInput)
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, build_time, params_per_call);
+criterion_main!(benches);

@@ -1,0 +1,844 @@
+//! `cargo xtask bench`: runs the criterion benchmarks of `ommcheck`
+//! (validator/benches), reads criterion's estimates, and writes what each
+//! validation tier costs as a markdown table (`target/bench/README-table.md`)
+//! and a log-log plot of time per build against N (`target/bench/tiers.svg`).
+//!
+//! The benchmark names this reads are the ones validator/benches gives:
+//! - `build-time/{api}-{format}-{tier}/{N}`: one micromap build of N triangles;
+//! - `content-throughput/{content|memcpy}-{format}/L{level}-N{N}`, with
+//!   criterion's byte throughput: the content tier next to a memcpy of as
+//!   many bytes;
+//! - `referenced-fraction/{api}/{K}-of-{M}`: a bottom-level build referencing
+//!   K of a micromap's M triangles, at the content tier;
+//! - `params-per-call/{call}`: one small build at the params tier.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+use crate::Error;
+
+/// criterion's options for `--quick`: a short warm-up and measurement.
+pub const QUICK_ARGS: [&str; 4] = ["--warm-up-time", "1", "--measurement-time", "2"];
+
+/// Tiers in the order they look further; rows follow it.
+const TIER_ORDER: [&str; 4] = ["params", "state", "content", "simulate"];
+
+/// The per-call time the params tier aims at, in nanoseconds.
+const PARAMS_TARGET_NS: f64 = 1_000.0;
+
+/// What criterion measured for one benchmark.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    pub group: String,
+    pub function: String,
+    /// The benchmark's parameter (`BenchmarkId`'s value), if any.
+    pub value: Option<String>,
+    /// Point estimates of the time per iteration, in nanoseconds.
+    pub mean_ns: f64,
+    pub median_ns: f64,
+    /// Bytes one iteration processes, when the benchmark declared them.
+    pub bytes: Option<u64>,
+    /// Elements one iteration processes, when the benchmark declared them.
+    pub elements: Option<u64>,
+}
+
+fn json(text: &str, what: &Path) -> Result<Value, Error> {
+    serde_json::from_str(text).map_err(|e| Error::Tool(format!("{}: {e}", what.display())))
+}
+
+/// One benchmark from criterion's `new/benchmark.json` and
+/// `new/estimates.json`; `source` names them in errors.
+pub fn parse_estimate(
+    benchmark_json: &str,
+    estimates_json: &str,
+    source: &Path,
+) -> Result<Estimate, Error> {
+    let benchmark = json(benchmark_json, source)?;
+    let estimates = json(estimates_json, source)?;
+    let text = |v: &Value, key: &str| v.get(key).and_then(Value::as_str).map(str::to_string);
+    let point = |key: &str| {
+        estimates
+            .get(key)
+            .and_then(|e| e.get("point_estimate"))
+            .and_then(Value::as_f64)
+            .ok_or_else(|| {
+                Error::Tool(format!(
+                    "{}: no {key}.point_estimate in estimates.json",
+                    source.display()
+                ))
+            })
+    };
+    let throughput = benchmark.get("throughput");
+    let count = |kinds: &[&str]| {
+        kinds
+            .iter()
+            .find_map(|kind| throughput.and_then(|t| t.get(kind)).and_then(Value::as_u64))
+    };
+    Ok(Estimate {
+        group: text(&benchmark, "group_id").ok_or_else(|| {
+            Error::Tool(format!(
+                "{}: no group_id in benchmark.json",
+                source.display()
+            ))
+        })?,
+        function: text(&benchmark, "function_id").unwrap_or_default(),
+        value: text(&benchmark, "value_str"),
+        mean_ns: point("mean")?,
+        median_ns: point("median")?,
+        bytes: count(&["Bytes", "BytesDecimal"]),
+        elements: count(&["Elements"]),
+    })
+}
+
+/// Every benchmark's latest estimates under criterion's output directory
+/// (`**/new/benchmark.json` with its `estimates.json`), sorted by id.
+pub fn read_estimates(criterion_dir: &Path) -> Result<Vec<Estimate>, Error> {
+    let mut found = Vec::new();
+    let mut pending = vec![criterion_dir.to_path_buf()];
+    while let Some(dir) = pending.pop() {
+        let entries = std::fs::read_dir(&dir).map_err(|source| Error::Io {
+            path: dir.clone(),
+            source,
+        })?;
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if !path.is_dir() {
+                continue;
+            }
+            let benchmark = path.join("benchmark.json");
+            if path.file_name().is_some_and(|n| n == "new") && benchmark.is_file() {
+                let estimates = path.join("estimates.json");
+                found.push(parse_estimate(
+                    &crate::read(&benchmark)?,
+                    &crate::read(&estimates)?,
+                    &path,
+                )?);
+            } else {
+                pending.push(path);
+            }
+        }
+    }
+    found.sort_by(|a, b| (&a.group, &a.function, &a.value).cmp(&(&b.group, &b.function, &b.value)));
+    Ok(found)
+}
+
+/// The machine the numbers come from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Machine {
+    /// `/proc/cpuinfo`'s model name.
+    pub model: String,
+    /// Logical processors in `/proc/cpuinfo`.
+    pub cores: usize,
+}
+
+/// The machine described by the text of `/proc/cpuinfo`.
+pub fn parse_cpuinfo(cpuinfo: &str) -> Machine {
+    let field = |line: &str, name: &str| {
+        let (key, value) = line.split_once(':')?;
+        (key.trim() == name).then(|| value.trim().to_string())
+    };
+    Machine {
+        model: cpuinfo
+            .lines()
+            .find_map(|l| field(l, "model name"))
+            .unwrap_or_else(|| "unknown CPU".into()),
+        cores: cpuinfo
+            .lines()
+            .filter(|l| field(l, "processor").is_some())
+            .count(),
+    }
+}
+
+/// This machine, from `/proc/cpuinfo` (an unknown CPU where it is missing).
+pub fn this_machine() -> Machine {
+    parse_cpuinfo(&std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default())
+}
+
+/// A time in nanoseconds with a unit and three significant digits.
+pub fn format_time(ns: f64) -> String {
+    let (value, unit) = if ns < 1e3 {
+        (ns, "ns")
+    } else if ns < 1e6 {
+        (ns / 1e3, "µs")
+    } else if ns < 1e9 {
+        (ns / 1e6, "ms")
+    } else {
+        (ns / 1e9, "s")
+    };
+    let decimals = if value >= 100.0 {
+        0
+    } else if value >= 10.0 {
+        1
+    } else {
+        2
+    };
+    format!("{value:.decimals$} {unit}")
+}
+
+/// Bytes per second as GB/s (10^9 bytes).
+fn gigabytes_per_second(bytes: u64, ns: f64) -> f64 {
+    bytes as f64 / ns
+}
+
+/// A count as 1, 10, 1k, 100k, 1M.
+fn short_count(n: u64) -> String {
+    match n {
+        n if n >= 1_000_000 && n % 1_000_000 == 0 => format!("{}M", n / 1_000_000),
+        n if n >= 1_000 && n % 1_000 == 0 => format!("{}k", n / 1_000),
+        n => n.to_string(),
+    }
+}
+
+/// `build-time` ids: `{api}-{format}-{tier}`.
+fn split_build_function(function: &str) -> Option<(&str, &str, &str)> {
+    let mut parts = function.splitn(3, '-');
+    Some((parts.next()?, parts.next()?, parts.next()?))
+}
+
+fn tier_rank(tier: &str) -> usize {
+    TIER_ORDER
+        .iter()
+        .position(|t| *t == tier)
+        .unwrap_or(TIER_ORDER.len())
+}
+
+/// `2state` as `2-state`.
+fn format_label(format: &str) -> String {
+    format.replace("state", "-state")
+}
+
+/// The measured builds of one (api, format, tier) against N.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildSeries {
+    pub api: String,
+    pub format: String,
+    pub tier: String,
+    /// (N, mean ns), by N.
+    pub points: Vec<(u64, f64)>,
+}
+
+impl BuildSeries {
+    fn label(&self) -> String {
+        format!("{} {}", self.api.to_uppercase(), format_label(&self.format))
+    }
+}
+
+/// Time per build against N, one series per (api, format, tier), tiers in
+/// the order they look further.
+pub fn build_time_series(estimates: &[Estimate]) -> Vec<BuildSeries> {
+    let mut series: Vec<BuildSeries> = Vec::new();
+    for e in estimates.iter().filter(|e| e.group == "build-time") {
+        let (Some((api, format, tier)), Some(n)) = (
+            split_build_function(&e.function),
+            e.value.as_deref().and_then(|v| v.parse::<u64>().ok()),
+        ) else {
+            continue;
+        };
+        let at = series
+            .iter()
+            .position(|s| {
+                (s.api.as_str(), s.format.as_str(), s.tier.as_str()) == (api, format, tier)
+            })
+            .unwrap_or_else(|| {
+                series.push(BuildSeries {
+                    api: api.into(),
+                    format: format.into(),
+                    tier: tier.into(),
+                    points: Vec::new(),
+                });
+                series.len() - 1
+            });
+        series[at].points.push((n, e.mean_ns));
+    }
+    for s in &mut series {
+        s.points.sort_by_key(|p| p.0);
+    }
+    series.sort_by(|a, b| {
+        (&a.api, &a.format, tier_rank(&a.tier)).cmp(&(&b.api, &b.format, tier_rank(&b.tier)))
+    });
+    series
+}
+
+fn build_time_table(out: &mut String, estimates: &[Estimate]) {
+    let series = build_time_series(estimates);
+    if series.is_empty() {
+        return;
+    }
+    let sizes: BTreeSet<u64> = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
+        .collect();
+    out.push_str("### Time per build against N micromap triangles (mean)\n\n");
+    out.push_str("One build of N triangles at subdivision level 3, checked at each tier. EXT: `vkCmdBuildMicromapsEXT`; KHR: `vkCmdBuildAccelerationStructuresKHR` of type OPACITY_MICROMAP.\n\n");
+    out.push_str("| build | tier |");
+    for n in &sizes {
+        let _ = write!(out, " N = {} |", short_count(*n));
+    }
+    out.push_str("\n| --- | --- |");
+    out.push_str(&" ---: |".repeat(sizes.len()));
+    out.push('\n');
+    for s in &series {
+        let _ = write!(out, "| {} | {} |", s.label(), s.tier);
+        for n in &sizes {
+            let cell = s
+                .points
+                .iter()
+                .find(|p| p.0 == *n)
+                .map_or_else(|| "–".into(), |p| format_time(p.1));
+            let _ = write!(out, " {cell} |");
+        }
+        out.push('\n');
+    }
+    // Time per triangle at the largest N, the slope the sweep ends on.
+    if let Some(largest) = sizes.last() {
+        let _ = writeln!(
+            out,
+            "\nPer triangle at N = {}: {}.\n",
+            short_count(*largest),
+            series
+                .iter()
+                .filter_map(|s| {
+                    let p = s.points.iter().find(|p| p.0 == *largest)?;
+                    Some(format!(
+                        "{} {} {}",
+                        s.label(),
+                        s.tier,
+                        format_time(p.1 / *largest as f64)
+                    ))
+                })
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+    }
+}
+
+/// `L{level}-N{n}` as (level, n).
+fn split_level_value(value: &str) -> Option<(u32, u64)> {
+    let (level, n) = value.strip_prefix('L')?.split_once("-N")?;
+    Some((level.parse().ok()?, n.parse().ok()?))
+}
+
+/// The content check and the memcpy of one (format, level, N).
+type ContentAndMemcpy<'a> = (Option<&'a Estimate>, Option<&'a Estimate>);
+
+fn throughput_table(out: &mut String, estimates: &[Estimate]) {
+    let mut rows: BTreeMap<(String, u32, u64), ContentAndMemcpy<'_>> = BTreeMap::new();
+    for e in estimates.iter().filter(|e| e.group == "content-throughput") {
+        let (Some((kind, format)), Some((level, n))) = (
+            e.function.split_once('-'),
+            e.value.as_deref().and_then(split_level_value),
+        ) else {
+            continue;
+        };
+        let row = rows.entry((format.into(), level, n)).or_default();
+        match kind {
+            "content" => row.0 = Some(e),
+            "memcpy" => row.1 = Some(e),
+            _ => {}
+        }
+    }
+    if rows.is_empty() {
+        return;
+    }
+    out.push_str("### Content tier throughput next to memcpy (EXT build, mean)\n\n");
+    out.push_str("Bytes read per build: the triangle array and each triangle's data block (blocks shared at levels 0 and 1 are read once per triangle). N is as many triangles as fit 16 MiB, at most 10^6. The memcpy copies as many bytes in the same run; the ratio is the check's time over the copy's.\n\n");
+    out.push_str("| format | level | N | bytes | content | memcpy | content GB/s | memcpy GB/s | content ÷ memcpy |\n");
+    out.push_str("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+    for ((format, level, n), (content, memcpy)) in &rows {
+        let bytes = content.or(*memcpy).and_then(|e| e.bytes).unwrap_or(0);
+        let time = |e: &Option<&Estimate>| e.map_or_else(|| "–".into(), |e| format_time(e.mean_ns));
+        let rate = |e: &Option<&Estimate>| {
+            e.map_or_else(
+                || "–".into(),
+                |e| format!("{:.2}", gigabytes_per_second(bytes, e.mean_ns)),
+            )
+        };
+        let ratio = match (content, memcpy) {
+            (Some(c), Some(m)) => format!("{:.0}×", c.mean_ns / m.mean_ns),
+            _ => "–".into(),
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {level} | {n} | {bytes} | {} | {} | {} | {} | {ratio} |",
+            format_label(format),
+            time(content),
+            time(memcpy),
+            rate(content),
+            rate(memcpy),
+        );
+    }
+    out.push('\n');
+}
+
+/// `{K}-of-{M}` as (K, M).
+fn split_fraction_value(value: &str) -> Option<(u64, u64)> {
+    let (k, m) = value.split_once("-of-")?;
+    Some((k.parse().ok()?, m.parse().ok()?))
+}
+
+fn referenced_table(out: &mut String, estimates: &[Estimate]) {
+    let mut rows: Vec<(&str, u64, u64, f64)> = estimates
+        .iter()
+        .filter(|e| e.group == "referenced-fraction")
+        .filter_map(|e| {
+            let (k, m) = split_fraction_value(e.value.as_deref()?)?;
+            Some((e.function.as_str(), k, m, e.mean_ns))
+        })
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    rows.sort_by_key(|r| (r.0, r.1));
+    out.push_str("### Bottom-level build against the referenced share of a micromap (content tier, mean)\n\n");
+    out.push_str("One triangles geometry whose opacity attachment indexes K of the micromap's M triangles (primitiveCount = K); the time should follow K, not M.\n\n");
+    out.push_str("| attachment | referenced | of M | share | time | per referenced triangle |\n");
+    out.push_str("| --- | ---: | ---: | ---: | ---: | ---: |\n");
+    for (api, k, m, ns) in rows {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {}% | {} | {} |",
+            api.to_uppercase(),
+            short_count(k),
+            short_count(m),
+            (k as f64 * 100.0 / m as f64).round(),
+            format_time(ns),
+            format_time(ns / k.max(1) as f64),
+        );
+    }
+    out.push('\n');
+}
+
+fn params_table(out: &mut String, estimates: &[Estimate]) {
+    let rows: Vec<&Estimate> = estimates
+        .iter()
+        .filter(|e| e.group == "params-per-call")
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    out.push_str("### Params tier, one small build per call\n\n");
+    out.push_str("One build of one level-3 4-state triangle (micromap), or a bottom-level build referencing one (blas). Target: at most 1 µs a call.\n\n");
+    out.push_str("| call | mean | median | ≤ 1 µs |\n| --- | ---: | ---: | --- |\n");
+    for e in rows {
+        let met = if e.mean_ns <= PARAMS_TARGET_NS {
+            "met"
+        } else {
+            "missed"
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {met} |",
+            e.function,
+            format_time(e.mean_ns),
+            format_time(e.median_ns)
+        );
+    }
+    out.push('\n');
+}
+
+/// The markdown table of what each tier costs, with the machine in its header.
+pub fn render_table(machine: &Machine, quick: bool, estimates: &[Estimate]) -> String {
+    let mut out = String::from("## What accuracy costs: measurements\n\n");
+    let _ = writeln!(
+        out,
+        "Machine: {} ({} logical cores). criterion point estimates of `cargo xtask bench{}`{}.\n",
+        machine.model,
+        machine.cores,
+        if quick { " --quick" } else { "" },
+        if quick {
+            " (1 s warm-up, 2 s measurement per benchmark)"
+        } else {
+            ""
+        }
+    );
+    build_time_table(&mut out, estimates);
+    throughput_table(&mut out, estimates);
+    referenced_table(&mut out, estimates);
+    params_table(&mut out, estimates);
+    out
+}
+
+/// Tier colours of the plot: params, state, content, anything else.
+const TIER_COLOURS: [plotters::style::RGBColor; 4] = [
+    plotters::style::RGBColor(31, 119, 180),
+    plotters::style::RGBColor(255, 127, 14),
+    plotters::style::RGBColor(44, 160, 44),
+    plotters::style::RGBColor(127, 127, 127),
+];
+
+/// An SVG plot of time per build against N, log-log, one panel per (api,
+/// format) with one line per tier.
+pub fn render_plot(estimates: &[Estimate]) -> Result<String, Error> {
+    use plotters::prelude::*;
+
+    // One panel per (api, format), in the order of the series.
+    let mut panels: Vec<Vec<BuildSeries>> = Vec::new();
+    for series in build_time_series(estimates) {
+        match panels.last_mut() {
+            Some(panel) if panel[0].label() == series.label() => panel.push(series),
+            _ => panels.push(vec![series]),
+        }
+    }
+    let all = || panels.iter().flatten().flat_map(|s| s.points.iter());
+    let (n_max, ns_min, ns_max) = all().fold((1u64, f64::MAX, 1.0f64), |(n, lo, hi), p| {
+        (n.max(p.0), lo.min(p.1), hi.max(p.1))
+    });
+    let ns_min = if ns_min == f64::MAX { 1.0 } else { ns_min };
+    let rows = panels.len().div_ceil(2).max(1);
+    let mut svg = String::new();
+    {
+        let plot_error = |e: &dyn std::fmt::Display| Error::Tool(format!("plot: {e}"));
+        let root = SVGBackend::with_string(&mut svg, (1000, 380 * rows as u32)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| plot_error(&e))?;
+        let areas = root.split_evenly((rows, 2));
+        for (panel, area) in panels.iter().zip(areas.iter()) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(
+                    format!("{}: time per build", panel[0].label()),
+                    ("sans-serif", 18),
+                )
+                .margin(12)
+                .x_label_area_size(36)
+                .y_label_area_size(64)
+                .build_cartesian_2d(
+                    (1u64..n_max.max(10)).log_scale(),
+                    (ns_min / 2.0..ns_max * 2.0).log_scale(),
+                )
+                .map_err(|e| plot_error(&e))?;
+            chart
+                .configure_mesh()
+                .x_desc("N micromap triangles")
+                .y_desc("time per build")
+                .y_label_formatter(&|ns| format_time(*ns))
+                .draw()
+                .map_err(|e| plot_error(&e))?;
+            for BuildSeries { tier, points, .. } in panel {
+                let colour = TIER_COLOURS[tier_rank(tier).min(TIER_COLOURS.len() - 1)];
+                chart
+                    .draw_series(LineSeries::new(
+                        points.iter().copied(),
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(|e| plot_error(&e))?
+                    .label(tier.as_str())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                    });
+                chart
+                    .draw_series(points.iter().map(|p| Circle::new(*p, 3, colour.filled())))
+                    .map_err(|e| plot_error(&e))?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()
+                .map_err(|e| plot_error(&e))?;
+        }
+        root.present().map_err(|e| plot_error(&e))?;
+    }
+    Ok(svg)
+}
+
+/// Runs the benchmarks (`--quick`: criterion's short warm-up and
+/// measurement), then writes the table and the plot under `target/bench/`.
+pub fn run(root: &Path, quick: bool) -> Result<(), Error> {
+    let target = crate::target_dir(root);
+    let criterion_dir = target.join("criterion");
+    let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    // Only the bench targets (`--benches` would add the library, whose libtest
+    // harness rejects criterion's options).
+    command
+        .current_dir(root)
+        .args(["bench", "-p", "ommcheck", "--bench", "*", "--"])
+        .env("CRITERION_HOME", &criterion_dir);
+    if quick {
+        command.args(QUICK_ARGS);
+    }
+    eprintln!("xtask: {command:?}");
+    let status = command
+        .status()
+        .map_err(|e| Error::Tool(format!("cargo bench: could not start: {e}")))?;
+    if !status.success() {
+        return Err(Error::Tool(format!("cargo bench failed ({status})")));
+    }
+    let estimates = read_estimates(&criterion_dir)?;
+    let table = render_table(&this_machine(), quick, &estimates);
+    let out_dir = target.join("bench");
+    std::fs::create_dir_all(&out_dir).map_err(|source| Error::Io {
+        path: out_dir.clone(),
+        source,
+    })?;
+    for (name, contents) in [
+        ("README-table.md", table.clone()),
+        ("tiers.svg", render_plot(&estimates)?),
+    ] {
+        let path = out_dir.join(name);
+        std::fs::write(&path, contents).map_err(|source| Error::Io { path, source })?;
+    }
+    println!("{table}");
+    println!(
+        "wrote {} and {}",
+        out_dir.join("README-table.md").display(),
+        out_dir.join("tiers.svg").display()
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn estimates_json(mean: f64, median: f64) -> String {
+        let estimate = |point: f64| {
+            format!(
+                r#"{{"confidence_interval":{{"confidence_level":0.95,"lower_bound":{lo},"upper_bound":{hi}}},"point_estimate":{point},"standard_error":1.0}}"#,
+                lo = point * 0.9,
+                hi = point * 1.1
+            )
+        };
+        format!(
+            r#"{{"mean":{},"median":{},"median_abs_dev":{},"slope":null,"std_dev":{}}}"#,
+            estimate(mean),
+            estimate(median),
+            estimate(1.0),
+            estimate(2.0)
+        )
+    }
+
+    fn benchmark_json(group: &str, function: &str, value: &str, throughput: &str) -> String {
+        format!(
+            r#"{{"group_id":"{group}","function_id":"{function}","value_str":"{value}","throughput":{throughput},"full_id":"{group}/{function}/{value}","directory_name":"{group}/{function}/{value}","title":"{group}/{function}/{value}"}}"#
+        )
+    }
+
+    fn estimate(group: &str, function: &str, value: &str, throughput: &str, mean: f64) -> Estimate {
+        parse_estimate(
+            &benchmark_json(group, function, value, throughput),
+            &estimates_json(mean, mean * 0.9),
+            Path::new("fixture"),
+        )
+        .expect("fixture parses")
+    }
+
+    /// A small run: two tiers at two sizes, one throughput pair, two
+    /// referenced shares and one params call.
+    fn fixture() -> Vec<Estimate> {
+        vec![
+            estimate(
+                "build-time",
+                "ext-2state-params",
+                "1",
+                r#"{"Elements":1}"#,
+                800.0,
+            ),
+            estimate(
+                "build-time",
+                "ext-2state-params",
+                "1000",
+                r#"{"Elements":1000}"#,
+                900.0,
+            ),
+            estimate(
+                "build-time",
+                "ext-2state-content",
+                "1",
+                r#"{"Elements":1}"#,
+                2_000.0,
+            ),
+            estimate(
+                "build-time",
+                "ext-2state-content",
+                "1000",
+                r#"{"Elements":1000}"#,
+                150_000.0,
+            ),
+            estimate(
+                "content-throughput",
+                "content-4state",
+                "L2-N1000",
+                r#"{"Bytes":12000}"#,
+                24_000.0,
+            ),
+            estimate(
+                "content-throughput",
+                "memcpy-4state",
+                "L2-N1000",
+                r#"{"Bytes":12000}"#,
+                600.0,
+            ),
+            estimate(
+                "referenced-fraction",
+                "ext",
+                "10-of-1000",
+                r#"{"Elements":10}"#,
+                1_000.0,
+            ),
+            estimate(
+                "referenced-fraction",
+                "ext",
+                "1000-of-1000",
+                r#"{"Elements":1000}"#,
+                100_000.0,
+            ),
+            estimate("params-per-call", "ext-micromap", "", "null", 750.0),
+            estimate("params-per-call", "khr-micromap", "", "null", 1_300.0),
+        ]
+    }
+
+    #[test]
+    fn criterion_files_parse_into_estimates() {
+        let e = estimate(
+            "content-throughput",
+            "memcpy-2state",
+            "L0-N5",
+            r#"{"Bytes":45}"#,
+            12.5,
+        );
+        assert_eq!(e.group, "content-throughput");
+        assert_eq!(e.function, "memcpy-2state");
+        assert_eq!(e.value.as_deref(), Some("L0-N5"));
+        assert_eq!(e.mean_ns, 12.5);
+        assert_eq!(e.median_ns, 12.5 * 0.9);
+        assert_eq!((e.bytes, e.elements), (Some(45), None));
+        let bad = parse_estimate("{}", &estimates_json(1.0, 1.0), Path::new("x/new"));
+        assert!(matches!(bad, Err(Error::Tool(m)) if m.contains("group_id")));
+        let bad = parse_estimate(&benchmark_json("g", "f", "v", "null"), "{}", Path::new("x"));
+        assert!(matches!(bad, Err(Error::Tool(m)) if m.contains("mean.point_estimate")));
+    }
+
+    #[test]
+    fn estimates_are_found_under_new_directories_only() {
+        let dir = std::env::temp_dir().join(format!("xtask-bench-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for (sub, mean) in [("g_f/1/new", 10.0), ("g_f/1/base", 99.0)] {
+            let at = dir.join(sub);
+            std::fs::create_dir_all(&at).unwrap();
+            std::fs::write(
+                at.join("benchmark.json"),
+                benchmark_json("g", "f", "1", "null"),
+            )
+            .unwrap();
+            std::fs::write(at.join("estimates.json"), estimates_json(mean, mean)).unwrap();
+        }
+        let found = read_estimates(&dir);
+        std::fs::remove_dir_all(&dir).unwrap();
+        let found = found.unwrap();
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].mean_ns, 10.0);
+    }
+
+    #[test]
+    fn cpuinfo_gives_model_and_logical_cores() {
+        let text = "processor\t: 0\nmodel name\t: Example CPU @ 2.0GHz\n\nprocessor\t: 1\nmodel name\t: Example CPU @ 2.0GHz\n";
+        assert_eq!(
+            parse_cpuinfo(text),
+            Machine {
+                model: "Example CPU @ 2.0GHz".into(),
+                cores: 2
+            }
+        );
+        assert_eq!(parse_cpuinfo("").model, "unknown CPU");
+    }
+
+    #[test]
+    fn times_have_units_and_three_digits() {
+        assert_eq!(format_time(12.345), "12.3 ns");
+        assert_eq!(format_time(999.0), "999 ns");
+        assert_eq!(format_time(1_234.0), "1.23 µs");
+        assert_eq!(format_time(45_600_000.0), "45.6 ms");
+        assert_eq!(format_time(2.5e9), "2.50 s");
+    }
+
+    #[test]
+    fn table_has_every_section_from_the_fixture() {
+        let machine = Machine {
+            model: "Example CPU".into(),
+            cores: 2,
+        };
+        let table = render_table(&machine, true, &fixture());
+        assert!(
+            table.contains("Machine: Example CPU (2 logical cores)"),
+            "{table}"
+        );
+        assert!(table.contains("--quick"), "{table}");
+        // Tiers in order params before content, sizes as columns.
+        assert!(
+            table.contains("| build | tier | N = 1 | N = 1k |"),
+            "{table}"
+        );
+        let params = table
+            .find("| EXT 2-state | params | 800 ns | 900 ns |")
+            .expect(&table);
+        let content = table
+            .find("| EXT 2-state | content | 2.00 µs | 150 µs |")
+            .expect(&table);
+        assert!(params < content);
+        assert!(
+            table.contains("EXT 2-state content 150 ns"),
+            "per triangle: {table}"
+        );
+        // 12000 bytes in 24 µs is 0.50 GB/s; in 600 ns 20 GB/s; 40 times slower.
+        assert!(
+            table
+                .contains("| 4-state | 2 | 1000 | 12000 | 24.0 µs | 600 ns | 0.50 | 20.00 | 40× |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| EXT | 10 | 1k | 1% | 1.00 µs | 100 ns |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| EXT | 1k | 1k | 100% | 100 µs | 100 ns |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| ext-micromap | 750 ns | 675 ns | met |"),
+            "{table}"
+        );
+        assert!(
+            table.contains("| khr-micromap | 1.30 µs | 1.17 µs | missed |"),
+            "{table}"
+        );
+    }
+
+    #[test]
+    fn sections_without_benchmarks_are_left_out() {
+        let machine = Machine {
+            model: "m".into(),
+            cores: 1,
+        };
+        let only_params: Vec<Estimate> = fixture()
+            .into_iter()
+            .filter(|e| e.group == "params-per-call")
+            .collect();
+        let table = render_table(&machine, false, &only_params);
+        assert!(table.contains("Params tier"));
+        assert!(!table.contains("Time per build"));
+        assert!(!table.contains("--quick"));
+    }
+
+    #[test]
+    fn plot_has_a_panel_per_build_and_a_line_per_tier() {
+        let svg = render_plot(&fixture()).expect("plot renders");
+        assert!(svg.starts_with("<svg"), "{}", &svg[..svg.len().min(200)]);
+        assert!(svg.contains("EXT 2-state: time per build"));
+        // Two tiers, each drawn as its line and its legend entry in its colour.
+        for colour in ["#1F77B4", "#2CA02C"] {
+            let lines =
+                format!(r#"<polyline fill="none" opacity="1" stroke="{colour}" stroke-width="2""#);
+            assert_eq!(svg.matches(&lines).count(), 2, "{colour}: {svg}");
+        }
+        for tier in ["params", "content"] {
+            assert!(
+                svg.contains(&format!("\n{tier}\n</text>")),
+                "legend {tier}: {svg}"
+            );
+        }
+    }
+}
