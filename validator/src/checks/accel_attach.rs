@@ -934,12 +934,13 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         if is_special_index(index, size) {
             continue;
         }
-        let location = format!("{array}[{j}]");
+        // Built only for a finding: most indices have none.
+        let location = || format!("{array}[{j}]");
         if is_cluster_skip_index(index, size) {
             tally.error(
                 ctx,
                 &rules::CLUSTER_INDEX_OUTSIDE_CLUSTER,
-                location,
+                location(),
                 || format!("index {index:#x} is -5 (CLUSTER_GEOMETRY_DISABLE_OPACITY_MICROMAP_NV), which only cluster geometry may use"),
                 &array,
             );
@@ -949,14 +950,14 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
             None => tally.error(
                 ctx,
                 not_special_rule,
-                location,
+                location(),
                 || format!("micromap is VK_NULL_HANDLE, but index {index:#x} is no VkOpacityMicromapSpecialIndexKHR value"),
                 &array,
             ),
             Some(n) if out_of_range(u64::from(index)) => tally.error(
                 ctx,
                 in_range_rule,
-                location,
+                location(),
                 || format!("index {index} + baseTriangle {base} is not below the micromap's {n} triangles"),
                 &array,
             ),

@@ -47,6 +47,7 @@ use crate::state::{
     AccelerationStructure, BuildRecord, Handle, OpacityAttachmentRecord, State,
     TriangleGeometryRecord,
 };
+use crate::tier::Tier;
 use crate::validator::{Ctx, Validator};
 
 const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by device-memory contents that GPU copies write at execution time, not visible at the API boundary";
@@ -178,7 +179,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
         let report = ctx.finish();
-        record_builds(&mut self.state, infos, build_range_infos, false);
+        record_builds(&mut self.state, self.tier, infos, build_range_infos, false);
         self.record_micromap_geometry(infos, build_range_infos);
         report
     }
@@ -204,7 +205,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Indirect.function());
         builds(&mut ctx, BuildCommand::Indirect, infos, None);
         let report = ctx.finish();
-        record_builds(&mut self.state, infos, &[], false);
+        record_builds(&mut self.state, self.tier, infos, &[], false);
         // Primitive counts live in device memory: no index buffer is read.
         self.record_micromap_geometry(infos, &[]);
         report
@@ -219,7 +220,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Host.function());
         builds(&mut ctx, BuildCommand::Host, infos, Some(build_range_infos));
         let report = ctx.finish();
-        record_builds(&mut self.state, infos, build_range_infos, true);
+        record_builds(&mut self.state, self.tier, infos, build_range_infos, true);
         self.record_micromap_geometry(infos, build_range_infos);
         report
     }
@@ -493,8 +494,12 @@ fn record_copy(state: &mut State, info: &CopyAccelerationStructureInfo) {
 /// with the memory holding it), and a bottom-level build's triangles
 /// geometries with their build ranges, for the simulator. `host`: the
 /// addresses are host addresses.
+/// Contents (the micromap's triangles and data) are recorded only from the
+/// content tier up: below it nothing is decoded, so a build costs the same
+/// whatever its size.
 fn record_builds(
     state: &mut State,
+    tier: Tier,
     infos: &[BuildGeometryInfo],
     ranges: &[Option<Vec<BuildRangeInfo>>],
     host: bool,
@@ -512,6 +517,7 @@ fn record_builds(
         let content = geometries
             .iter()
             .find_map(|(_, g)| g.micromap.as_ref())
+            .filter(|_| tier >= Tier::Content)
             .and_then(|data| micromap_content(state, host, data))
             .map(Arc::new);
         let geometries = geometries

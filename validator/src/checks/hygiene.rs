@@ -43,7 +43,8 @@ pub(crate) fn opacity_blocks(ctx: &mut Ctx<'_>, at: &str, data: &[u8], blocks: &
         else {
             continue;
         };
-        let loc = format!("{at}.triangleArray[{}]", block.m);
+        // Built only for a finding: most blocks have none.
+        let loc = || format!("{at}.triangleArray[{}]", block.m);
         // Levels 0 and 1 use fewer than 8 bits of their single byte.
         let used_bits = (1u32 << (2 * level.min(2))) * bits;
         if used_bits < 8 && bytes[0] >> used_bits != 0 {
@@ -51,7 +52,7 @@ pub(crate) fn opacity_blocks(ctx: &mut Ctx<'_>, at: &str, data: &[u8], blocks: &
                 ctx,
                 &rules::UNUSED_BITS,
                 Severity::Info,
-                loc.clone(),
+                loc(),
                 || format!("the byte at dataOffset {start} is {:#04x}; only its low {used_bits} bits hold states", bytes[0]),
                 "triangleArray",
             );
@@ -62,7 +63,7 @@ pub(crate) fn opacity_blocks(ctx: &mut Ctx<'_>, at: &str, data: &[u8], blocks: &
                 ctx,
                 &rules::DUPLICATE_DATA,
                 Severity::Info,
-                loc,
+                loc(),
                 || format!("its {size} bytes at dataOffset {start} equal those of triangleArray[{other_m}] at {other_start}; pointing both at one copy saves the space"),
                 "triangleArray",
             ),

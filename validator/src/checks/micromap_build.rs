@@ -709,7 +709,8 @@ fn triangle_array(
         (triangles, 1)
     };
     for m in 0..entries_to_read {
-        let loc = format!("{at}.triangleArray[{m}]");
+        // Built only for a finding: most entries have none.
+        let loc = || format!("{at}.triangleArray[{m}]");
         let entry = m
             .checked_mul(stride)
             .and_then(|offset| usize::try_from(offset).ok())
@@ -717,7 +718,7 @@ fn triangle_array(
         let Some(bytes) = entry else {
             ctx.error(
                 &rules::TRIANGLE_ARRAY_RANGE,
-                loc,
+                loc(),
                 format!("entry {m} of {triangles} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
             );
             break;
@@ -738,7 +739,7 @@ fn triangle_array(
                         tally.error(
                             ctx,
                             info_vuid::subdivisionLevel_11659,
-                            format!("{loc}.subdivisionLevel"),
+                            format!("{}.subdivisionLevel", loc()),
                             || {
                                 format!(
                                     "{level} exceeds maxOpacity2StateSubdivisionLevel = {}",
@@ -754,7 +755,7 @@ fn triangle_array(
                         tally.error(
                             ctx,
                             info_vuid::subdivisionLevel_11660,
-                            format!("{loc}.subdivisionLevel"),
+                            format!("{}.subdivisionLevel", loc()),
                             || {
                                 format!(
                                     "{level} exceeds maxOpacity4StateSubdivisionLevel = {}",
@@ -769,7 +770,7 @@ fn triangle_array(
                     tally.error(
                         ctx,
                         info_vuid::format_11657,
-                        format!("{loc}.format"),
+                        format!("{}.format", loc()),
                         || format!("{format} is not a VkOpacityMicromapFormatEXT value"),
                         "triangleArray",
                     );
@@ -784,7 +785,7 @@ fn triangle_array(
                     tally.error(
                         ctx,
                         &rules::TRIANGLE_DATA_RANGE,
-                        format!("{loc}.dataOffset"),
+                        format!("{}.dataOffset", loc()),
                         || format!("[{}, {}) is past the end of the memory data points into ({} bytes)", triangle.data_offset, u64::from(triangle.data_offset) + size, data.len()),
                         "triangleArray",
                     );
@@ -795,7 +796,7 @@ fn triangle_array(
                 tally.error(
                     ctx,
                     info_vuid::format_11658,
-                    format!("{loc}.format"),
+                    format!("{}.format", loc()),
                     || format!("{format} is not a VkDisplacementMicromapFormatNV value"),
                     "triangleArray",
                 );
@@ -804,7 +805,7 @@ fn triangle_array(
                 tally.error(
                     ctx,
                     info_vuid::subdivisionLevel_11661,
-                    format!("{loc}.subdivisionLevel"),
+                    format!("{}.subdivisionLevel", loc()),
                     || {
                         format!(
                             "{level} exceeds maxDisplacementMicromapSubdivisionLevel = {}",
