@@ -12,53 +12,13 @@
 //! process with its own environment and parses what it prints.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
+
+use ommcheck_tests::{loader_command, prepared};
 
 const OPACITY_MICROMAP: &str = "VK_EXT_opacity_micromap";
 const ACCELERATION_STRUCTURE: &str = "VK_KHR_acceleration_structure";
 const KHRONOS_VALIDATION: &str = "VK_LAYER_KHRONOS_validation";
-
-fn in_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0")
-}
-
-/// The path in `var`; None (the test skips) when it is absent outside CI.
-fn prepared(var: &str) -> Option<PathBuf> {
-    match std::env::var_os(var) {
-        Some(path) => {
-            let path = PathBuf::from(path);
-            assert!(
-                path.exists(),
-                "{var}={} does not exist; rerun `cargo xtask test`",
-                path.display()
-            );
-            Some(path)
-        }
-        None => {
-            assert!(
-                !in_ci(),
-                "{var} is not set in CI; `cargo xtask test` sets it"
-            );
-            eprintln!("skipping: {var} is not set; `cargo xtask test` prepares it and sets it");
-            None
-        }
-    }
-}
-
-/// Variables that would make the loader look beyond what a scenario names.
-const LOADER_VARS: &[&str] = &[
-    "VK_ICD_FILENAMES",
-    "VK_DRIVER_FILES",
-    "VK_ADD_DRIVER_FILES",
-    "VK_LOADER_DRIVERS_SELECT",
-    "VK_LOADER_DRIVERS_DISABLE",
-    "VK_LAYER_PATH",
-    "VK_ADD_LAYER_PATH",
-    "VK_INSTANCE_LAYERS",
-    "VK_LOADER_LAYERS_ENABLE",
-    "VK_LOADER_LAYERS_DISABLE",
-];
 
 #[derive(Debug, Default)]
 struct Device {
@@ -75,14 +35,8 @@ struct Probe {
 /// Runs vk-probe with `args` and the loader variables `env`, and parses its
 /// output; panics with its stderr when it fails.
 fn probe(args: &[&str], env: &[(&str, &Path)]) -> Probe {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_vk-probe"));
+    let mut command = loader_command(env!("CARGO_BIN_EXE_vk-probe"));
     command.args(args);
-    for var in LOADER_VARS {
-        command.env_remove(var);
-    }
-    // Mesa's implicit device-select layer is installed with lavapipe; it has
-    // nothing to select here and is kept out of every scenario.
-    command.env("NODEVICE_SELECT", "1");
     command.envs(env.iter().copied());
     let output = command.output().expect("running vk-probe");
     let stdout = String::from_utf8_lossy(&output.stdout);

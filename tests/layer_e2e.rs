@@ -1,0 +1,384 @@
+//! The layer under the real Vulkan loader: `VK_LAYER_OMMCHECK_validation`
+//! enabled by name in `ppEnabledLayerNames`, found through a manifest this
+//! test writes, over the Khronos Mock ICD (the one driver here with
+//! VK_EXT_opacity_micromap), lavapipe (acceleration structures that really
+//! build) and stacked with the Khronos validation layer.
+//!
+//! Each scenario runs `omm-app` (src/bin/omm-app.rs) as a child process,
+//! because the loader reads its environment once per process, and asserts
+//! the exact list of message ids its messenger received. A test whose
+//! OMMCHECK_TEST_* variable is absent fails in CI and skips elsewhere.
+//!
+//! What the Mock ICD makes decidable: it runs no command, reports every
+//! property as 0 (the layer then keeps its spec-minimum limits) and returns
+//! 0 from vkGetBufferDeviceAddress for every buffer. So parameters and
+//! host builds (whose data the layer reads in mapped memory) are checked
+//! here, but the contents of a device build never are: the layer cannot
+//! tell which buffer a device address lies in, and says so once per device
+//! (`OMMCHECK-layer-contents-not-checked`). Content checks at submission
+//! are covered by the in-process chain tests (layer/tests/submit.rs).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use ommcheck_tests::{loader_command, prepared};
+use serde_json::Value;
+use VkLayer_ommcheck::LAYER_NAME;
+
+const KHRONOS_VALIDATION: &str = "VK_LAYER_KHRONOS_validation";
+const BOTH_USAGE_POINTERS: &str = "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516";
+const DATA_IN_RANGE: &str = "OMMCHECK-build-triangle-data-in-range";
+const CONTENTS_NOT_CHECKED: &str = "OMMCHECK-layer-contents-not-checked";
+/// A core rule the Khronos layer checks and ommcheck does not (omm-app's
+/// `--core-fault`).
+const CORE_FAULT: &str = "VUID-VkBufferCreateInfo-size-00912";
+const ALL_SEVERITIES: &str = "error,warning,info";
+
+/// The directory holding the layer's manifest, written once per test
+/// process. The library is the cdylib cargo builds for the dev-dependency
+/// on ommcheck-layer: `target/<profile>/deps` beside this test binary
+/// (`cargo build` also copies it one level up).
+fn layer_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let file = format!(
+            "{}VkLayer_ommcheck{}",
+            std::env::consts::DLL_PREFIX,
+            std::env::consts::DLL_SUFFIX
+        );
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let deps = exe.parent().expect("the test binary's directory");
+        let library = [deps, deps.parent().unwrap_or(deps)]
+            .iter()
+            .map(|dir| dir.join(&file))
+            .find(|path| path.exists())
+            .unwrap_or_else(|| panic!("{file} is neither in {} nor its parent; cargo builds it for the dev-dependency on ommcheck-layer", deps.display()));
+        let library = library.canonicalize().expect("the layer's absolute path");
+        // The fields the loader needs (`cargo xtask layer` writes the full
+        // manifest, with the settings, from the xtask binary).
+        let manifest = serde_json::json!({
+            "file_format_version": "1.2.0",
+            "layer": {
+                "name": LAYER_NAME,
+                "type": "GLOBAL",
+                "library_path": library,
+                "api_version": "1.3.239",
+                "implementation_version": "1",
+                "description": "ommcheck (tests/layer_e2e.rs)",
+            }
+        });
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("layer-e2e");
+        std::fs::create_dir_all(&dir).expect("creating the manifest directory");
+        // Written aside and renamed: another test process may be reading it.
+        let aside = dir.join(format!("manifest.{}.tmp", std::process::id()));
+        std::fs::write(&aside, manifest.to_string()).expect("writing the manifest");
+        std::fs::rename(&aside, dir.join("VkLayer_ommcheck.json")).expect("placing the manifest");
+        dir
+    })
+}
+
+/// One message the app's messenger received.
+#[derive(Debug)]
+struct Received {
+    id: String,
+    severity: String,
+    phase: String,
+}
+
+/// What omm-app printed for one scenario.
+#[derive(Debug)]
+struct Run {
+    messages: Vec<Received>,
+    device_layers: BTreeSet<String>,
+    results: Value,
+}
+
+impl Run {
+    /// The ids received, sorted (each as often as it was received).
+    fn ids(&self) -> Vec<&str> {
+        let mut ids: Vec<&str> = self.messages.iter().map(|m| m.id.as_str()).collect();
+        ids.sort_unstable();
+        ids
+    }
+
+    fn count(&self, id: &str) -> usize {
+        self.messages.iter().filter(|m| m.id == id).count()
+    }
+}
+
+/// A scenario's driver, layers (in ppEnabledLayerNames order) and settings.
+struct Scenario<'a> {
+    name: &'a str,
+    icd: &'a Path,
+    layers: &'a [&'a str],
+    /// Directories the loader also searches for layers (beside ommcheck's).
+    layer_dirs: &'a [&'a Path],
+    settings: &'a [(&'a str, &'a str)],
+    core_fault: bool,
+}
+
+impl<'a> Scenario<'a> {
+    fn new(name: &'a str, icd: &'a Path) -> Self {
+        Self {
+            name,
+            icd,
+            layers: &[LAYER_NAME],
+            layer_dirs: &[],
+            settings: &[],
+            core_fault: false,
+        }
+    }
+
+    fn run(&self) -> Run {
+        let mut command = loader_command(env!("CARGO_BIN_EXE_omm-app"));
+        command.arg(self.name);
+        for layer in self.layers {
+            command.args(["--layer", layer]);
+        }
+        if self.core_fault {
+            command.arg("--core-fault");
+        }
+        // The layer's settings come from the scenario alone.
+        for (var, _) in std::env::vars_os() {
+            if var.to_string_lossy().starts_with("OMMCHECK_") {
+                command.env_remove(var);
+            }
+        }
+        let dirs = std::iter::once(layer_dir())
+            .chain(self.layer_dirs.iter().copied())
+            .map(Path::as_os_str)
+            .collect::<Vec<_>>()
+            .join(std::ffi::OsStr::new(":"));
+        command
+            .env("VK_DRIVER_FILES", self.icd)
+            .env("VK_ADD_LAYER_PATH", dirs)
+            .envs(self.settings.iter().copied());
+        let output = command.output().expect("running omm-app");
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        assert!(
+            output.status.success(),
+            "omm-app {} failed ({}):\n{}{stdout}",
+            self.name,
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let line: Value = serde_json::from_str(stdout.trim())
+            .unwrap_or_else(|e| panic!("omm-app printed no JSON line ({e}): {stdout}"));
+        let text = |v: &Value, key: &str| v[key].as_str().unwrap_or_default().to_owned();
+        let messages = line["messages"]
+            .as_array()
+            .expect("messages")
+            .iter()
+            .map(|m| Received {
+                id: text(m, "id"),
+                severity: text(m, "severity"),
+                phase: text(m, "phase"),
+            })
+            .collect();
+        let device_layers = line["device_layers"]
+            .as_array()
+            .expect("device_layers")
+            .iter()
+            .map(|l| l.as_str().expect("a layer name").to_owned())
+            .collect();
+        Run {
+            messages,
+            device_layers,
+            results: line["results"].clone(),
+        }
+    }
+}
+
+/// Asserts the layer was in the device's call chain.
+fn assert_layer_inserted(run: &Run) {
+    assert!(
+        run.device_layers.contains(LAYER_NAME),
+        "the loader did not insert {LAYER_NAME}: {run:#?}"
+    );
+}
+
+#[test]
+fn host_builds_over_the_mock_icd_report_exactly_their_faults() {
+    let Some(icd) = prepared("OMMCHECK_TEST_MOCK_ICD") else {
+        return;
+    };
+    for (scenario, expected) in [
+        ("host-build-valid", &[][..]),
+        ("host-build-usage-pointers", &[BOTH_USAGE_POINTERS][..]),
+        // The data lies at the end of mapped memory, so the layer knows
+        // where it ends; plain host memory would leave its end unknown.
+        ("host-build-data-past-end", &[DATA_IN_RANGE][..]),
+    ] {
+        let run = Scenario {
+            settings: &[("OMMCHECK_REPORT", ALL_SEVERITIES)],
+            ..Scenario::new(scenario, &icd)
+        }
+        .run();
+        assert_layer_inserted(&run);
+        assert_eq!(run.ids(), expected, "{scenario}: {run:#?}");
+        assert!(
+            run.messages
+                .iter()
+                .all(|m| m.phase == "build" && m.severity == "error"),
+            "{scenario}: {run:#?}"
+        );
+        // The messenger returned VK_FALSE: the call reached the driver.
+        assert_eq!(run.results["build"], 0, "{scenario}: {run:#?}");
+    }
+}
+
+#[test]
+fn device_builds_over_the_mock_icd_report_parameters_at_recording() {
+    let Some(icd) = prepared("OMMCHECK_TEST_MOCK_ICD") else {
+        return;
+    };
+    for (scenario, expected) in [
+        ("device-build-valid", &[][..]),
+        ("device-build-usage-pointers", &[BOTH_USAGE_POINTERS][..]),
+    ] {
+        // Errors and warnings only (the default).
+        let run = Scenario::new(scenario, &icd).run();
+        assert_layer_inserted(&run);
+        assert_eq!(run.ids(), expected, "{scenario}: {run:#?}");
+        assert!(run.messages.iter().all(|m| m.phase == "record"), "{run:#?}");
+        assert_eq!(run.results["submits"], serde_json::json!([0, 0]));
+    }
+}
+
+#[test]
+fn device_build_contents_the_mock_cannot_show_are_reported_once_as_not_checked() {
+    let Some(icd) = prepared("OMMCHECK_TEST_MOCK_ICD") else {
+        return;
+    };
+    // `histogram-mismatch` writes usage counts that disagree with the
+    // triangle array (OMMCHECK-build-usage-counts-match-triangles) into a
+    // mapped host-visible buffer. On a driver that returns buffer device
+    // addresses the layer reads them at vkQueueSubmit; the Mock ICD returns
+    // 0 for every buffer (asserted below, so a mock that changes this shows
+    // up here), the app builds from stand-in addresses, and the layer can
+    // only say, once per device over two submissions, that it did not check.
+    for scenario in ["device-build-valid", "device-build-histogram-mismatch"] {
+        let run = Scenario {
+            settings: &[("OMMCHECK_REPORT", ALL_SEVERITIES)],
+            ..Scenario::new(scenario, &icd)
+        }
+        .run();
+        assert_eq!(
+            run.results["buffer_addresses"],
+            serde_json::json!([0, 0]),
+            "the Mock ICD now returns buffer device addresses: assert the content fault here"
+        );
+        assert_eq!(run.ids(), [CONTENTS_NOT_CHECKED], "{scenario}: {run:#?}");
+        let message = &run.messages[0];
+        assert_eq!(
+            (message.severity.as_str(), message.phase.as_str()),
+            ("info", "submit")
+        );
+        assert_eq!(run.results["submits"], serde_json::json!([0, 0]));
+    }
+}
+
+#[test]
+fn a_blas_builds_on_lavapipe_alike_with_and_without_the_layer() {
+    let Some(icd) = prepared("OMMCHECK_TEST_LAVAPIPE_ICD") else {
+        return;
+    };
+    let without = Scenario {
+        layers: &[],
+        ..Scenario::new("blas", &icd)
+    }
+    .run();
+    let with = Scenario {
+        settings: &[("OMMCHECK_REPORT", ALL_SEVERITIES)],
+        ..Scenario::new("blas", &icd)
+    }
+    .run();
+    assert!(without.device_layers.is_empty(), "{without:#?}");
+    assert_layer_inserted(&with);
+    assert_eq!(without.results, with.results);
+    assert!(with.messages.is_empty(), "{with:#?}");
+    assert!(without.messages.is_empty(), "{without:#?}");
+    let results = &with.results;
+    assert_eq!(results["submit"], 0);
+    let compacted = results["compacted_size"].as_u64().expect("a size");
+    let built = results["build_sizes"][0].as_u64().expect("a size");
+    assert!(
+        0 < compacted && compacted <= built,
+        "compacted {compacted} of {built}"
+    );
+    assert!(results["serialization_size"].as_u64() > Some(0));
+    // Without VK_EXT_opacity_micromap the micromap commands do not resolve,
+    // with the layer as without.
+    assert_eq!(results["has_opacity_micromap"], false);
+    assert_eq!(
+        results["null_micromap_commands"],
+        serde_json::json!([true, true, true])
+    );
+}
+
+/// The ids in the layer's log file (`OMMCHECK_LOG_FILE`): what ommcheck
+/// itself reported, whatever the Khronos layer reported beside it.
+fn logged_ids(log: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let mut ids: Vec<String> = text
+        .lines()
+        .filter_map(|line| {
+            let (_, rest) = line.split_once("[ ")?;
+            let (id, _) = rest.split_once(" ]")?;
+            Some(id.to_owned())
+        })
+        .collect();
+    ids.sort_unstable();
+    ids
+}
+
+#[test]
+fn ommcheck_stacks_with_the_khronos_validation_layer_in_either_order() {
+    let (Some(icd), Some(khronos)) = (
+        prepared("OMMCHECK_TEST_MOCK_ICD"),
+        prepared("OMMCHECK_TEST_KHRONOS_LAYER"),
+    ) else {
+        return;
+    };
+    let logs = Path::new(env!("CARGO_TARGET_TMPDIR")).join("layer-e2e");
+    std::fs::create_dir_all(&logs).expect("creating the log directory");
+    for (order, layers) in [
+        ("ommcheck-first", [LAYER_NAME, KHRONOS_VALIDATION]),
+        ("khronos-first", [KHRONOS_VALIDATION, LAYER_NAME]),
+    ] {
+        for (scenario, expected) in [
+            ("host-build-valid", &[][..]),
+            ("host-build-usage-pointers", &[BOTH_USAGE_POINTERS][..]),
+        ] {
+            let log = logs.join(format!("{order}-{scenario}-{}.log", std::process::id()));
+            let _ = std::fs::remove_file(&log);
+            let log_setting = log.to_str().expect("a UTF-8 path");
+            let run = Scenario {
+                layers: &layers,
+                layer_dirs: &[&khronos],
+                settings: &[("OMMCHECK_LOG_FILE", log_setting)],
+                core_fault: true,
+                ..Scenario::new(scenario, &icd)
+            }
+            .run();
+            let what = format!("{order} {scenario}: {run:#?}");
+            let expected_layers: BTreeSet<String> = layers.iter().map(|l| l.to_string()).collect();
+            assert_eq!(run.device_layers, expected_layers, "{what}");
+            // ommcheck reported exactly its fault, and it reached the app
+            // once: the Khronos layer (1.3.239) does not check it.
+            assert_eq!(logged_ids(&log), expected, "{what}");
+            assert_eq!(run.count(BOTH_USAGE_POINTERS), expected.len(), "{what}");
+            assert!(
+                !run.messages.iter().any(|m| m.id.starts_with("OMMCHECK-")),
+                "{what}"
+            );
+            // The Khronos layer is active: it reports the core fault.
+            assert_eq!(run.count(CORE_FAULT), 1, "{what}");
+            // The app still works: the build and the buffer reached the driver.
+            assert_eq!(run.results["build"], 0, "{what}");
+            assert_eq!(run.results["core_fault"], 0, "{what}");
+            let _ = std::fs::remove_file(&log);
+        }
+    }
+}

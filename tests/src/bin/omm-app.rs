@@ -1,0 +1,859 @@
+//! `omm-app`: an application that runs one named scenario through the
+//! system's Vulkan loader and prints one JSON line: every message its
+//! `VK_EXT_debug_utils` messenger received and what it measured.
+//! `tests/layer_e2e.rs` runs it as a child process per scenario, with the
+//! loader's variables (`VK_DRIVER_FILES`, `VK_ADD_LAYER_PATH`) and the
+//! layer's settings (`OMMCHECK_*`) set for that scenario alone.
+//!
+//! ```text
+//! omm-app SCENARIO [--layer NAME]... [--core-fault]
+//! {"scenario": ..., "messages": [{"id", "severity", "phase", "text"}],
+//!  "device_layers": [...], "results": {...}}
+//! ```
+//!
+//! The layers are enabled in `ppEnabledLayerNames` in the order given. Each
+//! message carries the phase it arrived in (`setup`, `build`, `record`,
+//! `submit`, `teardown`); `device_layers` are the layers the loader reports
+//! (as information) inserting into the device call chain. `--core-fault` creates a buffer of size 0 at the
+//! end (VUID-VkBufferCreateInfo-size-00912, which the Khronos validation
+//! layer checks and ommcheck does not), to show a stacked layer is active.
+//!
+//! Scenarios over the Khronos Mock ICD (VK_EXT_opacity_micromap; every
+//! command a stub): `host-build-valid`, `host-build-usage-pointers`,
+//! `host-build-data-past-end`, `device-build-valid`,
+//! `device-build-usage-pointers`, `device-build-histogram-mismatch`.
+//! Over lavapipe (acceleration structures that really build): `blas`.
+//! Errors go to stderr with exit status 1.
+
+use std::ffi::{c_void, CStr, CString};
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+use ash::vk;
+use serde_json::{json, Map, Value};
+
+type Results = Map<String, Value>;
+
+/// The messages a messenger received, each tagged with the app's phase,
+/// and the layers the loader says it inserted in the device call chain.
+#[derive(Default)]
+struct Collector {
+    phase: Mutex<&'static str>,
+    messages: Mutex<Vec<Value>>,
+    device_layers: Mutex<Vec<String>>,
+}
+
+/// The loader's information `Inserted device layer "NAME" (path)`.
+const INSERTED_DEVICE_LAYER: &str = "Inserted device layer \"";
+
+unsafe extern "system" fn collect(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the user data is the Collector registered with the messenger,
+    // which outlives it (see `Vulkan::drop`).
+    let collector = unsafe { &*user_data.cast::<Collector>() };
+    // SAFETY: the loader passes callback data valid for the call.
+    let data = unsafe { &*data };
+    let text = |p: *const std::ffi::c_char| {
+        if p.is_null() {
+            String::new()
+        } else {
+            // SAFETY: non-NULL strings in the callback data are NUL-terminated.
+            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+        }
+    };
+    use vk::DebugUtilsMessageSeverityFlagsEXT as S;
+    let severity = match severity {
+        S::ERROR => "error",
+        S::WARNING => "warning",
+        S::INFO => "info",
+        _ => "verbose",
+    };
+    if !types.contains(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION) {
+        // The loader's own (general) messages are no layer's findings; only
+        // which layers it inserted is kept, in the order it says so.
+        let text = text(data.p_message);
+        if let Some(name) = text
+            .trim()
+            .strip_prefix(INSERTED_DEVICE_LAYER)
+            .and_then(|rest| rest.split('"').next())
+        {
+            collector.device_layers.lock().unwrap().push(name.into());
+        }
+        return vk::FALSE;
+    }
+    let phase = *collector.phase.lock().unwrap();
+    collector.messages.lock().unwrap().push(json!({
+        "id": text(data.p_message_id_name),
+        "severity": severity,
+        "phase": phase,
+        "text": text(data.p_message),
+    }));
+    // Never ask a layer to skip the call: the app goes on as it would
+    // without validation.
+    vk::FALSE
+}
+
+/// An instance with the named layers and a messenger for every severity.
+struct Vulkan {
+    _entry: ash::Entry,
+    instance: ash::Instance,
+    debug_utils: ash::ext::debug_utils::Instance,
+    messenger: vk::DebugUtilsMessengerEXT,
+    collector: Box<Collector>,
+}
+
+impl Vulkan {
+    fn new(layers: &[CString]) -> Result<Self, String> {
+        // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is
+        // the system's, installed from the distribution's packages.
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| format!("no Vulkan loader: {e}"))?;
+        let layer_ptrs: Vec<_> = layers.iter().map(|l| l.as_ptr()).collect();
+        let extensions = [ash::ext::debug_utils::NAME.as_ptr()];
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"omm-app")
+            .api_version(vk::API_VERSION_1_3);
+        let info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_ptrs)
+            .enabled_extension_names(&extensions);
+        // SAFETY: `info` and everything it points to outlive the call.
+        let instance = unsafe { entry.create_instance(&info, None) }
+            .map_err(|e| format!("vkCreateInstance: {e}"))?;
+        let debug_utils = ash::ext::debug_utils::Instance::new(&entry, &instance);
+        let collector = Box::<Collector>::default();
+        *collector.phase.lock().unwrap() = "setup";
+        let messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(collect))
+            .user_data((&*collector as *const Collector).cast_mut().cast());
+        // SAFETY: a valid create info; the boxed collector outlives the
+        // messenger (destroyed first in `drop`).
+        let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
+            .map_err(|e| format!("vkCreateDebugUtilsMessengerEXT: {e}"))?;
+        Ok(Self {
+            _entry: entry,
+            instance,
+            debug_utils,
+            messenger,
+            collector,
+        })
+    }
+
+    fn phase(&self, phase: &'static str) {
+        *self.collector.phase.lock().unwrap() = phase;
+    }
+
+    fn messages(&self) -> Vec<Value> {
+        self.collector.messages.lock().unwrap().clone()
+    }
+
+    /// The first physical device.
+    fn physical_device(&self) -> Result<vk::PhysicalDevice, String> {
+        // SAFETY: a live instance.
+        let devices = unsafe { self.instance.enumerate_physical_devices() }
+            .map_err(|e| format!("vkEnumeratePhysicalDevices: {e}"))?;
+        devices
+            .first()
+            .copied()
+            .ok_or_else(|| "no physical device".into())
+    }
+}
+
+impl Drop for Vulkan {
+    fn drop(&mut self) {
+        // SAFETY: the messenger and instance are this app's and have no
+        // children left (each scenario destroys its device).
+        unsafe {
+            self.debug_utils
+                .destroy_debug_utils_messenger(self.messenger, None);
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+/// A device with one queue of family 0 (the Mock ICD and lavapipe both
+/// have one family with graphics, compute and transfer).
+struct Gpu<'a> {
+    vulkan: &'a Vulkan,
+    device: ash::Device,
+    queue: vk::Queue,
+    memory: vk::PhysicalDeviceMemoryProperties,
+    pool: vk::CommandPool,
+}
+
+impl<'a> Gpu<'a> {
+    /// The device of `physical` with `extensions`, the feature
+    /// `bufferDeviceAddress` and the features in `features`.
+    fn new<F: vk::ExtendsDeviceCreateInfo + ?Sized>(
+        vulkan: &'a Vulkan,
+        physical: vk::PhysicalDevice,
+        extensions: &[&CStr],
+        features: &mut F,
+    ) -> Result<Self, String> {
+        let mut address =
+            vk::PhysicalDeviceBufferDeviceAddressFeatures::default().buffer_device_address(true);
+        let extensions: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
+        let priorities = [1.0];
+        let queues = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(0)
+            .queue_priorities(&priorities)];
+        let info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queues)
+            .enabled_extension_names(&extensions)
+            .push_next(features)
+            .push_next(&mut address);
+        // SAFETY: `info` is valid and outlives the call.
+        let device = unsafe { vulkan.instance.create_device(physical, &info, None) }
+            .map_err(|e| format!("vkCreateDevice: {e}"))?;
+        // SAFETY: family 0, queue 0 was requested in `info`.
+        let queue = unsafe { device.get_device_queue(0, 0) };
+        // SAFETY: a physical device of this instance.
+        let memory = unsafe {
+            vulkan
+                .instance
+                .get_physical_device_memory_properties(physical)
+        };
+        let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
+        // SAFETY: valid arguments.
+        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .map_err(|e| format!("vkCreateCommandPool: {e}"))?;
+        Ok(Self {
+            vulkan,
+            device,
+            queue,
+            memory,
+            pool,
+        })
+    }
+
+    /// Memory of `size` bytes of the first type in `bits` with `flags`.
+    fn allocate(
+        &self,
+        size: u64,
+        bits: u32,
+        flags: vk::MemoryPropertyFlags,
+        device_address: bool,
+    ) -> Result<vk::DeviceMemory, String> {
+        let index = (0..self.memory.memory_type_count)
+            .find(|&i| {
+                bits & (1 << i) != 0
+                    && self.memory.memory_types[i as usize]
+                        .property_flags
+                        .contains(flags)
+            })
+            .ok_or_else(|| format!("no memory type with {flags:?} in {bits:#x}"))?;
+        let mut address_flags =
+            vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
+        let mut info = vk::MemoryAllocateInfo::default()
+            .allocation_size(size)
+            .memory_type_index(index);
+        if device_address {
+            info = info.push_next(&mut address_flags);
+        }
+        // SAFETY: valid arguments.
+        unsafe { self.device.allocate_memory(&info, None) }
+            .map_err(|e| format!("vkAllocateMemory: {e}"))
+    }
+
+    /// Maps all of `memory`; the pointer stays valid until the device is
+    /// destroyed (nothing here unmaps).
+    fn map(&self, memory: vk::DeviceMemory) -> Result<*mut u8, String> {
+        // SAFETY: host-visible memory of this device, not mapped yet.
+        unsafe {
+            self.device
+                .map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
+        }
+        .map(|p| p.cast())
+        .map_err(|e| format!("vkMapMemory: {e}"))
+    }
+
+    /// A buffer of `size` bytes bound to host-visible memory of its own,
+    /// mapped; returns the buffer and the mapping.
+    fn mapped_buffer(
+        &self,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<(vk::Buffer, *mut u8), String> {
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        // SAFETY: valid arguments.
+        let buffer = unsafe { self.device.create_buffer(&info, None) }
+            .map_err(|e| format!("vkCreateBuffer: {e}"))?;
+        // SAFETY: a buffer of this device.
+        let requirements = unsafe { self.device.get_buffer_memory_requirements(buffer) };
+        let memory = self.allocate(
+            requirements.size.max(size),
+            requirements.memory_type_bits,
+            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
+        )?;
+        // SAFETY: fresh memory large enough for the buffer.
+        unsafe { self.device.bind_buffer_memory(buffer, memory, 0) }
+            .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
+        Ok((buffer, self.map(memory)?))
+    }
+
+    fn address(&self, buffer: vk::Buffer) -> u64 {
+        let info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
+        // SAFETY: a buffer created with SHADER_DEVICE_ADDRESS usage.
+        unsafe { self.device.get_buffer_device_address(&info) }
+    }
+
+    /// A primary command buffer from the pool, begun.
+    fn begin(&self) -> Result<vk::CommandBuffer, String> {
+        let info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(self.pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: valid arguments.
+        let command_buffer = unsafe { self.device.allocate_command_buffers(&info) }
+            .map_err(|e| format!("vkAllocateCommandBuffers: {e}"))?[0];
+        // SAFETY: a fresh command buffer.
+        unsafe {
+            self.device
+                .begin_command_buffer(command_buffer, &vk::CommandBufferBeginInfo::default())
+        }
+        .map_err(|e| format!("vkBeginCommandBuffer: {e}"))?;
+        Ok(command_buffer)
+    }
+
+    /// Submits `command_buffer` (ended) and waits for the queue; returns
+    /// what vkQueueSubmit returned.
+    fn submit(&self, command_buffer: vk::CommandBuffer) -> Result<i32, String> {
+        let command_buffers = [command_buffer];
+        let submit = [vk::SubmitInfo::default().command_buffers(&command_buffers)];
+        // SAFETY: an executable command buffer of this device's queue family.
+        let result = unsafe {
+            self.device
+                .queue_submit(self.queue, &submit, vk::Fence::null())
+        };
+        // SAFETY: the queue is this device's.
+        unsafe { self.device.queue_wait_idle(self.queue) }
+            .map_err(|e| format!("vkQueueWaitIdle: {e}"))?;
+        Ok(result.err().unwrap_or(vk::Result::SUCCESS).as_raw())
+    }
+
+    /// A micromap of 4096 bytes, plenty for the two triangles built here
+    /// (the Mock ICD's vkGetMicromapBuildSizesEXT writes nothing).
+    fn micromap(
+        &self,
+        omm: &ash::ext::opacity_micromap::Device,
+    ) -> Result<vk::MicromapEXT, String> {
+        let (storage, _) = self.mapped_buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT)?;
+        let info = vk::MicromapCreateInfoEXT::default()
+            .buffer(storage)
+            .size(4096)
+            .ty(vk::MicromapTypeEXT::OPACITY_MICROMAP);
+        let mut micromap = vk::MicromapEXT::null();
+        // SAFETY: valid arguments.
+        let result = unsafe {
+            (omm.fp().create_micromap_ext)(
+                self.device.handle(),
+                &info,
+                std::ptr::null(),
+                &mut micromap,
+            )
+        };
+        result
+            .result()
+            .map_err(|e| format!("vkCreateMicromapEXT: {e}"))?;
+        Ok(micromap)
+    }
+}
+
+impl Drop for Gpu<'_> {
+    fn drop(&mut self) {
+        self.vulkan.phase("teardown");
+        // SAFETY: the queue is idle after each submit; the device's other
+        // children are released with it (the Khronos layer may say so).
+        unsafe {
+            self.device.destroy_command_pool(self.pool, None);
+            self.device.destroy_device(None);
+        }
+    }
+}
+
+/// The Mock ICD's device with VK_EXT_opacity_micromap and the features
+/// `micromap`, `micromapHostCommands` and `bufferDeviceAddress`. The Mock
+/// ICD reports these features as false and does not check them; the layer
+/// checks against what the application enabled.
+fn micromap_device(vulkan: &Vulkan) -> Result<Gpu<'_>, String> {
+    let physical = vulkan.physical_device()?;
+    let mut micromap = vk::PhysicalDeviceOpacityMicromapFeaturesEXT::default()
+        .micromap(true)
+        .micromap_host_commands(true);
+    Gpu::new(
+        vulkan,
+        physical,
+        &[
+            ash::ext::opacity_micromap::NAME,
+            ash::khr::acceleration_structure::NAME,
+            ash::khr::deferred_host_operations::NAME,
+        ],
+        &mut micromap,
+    )
+}
+
+/// Two 2-state triangles at subdivision level 1: one byte of data each.
+const USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
+    count: 2,
+    subdivision_level: 1,
+    format: 1,
+}];
+
+/// The triangle array of the two triangles, their data at `offsets`.
+fn triangles(offsets: [u32; 2], format: u16) -> [vk::MicromapTriangleEXT; 2] {
+    offsets.map(|data_offset| vk::MicromapTriangleEXT {
+        data_offset,
+        subdivision_level: 1,
+        format,
+    })
+}
+
+/// A build of the two triangles of [`USAGE`] into `micromap`: the triangle
+/// array (stride 8), the data and the scratch at the addresses given.
+fn build_info(
+    micromap: vk::MicromapEXT,
+    triangle_array: vk::DeviceOrHostAddressConstKHR,
+    data: vk::DeviceOrHostAddressConstKHR,
+    scratch_data: vk::DeviceOrHostAddressKHR,
+) -> vk::MicromapBuildInfoEXT<'static> {
+    vk::MicromapBuildInfoEXT {
+        ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+        mode: vk::BuildMicromapModeEXT::BUILD,
+        dst_micromap: micromap,
+        usage_counts_count: 1,
+        p_usage_counts: USAGE.as_ptr(),
+        data,
+        triangle_array,
+        triangle_array_stride: 8,
+        scratch_data,
+        ..Default::default()
+    }
+}
+
+/// `vkBuildMicromapsEXT` (host build) of two triangles: the triangle array
+/// and scratch in the app's own memory, the data in the last two bytes of
+/// a 64-byte mapped host-visible allocation, so the layer knows where the
+/// data ends. Faults: `usage-pointers` sets both pUsageCounts and
+/// ppUsageCounts; `data-past-end` puts triangle 1's data one byte past the
+/// mapping.
+fn host_build(vulkan: &Vulkan, fault: &str, results: &mut Results) -> Result<(), String> {
+    let gpu = micromap_device(vulkan)?;
+    let omm = ash::ext::opacity_micromap::Device::new(&vulkan.instance, &gpu.device);
+    let micromap = gpu.micromap(&omm)?;
+    let memory = gpu.allocate(64, !0, vk::MemoryPropertyFlags::HOST_VISIBLE, false)?;
+    let mapped = gpu.map(memory)?;
+    // SAFETY: the mapping is 64 bytes long.
+    let data = unsafe { mapped.add(62) };
+    // SAFETY: bytes 62 and 63 of the mapping.
+    unsafe { data.copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2) };
+    let second = if fault == "data-past-end" { 2 } else { 1 };
+    let triangles = triangles([0, second], 1);
+    let mut scratch = vec![0u8; 4096];
+    let usage_pointers = [&USAGE[0] as *const vk::MicromapUsageEXT];
+    let mut info = build_info(
+        micromap,
+        vk::DeviceOrHostAddressConstKHR {
+            host_address: triangles.as_ptr().cast(),
+        },
+        vk::DeviceOrHostAddressConstKHR {
+            host_address: data.cast_const().cast(),
+        },
+        vk::DeviceOrHostAddressKHR {
+            host_address: scratch.as_mut_ptr().cast(),
+        },
+    );
+    match fault {
+        "valid" | "data-past-end" => {}
+        "usage-pointers" => info.pp_usage_counts = usage_pointers.as_ptr(),
+        _ => return Err(format!("unknown host-build scenario {fault:?}")),
+    }
+    vulkan.phase("build");
+    // SAFETY: one valid info whose host addresses live across the call (the
+    // faults are in values, never in dangling pointers, except data-past-end,
+    // whose out-of-range byte the Mock ICD never reads).
+    let result = unsafe {
+        (omm.fp().build_micromaps_ext)(
+            gpu.device.handle(),
+            vk::DeferredOperationKHR::null(),
+            1,
+            &info,
+        )
+    };
+    results.insert("build".into(), json!(result.as_raw()));
+    Ok(())
+}
+
+/// Stand-in device addresses for the Mock ICD, whose
+/// vkGetBufferDeviceAddress returns 0 for every buffer: the mock runs no
+/// command, and an address of 0 would be a fault of its own.
+const STAND_IN_INPUT: u64 = 0x1_0000_0000;
+const STAND_IN_SCRATCH: u64 = 0x2_0000_0000;
+
+/// `vkCmdBuildMicromapsEXT` of two triangles, recorded in a command buffer
+/// from a pool, ended and submitted twice. The triangle array lies at the
+/// start of a mapped host-visible input buffer, the data 256 bytes in.
+/// Faults: `usage-pointers` (a parameter, decided at recording);
+/// `histogram-mismatch` (the triangle array says 4-state where the usage
+/// counts say 2-state: contents, decided at submission when the layer can
+/// read them).
+fn device_build(vulkan: &Vulkan, fault: &str, results: &mut Results) -> Result<(), String> {
+    let gpu = micromap_device(vulkan)?;
+    let omm = ash::ext::opacity_micromap::Device::new(&vulkan.instance, &gpu.device);
+    let micromap = gpu.micromap(&omm)?;
+    let address_usage = vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+    let (input, mapped) = gpu.mapped_buffer(
+        4096,
+        vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT | address_usage,
+    )?;
+    let (scratch, _) =
+        gpu.mapped_buffer(4096, vk::BufferUsageFlags::STORAGE_BUFFER | address_usage)?;
+    let addresses = [gpu.address(input), gpu.address(scratch)];
+    results.insert("buffer_addresses".into(), json!(addresses));
+    let (input_address, scratch_address) = match addresses {
+        [0, 0] => (STAND_IN_INPUT, STAND_IN_SCRATCH),
+        [input, scratch] => (input, scratch),
+    };
+    let format = if fault == "histogram-mismatch" { 2 } else { 1 };
+    let triangles = triangles([0, 1], format);
+    // SAFETY: the mapping is 4096 bytes long: 16 bytes of triangles at 0,
+    // two bytes of data at 256.
+    unsafe {
+        mapped.copy_from_nonoverlapping(triangles.as_ptr().cast(), 16);
+        mapped
+            .add(256)
+            .copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2);
+    }
+    let usage_pointers = [&USAGE[0] as *const vk::MicromapUsageEXT];
+    let mut info = build_info(
+        micromap,
+        vk::DeviceOrHostAddressConstKHR {
+            device_address: input_address,
+        },
+        vk::DeviceOrHostAddressConstKHR {
+            device_address: input_address + 256,
+        },
+        vk::DeviceOrHostAddressKHR {
+            device_address: scratch_address,
+        },
+    );
+    match fault {
+        "valid" | "histogram-mismatch" => {}
+        "usage-pointers" => info.pp_usage_counts = usage_pointers.as_ptr(),
+        _ => return Err(format!("unknown device-build scenario {fault:?}")),
+    }
+    let command_buffer = gpu.begin()?;
+    vulkan.phase("record");
+    // SAFETY: a recording command buffer; one valid info.
+    unsafe { (omm.fp().cmd_build_micromaps_ext)(command_buffer, 1, &info) };
+    // SAFETY: the command buffer is recording.
+    unsafe { gpu.device.end_command_buffer(command_buffer) }
+        .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+    vulkan.phase("submit");
+    let submits = [gpu.submit(command_buffer)?, gpu.submit(command_buffer)?];
+    results.insert("submits".into(), json!(submits));
+    Ok(())
+}
+
+/// Whether `vkGetDeviceProcAddr` returns NULL for `name`.
+fn device_command_is_null(gpu: &Gpu<'_>, name: &CStr) -> bool {
+    // SAFETY: a live device and a NUL-terminated name.
+    unsafe {
+        gpu.vulkan
+            .instance
+            .get_device_proc_addr(gpu.device.handle(), name.as_ptr())
+    }
+    .is_none()
+}
+
+/// A bottom-level acceleration structure of three triangles built on the
+/// device (lavapipe), then its compacted and serialization sizes read
+/// through query pools. Results: those sizes, the build sizes, and whether
+/// the micromap commands resolve (they must not: lavapipe lacks
+/// VK_EXT_opacity_micromap).
+fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
+    let physical = vulkan.physical_device()?;
+    // SAFETY: a physical device of this instance.
+    let extensions = unsafe {
+        vulkan
+            .instance
+            .enumerate_device_extension_properties(physical)
+    }
+    .map_err(|e| format!("vkEnumerateDeviceExtensionProperties: {e}"))?;
+    let has_micromaps = extensions
+        .iter()
+        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::opacity_micromap::NAME));
+    results.insert("has_opacity_micromap".into(), json!(has_micromaps));
+    let mut structure_properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+    let mut properties =
+        vk::PhysicalDeviceProperties2::default().push_next(&mut structure_properties);
+    // SAFETY: a physical device of this instance; a valid chain.
+    unsafe {
+        vulkan
+            .instance
+            .get_physical_device_properties2(physical, &mut properties)
+    };
+    let scratch_alignment = u64::from(
+        structure_properties
+            .min_acceleration_structure_scratch_offset_alignment
+            .max(1),
+    );
+
+    let mut structure_features =
+        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+    let gpu = Gpu::new(
+        vulkan,
+        physical,
+        &[
+            ash::khr::acceleration_structure::NAME,
+            ash::khr::deferred_host_operations::NAME,
+        ],
+        &mut structure_features,
+    )?;
+    results.insert(
+        "null_micromap_commands".into(),
+        json!([
+            device_command_is_null(&gpu, c"vkCmdBuildMicromapsEXT"),
+            device_command_is_null(&gpu, c"vkBuildMicromapsEXT"),
+            device_command_is_null(&gpu, c"vkCreateMicromapEXT"),
+        ]),
+    );
+    let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
+
+    // Three separate triangles in the z = 0 plane, indexed 0..9.
+    let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+    let vertices: Vec<f32> = (0..3)
+        .flat_map(|t| {
+            let x = t as f32 * 2.0;
+            [x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
+        })
+        .collect();
+    let indices: Vec<u32> = (0..9).collect();
+    let (vertex_buffer, vertex_map) = gpu.mapped_buffer(4 * vertices.len() as u64, input_usage)?;
+    let (index_buffer, index_map) = gpu.mapped_buffer(4 * indices.len() as u64, input_usage)?;
+    // SAFETY: each mapping holds its buffer's size: exactly these bytes.
+    unsafe {
+        vertex_map.copy_from_nonoverlapping(vertices.as_ptr().cast(), 4 * vertices.len());
+        index_map.copy_from_nonoverlapping(indices.as_ptr().cast(), 4 * indices.len());
+    }
+    let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+        .vertex_format(vk::Format::R32G32B32_SFLOAT)
+        .vertex_data(vk::DeviceOrHostAddressConstKHR {
+            device_address: gpu.address(vertex_buffer),
+        })
+        .vertex_stride(12)
+        .max_vertex(8)
+        .index_type(vk::IndexType::UINT32)
+        .index_data(vk::DeviceOrHostAddressConstKHR {
+            device_address: gpu.address(index_buffer),
+        });
+    let geometries = [vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+        .flags(vk::GeometryFlagsKHR::OPAQUE)];
+    let mut build = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+        .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
+        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+        .geometries(&geometries);
+    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    // SAFETY: a valid build info with one geometry of three triangles.
+    unsafe {
+        accel.get_acceleration_structure_build_sizes(
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            &build,
+            &[3],
+            &mut sizes,
+        )
+    };
+    results.insert(
+        "build_sizes".into(),
+        json!([sizes.acceleration_structure_size, sizes.build_scratch_size]),
+    );
+
+    let (storage, _) = gpu.mapped_buffer(
+        sizes.acceleration_structure_size,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+    )?;
+    let create = vk::AccelerationStructureCreateInfoKHR::default()
+        .buffer(storage)
+        .size(sizes.acceleration_structure_size)
+        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
+    // SAFETY: a storage buffer of the size the driver asked for.
+    let structure = unsafe { accel.create_acceleration_structure(&create, None) }
+        .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))?;
+    let (scratch, _) = gpu.mapped_buffer(
+        sizes.build_scratch_size + scratch_alignment,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+    )?;
+    let scratch_address = gpu.address(scratch).next_multiple_of(scratch_alignment);
+    build = build
+        .dst_acceleration_structure(structure)
+        .scratch_data(vk::DeviceOrHostAddressKHR {
+            device_address: scratch_address,
+        });
+    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(3)];
+
+    let query_types = [
+        vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+        vk::QueryType::ACCELERATION_STRUCTURE_SERIALIZATION_SIZE_KHR,
+    ];
+    let mut pools = Vec::new();
+    for ty in query_types {
+        let info = vk::QueryPoolCreateInfo::default()
+            .query_type(ty)
+            .query_count(1);
+        // SAFETY: valid arguments.
+        pools.push(
+            unsafe { gpu.device.create_query_pool(&info, None) }
+                .map_err(|e| format!("vkCreateQueryPool: {e}"))?,
+        );
+    }
+
+    let command_buffer = gpu.begin()?;
+    vulkan.phase("record");
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
+        .dst_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR)];
+    // SAFETY: a recording command buffer; the build's buffers, structure
+    // and query pools are alive and sized as the driver asked.
+    unsafe {
+        for (&pool, _) in pools.iter().zip(query_types) {
+            gpu.device.cmd_reset_query_pool(command_buffer, pool, 0, 1);
+        }
+        accel.cmd_build_acceleration_structures(command_buffer, &[build], &[&ranges]);
+        gpu.device.cmd_pipeline_barrier(
+            command_buffer,
+            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        );
+        for (&pool, ty) in pools.iter().zip(query_types) {
+            accel.cmd_write_acceleration_structures_properties(
+                command_buffer,
+                &[structure],
+                ty,
+                pool,
+                0,
+            );
+        }
+        gpu.device.end_command_buffer(command_buffer)
+    }
+    .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+    vulkan.phase("submit");
+    results.insert("submit".into(), json!(gpu.submit(command_buffer)?));
+    let mut query_results = Vec::new();
+    for &pool in &pools {
+        let mut value = [0u64];
+        // SAFETY: one 64-bit result of a query the submission wrote.
+        unsafe {
+            gpu.device.get_query_pool_results(
+                pool,
+                0,
+                &mut value,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
+        }
+        .map_err(|e| format!("vkGetQueryPoolResults: {e}"))?;
+        query_results.push(value[0]);
+    }
+    results.insert("compacted_size".into(), json!(query_results[0]));
+    results.insert("serialization_size".into(), json!(query_results[1]));
+    // SAFETY: the queue is idle; the structure and pools are unused now.
+    unsafe {
+        accel.destroy_acceleration_structure(structure, None);
+        for pool in pools {
+            gpu.device.destroy_query_pool(pool, None);
+        }
+    }
+    Ok(())
+}
+
+/// `vkCreateBuffer` with size 0: VUID-VkBufferCreateInfo-size-00912, which
+/// the Khronos validation layer checks. The Mock ICD accepts it.
+fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
+    let gpu = micromap_device(vulkan)?;
+    vulkan.phase("core-fault");
+    let info = vk::BufferCreateInfo::default()
+        .size(0)
+        .usage(vk::BufferUsageFlags::STORAGE_BUFFER);
+    // SAFETY: a valid pointer; the size is the deliberate fault.
+    let result = unsafe { gpu.device.create_buffer(&info, None) };
+    if let Ok(buffer) = result {
+        // SAFETY: the buffer was just created and is unused.
+        unsafe { gpu.device.destroy_buffer(buffer, None) };
+    }
+    results.insert(
+        "core_fault".into(),
+        json!(result.err().unwrap_or(vk::Result::SUCCESS).as_raw()),
+    );
+    Ok(())
+}
+
+fn run(args: &[String]) -> Result<Value, String> {
+    let usage = "usage: omm-app SCENARIO [--layer NAME]... [--core-fault]";
+    let (scenario, rest) = args.split_first().ok_or(usage)?;
+    let mut layers = Vec::new();
+    let mut with_core_fault = false;
+    let mut rest = rest.iter();
+    while let Some(arg) = rest.next() {
+        match (arg.as_str(), rest.next()) {
+            ("--layer", Some(name)) => {
+                layers.push(CString::new(name.as_str()).map_err(|e| format!("{name:?}: {e}"))?)
+            }
+            ("--core-fault", None) => with_core_fault = true,
+            _ => return Err(format!("unexpected argument {arg:?}; {usage}")),
+        }
+    }
+    let vulkan = Vulkan::new(&layers)?;
+    let mut results = Results::new();
+    match scenario.split_once('-').unwrap_or((scenario, "")) {
+        ("host", build) => host_build(&vulkan, build.trim_start_matches("build-"), &mut results)?,
+        ("device", build) => {
+            device_build(&vulkan, build.trim_start_matches("build-"), &mut results)?
+        }
+        ("blas", "") => blas(&vulkan, &mut results)?,
+        _ => return Err(format!("unknown scenario {scenario:?}")),
+    }
+    if with_core_fault {
+        core_fault(&vulkan, &mut results)?;
+    }
+    Ok(json!({
+        "scenario": scenario,
+        "messages": vulkan.messages(),
+        "device_layers": *vulkan.collector.device_layers.lock().unwrap(),
+        "results": results,
+    }))
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match run(&args) {
+        Ok(line) => {
+            println!("{line}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("omm-app: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
