@@ -293,16 +293,20 @@ fn build_time_table(out: &mut String, estimates: &[Estimate]) {
         }
         out.push('\n');
     }
-    // Time per triangle at the largest N, the slope the sweep ends on.
+    // Time per triangle at the largest N, the slope the sweep ends on;
+    // series that do not grow with N (under 0.01 ns a triangle) are left out.
     if let Some(largest) = sizes.last() {
         let _ = writeln!(
             out,
-            "\nPer triangle at N = {}: {}.\n",
+            "\nPer triangle at N = {} (series that do not grow with N left out): {}.\n",
             short_count(*largest),
             series
                 .iter()
                 .filter_map(|s| {
                     let p = s.points.iter().find(|p| p.0 == *largest)?;
+                    if p.1 / (*largest as f64) < 0.01 {
+                        return None;
+                    }
                     Some(format!(
                         "{} {} {}",
                         s.label(),
