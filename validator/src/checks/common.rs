@@ -2,6 +2,7 @@
 //! buffer usage, alignment, and a cap on repeated content findings.
 
 use std::collections::BTreeMap;
+use std::fmt::Display;
 
 use ommcheck_vuids::Vuid;
 
@@ -146,18 +147,36 @@ pub(crate) fn deferred_operation(
     }
 }
 
+/// A location `"{base}{member}"`, written out only when a finding needs it
+/// (most calls have none, and building every location string was most of
+/// a valid call's cost).
+#[derive(Clone, Copy)]
+pub(crate) struct At<'a>(pub &'a str, pub &'a str);
+
+impl Display for At<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.0)?;
+        f.write_str(self.1)
+    }
+}
+
 /// A device address must be a valid `VkDeviceAddress`: non-zero, and inside
 /// a buffer when the checker knows buffer addresses.
-pub(crate) fn valid_device_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) {
+pub(crate) fn valid_device_address(
+    ctx: &mut Ctx<'_>,
+    address: u64,
+    vuid: Vuid,
+    location: impl Display,
+) {
     if address == 0 {
-        ctx.error(vuid, location, "the address is 0");
+        ctx.error(vuid, location.to_string(), "the address is 0");
     } else if ctx
         .state
         .is_some_and(|state| state.knows_addresses() && state.buffers_at(address).next().is_none())
     {
         ctx.error(
             vuid,
-            location,
+            location.to_string(),
             format!("{address:#x} is inside no buffer's device-address range"),
         );
     }
@@ -171,7 +190,7 @@ pub(crate) fn device_address_usage(
     usage: u64,
     usage_name: &str,
     vuid: Vuid,
-    location: &str,
+    location: impl Display,
 ) {
     let Some(state) = ctx.state else {
         return;
@@ -182,18 +201,24 @@ pub(crate) fn device_address_usage(
         .collect();
     if !buffers.is_empty() && !buffers.iter().any(|(_, u)| u & usage != 0) {
         let handle = buffers[0].0;
-        ctx.error(vuid, location, format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
+        ctx.error(vuid, location.to_string(), format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
             .objects
             .push(crate::report::ObjectRef { ty: "VkBuffer", handle });
     }
 }
 
 /// `value` must be a multiple of `alignment` (a power of two or any non-zero).
-pub(crate) fn aligned(ctx: &mut Ctx<'_>, value: u64, alignment: u64, vuid: Vuid, location: &str) {
+pub(crate) fn aligned(
+    ctx: &mut Ctx<'_>,
+    value: u64,
+    alignment: u64,
+    vuid: Vuid,
+    location: impl Display,
+) {
     if alignment != 0 && value % alignment != 0 {
         ctx.error(
             vuid,
-            location,
+            location.to_string(),
             format!("{value:#x} is not a multiple of {alignment}"),
         );
     }

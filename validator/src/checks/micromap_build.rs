@@ -280,8 +280,8 @@ pub(crate) fn cmd_build_micromaps_rules(
     );
     let mut contents = Vec::with_capacity(infos.len());
     for (i, info) in infos.iter().enumerate() {
-        contents.push(build_info(ctx, &format!("pInfos[{i}]"), info, Side::Device));
         let at = format!("pInfos[{i}]");
+        contents.push(build_info(ctx, &at, info, Side::Device));
         ctx.require(
             info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
             cmd::mode_07462,
@@ -302,27 +302,27 @@ pub(crate) fn cmd_build_micromaps_rules(
             ctx,
             info.data,
             cmd::pInfos_10896,
-            &format!("{at}.data.deviceAddress"),
+            common::At(&at, ".data.deviceAddress"),
         );
         common::valid_device_address(
             ctx,
             info.triangle_array,
             cmd::pInfos_10897,
-            &format!("{at}.triangleArray.deviceAddress"),
+            common::At(&at, ".triangleArray.deviceAddress"),
         );
         common::aligned(
             ctx,
             info.data,
             256,
             cmd::pInfos_07515,
-            &format!("{at}.data.deviceAddress"),
+            common::At(&at, ".data.deviceAddress"),
         );
         common::aligned(
             ctx,
             info.triangle_array,
             256,
             cmd::pInfos_07515,
-            &format!("{at}.triangleArray.deviceAddress"),
+            common::At(&at, ".triangleArray.deviceAddress"),
         );
         for (address, member) in [(info.data, "data"), (info.triangle_array, "triangleArray")] {
             common::device_address_usage(
@@ -331,7 +331,7 @@ pub(crate) fn cmd_build_micromaps_rules(
                 BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT,
                 "VK_BUFFER_USAGE_MICROMAP_BUILD_INPUT_READ_ONLY_BIT_EXT",
                 cmd::data_07510,
-                &format!("{at}.{member}.deviceAddress"),
+                format_args!("{at}.{member}.deviceAddress"),
             );
         }
         if info.scratch_data != 0 {
@@ -353,7 +353,7 @@ pub(crate) fn cmd_build_micromaps_rules(
                 BUFFER_USAGE_STORAGE_BUFFER_BIT,
                 "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
                 cmd::pInfos_07511,
-                &format!("{at}.scratchData.deviceAddress"),
+                common::At(&at, ".scratchData.deviceAddress"),
             );
         }
         let alignment = u64::from(
@@ -366,7 +366,7 @@ pub(crate) fn cmd_build_micromaps_rules(
             info.scratch_data,
             alignment,
             cmd::pInfos_07514,
-            &format!("{at}.scratchData.deviceAddress"),
+            common::At(&at, ".scratchData.deviceAddress"),
         );
     }
     overlaps(ctx, infos, Side::Device);
@@ -383,12 +383,11 @@ fn dst_micromap(
     valid: ommcheck_vuids::Vuid,
     same_type: ommcheck_vuids::Vuid,
 ) -> Option<Handle> {
-    let at = format!("pInfos[{i}].dstMicromap");
     let state = ctx.state?;
     let Some(micromap) = state.micromaps.get(&info.dst_micromap) else {
         ctx.error(
             valid,
-            at,
+            format!("pInfos[{i}].dstMicromap"),
             format!(
                 "{:#x} is not a VkMicromapEXT created on this device",
                 info.dst_micromap
@@ -593,13 +592,14 @@ pub(crate) fn build_info(
     );
     let (member, entries) = counts.entries();
     for (k, usage) in &entries {
-        let loc = format!("{at}.{member}[{k}]");
+        // Built only for a finding.
+        let loc = || format!("{at}.{member}[{k}]");
         if opacity {
             match usage.format {
                 OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
                     usage.subdivision_level <= max2,
                     info_vuid::subdivisionLevel_11654,
-                    || format!("{loc}.subdivisionLevel"),
+                    || format!("{}.subdivisionLevel", loc()),
                     || {
                         format!(
                             "{} exceeds maxOpacity2StateSubdivisionLevel = {max2}",
@@ -610,7 +610,7 @@ pub(crate) fn build_info(
                 OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
                     usage.subdivision_level <= max4,
                     info_vuid::subdivisionLevel_11655,
-                    || format!("{loc}.subdivisionLevel"),
+                    || format!("{}.subdivisionLevel", loc()),
                     || {
                         format!(
                             "{} exceeds maxOpacity4StateSubdivisionLevel = {max4}",
@@ -621,7 +621,7 @@ pub(crate) fn build_info(
                 other => {
                     ctx.error(
                         info_vuid::format_11652,
-                        format!("{loc}.format"),
+                        format!("{}.format", loc()),
                         format!("{other} is not a VkOpacityMicromapFormatEXT value"),
                     );
                 }
@@ -630,7 +630,7 @@ pub(crate) fn build_info(
             ctx.require(
                 DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
                 info_vuid::format_11653,
-                || format!("{loc}.format"),
+                || format!("{}.format", loc()),
                 || {
                     format!(
                         "{} is not a VkDisplacementMicromapFormatNV value",
@@ -641,7 +641,7 @@ pub(crate) fn build_info(
             ctx.require(
                 usage.subdivision_level <= max_nv,
                 info_vuid::subdivisionLevel_11656,
-                || format!("{loc}.subdivisionLevel"),
+                || format!("{}.subdivisionLevel", loc()),
                 || {
                     format!(
                         "{} exceeds maxDisplacementMicromapSubdivisionLevel = {max_nv}",
