@@ -460,7 +460,7 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     }
     if let Some(size) = index_size(a.index_type) {
         if let Some(vuid) = vuids.stride_multiple {
-            common::aligned(ctx, a.index_stride, size, vuid, &a.member("indexStride"));
+            common::aligned(ctx, a.index_stride, size, vuid, a.member("indexStride"));
         }
         if let Some(vuid) = vuids.stride_max {
             ctx.require(
@@ -721,7 +721,7 @@ fn khr_attachment(
             ctx,
             a.index_buffer,
             khr::indexBuffer_11572,
-            &a.member("indexBuffer"),
+            a.member("indexBuffer"),
         );
     }
     if command == BuildCommand::Host {
