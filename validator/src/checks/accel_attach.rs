@@ -1113,12 +1113,13 @@ pub(crate) fn instances(
     let array = format!("{at}.geometry.instances.data");
     let mut tally = Tally::new();
     for (k, instance) in list.iter().enumerate() {
-        let location = format!("{array}[{k}].flags");
+        // Built only for a finding: most instances have none.
+        let location = || format!("{array}[{k}].flags");
         if instance.flags & (force | disable) != 0 && !micromap_feature {
             tally.error(
                 ctx,
                 instance_vuid::micromap_11580,
-                location.clone(),
+                location(),
                 || format!("flags {:#x} use opacity micromap bits, but neither micromap feature is enabled", instance.flags),
                 &array,
             );
@@ -1133,7 +1134,7 @@ pub(crate) fn instances(
             tally.error(
                 ctx,
                 disable_vuid,
-                location,
+                location(),
                 || format!("VK_GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR is set, but the referenced acceleration structure {:#x} was built with flags {flags:#x}, without VK_BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR", instance.acceleration_structure_reference),
                 &array,
             );

@@ -1063,23 +1063,27 @@ fn micromap_inputs(
     data: &GeometryMicromapData,
 ) {
     if command == BuildCommand::Cmd {
-        for (address, member) in [(data.data, "data"), (data.triangle_array, "triangleArray")] {
-            let loc = format!("{at}.{member}");
-            common::valid_device_address(ctx, address, cmd::micromap_11550, &loc);
+        for (address, member) in [
+            (data.data, ".data"),
+            (data.triangle_array, ".triangleArray"),
+        ] {
+            // Written out only for a finding.
+            let loc = common::At(at, member);
+            common::valid_device_address(ctx, address, cmd::micromap_11550, loc);
             common::device_address_usage(
                 ctx,
                 address,
                 BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
                 "VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR",
                 cmd::micromap_11551,
-                &loc,
+                loc,
             );
             common::aligned(
                 ctx,
                 address,
                 MICROMAP_INPUT_ALIGNMENT,
                 cmd::micromap_11552,
-                &loc,
+                loc,
             );
         }
         triangle_array_in_buffer(ctx, at, data);
