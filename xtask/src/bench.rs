@@ -14,7 +14,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use serde_json::Value;
@@ -549,10 +549,322 @@ pub fn render_plot(estimates: &[Estimate]) -> Result<String, Error> {
     Ok(svg)
 }
 
-/// Runs the benchmarks (`--quick`: criterion's short warm-up and
-/// measurement), then writes the table and the plot under `target/bench/`.
-pub fn run(root: &Path, quick: bool) -> Result<(), Error> {
+/// The three calls `omm-app overhead` times, as its JSON names them, with
+/// the table's column headers.
+pub const OVERHEAD_CALLS: [(&str, &str); 3] = [
+    ("cmd_build_micromaps", "`vkCmdBuildMicromapsEXT`"),
+    ("build_micromaps", "`vkBuildMicromapsEXT` (host)"),
+    (
+        "cmd_build_acceleration_structures",
+        "`vkCmdBuildAccelerationStructuresKHR` (BLAS + micromap)",
+    ),
+];
+
+/// Calls timed per configuration and process.
+pub const OVERHEAD_ITERATIONS: u32 = 10_000;
+
+/// Processes per configuration; the table gives each call's median.
+pub const OVERHEAD_RUNS: usize = 3;
+
+/// The heading the overhead section of README-table.md starts with.
+const OVERHEAD_HEADING: &str = "#### Layer overhead per call";
+
+const KHRONOS_VALIDATION: &str = "VK_LAYER_KHRONOS_validation";
+
+/// One configuration of the overhead run: the layers enabled, in
+/// ppEnabledLayerNames order, and ommcheck's tier where it is enabled.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OverheadConfig {
+    pub name: String,
+    pub layers: Vec<&'static str>,
+    pub tier: Option<&'static str>,
+}
+
+/// The configurations, in the table's order: no layer; ommcheck at each
+/// tier it has short of `simulate`; the Khronos validation layer alone; both
+/// stacked (ommcheck first, at its default tier, content).
+pub fn overhead_configs() -> Vec<OverheadConfig> {
+    let ommcheck = VkLayer_ommcheck::LAYER_NAME;
+    let mut configs = vec![OverheadConfig {
+        name: "no layer".into(),
+        layers: vec![],
+        tier: None,
+    }];
+    for tier in ["params", "state", "content"] {
+        configs.push(OverheadConfig {
+            name: format!("ommcheck, `{tier}`"),
+            layers: vec![ommcheck],
+            tier: Some(tier),
+        });
+    }
+    configs.push(OverheadConfig {
+        name: "Khronos validation".into(),
+        layers: vec![KHRONOS_VALIDATION],
+        tier: None,
+    });
+    configs.push(OverheadConfig {
+        name: "ommcheck `content` + Khronos validation".into(),
+        layers: vec![ommcheck, KHRONOS_VALIDATION],
+        tier: Some("content"),
+    });
+    configs
+}
+
+/// What one `omm-app overhead` process measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OverheadRun {
+    /// Nanoseconds per call, in [`OVERHEAD_CALLS`] order.
+    pub ns: [f64; 3],
+    /// The ids of the messages the app's messenger received (none expected).
+    pub messages: Vec<String>,
+}
+
+/// omm-app's JSON line for the `overhead` scenario.
+pub fn parse_overhead(json: &str) -> Result<OverheadRun, Error> {
+    let value: Value = serde_json::from_str(json.trim())
+        .map_err(|e| Error::Tool(format!("omm-app overhead: {e}: {json}")))?;
+    let mut ns = [0.0; 3];
+    for (slot, (key, _)) in ns.iter_mut().zip(OVERHEAD_CALLS) {
+        *slot = value["results"]["ns_per_call"][key]
+            .as_f64()
+            .ok_or_else(|| Error::Tool(format!("omm-app overhead: no {key}: {json}")))?;
+    }
+    // Messages at teardown (the Khronos layer's objects-not-destroyed) come
+    // after the timed loops.
+    let messages = value["messages"]
+        .as_array()
+        .map(|ms| {
+            ms.iter()
+                .filter(|m| m["phase"] != "teardown")
+                .map(|m| m["id"].as_str().unwrap_or_default().to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(OverheadRun { ns, messages })
+}
+
+/// The median of `values` (the mean of the middle two for an even count).
+pub fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    match sorted.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => sorted[n / 2],
+        n => (sorted[n / 2 - 1] + sorted[n / 2]) / 2.0,
+    }
+}
+
+/// One row of the overhead table: a configuration's runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OverheadRow {
+    pub config: String,
+    pub runs: Vec<OverheadRun>,
+}
+
+impl OverheadRow {
+    /// Each call's median over the runs.
+    pub fn medians(&self) -> [f64; 3] {
+        std::array::from_fn(|i| median(&self.runs.iter().map(|r| r.ns[i]).collect::<Vec<_>>()))
+    }
+}
+
+/// The markdown section of the overhead table: one row per configuration,
+/// one column per call, the median of the runs in nanoseconds per call.
+pub fn render_overhead(machine: &Machine, iterations: u32, rows: &[OverheadRow]) -> String {
+    let runs = rows.iter().map(|r| r.runs.len()).max().unwrap_or(0);
+    let mut out = format!("{OVERHEAD_HEADING} (median of {runs} runs)\n\n");
+    let _ = writeln!(
+        out,
+        "`omm-app overhead --iterations {iterations}` over the Khronos Mock ICD (every command a stub): \
+         valid calls timed in a loop after a warm-up, so the time is the loader's and the layers'. \
+         Machine: {} ({} logical cores).\n",
+        machine.model, machine.cores
+    );
+    out.push_str("| configuration |");
+    for (_, header) in OVERHEAD_CALLS {
+        let _ = write!(out, " {header} |");
+    }
+    out.push_str("\n| --- |");
+    for _ in OVERHEAD_CALLS {
+        out.push_str(" ---: |");
+    }
+    out.push('\n');
+    for row in rows {
+        let _ = write!(out, "| {} |", row.config);
+        for ns in row.medians() {
+            let _ = write!(out, " {} |", format_time(ns));
+        }
+        out.push('\n');
+    }
+    let received: BTreeSet<(&str, &str)> = rows
+        .iter()
+        .flat_map(|row| {
+            row.runs
+                .iter()
+                .flat_map(|r| r.messages.iter().map(|m| (row.config.as_str(), m.as_str())))
+        })
+        .collect();
+    if received.is_empty() {
+        out.push_str("\nThe messenger received no message in any run.\n");
+    } else {
+        out.push_str("\nMessages received (the inputs are meant to be valid):\n");
+        for (config, id) in received {
+            let _ = writeln!(out, "- {config}: `{id}`");
+        }
+    }
+    out
+}
+
+/// `existing` (README-table.md as a criterion run wrote it, or empty) with
+/// its overhead section, if any, replaced by `section`.
+pub fn with_overhead_section(existing: &str, machine: &Machine, section: &str) -> String {
+    let kept = match existing.find(OVERHEAD_HEADING) {
+        Some(at) => &existing[..at],
+        None => existing,
+    };
+    let mut out = if kept.trim().is_empty() {
+        format!(
+            "## What accuracy costs: measurements\n\nMachine: {} ({} logical cores).\n\n",
+            machine.model, machine.cores
+        )
+    } else {
+        format!("{}\n\n", kept.trim_end())
+    };
+    out.push_str(section);
+    out
+}
+
+/// Where the overhead run finds its driver and the Khronos layer: the
+/// variables `cargo xtask test` sets (see `drivers`); None, with a note, when
+/// one is unset or names nothing.
+fn overhead_drivers() -> Option<(PathBuf, PathBuf)> {
+    let lookup = |var: &str| {
+        let path = PathBuf::from(std::env::var_os(var)?);
+        path.exists().then_some(path)
+    };
+    let icd = lookup(crate::drivers::MOCK_ICD_VAR);
+    let khronos = lookup(crate::drivers::KHRONOS_LAYER_VAR);
+    if icd.is_none() || khronos.is_none() {
+        eprintln!(
+            "xtask: bench: skipping the layer overhead run: {} and {} must name the Mock ICD's \
+             manifest and the Khronos layer's directory (`cargo xtask test` prepares both)",
+            crate::drivers::MOCK_ICD_VAR,
+            crate::drivers::KHRONOS_LAYER_VAR
+        );
+    }
+    icd.zip(khronos)
+}
+
+/// Builds omm-app and the layer in release, runs `omm-app overhead` per
+/// configuration [`OVERHEAD_RUNS`] times, and returns the rows.
+fn run_overhead(root: &Path, icd: &Path, khronos: &Path) -> Result<Vec<OverheadRow>, Error> {
     let target = crate::target_dir(root);
+    // The layer: `cargo build -p ommcheck-tests --bin omm-app` does not build
+    // the tests crate's dev-dependency on it, so it is built on its own.
+    let layer_dir = crate::layer::build(root, Some(target.join("bench").join("layer")))?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let status = Command::new(&cargo)
+        .current_dir(root)
+        .args([
+            "build",
+            "--release",
+            "-p",
+            "ommcheck-tests",
+            "--bin",
+            "omm-app",
+        ])
+        .status()
+        .map_err(|e| Error::Tool(format!("cargo build omm-app: could not start: {e}")))?;
+    if !status.success() {
+        return Err(Error::Tool(format!(
+            "cargo build omm-app failed ({status})"
+        )));
+    }
+    let app = target.join("release").join("omm-app");
+    let layer_path = std::env::join_paths([layer_dir.as_path(), khronos])
+        .map_err(|e| Error::Tool(format!("VK_ADD_LAYER_PATH: {e}")))?;
+    let mut rows = Vec::new();
+    for config in overhead_configs() {
+        let mut runs = Vec::new();
+        for _ in 0..OVERHEAD_RUNS {
+            let mut command = Command::new(&app);
+            command
+                .args(["overhead", "--iterations"])
+                .arg(OVERHEAD_ITERATIONS.to_string());
+            for layer in &config.layers {
+                command.args(["--layer", layer]);
+            }
+            for (var, _) in std::env::vars_os() {
+                let name = var.to_string_lossy();
+                if name.starts_with("VK_") || name.starts_with("OMMCHECK_") {
+                    command.env_remove(&var);
+                }
+            }
+            command
+                .env("NODEVICE_SELECT", "1")
+                .env("VK_DRIVER_FILES", icd)
+                .env("VK_ADD_LAYER_PATH", &layer_path);
+            if let Some(tier) = config.tier {
+                command.env(VkLayer_ommcheck::settings::TIER, tier);
+            }
+            let output = command
+                .output()
+                .map_err(|e| Error::Tool(format!("{}: could not start: {e}", app.display())))?;
+            if !output.status.success() {
+                return Err(Error::Tool(format!(
+                    "omm-app overhead ({}) failed ({}): {}",
+                    config.name,
+                    output.status,
+                    String::from_utf8_lossy(&output.stderr)
+                )));
+            }
+            let run = parse_overhead(&String::from_utf8_lossy(&output.stdout))?;
+            eprintln!("xtask: bench: overhead, {}: {:?} ns", config.name, run.ns);
+            runs.push(run);
+        }
+        rows.push(OverheadRow {
+            config: config.name,
+            runs,
+        });
+    }
+    Ok(rows)
+}
+
+/// Runs the benchmarks (`--quick`: criterion's short warm-up and
+/// measurement), then writes the table and the plot under `target/bench/`;
+/// then, where the Mock ICD and the Khronos layer are prepared, the layer
+/// overhead per call, appended to the table. `overhead_only` skips criterion
+/// and replaces only the overhead section of an existing table.
+pub fn run(root: &Path, quick: bool, overhead_only: bool) -> Result<(), Error> {
+    let target = crate::target_dir(root);
+    let out_dir = target.join("bench");
+    std::fs::create_dir_all(&out_dir).map_err(|source| Error::Io {
+        path: out_dir.clone(),
+        source,
+    })?;
+    let table_path = out_dir.join("README-table.md");
+    let machine = this_machine();
+    let mut table = if overhead_only {
+        std::fs::read_to_string(&table_path).unwrap_or_default()
+    } else {
+        criterion(root, &target, quick, &machine)?
+    };
+    if let Some((icd, khronos)) = overhead_drivers() {
+        let rows = run_overhead(root, &icd, &khronos)?;
+        let section = render_overhead(&machine, OVERHEAD_ITERATIONS, &rows);
+        table = with_overhead_section(&table, &machine, &section);
+    }
+    std::fs::write(&table_path, &table).map_err(|source| Error::Io {
+        path: table_path.clone(),
+        source,
+    })?;
+    println!("{table}");
+    println!("wrote {}", table_path.display());
+    Ok(())
+}
+
+/// The criterion run: writes tiers.svg and returns the table.
+fn criterion(root: &Path, target: &Path, quick: bool, machine: &Machine) -> Result<String, Error> {
     let criterion_dir = target.join("criterion");
     let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     // Only the bench targets (`--benches` would add the library, whose libtest
@@ -572,26 +884,13 @@ pub fn run(root: &Path, quick: bool) -> Result<(), Error> {
         return Err(Error::Tool(format!("cargo bench failed ({status})")));
     }
     let estimates = read_estimates(&criterion_dir)?;
-    let table = render_table(&this_machine(), quick, &estimates);
-    let out_dir = target.join("bench");
-    std::fs::create_dir_all(&out_dir).map_err(|source| Error::Io {
-        path: out_dir.clone(),
+    let path = target.join("bench").join("tiers.svg");
+    std::fs::write(&path, render_plot(&estimates)?).map_err(|source| Error::Io {
+        path: path.clone(),
         source,
     })?;
-    for (name, contents) in [
-        ("README-table.md", table.clone()),
-        ("tiers.svg", render_plot(&estimates)?),
-    ] {
-        let path = out_dir.join(name);
-        std::fs::write(&path, contents).map_err(|source| Error::Io { path, source })?;
-    }
-    println!("{table}");
-    println!(
-        "wrote {} and {}",
-        out_dir.join("README-table.md").display(),
-        out_dir.join("tiers.svg").display()
-    );
-    Ok(())
+    println!("wrote {}", path.display());
+    Ok(render_table(machine, quick, &estimates))
 }
 
 #[cfg(test)]
@@ -844,5 +1143,120 @@ mod tests {
                 "legend {tier}: {svg}"
             );
         }
+    }
+
+    fn overhead_run(ns: [f64; 3], messages: &[&str]) -> OverheadRun {
+        OverheadRun {
+            ns,
+            messages: messages.iter().map(|m| m.to_string()).collect(),
+        }
+    }
+
+    #[test]
+    fn omm_app_overhead_output_parses() {
+        let line = r#"{"scenario":"overhead","messages":[{"id":"VUID-x","severity":"error","phase":"record","text":""},{"id":"VUID-y","severity":"error","phase":"teardown","text":""}],"device_layers":[],"results":{"iterations":10,"ns_per_call":{"cmd_build_micromaps":12.5,"build_micromaps":30.0,"cmd_build_acceleration_structures":1500.0}}}"#;
+        assert_eq!(
+            parse_overhead(line).expect("parses"),
+            overhead_run([12.5, 30.0, 1500.0], &["VUID-x"])
+        );
+        assert!(parse_overhead(r#"{"results":{}}"#).is_err());
+    }
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert!(median(&[]).is_nan());
+    }
+
+    #[test]
+    fn overhead_table_has_a_row_per_configuration_and_the_medians() {
+        let machine = Machine {
+            model: "Test CPU".into(),
+            cores: 4,
+        };
+        let rows = vec![
+            OverheadRow {
+                config: "no layer".into(),
+                runs: vec![
+                    overhead_run([10.0, 20.0, 30.0], &[]),
+                    overhead_run([12.0, 2000.0, 31.0], &[]),
+                    overhead_run([11.0, 22.0, 5000.0], &[]),
+                ],
+            },
+            OverheadRow {
+                config: "ommcheck, `content`".into(),
+                runs: vec![
+                    overhead_run([1500.0, 2500.0, 3.5e6], &[]),
+                    overhead_run([1600.0, 2600.0, 3.6e6], &["VUID-a"]),
+                    overhead_run([1400.0, 2400.0, 3.4e6], &[]),
+                ],
+            },
+        ];
+        let table = render_overhead(&machine, 1000, &rows);
+        let expected = "\
+#### Layer overhead per call (median of 3 runs)
+
+`omm-app overhead --iterations 1000` over the Khronos Mock ICD (every command a stub): valid calls timed in a loop after a warm-up, so the time is the loader's and the layers'. Machine: Test CPU (4 logical cores).
+
+| configuration | `vkCmdBuildMicromapsEXT` | `vkBuildMicromapsEXT` (host) | `vkCmdBuildAccelerationStructuresKHR` (BLAS + micromap) |
+| --- | ---: | ---: | ---: |
+| no layer | 11.0 ns | 22.0 ns | 31.0 ns |
+| ommcheck, `content` | 1.50 µs | 2.50 µs | 3.50 ms |
+
+Messages received (the inputs are meant to be valid):
+- ommcheck, `content`: `VUID-a`
+";
+        assert_eq!(table, expected);
+        let quiet = render_overhead(&machine, 1000, &rows[..1]);
+        assert!(quiet.ends_with("\nThe messenger received no message in any run.\n"));
+    }
+
+    #[test]
+    fn the_overhead_section_replaces_its_predecessor_and_keeps_the_rest() {
+        let machine = Machine {
+            model: "Test CPU".into(),
+            cores: 4,
+        };
+        let criterion = "## What accuracy costs: measurements\n\nMachine: X.\n\n| a |\n";
+        let first =
+            with_overhead_section(criterion, &machine, "#### Layer overhead per call\n\nold\n");
+        assert_eq!(
+            first,
+            "## What accuracy costs: measurements\n\nMachine: X.\n\n| a |\n\n#### Layer overhead per call\n\nold\n"
+        );
+        let second =
+            with_overhead_section(&first, &machine, "#### Layer overhead per call\n\nnew\n");
+        assert_eq!(second, first.replace("old", "new"));
+        let alone = with_overhead_section("", &machine, "#### Layer overhead per call\n");
+        assert!(alone.starts_with(
+            "## What accuracy costs: measurements\n\nMachine: Test CPU (4 logical cores).\n\n####"
+        ));
+    }
+
+    #[test]
+    fn overhead_configurations_in_table_order() {
+        let configs = overhead_configs();
+        let names: Vec<&str> = configs.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "no layer",
+                "ommcheck, `params`",
+                "ommcheck, `state`",
+                "ommcheck, `content`",
+                "Khronos validation",
+                "ommcheck `content` + Khronos validation"
+            ]
+        );
+        assert_eq!(
+            configs[5].layers,
+            [
+                "VK_LAYER_OMMCHECK_validation",
+                "VK_LAYER_KHRONOS_validation"
+            ]
+        );
+        assert_eq!(configs[0].tier, None);
+        assert_eq!(configs[2].tier, Some("state"));
     }
 }

@@ -59,35 +59,35 @@ pub fn manifest(library_path: &Path) -> Value {
 
 /// Builds the layer in release, writes the manifest into `out_dir`
 /// (default `target/layer/`) and returns that directory.
-pub fn build(root: &Path, out_dir: Option<PathBuf>) -> Result<PathBuf, xtask::Error> {
+pub fn build(root: &Path, out_dir: Option<PathBuf>) -> Result<PathBuf, crate::Error> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = Command::new(&cargo)
         .current_dir(root)
         .args(["build", "--release", "-p", "ommcheck-layer"])
         .status()
-        .map_err(|e| xtask::Error::Tool(format!("cannot run cargo: {e}")))?;
+        .map_err(|e| crate::Error::Tool(format!("cannot run cargo: {e}")))?;
     if !status.success() {
-        return Err(xtask::Error::Tool(format!("cargo build failed ({status})")));
+        return Err(crate::Error::Tool(format!("cargo build failed ({status})")));
     }
-    let target = xtask::target_dir(root);
+    let target = crate::target_dir(root);
     let file = format!(
         "{}VkLayer_ommcheck{}",
         std::env::consts::DLL_PREFIX,
         std::env::consts::DLL_SUFFIX
     );
     let built = target.join("release").join(&file);
-    let library = built.canonicalize().map_err(|source| xtask::Error::Io {
+    let library = built.canonicalize().map_err(|source| crate::Error::Io {
         path: built,
         source,
     })?;
     let out_dir = out_dir.unwrap_or_else(|| root.join("target").join("layer"));
-    std::fs::create_dir_all(&out_dir).map_err(|source| xtask::Error::Io {
+    std::fs::create_dir_all(&out_dir).map_err(|source| crate::Error::Io {
         path: out_dir.clone(),
         source,
     })?;
     let path = out_dir.join(MANIFEST);
     let text = serde_json::to_string_pretty(&manifest(&library)).expect("a JSON value") + "\n";
-    std::fs::write(&path, text).map_err(|source| xtask::Error::Io { path, source })?;
+    std::fs::write(&path, text).map_err(|source| crate::Error::Io { path, source })?;
     Ok(out_dir)
 }
 

@@ -8,6 +8,7 @@ pub mod catalog;
 mod drivers;
 pub mod faults;
 pub mod khr;
+pub mod layer;
 pub mod registry;
 pub mod testing;
 

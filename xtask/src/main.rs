@@ -3,7 +3,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-mod layer;
+use xtask::layer;
 
 /// Project automation for ommcheck.
 #[derive(Parser)]
@@ -44,6 +44,10 @@ enum Task {
         /// criterion's short run: 1 s warm-up, 2 s measurement per benchmark.
         #[arg(long)]
         quick: bool,
+        /// Skip criterion; run only the layer overhead per call (omm-app over
+        /// the Mock ICD) and replace its section of the table.
+        #[arg(long)]
+        overhead_only: bool,
     },
     /// Install what the tests need, then run fmt, clippy and the whole test suite.
     Test {
@@ -104,7 +108,10 @@ fn main() -> ExitCode {
                 .map_err(xtask::Error::Tool)
                 .map(|table| print!("{}", xtask::faults::render(&table, classes)))
         }
-        Task::Bench { quick } => xtask::bench::run(&root, quick),
+        Task::Bench {
+            quick,
+            overhead_only,
+        } => xtask::bench::run(&root, quick, overhead_only),
         Task::Test { no_install } => xtask::testing::run(&root, !no_install),
     };
     match result {

@@ -6,7 +6,7 @@
 //! layer's settings (`OMMCHECK_*`) set for that scenario alone.
 //!
 //! ```text
-//! omm-app SCENARIO [--layer NAME]... [--core-fault]
+//! omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N]
 //! {"scenario": ..., "messages": [{"id", "severity", "phase", "text"}],
 //!  "device_layers": [...], "results": {...}}
 //! ```
@@ -23,6 +23,9 @@
 //! `host-build-data-past-end`, `device-build-valid`,
 //! `device-build-usage-pointers`, `device-build-histogram-mismatch`.
 //! Over lavapipe (acceleration structures that really build): `blas`.
+//! `overhead` (Mock ICD) times `--iterations` valid calls (default 10000) of
+//! three build commands and reports nanoseconds per call; `cargo xtask
+//! bench` runs it with and without layers.
 //! Errors go to stderr with exit status 1.
 
 use std::ffi::{c_void, CStr, CString};
@@ -787,6 +790,241 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
     Ok(())
 }
 
+/// Calls timed per command in the `overhead` scenario, after as many as a
+/// tenth of them (at least one) untimed to warm up.
+fn time_calls(iterations: u32, mut call: impl FnMut()) -> f64 {
+    for _ in 0..(iterations / 10).max(1) {
+        call();
+    }
+    let start = std::time::Instant::now();
+    for _ in 0..iterations {
+        call();
+    }
+    start.elapsed().as_nanos() as f64 / f64::from(iterations.max(1))
+}
+
+/// Stand-in device addresses of the bottom-level build's inputs over the
+/// Mock ICD (see [`STAND_IN_INPUT`]).
+const STAND_IN_VERTICES: u64 = 0x3_0000_0000;
+const STAND_IN_INDICES: u64 = 0x4_0000_0000;
+const STAND_IN_OMM_INDICES: u64 = 0x5_0000_0000;
+const STAND_IN_BLAS_SCRATCH: u64 = 0x6_0000_0000;
+
+/// `overhead`: what one call costs the application, with whatever layers
+/// are enabled, over the Mock ICD (every command a stub, so the time is the
+/// loader's trampoline and the layers'). Set up once: a device with
+/// VK_EXT_opacity_micromap and VK_KHR_acceleration_structure and their
+/// features, mapped host-visible buffers, a micromap, a bottom-level
+/// structure and a command buffer in the recording state. Then `iterations`
+/// calls of each, all valid (a messenger receives nothing):
+/// - `cmd_build_micromaps`: `vkCmdBuildMicromapsEXT` of the two triangles
+///   of [`USAGE`], inputs in mapped memory;
+/// - `build_micromaps`: `vkBuildMicromapsEXT` (host build) of the same,
+///   its data in mapped memory;
+/// - `cmd_build_acceleration_structures`: `vkCmdBuildAccelerationStructuresKHR`
+///   of a bottom-level structure of two triangles whose
+///   `VkAccelerationStructureTrianglesOpacityMicromapEXT` names the micromap.
+///
+/// Results: `iterations` and `ns_per_call`, one mean per command.
+fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(), String> {
+    let physical = vulkan.physical_device()?;
+    let mut structure_features =
+        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+    let mut micromap_features = vk::PhysicalDeviceOpacityMicromapFeaturesEXT::default()
+        .micromap(true)
+        .micromap_host_commands(true);
+    let mut features = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut micromap_features)
+        .push_next(&mut structure_features);
+    let gpu = Gpu::new(
+        vulkan,
+        physical,
+        &[
+            ash::ext::opacity_micromap::NAME,
+            ash::khr::acceleration_structure::NAME,
+            ash::khr::deferred_host_operations::NAME,
+        ],
+        &mut features,
+    )?;
+    let omm = ash::ext::opacity_micromap::Device::new(&vulkan.instance, &gpu.device);
+    let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
+    let micromap = gpu.micromap(&omm)?;
+    let address_usage = vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+
+    // (a) The device build: the triangle array at the start of a mapped
+    // input buffer, the data 256 bytes in, as in `device_build`.
+    let (input, input_map) = gpu.mapped_buffer(
+        4096,
+        vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT | address_usage,
+    )?;
+    let (scratch, _) =
+        gpu.mapped_buffer(4096, vk::BufferUsageFlags::STORAGE_BUFFER | address_usage)?;
+    let (input_address, scratch_address) = match [gpu.address(input), gpu.address(scratch)] {
+        [0, 0] => (STAND_IN_INPUT, STAND_IN_SCRATCH),
+        [input, scratch] => (input, scratch),
+    };
+    let device_triangles = triangles([0, 1], 1);
+    // SAFETY: the mapping is 4096 bytes long: 16 bytes of triangles at 0,
+    // two bytes of data at 256.
+    unsafe {
+        input_map.copy_from_nonoverlapping(device_triangles.as_ptr().cast(), 16);
+        input_map
+            .add(256)
+            .copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2);
+    }
+    let device_info = build_info(
+        micromap,
+        vk::DeviceOrHostAddressConstKHR {
+            device_address: input_address,
+        },
+        vk::DeviceOrHostAddressConstKHR {
+            device_address: input_address + 256,
+        },
+        vk::DeviceOrHostAddressKHR {
+            device_address: scratch_address,
+        },
+    );
+
+    // (b) The host build: the data in the last two bytes of a mapped
+    // allocation, as in `host_build`.
+    let memory = gpu.allocate(64, !0, vk::MemoryPropertyFlags::HOST_VISIBLE, false)?;
+    let mapped = gpu.map(memory)?;
+    // SAFETY: the mapping is 64 bytes long; bytes 62 and 63.
+    let data = unsafe { mapped.add(62) };
+    // SAFETY: as above.
+    unsafe { data.copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2) };
+    let host_triangles = triangles([0, 1], 1);
+    let mut host_scratch = vec![0u8; 4096];
+    let host_info = build_info(
+        micromap,
+        vk::DeviceOrHostAddressConstKHR {
+            host_address: host_triangles.as_ptr().cast(),
+        },
+        vk::DeviceOrHostAddressConstKHR {
+            host_address: data.cast_const().cast(),
+        },
+        vk::DeviceOrHostAddressKHR {
+            host_address: host_scratch.as_mut_ptr().cast(),
+        },
+    );
+
+    // (c) A bottom-level structure of two triangles, indexed 0..6, whose
+    // opacity-micromap indices (0 and 1, 32-bit) name the micromap's two
+    // triangles.
+    let input_usage =
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | address_usage;
+    let vertices: [f32; 18] = [
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, //
+        2.0, 0.0, 0.0, 3.0, 0.0, 0.0, 2.0, 1.0, 0.0,
+    ];
+    let indices: [u32; 6] = [0, 1, 2, 3, 4, 5];
+    let omm_indices: [u32; 2] = [0, 1];
+    let (vertex_buffer, vertex_map) = gpu.mapped_buffer(4 * 18, input_usage)?;
+    let (index_buffer, index_map) = gpu.mapped_buffer(4 * 6, input_usage)?;
+    let (omm_index_buffer, omm_index_map) = gpu.mapped_buffer(4 * 2, input_usage)?;
+    // SAFETY: each mapping holds its buffer's size: exactly these bytes.
+    unsafe {
+        vertex_map.copy_from_nonoverlapping(vertices.as_ptr().cast(), 4 * 18);
+        index_map.copy_from_nonoverlapping(indices.as_ptr().cast(), 4 * 6);
+        omm_index_map.copy_from_nonoverlapping(omm_indices.as_ptr().cast(), 4 * 2);
+    }
+    let stand_in = |buffer, stand_in| match gpu.address(buffer) {
+        0 => stand_in,
+        address => address,
+    };
+    let (storage, _) = gpu.mapped_buffer(
+        65536,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | address_usage,
+    )?;
+    let create = vk::AccelerationStructureCreateInfoKHR::default()
+        .buffer(storage)
+        .size(65536)
+        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
+    // SAFETY: a storage buffer as large as the structure.
+    let structure = unsafe { accel.create_acceleration_structure(&create, None) }
+        .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))?;
+    let (blas_scratch, _) =
+        gpu.mapped_buffer(65536, vk::BufferUsageFlags::STORAGE_BUFFER | address_usage)?;
+    let mut attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT::default()
+        .index_type(vk::IndexType::UINT32)
+        .index_buffer(vk::DeviceOrHostAddressConstKHR {
+            device_address: stand_in(omm_index_buffer, STAND_IN_OMM_INDICES),
+        })
+        .index_stride(4)
+        .base_triangle(0)
+        .usage_counts(&USAGE)
+        .micromap(micromap);
+    let blas_triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+        .vertex_format(vk::Format::R32G32B32_SFLOAT)
+        .vertex_data(vk::DeviceOrHostAddressConstKHR {
+            device_address: stand_in(vertex_buffer, STAND_IN_VERTICES),
+        })
+        .vertex_stride(12)
+        .max_vertex(5)
+        .index_type(vk::IndexType::UINT32)
+        .index_data(vk::DeviceOrHostAddressConstKHR {
+            device_address: stand_in(index_buffer, STAND_IN_INDICES),
+        })
+        .push_next(&mut attachment);
+    let geometries = [vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR {
+            triangles: blas_triangles,
+        })];
+    let blas_info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+        .geometries(&geometries)
+        .dst_acceleration_structure(structure)
+        .scratch_data(vk::DeviceOrHostAddressKHR {
+            device_address: stand_in(blas_scratch, STAND_IN_BLAS_SCRATCH),
+        });
+    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(2)];
+    let range_pointers = [ranges.as_ptr()];
+
+    let command_buffer = gpu.begin()?;
+    vulkan.phase("record");
+    let cmd_build_micromaps = omm.fp().cmd_build_micromaps_ext;
+    // SAFETY (each call below): a recording command buffer, one valid info
+    // whose pointers live across the loop.
+    let cmd_micromaps_ns = time_calls(iterations, || unsafe {
+        cmd_build_micromaps(command_buffer, 1, &device_info)
+    });
+    vulkan.phase("build");
+    let build_micromaps = omm.fp().build_micromaps_ext;
+    let device = gpu.device.handle();
+    let mut host_results = 0u64;
+    let host_ns = time_calls(iterations, || {
+        // SAFETY: as above; the host addresses live across the loop.
+        let result =
+            unsafe { build_micromaps(device, vk::DeferredOperationKHR::null(), 1, &host_info) };
+        host_results += u64::from(result != vk::Result::SUCCESS);
+    });
+    vulkan.phase("record");
+    let cmd_build_structures = accel.fp().cmd_build_acceleration_structures_khr;
+    // SAFETY: as above.
+    let cmd_structures_ns = time_calls(iterations, || unsafe {
+        cmd_build_structures(command_buffer, 1, &blas_info, range_pointers.as_ptr())
+    });
+    vulkan.phase("teardown");
+    // SAFETY: the command buffer is recording; nothing was submitted.
+    unsafe { gpu.device.end_command_buffer(command_buffer) }
+        .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+    // SAFETY: the structure is unused (the command buffer never runs).
+    unsafe { accel.destroy_acceleration_structure(structure, None) };
+    results.insert("iterations".into(), json!(iterations));
+    results.insert("host_builds_failed".into(), json!(host_results));
+    results.insert(
+        "ns_per_call".into(),
+        json!({
+            "cmd_build_micromaps": cmd_micromaps_ns,
+            "build_micromaps": host_ns,
+            "cmd_build_acceleration_structures": cmd_structures_ns,
+        }),
+    );
+    Ok(())
+}
+
 /// `vkCreateBuffer` with size 0: VUID-VkBufferCreateInfo-size-00912, which
 /// the Khronos validation layer checks. The Mock ICD accepts it.
 fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
@@ -809,17 +1047,28 @@ fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
 }
 
 fn run(args: &[String]) -> Result<Value, String> {
-    let usage = "usage: omm-app SCENARIO [--layer NAME]... [--core-fault]";
+    let usage =
+        "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)]";
     let (scenario, rest) = args.split_first().ok_or(usage)?;
     let mut layers = Vec::new();
     let mut with_core_fault = false;
+    let mut iterations = 10_000u32;
     let mut rest = rest.iter();
     while let Some(arg) = rest.next() {
-        match (arg.as_str(), rest.next()) {
-            ("--layer", Some(name)) => {
+        match arg.as_str() {
+            "--layer" => {
+                let name = rest.next().ok_or(usage)?;
                 layers.push(CString::new(name.as_str()).map_err(|e| format!("{name:?}: {e}"))?)
             }
-            ("--core-fault", None) => with_core_fault = true,
+            "--iterations" => {
+                let n = rest.next().ok_or(usage)?;
+                iterations = n
+                    .parse()
+                    .ok()
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("--iterations {n:?}: a positive integer"))?;
+            }
+            "--core-fault" => with_core_fault = true,
             _ => return Err(format!("unexpected argument {arg:?}; {usage}")),
         }
     }
@@ -831,6 +1080,7 @@ fn run(args: &[String]) -> Result<Value, String> {
             device_build(&vulkan, build.trim_start_matches("build-"), &mut results)?
         }
         ("blas", "") => blas(&vulkan, &mut results)?,
+        ("overhead", "") => overhead(&vulkan, iterations, &mut results)?,
         _ => return Err(format!("unknown scenario {scenario:?}")),
     }
     if with_core_fault {
