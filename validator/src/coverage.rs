@@ -185,8 +185,8 @@ pub fn render(tiers: &BTreeMap<String, Tier>) -> String {
         let sees = match tier {
             Tier::Params => "the call's parameters and the device (extensions, features, limits)",
             Tier::State => "+ the objects earlier calls created (buffers, memory, addresses, micromaps, acceleration structures, pipelines, queries)",
-            Tier::Content => "+ the bytes builds read (triangle arrays, data, index buffers, instances)",
-            Tier::Simulate => "+ traversal of the rays a user asks about",
+            Tier::Content => "+ the bytes builds read (triangle arrays, usage counts against them, data offsets, index buffers, instances)",
+            Tier::Simulate => "+ the micromap data blocks themselves (hygiene information) and traversal of the rays a user asks about",
         };
         let _ = writeln!(w, "| `{tier}` | {sees} | {first} | {all} |");
     }

@@ -136,6 +136,13 @@ pub static ALL: &[&OwnRule] = &[
     &CLUSTER_INDEX_OUTSIDE_CLUSTER,
 ];
 
+/// The rules the checks decide only from the simulate tier up: the hygiene
+/// information, which reads every byte of every data block and is no
+/// validity rule, so the content tier (the default) leaves it out and reads
+/// no data byte. `validator/tests/corpus.rs` holds this list to the tier
+/// measured over the corpus.
+pub static SIMULATE_TIER: &[&OwnRule] = &[&UNUSED_BITS, &DUPLICATE_DATA, &OVERLAPPING_DATA];
+
 #[cfg(test)]
 mod tests {
     use super::*;

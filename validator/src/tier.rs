@@ -22,10 +22,14 @@ pub enum Tier {
     /// pipelines, query pools, deferred operations.
     State,
     /// And the bytes the call reads: triangle arrays, usage counts against
-    /// them, data offsets, index buffers, instances (the default).
+    /// them, data offsets, index buffers, instances (the default). Data
+    /// blocks are measured against the memory holding them, not read.
     #[default]
     Content,
-    /// And traversal of the rays or hits a user asks about (`ommcheck trace`,
+    /// And the micromap data blocks themselves, for the hygiene information
+    /// (`OMMCHECK-hygiene-*`: unused bits, identical blocks stored twice,
+    /// partial overlaps, which reads every data byte), and traversal of the
+    /// rays or hits a user asks about (`ommcheck trace`,
     /// `Validator::simulate_hit`).
     Simulate,
 }

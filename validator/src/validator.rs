@@ -82,6 +82,7 @@ impl Validator {
             device: &self.device,
             state: (self.tier >= Tier::State).then_some(&self.state),
             contents: self.tier >= Tier::Content,
+            hygiene: self.tier >= Tier::Simulate,
             function,
             report: Report::new(),
         }
@@ -95,6 +96,10 @@ pub(crate) struct Ctx<'a> {
     pub device: &'a Device,
     pub state: Option<&'a State>,
     pub contents: bool,
+    /// Whether the hygiene information on micromap data
+    /// (`OMMCHECK-hygiene-*`) is wanted: it reads every data block and is no
+    /// validity rule, so it runs from the simulate tier up.
+    pub hygiene: bool,
     pub function: &'static str,
     pub report: Report,
 }

@@ -2,6 +2,9 @@
 //! per rule and its valid twin (see the corpus README). Every failing scene
 //! must report its rule, every twin must report nothing at all, and every
 //! report is kept as an insta snapshot under `tests/snapshots/corpus/`.
+//! Scenes are checked at the default tier, except those of the rules only
+//! the simulate tier decides ([`ommcheck::rules::SIMULATE_TIER`]), which are
+//! checked at that tier.
 //!
 //! To accept changed reports: `INSTA_UPDATE=always cargo test -p ommcheck
 //! --test corpus`, then review the diff of `validator/tests/snapshots/`.
@@ -10,6 +13,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use ommcheck::scene::{CheckOptions, Scene, SceneReport};
+use ommcheck::Tier;
 
 /// The corpus, relative to the workspace root (as reports show it).
 const CORPUS: &str = "tests/scenes/corpus";
@@ -58,6 +62,21 @@ fn role_of(file: &str) -> Option<Role> {
     }
 }
 
+/// The tier a scene is checked (and its report kept) at: the default, but
+/// the simulate tier for the scenes of a rule only that tier decides (the
+/// hygiene information), whose failing scenes would report nothing below it.
+fn tier_for(role: &Role) -> Tier {
+    let rule = match role {
+        Role::Fail(rule) | Role::Twin(rule) => rule.as_str(),
+        Role::FamilyPass => return Tier::default(),
+    };
+    if ommcheck::rules::SIMULATE_TIER.iter().any(|r| r.id == rule) {
+        Tier::Simulate
+    } else {
+        Tier::default()
+    }
+}
+
 fn sorted_entries(dir: &Path) -> Vec<PathBuf> {
     let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
@@ -98,7 +117,10 @@ fn corpus() -> Vec<CorpusScene> {
             let shown = format!("{CORPUS}/{family}/{file}");
             let scene = Scene::parse(&text, &shown, &family_dir).unwrap_or_else(|e| panic!("{e}"));
             let report = scene
-                .check(&CheckOptions::default())
+                .check(&CheckOptions {
+                    tier: tier_for(&role),
+                    ..CheckOptions::default()
+                })
                 .unwrap_or_else(|e| panic!("{e}"));
             scenes.push(CorpusScene {
                 family: family.clone(),
@@ -347,4 +369,26 @@ fn corpus_coverage_of_enforced_rules() {
         missing.len(),
         missing.join("\n")
     );
+}
+
+/// The rules declared to need the simulate tier are exactly those the
+/// corpus measures there, and every other rule is decided by the default
+/// tier (content) or below.
+#[test]
+fn simulate_tier_rules_are_the_measured_ones() {
+    let tiers =
+        ommcheck::coverage::corpus_tiers(&root().join(CORPUS)).unwrap_or_else(|e| panic!("{e}"));
+    let declared: BTreeSet<&str> = ommcheck::rules::SIMULATE_TIER
+        .iter()
+        .map(|r| r.id)
+        .collect();
+    let measured: BTreeSet<&str> = tiers
+        .iter()
+        .filter(|(_, tier)| **tier > Tier::default())
+        .map(|(rule, _)| rule.as_str())
+        .collect();
+    assert_eq!(declared, measured);
+    for rule in declared {
+        assert_eq!(tiers.get(rule), Some(&Tier::Simulate), "{rule}");
+    }
 }

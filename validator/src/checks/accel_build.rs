@@ -30,7 +30,7 @@ use ommcheck_vuids::vuid::{
 };
 use ommcheck_vuids::Vuid;
 
-use crate::checks::common::{self, Tally};
+use crate::checks::common::{self, readable_entries, Tally, TriangleEntry, TriangleHistogram};
 use crate::checks::{accel_attach, hygiene, Coverage};
 use crate::device::Limits;
 use crate::model::accel::*;
@@ -1172,9 +1172,14 @@ impl TriangleArrayCheck<'_> {
         };
         let data_available = bytes_available(state, host, data.data);
         let mut tally = Tally::new();
-        let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+        let mut histogram = TriangleHistogram::new();
         let mut read = 0u64;
-        let mut blocks = Vec::new();
+        // The entries, kept for the hygiene information only (the simulate
+        // tier): room for as many as the array's bytes hold, never more.
+        let mut entries = Vec::new();
+        if ctx.hygiene {
+            entries.reserve(readable_entries(array.len() as u64, stride).min(total) as usize);
+        }
         // The loop ends at the end of `array`: each step advances >= 8 bytes.
         for m in 0..total {
             let entry = m
@@ -1194,25 +1199,30 @@ impl TriangleArrayCheck<'_> {
             };
             read += 1;
             let triangle = MicromapTriangle::from_bytes(bytes);
-            let key = (
+            let (format, level) = (
                 u32::from(triangle.format),
                 u32::from(triangle.subdivision_level),
             );
-            *histogram.entry(key).or_default() += 1;
-            self.triangle_rules(ctx, &mut tally, m, key.0, key.1);
+            histogram.add(format, level, 1);
+            self.triangle_rules(ctx, &mut tally, m, format, level);
             if let Some(available) = data_available {
                 self.data_in_range(ctx, &mut tally, m, &triangle, available);
             }
-            blocks.push(hygiene::Block { m, triangle });
+            if ctx.hygiene {
+                entries.push(triangle);
+            }
         }
         tally.finish(ctx);
         // Information about the data itself, where the checker can read it
-        // (blocks with a bad format or range are skipped there).
-        if let Some(data_bytes) = bytes_from(state, host, data.data) {
-            hygiene::opacity_blocks(ctx, self.at, data_bytes, &blocks);
+        // and the tier asks for it (blocks with a bad format or range are
+        // skipped there).
+        if ctx.hygiene {
+            if let Some(data_bytes) = bytes_from(state, host, data.data) {
+                hygiene::opacity_blocks(ctx, self.at, data_bytes, &entries);
+            }
         }
         if read == total {
-            usage_counts_match(ctx, self.at, &data.usage_counts, &histogram);
+            usage_counts_match(ctx, self.at, &data.usage_counts, &histogram.into_map());
         }
     }
 
@@ -1234,40 +1244,39 @@ impl TriangleArrayCheck<'_> {
         let two_state = format == OPACITY_MICROMAP_FORMAT_2_STATE;
         let four_state = format == OPACITY_MICROMAP_FORMAT_4_STATE;
         let limits = &self.limits;
-        let mut fail = |rule: Vuid, member: &str, message: String| {
+        // The location and message are written out only for a shown finding.
+        let mut fail = |rule: Vuid, member: &'static str, message: &dyn Fn() -> String| {
             tally.error(
                 ctx,
                 rule,
-                format!("{}.{member}", self.entry(m)),
-                || message,
+                TriangleEntry::new(self.at, m).member(member),
+                message,
                 "triangleArray",
             );
         };
         if device_command && !two_state && !four_state {
-            fail(
-                cmd::micromap_11555,
-                "format",
-                format!("{format} is not a VkOpacityMicromapFormatKHR value"),
-            );
+            fail(cmd::micromap_11555, "format", &|| {
+                format!("{format} is not a VkOpacityMicromapFormatKHR value")
+            });
         }
         let max2 = limits.max_opacity2_state_subdivision_level;
         if device_command && two_state && level > max2 {
-            fail(
-                cmd::micromap_11556,
-                "subdivisionLevel",
-                format!("{level} exceeds maxOpacity2StateSubdivisionLevel = {max2}"),
-            );
+            fail(cmd::micromap_11556, "subdivisionLevel", &|| {
+                format!("{level} exceeds maxOpacity2StateSubdivisionLevel = {max2}")
+            });
         }
         if self.lossy {
             if !four_state {
-                fail(info_vuid::format_11713, "format", format!("{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build"));
+                fail(info_vuid::format_11713, "format", &|| {
+                    format!("{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build")
+                });
             }
             let max = limits.max_opacity_lossy4_state_subdivision_level;
             if level > max {
                 fail(
                     info_vuid::subdivisionLevel_11567,
                     "subdivisionLevel",
-                    format!("{level} exceeds maxOpacityLossy4StateSubdivisionLevel = {max}"),
+                    &|| format!("{level} exceeds maxOpacityLossy4StateSubdivisionLevel = {max}"),
                 );
             }
         } else {
@@ -1276,7 +1285,7 @@ impl TriangleArrayCheck<'_> {
                 fail(
                     info_vuid::subdivisionLevel_11566,
                     "subdivisionLevel",
-                    format!("{level} exceeds maxOpacity4StateSubdivisionLevel = {max4}"),
+                    &|| format!("{level} exceeds maxOpacity4StateSubdivisionLevel = {max4}"),
                 );
             }
         }
@@ -1306,7 +1315,7 @@ impl TriangleArrayCheck<'_> {
         let message = || {
             format!("[{start}, {start} + {size}) runs past the end of the memory data points into ({available} bytes from data)")
         };
-        let location = format!("{}.dataOffset", self.entry(m));
+        let location = TriangleEntry::new(self.at, m).member("dataOffset");
         if self.command == BuildCommand::Cmd {
             tally.error(ctx, cmd::micromap_11553, location, message, "triangleArray");
         } else {

@@ -160,6 +160,54 @@ impl Display for At<'_> {
     }
 }
 
+/// Triangle-array entry `m` of the micromap at `at`, or one of its members
+/// (`"{at}.triangleArray[{m}].{member}"`), written out only for a finding.
+#[derive(Clone, Copy)]
+pub(crate) struct TriangleEntry<'a> {
+    at: &'a str,
+    m: u64,
+    member: Option<&'static str>,
+}
+
+impl<'a> TriangleEntry<'a> {
+    pub fn new(at: &'a str, m: u64) -> Self {
+        Self {
+            at,
+            m,
+            member: None,
+        }
+    }
+
+    /// The entry's member `name` (`format`, `subdivisionLevel`, `dataOffset`).
+    pub fn member(self, name: &'static str) -> Self {
+        Self {
+            member: Some(name),
+            ..self
+        }
+    }
+}
+
+impl Display for TriangleEntry<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}.triangleArray[{}]", self.at, self.m)?;
+        match self.member {
+            Some(member) => write!(f, ".{member}"),
+            None => Ok(()),
+        }
+    }
+}
+
+/// How many 8-byte entries at `stride` start inside `len` bytes and end
+/// inside them too: a bound, from the bytes there are, on what a loop over
+/// an untrusted count can read (1 at stride 0).
+pub(crate) fn readable_entries(len: u64, stride: u64) -> u64 {
+    match (len.checked_sub(8), stride) {
+        (None, _) => 0,
+        (Some(_), 0) => 1,
+        (Some(last_start), stride) => last_start / stride + 1,
+    }
+}
+
 /// A device address must be a valid `VkDeviceAddress`: non-zero, and inside
 /// a buffer when the checker knows buffer addresses.
 pub(crate) fn valid_device_address(
@@ -245,20 +293,22 @@ impl Tally {
         &mut self,
         ctx: &mut Ctx<'_>,
         rule: impl Into<RuleId>,
-        location: String,
+        location: impl Display,
         message: impl FnOnce() -> String,
         array: &str,
     ) {
         self.report(ctx, rule, Severity::Error, location, message, array);
     }
 
-    /// Reports the first [`Self::SHOWN`] findings of `rule` in full.
+    /// Reports the first [`Self::SHOWN`] findings of `rule` in full; the
+    /// location is written out only for those (past them a failure costs a
+    /// count, not a string).
     pub fn report(
         &mut self,
         ctx: &mut Ctx<'_>,
         rule: impl Into<RuleId>,
         severity: Severity,
-        location: String,
+        location: impl Display,
         message: impl FnOnce() -> String,
         array: &str,
     ) {
@@ -269,7 +319,7 @@ impl Tally {
                 .or_insert((rule, 0, array.to_string(), severity));
         entry.1 += 1;
         if entry.1 <= Self::SHOWN {
-            ctx.report(rule, severity, location, message());
+            ctx.report(rule, severity, location.to_string(), message());
         }
     }
 
@@ -284,5 +334,105 @@ impl Tally {
                 ctx.report(rule, severity, array, message);
             }
         }
+    }
+}
+
+/// Triangles counted per (format, subdivision level), to hold against the
+/// usage counts. Every valid (format, level) of the opacity and
+/// displacement formats has a slot of a flat array, so counting a triangle
+/// is an index and an add; only entries with other values (all invalid, and
+/// reported as such) go to a map.
+pub(crate) struct TriangleHistogram {
+    flat: [u64; Self::FORMATS * Self::LEVELS],
+    other: BTreeMap<(u32, u32), u64>,
+}
+
+impl TriangleHistogram {
+    /// Formats 0 to 3 (the opacity formats are 1 and 2, the displacement
+    /// formats 1 to 3) and levels 0 to 15 (the limits stop at 12) are flat.
+    const FORMATS: usize = 4;
+    const LEVELS: usize = 16;
+
+    pub fn new() -> Self {
+        Self {
+            flat: [0; Self::FORMATS * Self::LEVELS],
+            other: BTreeMap::new(),
+        }
+    }
+
+    /// Counts `weight` more triangles of `format` at `level`.
+    #[inline]
+    pub fn add(&mut self, format: u32, level: u32, weight: u64) {
+        let (f, l) = (format as usize, level as usize);
+        if f < Self::FORMATS && l < Self::LEVELS {
+            self.flat[f * Self::LEVELS + l] += weight;
+        } else {
+            *self.other.entry((format, level)).or_default() += weight;
+        }
+    }
+
+    /// The (format, level) pairs counted at least once, with their counts.
+    pub fn into_map(self) -> BTreeMap<(u32, u32), u64> {
+        let mut map = self.other;
+        for (slot, &count) in self.flat.iter().enumerate() {
+            if count != 0 {
+                let key = ((slot / Self::LEVELS) as u32, (slot % Self::LEVELS) as u32);
+                map.insert(key, count);
+            }
+        }
+        map
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn histogram_counts_flat_and_other_pairs_alike() {
+        let mut histogram = TriangleHistogram::new();
+        let pairs = [
+            (1, 0),
+            (2, 12),
+            (3, 15),
+            (0, 0),
+            (4, 0),
+            (1, 16),
+            (65535, 65535),
+        ];
+        for (i, (format, level)) in pairs.into_iter().enumerate() {
+            histogram.add(format, level, i as u64 + 1);
+            histogram.add(format, level, 10);
+        }
+        let expected: BTreeMap<(u32, u32), u64> = pairs
+            .into_iter()
+            .enumerate()
+            .map(|(i, pair)| (pair, i as u64 + 11))
+            .collect();
+        assert_eq!(histogram.into_map(), expected);
+        assert!(TriangleHistogram::new().into_map().is_empty());
+    }
+
+    #[test]
+    fn readable_entries_counts_whole_entries() {
+        assert_eq!(readable_entries(0, 8), 0);
+        assert_eq!(readable_entries(7, 8), 0);
+        assert_eq!(readable_entries(8, 8), 1);
+        assert_eq!(readable_entries(15, 8), 1);
+        assert_eq!(readable_entries(16, 8), 2);
+        assert_eq!(readable_entries(24, 12), 2);
+        assert_eq!(readable_entries(100, 0), 1);
+        assert_eq!(readable_entries(10, 1), 3);
+        assert_eq!(readable_entries(u64::MAX, 1), u64::MAX - 7);
+    }
+
+    #[test]
+    fn triangle_entry_locations() {
+        let entry = TriangleEntry::new("pInfos[0]", 7);
+        assert_eq!(entry.to_string(), "pInfos[0].triangleArray[7]");
+        assert_eq!(
+            entry.member("dataOffset").to_string(),
+            "pInfos[0].triangleArray[7].dataOffset"
+        );
     }
 }

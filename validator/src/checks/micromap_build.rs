@@ -7,7 +7,9 @@ use ommcheck_vuids::vuid::{
     vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd, VkMicromapBuildInfoEXT as info_vuid,
 };
 
-use crate::checks::common::{self, CommandBufferVuids, Tally};
+use crate::checks::common::{
+    self, readable_entries, CommandBufferVuids, Tally, TriangleEntry, TriangleHistogram,
+};
 use crate::checks::hygiene;
 use crate::checks::Coverage;
 use crate::model::micromap::opacity_triangle_bytes;
@@ -697,10 +699,12 @@ fn triangle_array(
             format!("{stride} is below 8 or not a multiple of 4, so the {triangles} entries overlap or are misaligned"),
         );
     }
-    let limits = ctx.device.limits.clone();
+    // The device outlives the context's borrow, so the limits are read in
+    // place while findings are reported.
+    let device = ctx.device;
+    let limits = &device.limits;
     let mut tally = Tally::new();
-    let mut blocks = Vec::new();
-    let mut histogram: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    let mut histogram = TriangleHistogram::new();
     // A stride of 0 makes every triangle read the one entry: check it once
     // and count it for all, rather than looping over up to 2^64 triangles.
     let (entries_to_read, weight) = if stride == 0 {
@@ -708,9 +712,13 @@ fn triangle_array(
     } else {
         (triangles, 1)
     };
+    // Room for the entries the array can hold (bounded by its bytes, never
+    // by the untrusted counts).
+    entries.reserve(readable_entries(array.len() as u64, stride).min(entries_to_read) as usize);
+    let data_len = data.map(|data| data.len() as u64);
     for m in 0..entries_to_read {
-        // Built only for a finding: most entries have none.
-        let loc = || format!("{at}.triangleArray[{m}]");
+        // Written out only for a finding: most entries have none.
+        let loc = TriangleEntry::new(at, m);
         let entry = m
             .checked_mul(stride)
             .and_then(|offset| usize::try_from(offset).ok())
@@ -718,7 +726,7 @@ fn triangle_array(
         let Some(bytes) = entry else {
             ctx.error(
                 &rules::TRIANGLE_ARRAY_RANGE,
-                loc(),
+                loc.to_string(),
                 format!("entry {m} of {triangles} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
             );
             break;
@@ -731,7 +739,7 @@ fn triangle_array(
             u32::from(triangle.format),
             u32::from(triangle.subdivision_level),
         );
-        *histogram.entry((format, level)).or_default() += weight;
+        histogram.add(format, level, weight);
         if opacity {
             match format {
                 OPACITY_MICROMAP_FORMAT_2_STATE => {
@@ -739,7 +747,7 @@ fn triangle_array(
                         tally.error(
                             ctx,
                             info_vuid::subdivisionLevel_11659,
-                            format!("{}.subdivisionLevel", loc()),
+                            loc.member("subdivisionLevel"),
                             || {
                                 format!(
                                     "{level} exceeds maxOpacity2StateSubdivisionLevel = {}",
@@ -755,7 +763,7 @@ fn triangle_array(
                         tally.error(
                             ctx,
                             info_vuid::subdivisionLevel_11660,
-                            format!("{}.subdivisionLevel", loc()),
+                            loc.member("subdivisionLevel"),
                             || {
                                 format!(
                                     "{level} exceeds maxOpacity4StateSubdivisionLevel = {}",
@@ -770,23 +778,22 @@ fn triangle_array(
                     tally.error(
                         ctx,
                         info_vuid::format_11657,
-                        format!("{}.format", loc()),
+                        loc.member("format"),
                         || format!("{format} is not a VkOpacityMicromapFormatEXT value"),
                         "triangleArray",
                     );
                     continue;
                 }
             }
-            if let (Some(data), Some(size)) = (data, opacity_triangle_bytes(format, level)) {
+            if let (Some(data_len), Some(size)) = (data_len, opacity_triangle_bytes(format, level))
+            {
                 let end = u64::from(triangle.data_offset).checked_add(size);
-                if end.is_some_and(|end| end <= data.len() as u64) {
-                    blocks.push(hygiene::Block { m, triangle });
-                } else {
+                if end.is_none_or(|end| end > data_len) {
                     tally.error(
                         ctx,
                         &rules::TRIANGLE_DATA_RANGE,
-                        format!("{}.dataOffset", loc()),
-                        || format!("[{}, {}) is past the end of the memory data points into ({} bytes)", triangle.data_offset, u64::from(triangle.data_offset) + size, data.len()),
+                        loc.member("dataOffset"),
+                        || format!("[{}, {}) is past the end of the memory data points into ({data_len} bytes)", triangle.data_offset, u64::from(triangle.data_offset) + size),
                         "triangleArray",
                     );
                 }
@@ -796,7 +803,7 @@ fn triangle_array(
                 tally.error(
                     ctx,
                     info_vuid::format_11658,
-                    format!("{}.format", loc()),
+                    loc.member("format"),
                     || format!("{format} is not a VkDisplacementMicromapFormatNV value"),
                     "triangleArray",
                 );
@@ -805,7 +812,7 @@ fn triangle_array(
                 tally.error(
                     ctx,
                     info_vuid::subdivisionLevel_11661,
-                    format!("{}.subdivisionLevel", loc()),
+                    loc.member("subdivisionLevel"),
                     || {
                         format!(
                             "{level} exceeds maxDisplacementMicromapSubdivisionLevel = {}",
@@ -818,9 +825,12 @@ fn triangle_array(
         }
     }
     tally.finish(ctx);
-    if let Some(data) = data {
-        hygiene::opacity_blocks(ctx, at, data, &blocks);
+    // Information about the data blocks themselves reads every byte of
+    // them; it is no validity rule, so it runs from the simulate tier up.
+    if let (true, true, Some(data)) = (opacity, ctx.hygiene, data) {
+        hygiene::opacity_blocks(ctx, at, data, &entries);
     }
+    let histogram = histogram.into_map();
 
     // The usage counts must describe the array: per (format, level), the sum
     // of the counts equals the number of entries.

@@ -7,7 +7,7 @@ use ommcheck::model::{
 use ommcheck::vuids::vuid::{
     vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd, VkMicromapBuildInfoEXT as info,
 };
-use ommcheck::{rules, Device, Profile, Report, Validator};
+use ommcheck::{rules, Device, Profile, Report, Tier, Validator};
 
 use crate::fixtures::*;
 use crate::{case, Case};
@@ -96,8 +96,15 @@ fn t(data_offset: u32, subdivision_level: u16, format: u16) -> MicromapTriangle 
 }
 
 /// A valid device build of `triangles` whose data starts with `data`.
+/// A build of `triangles` over `data`, checked at the simulate tier, the
+/// one that computes the hygiene information.
 fn data_build(triangles: &[MicromapTriangle], data: &[u8]) -> Report {
+    data_build_at(Tier::Simulate, triangles, data)
+}
+
+fn data_build_at(tier: Tier, triangles: &[MicromapTriangle], data: &[u8]) -> Report {
     let mut v = validator_with(device(), triangles);
+    v.set_tier(tier);
     let input = v.state_mut().buffers.get_mut(&INPUT).unwrap();
     let mut contents = input.contents.as_deref().unwrap().to_vec();
     contents[..data.len()].copy_from_slice(data);
@@ -918,4 +925,22 @@ fn stride_zero_reads_one_entry_for_any_count() {
     });
     assert!(!report.contains(&rules::HISTOGRAM_MISMATCH), "{report}");
     assert!(!report.has_errors(), "{report}");
+}
+
+#[test]
+fn the_content_tier_reads_no_data_block_for_hygiene() {
+    // Each hygiene case's failing build, at the default tier and above.
+    let faulty: [(&[MicromapTriangle], &[u8]); 3] = [
+        (&[t(0, 0, 1)], &[0b10]),
+        (&[t(0, 2, 2), t(4, 2, 2)], &[1, 2, 3, 4, 1, 2, 3, 4]),
+        (&[t(0, 2, 2), t(2, 2, 2)], &[1, 2, 3, 4, 5, 6]),
+    ];
+    for (triangles, data) in faulty {
+        let simulate = data_build_at(Tier::Simulate, triangles, data);
+        assert!(!simulate.is_empty(), "{triangles:?}");
+        for tier in [Tier::Params, Tier::State, Tier::Content] {
+            let report = data_build_at(tier, triangles, data);
+            assert!(report.is_empty(), "{tier}: {report}");
+        }
+    }
 }
