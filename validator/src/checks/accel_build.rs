@@ -30,7 +30,9 @@ use ommcheck_vuids::vuid::{
 };
 use ommcheck_vuids::Vuid;
 
-use crate::checks::common::{self, readable_entries, Tally, TriangleEntry, TriangleHistogram};
+use crate::checks::common::{
+    self, decode_entries, readable_entries, CleanRun, Tally, TriangleEntry, TriangleHistogram,
+};
 use crate::checks::{accel_attach, hygiene, Coverage};
 use crate::device::Limits;
 use crate::model::accel::*;
@@ -556,16 +558,22 @@ pub(crate) fn micromap_content(
         return None;
     }
     let array = bytes_from(state, host, data.triangle_array)?;
-    // Each entry takes >= 8 bytes of `array`, so this ends at its end.
-    let triangles: Vec<MicromapTriangle> = (0..total)
-        .map_while(|m| {
+    // As many entries as the array's bytes hold, never more than the counts
+    // say: allocated once, from the bound.
+    let readable = readable_entries(array.len() as u64, stride).min(total);
+    let mut triangles = Vec::with_capacity(usize::try_from(readable).ok()?);
+    if stride == MicromapTriangle::SIZE {
+        let bytes = usize::try_from(readable.checked_mul(MicromapTriangle::SIZE)?).ok()?;
+        triangles.extend(decode_entries(array.get(..bytes)?));
+    } else {
+        triangles.extend((0..readable).map_while(|m| {
             let offset = usize::try_from(m.checked_mul(stride)?).ok()?;
             let bytes = array.get(offset..offset.checked_add(8)?)?;
             Some(MicromapTriangle::from_bytes(
                 <[u8; 8]>::try_from(bytes).ok()?,
             ))
-        })
-        .collect();
+        }));
+    }
     let shared = if host {
         state.host_contents_from(data.data)
     } else {
@@ -1180,8 +1188,30 @@ impl TriangleArrayCheck<'_> {
         if ctx.hygiene {
             entries.reserve(readable_entries(array.len() as u64, stride).min(total) as usize);
         }
+        // The run of the last entry without a finding, in a tightly packed
+        // array; blocks that leave it go one by one to their end.
+        let mut run: Option<CleanRun> = None;
+        let mut one_by_one_until = 0u64;
+        let mut next = 0u64;
         // The loop ends at the end of `array`: each step advances >= 8 bytes.
-        for m in 0..total {
+        while next < total {
+            if let Some(clean) = run.filter(|_| next >= one_by_one_until) {
+                match CleanRun::block(array, next, total) {
+                    Some(block) if clean.holds(block) => {
+                        histogram.add(clean.format, clean.level, CleanRun::ENTRIES as u64);
+                        if ctx.hygiene {
+                            entries.extend(decode_entries(block));
+                        }
+                        read += CleanRun::ENTRIES as u64;
+                        next += CleanRun::ENTRIES as u64;
+                        continue;
+                    }
+                    Some(_) => one_by_one_until = next + CleanRun::ENTRIES as u64,
+                    None => one_by_one_until = u64::MAX,
+                }
+            }
+            let m = next;
+            next += 1;
             let entry = m
                 .checked_mul(stride)
                 .and_then(|offset| usize::try_from(offset).ok())
@@ -1204,12 +1234,22 @@ impl TriangleArrayCheck<'_> {
                 u32::from(triangle.subdivision_level),
             );
             histogram.add(format, level, 1);
+            let findings_before = (ctx.report.findings.len(), tally.failures());
             self.triangle_rules(ctx, &mut tally, m, format, level);
             if let Some(available) = data_available {
                 self.data_in_range(ctx, &mut tally, m, &triangle, available);
             }
             if ctx.hygiene {
                 entries.push(triangle);
+            }
+            if stride == MicromapTriangle::SIZE
+                && findings_before == (ctx.report.findings.len(), tally.failures())
+            {
+                // data_in_range checks the range where the data has a size.
+                let range = data_available
+                    .zip(opacity_triangle_bytes(format, level))
+                    .map(|(available, size)| (size, available));
+                run = CleanRun::after(&triangle, range);
             }
         }
         tally.finish(ctx);

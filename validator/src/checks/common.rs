@@ -7,7 +7,7 @@ use std::fmt::Display;
 use ommcheck_vuids::Vuid;
 
 use crate::model::command::queue;
-use crate::model::CommandBuffer;
+use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::report::{RuleId, Severity};
 use crate::state::Handle;
 use crate::validator::Ctx;
@@ -197,6 +197,79 @@ impl Display for TriangleEntry<'_> {
     }
 }
 
+/// A run of triangle-array entries that draw no finding, checked in bulk.
+///
+/// Once an entry has gone through the per-entry rules without a finding,
+/// every entry with the same format and subdivision level whose data
+/// offset keeps its data in range would draw none either. So the entries
+/// of a tightly packed array (stride 8) are compared [`Self::ENTRIES`] at a
+/// time against that entry, branch-free, and counted; a block of entries
+/// that differs in anything goes through the rules entry by entry, so every
+/// finding, its text and its order are what the per-entry rules give.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct CleanRun {
+    pub format: u32,
+    pub level: u32,
+    /// The entry's upper 32 bits: `subdivisionLevel | format << 16`.
+    format_level: u64,
+    /// The largest dataOffset whose data lies in range (at most 2^32 - 1).
+    max_offset: u64,
+}
+
+impl CleanRun {
+    /// Entries compared at once.
+    pub const ENTRIES: usize = 32;
+
+    /// The run of `triangle`, which drew no finding. `range` is the size of
+    /// its data and the bytes its data must lie within, where the rules
+    /// check the range (None: they do not, and any offset is in range).
+    pub fn after(triangle: &MicromapTriangle, range: Option<(u64, u64)>) -> Option<Self> {
+        let max_offset = match range {
+            Some((size, available)) => available.checked_sub(size)?.min(u64::from(u32::MAX)),
+            None => u64::from(u32::MAX),
+        };
+        Some(Self {
+            format: u32::from(triangle.format),
+            level: u32::from(triangle.subdivision_level),
+            format_level: u64::from(triangle.subdivision_level) | u64::from(triangle.format) << 16,
+            max_offset,
+        })
+    }
+
+    /// The [`Self::ENTRIES`] entries of a tightly packed `array` from entry
+    /// `first` on, if they all lie before entry `end` and inside `array`.
+    pub fn block(array: &[u8], first: u64, end: u64) -> Option<&[u8]> {
+        let past = first.checked_add(Self::ENTRIES as u64)?;
+        if past > end {
+            return None;
+        }
+        let start = usize::try_from(first.checked_mul(MicromapTriangle::SIZE)?).ok()?;
+        array.get(start..start.checked_add(Self::ENTRIES * 8)?)
+    }
+
+    /// Whether every 8-byte entry of `block` has this run's format and
+    /// level and a dataOffset of at most `max_offset`. Written without
+    /// branches so that it compiles to a few vector operations: since
+    /// `max_offset` < 2^32, `max_offset - offset` wraps (setting bit 63)
+    /// exactly when the offset is larger.
+    pub fn holds(&self, block: &[u8]) -> bool {
+        let mut differs = 0u64;
+        for entry in block.chunks_exact(8) {
+            let bits = u64::from_le_bytes(entry.try_into().expect("8 bytes"));
+            differs |= (bits >> 32) ^ self.format_level;
+            differs |= self.max_offset.wrapping_sub(bits & 0xffff_ffff) & (1 << 63);
+        }
+        differs == 0
+    }
+}
+
+/// The entries of a block of a tightly packed triangle array.
+pub(crate) fn decode_entries(block: &[u8]) -> impl Iterator<Item = MicromapTriangle> + '_ {
+    block
+        .chunks_exact(8)
+        .map(|entry| MicromapTriangle::from_bytes(entry.try_into().expect("8 bytes")))
+}
+
 /// How many 8-byte entries at `stride` start inside `len` bytes and end
 /// inside them too: a bound, from the bytes there are, on what a loop over
 /// an untrusted count can read (1 at stride 0).
@@ -276,6 +349,8 @@ pub(crate) fn aligned(
 /// million bad triangles give a few findings and a total, not a million.
 pub(crate) struct Tally {
     counts: BTreeMap<&'static str, (RuleId, u64, String, Severity)>,
+    /// Failures of every rule so far, shown or not.
+    failures: u64,
 }
 
 impl Tally {
@@ -285,7 +360,13 @@ impl Tally {
     pub fn new() -> Self {
         Self {
             counts: BTreeMap::new(),
+            failures: 0,
         }
+    }
+
+    /// Failures of every rule so far, shown or only counted.
+    pub fn failures(&self) -> u64 {
+        self.failures
     }
 
     /// Reports the first [`Self::SHOWN`] failures of `rule` in full, as errors.
@@ -318,6 +399,7 @@ impl Tally {
                 .entry(rule.as_str())
                 .or_insert((rule, 0, array.to_string(), severity));
         entry.1 += 1;
+        self.failures += 1;
         if entry.1 <= Self::SHOWN {
             ctx.report(rule, severity, location.to_string(), message());
         }
@@ -424,6 +506,49 @@ mod tests {
         assert_eq!(readable_entries(100, 0), 1);
         assert_eq!(readable_entries(10, 1), 3);
         assert_eq!(readable_entries(u64::MAX, 1), u64::MAX - 7);
+    }
+
+    fn entry(data_offset: u32, subdivision_level: u16, format: u16) -> MicromapTriangle {
+        MicromapTriangle {
+            data_offset,
+            subdivision_level,
+            format,
+        }
+    }
+
+    #[test]
+    fn a_clean_run_holds_for_same_format_and_level_with_data_in_range() {
+        // Level-2 4-state blocks of 4 bytes in 100 bytes: offsets 0 to 96.
+        let run = CleanRun::after(&entry(0, 2, 2), Some((4, 100))).expect("in range");
+        let block = |f: &dyn Fn(u32) -> MicromapTriangle| -> Vec<u8> {
+            (0..CleanRun::ENTRIES as u32)
+                .flat_map(|i| f(i).to_bytes())
+                .collect()
+        };
+        assert!(run.holds(&block(&|i| entry(i * 3, 2, 2))));
+        assert!(run.holds(&block(&|_| entry(96, 2, 2))));
+        assert!(!run.holds(&block(&|i| entry(if i == 31 { 97 } else { 0 }, 2, 2))));
+        assert!(!run.holds(&block(&|i| entry(u32::MAX * (i == 5) as u32, 2, 2))));
+        assert!(!run.holds(&block(&|i| entry(0, 2 + (i == 7) as u16, 2))));
+        assert!(!run.holds(&block(&|i| entry(0, 2, 2 - (i == 0) as u16))));
+        // Data shorter than a block: no entry is in range.
+        assert_eq!(CleanRun::after(&entry(0, 2, 2), Some((4, 3))), None);
+        // No range to check: every offset is in range.
+        let unchecked = CleanRun::after(&entry(0, 2, 2), None).expect("a run");
+        assert!(unchecked.holds(&block(&|_| entry(u32::MAX, 2, 2))));
+        let decoded: Vec<_> = decode_entries(&block(&|i| entry(i, 2, 2))).collect();
+        assert_eq!(decoded[31], entry(31, 2, 2));
+    }
+
+    #[test]
+    fn a_block_lies_before_the_end_and_inside_the_array() {
+        let array = vec![0u8; 8 * 40];
+        assert_eq!(CleanRun::block(&array, 0, 40).map(<[u8]>::len), Some(256));
+        assert_eq!(CleanRun::block(&array, 8, 40).map(<[u8]>::len), Some(256));
+        assert_eq!(CleanRun::block(&array, 9, 40), None);
+        assert_eq!(CleanRun::block(&array, 0, 31), None);
+        assert_eq!(CleanRun::block(&array, u64::MAX, u64::MAX), None);
+        assert_eq!(CleanRun::block(&array, u64::MAX / 8, u64::MAX), None);
     }
 
     #[test]

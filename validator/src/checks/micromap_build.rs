@@ -8,7 +8,8 @@ use ommcheck_vuids::vuid::{
 };
 
 use crate::checks::common::{
-    self, readable_entries, CommandBufferVuids, Tally, TriangleEntry, TriangleHistogram,
+    self, decode_entries, readable_entries, CleanRun, CommandBufferVuids, Tally, TriangleEntry,
+    TriangleHistogram,
 };
 use crate::checks::hygiene;
 use crate::checks::Coverage;
@@ -716,7 +717,28 @@ fn triangle_array(
     // by the untrusted counts).
     entries.reserve(readable_entries(array.len() as u64, stride).min(entries_to_read) as usize);
     let data_len = data.map(|data| data.len() as u64);
-    for m in 0..entries_to_read {
+    // The run of the last entry without a finding, in a tightly packed
+    // opacity array; blocks that leave it go one by one to their end.
+    let mut run: Option<CleanRun> = None;
+    let mut one_by_one_until = 0u64;
+    let mut next = 0u64;
+    while next < entries_to_read {
+        if let Some(clean) = run.filter(|_| next >= one_by_one_until) {
+            match CleanRun::block(array, next, entries_to_read) {
+                Some(block) if clean.holds(block) => {
+                    histogram.add(clean.format, clean.level, CleanRun::ENTRIES as u64);
+                    // Within the array's bytes, so under `entry_cap`.
+                    entries.extend(decode_entries(block));
+                    next += CleanRun::ENTRIES as u64;
+                    continue;
+                }
+                Some(_) => one_by_one_until = next + CleanRun::ENTRIES as u64,
+                None => one_by_one_until = u64::MAX,
+            }
+        }
+        let m = next;
+        next += 1;
+        let findings_before = (ctx.report.findings.len(), tally.failures());
         // Written out only for a finding: most entries have none.
         let loc = TriangleEntry::new(at, m);
         let entry = m
@@ -785,8 +807,8 @@ fn triangle_array(
                     continue;
                 }
             }
-            if let (Some(data_len), Some(size)) = (data_len, opacity_triangle_bytes(format, level))
-            {
+            let range = data_len.zip(opacity_triangle_bytes(format, level));
+            if let Some((data_len, size)) = range {
                 let end = u64::from(triangle.data_offset).checked_add(size);
                 if end.is_none_or(|end| end > data_len) {
                     tally.error(
@@ -797,6 +819,11 @@ fn triangle_array(
                         "triangleArray",
                     );
                 }
+            }
+            if stride == MicromapTriangle::SIZE
+                && findings_before == (ctx.report.findings.len(), tally.failures())
+            {
+                run = CleanRun::after(&triangle, range.map(|(len, size)| (size, len)));
             }
         } else {
             if !DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&format) {

@@ -5,6 +5,7 @@
 
 mod accel_attach;
 mod accel_build;
+mod clean_runs;
 mod fixtures;
 mod micromap_build;
 mod micromap_objects;
