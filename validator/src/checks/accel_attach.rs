@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::BuildCommand;
-use crate::checks::common::{self, Tally};
+use crate::checks::common::{self, Tally, TriangleHistogram};
 use crate::checks::Coverage;
 use crate::model::accel::*;
 use crate::model::micromap::UsageCounts;
@@ -190,14 +190,16 @@ fn read_indices(
     (0..distinct).map_while(move |j| {
         let start = usize::try_from(j.checked_mul(stride)?).ok()?;
         let end = start.checked_add(usize::try_from(size).ok()?)?;
-        let index = bytes.get(start..end)?;
-        Some((
-            j,
-            index
+        let index = match *bytes.get(start..end)? {
+            [a] => u32::from(a),
+            [a, b] => u32::from(u16::from_le_bytes([a, b])),
+            [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
+            ref other => other
                 .iter()
                 .rev()
                 .fold(0u32, |v, b| (v << 8) | u32::from(*b)),
-        ))
+        };
+        Some((j, index))
     })
 }
 
@@ -1002,7 +1004,7 @@ fn usage_counts_match_indices(
         Some((u32::from(t.format), u32::from(t.subdivision_level)))
     };
     let base = u64::from(a.base_triangle);
-    let mut found: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    let mut found = TriangleHistogram::new();
     match index_size(a.index_type) {
         None if a.index_type == INDEX_TYPE_NONE => {
             // Triangle t uses t + baseTriangle: all of them must have been read,
@@ -1015,7 +1017,7 @@ fn usage_counts_match_indices(
             }
             for t in 0..count {
                 match key(t + base) {
-                    Some(k) => *found.entry(k).or_default() += 1,
+                    Some((format, level)) => found.add(format, level, 1),
                     None => return,
                 }
             }
@@ -1042,10 +1044,7 @@ fn usage_counts_match_indices(
                     continue;
                 }
                 match key(u64::from(index) + base) {
-                    Some(k) => {
-                        let n = found.entry(k).or_default();
-                        *n = n.saturating_add(weight);
-                    }
+                    Some((format, level)) => found.add(format, level, weight),
                     None => return,
                 }
             }
@@ -1054,6 +1053,7 @@ fn usage_counts_match_indices(
             }
         }
     }
+    let found = found.into_map();
     let (member, entries) = counts.entries();
     let mut declared: BTreeMap<(u32, u32), (u64, Option<usize>)> = BTreeMap::new();
     for (k, usage) in &entries {

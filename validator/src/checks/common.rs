@@ -442,15 +442,17 @@ impl TriangleHistogram {
         }
     }
 
-    /// Counts `weight` more triangles of `format` at `level`.
+    /// Counts `weight` more triangles of `format` at `level` (saturating:
+    /// a stride of 0 counts one entry for every triangle at once).
     #[inline]
     pub fn add(&mut self, format: u32, level: u32, weight: u64) {
         let (f, l) = (format as usize, level as usize);
-        if f < Self::FORMATS && l < Self::LEVELS {
-            self.flat[f * Self::LEVELS + l] += weight;
+        let count = if f < Self::FORMATS && l < Self::LEVELS {
+            &mut self.flat[f * Self::LEVELS + l]
         } else {
-            *self.other.entry((format, level)).or_default() += weight;
-        }
+            self.other.entry((format, level)).or_default()
+        };
+        *count = count.saturating_add(weight);
     }
 
     /// The (format, level) pairs counted at least once, with their counts.

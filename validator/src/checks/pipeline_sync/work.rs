@@ -253,16 +253,21 @@ pub(crate) fn index_mix(
     for k in 0..entries {
         let at = usize::try_from(k.checked_mul(stride)?).ok()?;
         let raw = bytes.get(at..at.checked_add(size as usize)?)?;
-        let value = raw
-            .iter()
-            .rev()
-            .fold(0u64, |acc, byte| acc << 8 | u64::from(*byte));
+        let value = match *raw {
+            [byte] => u64::from(byte),
+            [a, b] => u64::from(u16::from_le_bytes([a, b])),
+            [a, b, c, d] => u64::from(u32::from_le_bytes([a, b, c, d])),
+            _ => return None,
+        };
         // Special indices are -1..-4 cast to the index width.
         let width_max = (1u64 << (size * 8)) - 1;
         if value + 4 > width_max {
             special = true;
         } else if value + 5 != width_max + 1 {
             real = true;
+        }
+        if special && real {
+            break; // All `span` bytes were read above: the rest cannot fail.
         }
     }
     Some((special, real))
