@@ -1,6 +1,8 @@
 //! What reading contents costs: (b) the bytes the content tier reads per
-//! second for one EXT micromap build, next to a plain memcpy of as many
-//! bytes in the same run, over subdivision levels 0 to 12; and (c) the
+//! second for one EXT micromap build (its triangle array: the data blocks
+//! are measured against the data's memory, not read), next to a plain
+//! memcpy of as many bytes in the same run, over subdivision levels 0 to
+//! 12; and (c) the
 //! content-tier check of a bottom-level build whose opacity attachment
 //! references 1%, 10% and 100% of a 10^6-triangle micromap, whose time must
 //! follow the referenced count, not the micromap's size.
@@ -13,9 +15,10 @@ use ommcheck::Tier;
 mod workload;
 use workload::{time_check, Api, Format, MicromapBuild, MicromapWorkload, ReferencingBuild};
 
-/// Levels of the throughput sweep; N at each is as many triangles as fit
-/// [`THROUGHPUT_BUDGET`] bytes (array and data), at most 10^6: 10^6 at
-/// levels 0 to 2, 3 (4-state) or 7 (2-state) at level 12.
+/// Levels of the throughput sweep; N at each is as many triangles as
+/// [`THROUGHPUT_BUDGET`] bytes of triangle array hold, at most 10^6: 10^6
+/// at every level (triangles share data blocks where distinct ones would
+/// not fit the workload's data, see `MicromapWorkload::distinct_blocks`).
 const THROUGHPUT_LEVELS: [u16; 7] = [0, 2, 4, 6, 8, 10, 12];
 const THROUGHPUT_BUDGET: u64 = 16 << 20;
 const MAX_TRIANGLES: u32 = 1_000_000;

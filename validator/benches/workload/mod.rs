@@ -46,6 +46,10 @@ const KHR_MICROMAP_OFFSET: u64 = 0x4_0000;
 const BLAS: u64 = 0xe3;
 const BLAS_OFFSET: u64 = 0x8_0000;
 
+/// The most bytes of data a workload holds (a level-12 4-state block is 4
+/// MiB: at most 4 distinct ones).
+pub const MAX_DATA_BYTES: u64 = 16 << 20;
+
 /// Which API builds the micromap.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Api {
@@ -115,13 +119,12 @@ impl MicromapWorkload {
         }
     }
 
-    /// The most triangles at `level` whose triangle array and data blocks
-    /// fit `budget` bytes, at most `cap` and at least 1: large N only at
-    /// small levels and the other way round, so every workload stays
-    /// bounded in memory.
+    /// The most triangles at `level` whose triangle array fits `budget`
+    /// bytes (what the content tier reads of a build), at most `cap` and
+    /// at least 1. The data stays within [`MAX_DATA_BYTES`] whatever N (see
+    /// [`Self::distinct_blocks`]), so every workload is bounded in memory.
     pub fn within_budget(level: u16, format: Format, budget: u64, cap: u32) -> Self {
-        let per_triangle = MicromapTriangle::SIZE + Self::new(1, level, format).block_bytes();
-        let triangles = (budget / per_triangle).clamp(1, u64::from(cap));
+        let triangles = (budget / MicromapTriangle::SIZE).clamp(1, u64::from(cap));
         Self::new(triangles as u32, level, format)
     }
 
@@ -132,13 +135,15 @@ impl MicromapWorkload {
     }
 
     /// How many different blocks the data holds: one per triangle where
-    /// the block's used bits can tell that many apart; at levels 0 and 1
-    /// (at most 8 used bits) triangles share blocks, as real micromaps do
-    /// (the hygiene rules report identical blocks stored twice).
+    /// the block's used bits can tell that many apart and the blocks fit
+    /// [`MAX_DATA_BYTES`]; otherwise triangles share blocks (same offset),
+    /// as real micromaps do at levels 0 and 1 (at most 8 used bits; the
+    /// hygiene rules report identical blocks stored twice, not shared).
     pub fn distinct_blocks(&self) -> u64 {
         let used_bits = (1u64 << (2 * u32::from(self.level))) * self.format.bits_per_state();
         let representable = 1u64 << used_bits.min(32);
-        u64::from(self.triangles).min(representable)
+        let fitting = (MAX_DATA_BYTES / self.block_bytes()).max(1);
+        u64::from(self.triangles).min(representable).min(fitting)
     }
 
     /// Bytes of the data buffer.
@@ -147,10 +152,11 @@ impl MicromapWorkload {
     }
 
     /// Bytes the content tier reads for one build: every entry of the
-    /// triangle array and every triangle's data block (a block shared by
-    /// several triangles is read once per triangle).
+    /// triangle array. It measures each triangle's data block against the
+    /// data's memory but reads no byte of it (the hygiene information,
+    /// which does, runs at the simulate tier).
     pub fn bytes_read(&self) -> u64 {
-        u64::from(self.triangles) * (MicromapTriangle::SIZE + self.block_bytes())
+        u64::from(self.triangles) * MicromapTriangle::SIZE
     }
 
     /// Triangle `m` uses block `m mod distinct_blocks`.
