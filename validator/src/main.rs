@@ -49,7 +49,8 @@ enum Command {
         deny: Option<Deny>,
         /// How far the checks look: params (the calls' parameters and the
         /// device), state (+ the objects earlier calls created), content
-        /// (+ the bytes builds read), simulate (as content; `ommcheck trace`
+        /// (+ the bytes builds read, no micromap data block), simulate
+        /// (+ the hygiene information on the data blocks; `ommcheck trace`
         /// simulates the rays).
         #[arg(long, default_value_t = ommcheck::Tier::Content)]
         tier: ommcheck::Tier,
