@@ -15,8 +15,8 @@ pub mod commands;
 pub mod objects;
 pub mod pipeline;
 
-use std::collections::HashSet;
 use std::ffi::c_void;
+use std::fmt::{self, Display};
 use std::sync::Arc;
 
 use ash::vk;
@@ -36,65 +36,112 @@ pub const MAX_CHAIN: usize = 64;
 /// The most bytes of host memory read for one array of a host command.
 pub const MAX_HOST_BYTES: u64 = 1 << 28;
 
+/// A location in the application's arguments, as findings name it:
+/// `{parent}{member}`, the member with its leading `.` (`pInfos[0]` and
+/// `.pUsageCounts`). Readers pass locations as values like this one and
+/// [`Index`], written out only when a finding names them, so a call that
+/// has no findings builds no location strings.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Member<P>(pub P, pub &'static str);
+
+impl<P: Display> Display for Member<P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}{}", self.0, self.1)
+    }
+}
+
+/// Element `.1` of the array at `.0`: `{array}[{index}]` (see [`Member`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Index<P>(pub P, pub usize);
+
+impl<P: Display> Display for Index<P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}[{}]", self.0, self.1)
+    }
+}
+
 /// One structure of a pNext chain: its sType and where it is.
 pub(crate) struct Link {
     pub s_type: i32,
     pub address: *const c_void,
 }
 
-/// The structures of a pNext chain, stopping at NULL, after [`MAX_CHAIN`]
-/// structures, or at an address already visited (a cycle), which is
-/// reported as [`rules::PNEXT_CHAIN`] at `{location}.pNext`.
+/// Walks a pNext chain, handing `visit` each structure, stopping at NULL,
+/// after [`MAX_CHAIN`] structures, or at an address already visited (a
+/// cycle), which is reported as [`rules::PNEXT_CHAIN`] at
+/// `{location}.pNext`. The addresses visited are kept on the stack: a
+/// chain is short, and most calls walk one.
 ///
 /// # Safety
 /// Every non-NULL `pNext` in the chain must point to a readable structure
 /// that starts with `sType` and `pNext`, as the Vulkan API requires.
-pub(crate) unsafe fn chain(
+unsafe fn walk_chain(
     mut next: *const c_void,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
-) -> Vec<Link> {
-    let mut links = Vec::new();
-    let mut visited = HashSet::new();
+    mut visit: impl FnMut(Link),
+) {
+    let mut visited = [std::ptr::null::<c_void>(); MAX_CHAIN];
+    let mut walked = 0;
     while !next.is_null() {
-        if !visited.insert(next as usize) || links.len() >= MAX_CHAIN {
+        if walked >= MAX_CHAIN || visited[..walked].contains(&next) {
             findings.push(Finding::new(
                 &rules::PNEXT_CHAIN,
                 Severity::Error,
                 function,
                 format!("{location}.pNext"),
-                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {} of it", links.len()),
+                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {walked} of it"),
             ));
             break;
         }
+        visited[walked] = next;
+        walked += 1;
         // SAFETY: the caller guarantees `next` points to a Vulkan structure,
         // whose first members are sType and pNext (VkBaseInStructure).
         let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
-        links.push(Link {
+        visit(Link {
             s_type: base.s_type.as_raw(),
             address: next,
         });
         next = base.p_next.cast();
     }
+}
+
+/// The structures of a pNext chain, walked as [`walk_chain`] walks it.
+///
+/// # Safety
+/// As for [`walk_chain`].
+pub(crate) unsafe fn chain(
+    next: *const c_void,
+    function: &'static str,
+    location: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> Vec<Link> {
+    let mut links = Vec::new();
+    // SAFETY: forwarded from the caller.
+    unsafe { walk_chain(next, function, location, findings, |link| links.push(link)) };
     links
 }
 
-/// The sTypes of a pNext chain, walked as [`chain`] walks it.
+/// The sTypes of a pNext chain, walked as [`walk_chain`] walks it.
 ///
 /// # Safety
-/// As for [`chain`].
+/// As for [`walk_chain`].
 pub(crate) unsafe fn chain_s_types(
     next: *const c_void,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> Vec<i32> {
+    let mut s_types = Vec::new();
     // SAFETY: forwarded from the caller.
-    unsafe { chain(next, function, location, findings) }
-        .into_iter()
-        .map(|link| link.s_type)
-        .collect()
+    unsafe {
+        walk_chain(next, function, location, findings, |link| {
+            s_types.push(link.s_type)
+        })
+    };
+    s_types
 }
 
 /// Copies up to [`MAX_ELEMENTS`] elements of an application array; `None`
@@ -106,7 +153,7 @@ pub(crate) unsafe fn read_array<T: Copy>(
     pointer: *const T,
     count: u32,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> Option<Vec<T>> {
     if pointer.is_null() {
@@ -122,7 +169,7 @@ pub(crate) unsafe fn read_array<T: Copy>(
 pub(crate) fn bounded_len(
     count: u32,
     function: &'static str,
-    location: &str,
+    location: impl Display,
     findings: &mut Vec<Finding>,
 ) -> usize {
     let len = usize::try_from(count).unwrap_or(usize::MAX);
@@ -155,7 +202,7 @@ pub(crate) unsafe fn usage_counts(
     array: *const vk::MicromapUsageEXT,
     pointers: *const *const vk::MicromapUsageEXT,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> UsageCounts {
     // SAFETY: forwarded from the caller.
@@ -164,7 +211,7 @@ pub(crate) unsafe fn usage_counts(
             array,
             count,
             function,
-            &format!("{location}.pUsageCounts"),
+            Member(location, ".pUsageCounts"),
             findings,
         )
     };
@@ -174,7 +221,7 @@ pub(crate) unsafe fn usage_counts(
             pointers,
             count,
             function,
-            &format!("{location}.ppUsageCounts"),
+            Member(location, ".ppUsageCounts"),
             findings,
         )
     };
@@ -207,7 +254,7 @@ pub(crate) unsafe fn usage_counts(
 pub unsafe fn micromap_build_info(
     info: &vk::MicromapBuildInfoEXT<'_>,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> MicromapBuildInfo {
     // The host members' provenance is exposed so a host build can read
@@ -273,7 +320,7 @@ pub(crate) unsafe fn micromap_build_infos(
         .enumerate()
         // SAFETY: forwarded from the caller.
         .map(|(i, info)| unsafe {
-            micromap_build_info(info, function, &format!("pInfos[{i}]"), findings)
+            micromap_build_info(info, function, Index("pInfos", i), findings)
         })
         .collect()
 }
