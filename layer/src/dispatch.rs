@@ -12,7 +12,7 @@ use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 use ash::vk;
 use ommcheck::raw::ReadableHost;
 use ommcheck::state::MemoryBinding;
-use ommcheck::Validator;
+use ommcheck::{Tier, Validator};
 
 use crate::abi::dispatch_key;
 use crate::report::Reporter;
@@ -270,6 +270,18 @@ pub struct DeviceData {
     /// could not say).
     pub queue_family_flags: Vec<vk::QueueFlags>,
     pub state: Mutex<DeviceState>,
+}
+
+impl DeviceState {
+    /// The device's tier reads memory contents (`content` and above; the
+    /// layer fixes the tier at device creation): device builds are kept
+    /// for the content checks at submission, and host builds are offered
+    /// the mapped memory their data may lie in. Below it neither is done,
+    /// since no check would look at a byte; keeping every build recorded
+    /// would only cost time and memory.
+    pub fn reads_contents(&self) -> bool {
+        self.validator.tier() >= Tier::Content
+    }
 }
 
 impl DeviceData {

@@ -26,6 +26,7 @@ use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts}
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
 use crate::state::HostRange;
+use crate::tier::Tier;
 use crate::Validator;
 use ommcheck_vuids::vuid;
 
@@ -439,7 +440,8 @@ impl Validator {
     /// end of that range, so each triangle's data can be checked to lie
     /// inside it (`OMMCHECK-build-triangle-data-in-range`) and decoded.
     /// A range longer than [`MAX_HOST_BYTES`] from `data` on is reported
-    /// and not read.
+    /// and not read. Below [`Tier::Content`] no host memory is read at all
+    /// (neither triangle arrays nor data): no check there looks at bytes.
     ///
     /// # Safety
     /// As [`Self::build_micromaps_raw`], and each of `readable` must be
@@ -473,7 +475,13 @@ impl Validator {
         // What is read here is not all the memory the application described,
         // unless it described memory to the validator before the call.
         self.state.host_memory_partial = partial_before || described_before == 0;
-        for (i, info) in model.iter().enumerate() {
+        // Below the content tier no check reads a byte, so none is copied.
+        let read_for = if self.tier >= Tier::Content {
+            &model[..]
+        } else {
+            &[]
+        };
+        for (i, info) in read_for.iter().enumerate() {
             // SAFETY: forwarded from the caller (`readable` is readable).
             unsafe { self.read_data_in_readable(i, info.data, readable, &mut findings) };
             let triangles = info.usage_counts.total();
@@ -750,6 +758,37 @@ mod tests {
         let report = build(&mut v, &[ReadableHost { len: 1, ..whole }]);
         assert_eq!(report.ids(), [rules::TRIANGLE_DATA_RANGE.id], "{report}");
         assert!(v.state.host_memory.is_empty() && !v.state.host_memory_partial);
+    }
+
+    #[test]
+    fn host_build_reads_host_memory_only_from_the_content_tier_on() {
+        let triangles = [0u8; 16];
+        let usages = [usage_ext(2)];
+        let mut scratch = [0u8; 64];
+        let data = [0u8; 8];
+        // The stride makes the triangle array longer than ommcheck reads, so
+        // reading it is reported (and nothing past the array is touched).
+        let info = vk::MicromapBuildInfoEXT {
+            triangle_array_stride: MAX_HOST_BYTES,
+            ..host_build_info(&triangles, &usages, &data, &mut scratch)
+        };
+        for tier in Tier::ALL {
+            let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+            v.set_tier(tier);
+            // SAFETY: the array is never read: its extent is past the bound.
+            let report = unsafe {
+                v.build_micromaps_ash(
+                    <vk::Device as vk::Handle>::from_raw(1),
+                    vk::DeferredOperationKHR::null(),
+                    &[info],
+                )
+            };
+            assert_eq!(
+                report.contains(&rules::READ_BOUND),
+                tier >= Tier::Content,
+                "{tier}: {report}"
+            );
+        }
     }
 
     #[test]
