@@ -5,7 +5,7 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::HashMap;
+use foldhash::HashMap;
 use std::ffi::{c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Mutex};
@@ -224,8 +224,8 @@ pub unsafe extern "system" fn create_device(
                 queue_family_flags,
                 state: Mutex::new(DeviceState {
                     validator,
-                    allocations: HashMap::new(),
-                    mappings: HashMap::new(),
+                    allocations: HashMap::default(),
+                    mappings: HashMap::default(),
                     memory_layout: Default::default(),
                     pipe: Default::default(),
                 }),

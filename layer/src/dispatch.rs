@@ -6,7 +6,7 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::HashMap;
+use foldhash::HashMap;
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 
 use ash::vk;
@@ -326,7 +326,7 @@ pub struct Registry<T> {
 impl<T> Registry<T> {
     pub const fn new() -> Self {
         Self {
-            map: LazyLock::new(|| RwLock::new(HashMap::new())),
+            map: LazyLock::new(|| RwLock::new(HashMap::default())),
         }
     }
 
