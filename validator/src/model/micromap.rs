@@ -48,30 +48,33 @@ impl UsageCounts {
     /// `pUsageCounts` when it is set, else from `ppUsageCounts` (skipping NULL
     /// elements), each with its index.
     pub fn entries(&self) -> (&'static str, Vec<(usize, MicromapUsage)>) {
-        if let Some(array) = &self.array {
-            ("pUsageCounts", array.iter().copied().enumerate().collect())
-        } else if let Some(pointers) = &self.pointers {
-            (
-                "ppUsageCounts",
-                pointers
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, p)| p.map(|u| (i, u)))
-                    .collect(),
-            )
+        let member = if self.array.is_none() && self.pointers.is_some() {
+            "ppUsageCounts"
         } else {
-            ("pUsageCounts", Vec::new())
-        }
+            "pUsageCounts"
+        };
+        (member, self.usages().collect())
+    }
+
+    /// The usages of [`Self::entries`], without collecting them.
+    fn usages(&self) -> impl Iterator<Item = (usize, MicromapUsage)> + '_ {
+        let array = self.array.iter().flatten().copied().enumerate();
+        let pointers = self
+            .pointers
+            .iter()
+            .filter(|_| self.array.is_none())
+            .flatten()
+            .enumerate()
+            .filter_map(|(i, p)| p.map(|u| (i, u)));
+        array.chain(pointers)
     }
 
     /// Σ count over the entries, in 64 bits (it cannot overflow: at most
     /// 2^32 entries of at most 2^32 - 1 each do not fit what we hold).
+    /// Checks call it several times per build, so it sums without
+    /// collecting the entries.
     pub fn total(&self) -> u64 {
-        self.entries()
-            .1
-            .iter()
-            .map(|(_, u)| u64::from(u.count))
-            .sum()
+        self.usages().map(|(_, u)| u64::from(u.count)).sum()
     }
 }
 
@@ -227,5 +230,17 @@ mod tests {
         assert_eq!(name, "ppUsageCounts");
         assert_eq!(entries.iter().map(|(i, _)| *i).collect::<Vec<_>>(), [0, 2]);
         assert_eq!(counts.total(), 1 + u64::from(u32::MAX));
+
+        let both = UsageCounts {
+            array: Some(vec![u(4), u(5)]),
+            ..counts
+        };
+        let (name, entries) = both.entries();
+        assert_eq!(name, "pUsageCounts");
+        assert_eq!(entries, [(0, u(4)), (1, u(5))]);
+        assert_eq!(both.total(), 9);
+        let neither = UsageCounts::default();
+        assert_eq!(neither.entries(), ("pUsageCounts", Vec::new()));
+        assert_eq!(neither.total(), 0);
     }
 }
