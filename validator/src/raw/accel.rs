@@ -20,8 +20,8 @@ use ommcheck_vuids::khr;
 use std::fmt::Display;
 
 use super::{
-    bounded_len, chain, chain_s_types, read_array, usage_counts, Index, Member, MAX_ELEMENTS,
-    MAX_HOST_BYTES,
+    array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, Index, Member,
+    MAX_ELEMENTS, MAX_HOST_BYTES,
 };
 use crate::checks::device_contents::DeviceBuild;
 use crate::model::accel::{
@@ -105,7 +105,7 @@ pub unsafe fn build_geometry_info(
     // SAFETY: the caller guarantees `pGeometries` is NULL or valid for
     // `geometryCount` elements; `bounded` is at most that many.
     let geometries =
-        unsafe { read_array(info.p_geometries, bounded, function, array_at, findings) };
+        unsafe { array_slice(info.p_geometries, bounded, function, array_at, findings) };
     let geometries = geometries.map(|list| {
         list.iter()
             .enumerate()
@@ -119,7 +119,7 @@ pub unsafe fn build_geometry_info(
     // SAFETY: the caller guarantees `ppGeometries` is NULL or valid for
     // `geometryCount` pointers; `bounded` is at most that many.
     let pointers =
-        unsafe { read_array(info.pp_geometries, bounded, function, pointers_at, findings) };
+        unsafe { array_slice(info.pp_geometries, bounded, function, pointers_at, findings) };
     let geometry_pointers = pointers.map(|list| {
         list.iter()
             .enumerate()

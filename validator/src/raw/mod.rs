@@ -157,13 +157,31 @@ pub(crate) unsafe fn read_array<T: Copy>(
     location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> Option<Vec<T>> {
+    // SAFETY: forwarded from the caller.
+    unsafe { array_slice(pointer, count, function, location, findings) }.map(<[T]>::to_vec)
+}
+
+/// Up to [`MAX_ELEMENTS`] elements of an application array in place, for
+/// a reader that turns each into the model at once (a copy would be
+/// dropped as soon as it is read); `None` for a NULL pointer.
+///
+/// # Safety
+/// A non-NULL `pointer` must point to `count` readable, initialised `T`s
+/// that stay so for `'a` (the call being checked).
+pub(crate) unsafe fn array_slice<'a, T>(
+    pointer: *const T,
+    count: u32,
+    function: &'static str,
+    location: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> Option<&'a [T]> {
     if pointer.is_null() {
         return None;
     }
     let len = bounded_len(count, function, location, findings);
     // SAFETY: the caller guarantees `count` elements are readable, and `len`
     // is at most `count`.
-    Some(unsafe { std::slice::from_raw_parts(pointer, len) }.to_vec())
+    Some(unsafe { std::slice::from_raw_parts(pointer, len) })
 }
 
 /// `count` bounded by [`MAX_ELEMENTS`], with a warning when it is cut.
@@ -208,7 +226,7 @@ pub(crate) unsafe fn usage_counts(
 ) -> UsageCounts {
     // SAFETY: forwarded from the caller.
     let array = unsafe {
-        read_array(
+        array_slice(
             array,
             count,
             function,
@@ -218,7 +236,7 @@ pub(crate) unsafe fn usage_counts(
     };
     // SAFETY: forwarded from the caller.
     let pointers = unsafe {
-        read_array(
+        array_slice(
             pointers,
             count,
             function,
@@ -227,11 +245,12 @@ pub(crate) unsafe fn usage_counts(
         )
     };
     let pointers = pointers.map(|list| {
-        list.into_iter()
+        list.iter()
             // SAFETY: each non-NULL element points to one VkMicromapUsageEXT.
-            .map(|p| (!p.is_null()).then(|| usage(unsafe { *p })))
+            .map(|&p| (!p.is_null()).then(|| usage(unsafe { *p })))
             .collect::<Vec<_>>()
     });
+    let array = array.map(|list| list.iter().copied().map(usage).collect::<Vec<_>>());
     let read = array
         .as_ref()
         .map(Vec::len)
@@ -239,7 +258,7 @@ pub(crate) unsafe fn usage_counts(
     UsageCounts {
         // A count cut to the bound is reported above; the model holds what was read.
         count: read.map_or(count, |n| n as u32),
-        array: array.map(|list| list.into_iter().map(usage).collect()),
+        array,
         pointers,
     }
 }
