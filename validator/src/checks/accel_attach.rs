@@ -1381,15 +1381,16 @@ pub fn record_original_attachments(state: &mut State, infos: &[BuildGeometryInfo
         {
             continue;
         }
-        let mut geometries = Vec::new();
-        if let Some(list) = &info.geometries {
-            geometries.extend(list.iter().map(KhrOpacityAttachment::of));
+        // Collected at their exact length: one allocation, no regrowth.
+        let geometries = if let Some(list) = &info.geometries {
+            list.iter().map(KhrOpacityAttachment::of).collect()
         } else if let Some(list) = &info.geometry_pointers {
-            geometries.extend(
-                list.iter()
-                    .map(|g| g.as_ref().map(KhrOpacityAttachment::of).unwrap_or_default()),
-            );
-        }
+            list.iter()
+                .map(|g| g.as_ref().map(KhrOpacityAttachment::of).unwrap_or_default())
+                .collect()
+        } else {
+            Vec::new()
+        };
         state.original_attachments.insert(
             info.dst_acceleration_structure,
             OriginalAttachments {
