@@ -195,12 +195,12 @@ pub(crate) fn device_address_usage(
     let Some(state) = ctx.state else {
         return;
     };
-    let buffers: Vec<(Handle, u64)> = state
-        .buffers_at(address)
-        .map(|(h, b)| (h, b.usage))
-        .collect();
-    if !buffers.is_empty() && !buffers.iter().any(|(_, u)| u & usage != 0) {
-        let handle = buffers[0].0;
+    // Walked, not collected: a valid call should not allocate.
+    let mut buffers = state.buffers_at(address);
+    let Some((handle, first)) = buffers.next() else {
+        return;
+    };
+    if first.usage & usage == 0 && !buffers.any(|(_, b)| b.usage & usage != 0) {
         ctx.error(vuid, location.to_string(), format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
             .objects
             .push(crate::report::ObjectRef { ty: "VkBuffer", handle });

@@ -590,8 +590,8 @@ pub(crate) fn build_info(
         limits.max_opacity4_state_subdivision_level,
         limits.max_displacement_micromap_subdivision_level,
     );
-    let (member, entries) = counts.entries();
-    for (k, usage) in &entries {
+    let member = counts.member();
+    for (k, usage) in counts.usages_read() {
         // Built only for a finding.
         let loc = || format!("{at}.{member}[{k}]");
         if opacity {
