@@ -455,3 +455,400 @@ fn eight_threads_creating_building_and_destroying_report_exactly_their_faults() 
     reported_for.dedup();
     assert_eq!(reported_for.len(), runs / 2);
 }
+
+/// Whom the application's calls go to in [`valid_calls`].
+#[derive(Clone, Copy, PartialEq)]
+enum Through {
+    Layer,
+    /// The fake driver's functions, called directly: no layer.
+    Driver,
+}
+
+/// The application's side of [`valid_calls`]: its host memory, at the same
+/// addresses in every run, and what it saw come back.
+struct App {
+    through: Through,
+    device: vk::Device,
+    /// The same in both runs (the fake driver has no vkGetDeviceQueue).
+    queue: vk::Queue,
+    /// What the application got back, in order: results, handles, out
+    /// parameters.
+    seen: Vec<String>,
+    /// A host-visible allocation the fake driver maps here: the triangle
+    /// array at 0, the data at 256, the attachment's indices at 512, the
+    /// vertices at 1024.
+    mapped: Box<[u8; 4096]>,
+    host_scratch: Box<[u8; 1 << 16]>,
+    /// The infos of the calls that pass `pInfos` to the driver as given.
+    micromap_info: Box<vk::MicromapBuildInfoEXT<'static>>,
+}
+
+impl App {
+    fn f<F: Copy>(&self, name: &CStr) -> F {
+        match self.through {
+            Through::Layer => device_fn(self.device, name),
+            Through::Driver => {
+                // SAFETY: a NUL-terminated name.
+                let f = unsafe { fake::fake_gdpa(self.device, name.as_ptr()) }
+                    .unwrap_or_else(|| panic!("the fake driver lacks {name:?}"));
+                // SAFETY: the caller names the command's function type.
+                unsafe { std::mem::transmute_copy(&f) }
+            }
+        }
+    }
+
+    fn saw(&mut self, what: impl std::fmt::Debug) {
+        self.seen.push(format!("{what:?}"));
+    }
+
+    fn buffer(&mut self, size: u64, usage: vk::BufferUsageFlags) -> (vk::Buffer, vk::DeviceMemory) {
+        let create: vk::PFN_vkCreateBuffer = self.f(c"vkCreateBuffer");
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        let mut buffer = vk::Buffer::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut buffer) };
+        self.saw((result, buffer));
+        let allocate: vk::PFN_vkAllocateMemory = self.f(c"vkAllocateMemory");
+        let info = vk::MemoryAllocateInfo::default()
+            .allocation_size(size)
+            .memory_type_index(1);
+        let mut memory = vk::DeviceMemory::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { allocate(self.device, &info, std::ptr::null(), &mut memory) };
+        self.saw((result, memory));
+        let bind: vk::PFN_vkBindBufferMemory = self.f(c"vkBindBufferMemory");
+        // SAFETY: valid arguments.
+        let result = unsafe { bind(self.device, buffer, memory, 0) };
+        self.saw(result);
+        (buffer, memory)
+    }
+
+    fn address(&mut self, buffer: vk::Buffer) -> u64 {
+        let get: vk::PFN_vkGetBufferDeviceAddress = self.f(c"vkGetBufferDeviceAddress");
+        let info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
+        // SAFETY: valid arguments.
+        let address = unsafe { get(self.device, &info) };
+        self.saw(address);
+        address
+    }
+}
+
+/// One valid use of everything the layer checks on the way to the driver:
+/// buffers, memory and its mapping, size queries, micromap and structure
+/// creation, device builds, copies, submission, host builds and copies,
+/// destruction. Returns nothing: what came back is in `app.seen`.
+fn valid_calls(app: &mut App) {
+    let address_usage = vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+    let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        | vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT
+        | address_usage;
+    let (input, input_memory) = app.buffer(4096, input_usage);
+    fake::map_to(app.mapped.as_mut_ptr());
+    let map: vk::PFN_vkMapMemory = app.f(c"vkMapMemory");
+    let mut mapped = std::ptr::null_mut();
+    // SAFETY: valid arguments.
+    let result = unsafe {
+        map(
+            app.device,
+            input_memory,
+            0,
+            vk::WHOLE_SIZE,
+            vk::MemoryMapFlags::empty(),
+            &mut mapped,
+        )
+    };
+    app.saw((result, mapped));
+    let (scratch, _) = app.buffer(
+        1 << 16,
+        vk::BufferUsageFlags::STORAGE_BUFFER | address_usage,
+    );
+    let (input, scratch) = (app.address(input), app.address(scratch));
+    let (storage, _) = app.buffer(8192, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT);
+    let structure_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | address_usage;
+    let (structure_storage, _) = app.buffer(1 << 17, structure_usage);
+
+    let device = app.device;
+    let build = micromap_build(vk::MicromapEXT::null(), input, input + 256, scratch);
+    let sizes_of: vk::PFN_vkGetMicromapBuildSizesEXT = app.f(c"vkGetMicromapBuildSizesEXT");
+    let mut micromap_sizes = vk::MicromapBuildSizesInfoEXT::default();
+    // SAFETY: valid arguments.
+    unsafe {
+        sizes_of(
+            device,
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            &build,
+            &mut micromap_sizes,
+        )
+    };
+    app.saw((
+        micromap_sizes.micromap_size,
+        micromap_sizes.build_scratch_size,
+        micromap_sizes.discardable,
+    ));
+    let create_micromap: vk::PFN_vkCreateMicromapEXT = app.f(c"vkCreateMicromapEXT");
+    let mut micromaps = [vk::MicromapEXT::null(); 2];
+    for (k, micromap) in micromaps.iter_mut().enumerate() {
+        let info = vk::MicromapCreateInfoEXT {
+            buffer: storage,
+            offset: 4096 * k as u64,
+            size: 4096,
+            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+            ..Default::default()
+        };
+        // SAFETY: valid arguments.
+        let result = unsafe { create_micromap(device, &info, std::ptr::null(), micromap) };
+        app.saw((result, *micromap));
+    }
+
+    let mut attachment = Default::default();
+    let geometry = attached_triangles(input + 1024, input + 512, micromaps[0], &mut attachment);
+    let sizes_info = blas_build(&geometry, vk::AccelerationStructureKHR::null(), 0);
+    let structure_sizes_of: vk::PFN_vkGetAccelerationStructureBuildSizesKHR =
+        app.f(c"vkGetAccelerationStructureBuildSizesKHR");
+    let mut structure_sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    // SAFETY: valid arguments: one geometry, one count.
+    unsafe {
+        structure_sizes_of(
+            device,
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            &sizes_info,
+            [2u32].as_ptr(),
+            &mut structure_sizes,
+        )
+    };
+    app.saw((
+        structure_sizes.acceleration_structure_size,
+        structure_sizes.update_scratch_size,
+        structure_sizes.build_scratch_size,
+    ));
+    let create_structure: vk::PFN_vkCreateAccelerationStructureKHR =
+        app.f(c"vkCreateAccelerationStructureKHR");
+    let mut structures = [vk::AccelerationStructureKHR::null(); 2];
+    for (k, structure) in structures.iter_mut().enumerate() {
+        let info = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(structure_storage)
+            .offset((1 << 16) * k as u64)
+            .size(1 << 16)
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
+        // SAFETY: valid arguments.
+        let result = unsafe { create_structure(device, &info, std::ptr::null(), structure) };
+        app.saw((result, *structure));
+    }
+
+    // Device builds and copies, recorded and submitted.
+    let create_pool: vk::PFN_vkCreateCommandPool = app.f(c"vkCreateCommandPool");
+    let info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
+    let mut pool = vk::CommandPool::null();
+    // SAFETY: valid arguments.
+    let result = unsafe { create_pool(device, &info, std::ptr::null(), &mut pool) };
+    app.saw((result, pool));
+    let allocate: vk::PFN_vkAllocateCommandBuffers = app.f(c"vkAllocateCommandBuffers");
+    let info = vk::CommandBufferAllocateInfo::default()
+        .command_pool(pool)
+        .level(vk::CommandBufferLevel::PRIMARY)
+        .command_buffer_count(1);
+    let mut command_buffer = vk::CommandBuffer::null();
+    // SAFETY: valid arguments.
+    let result = unsafe { allocate(device, &info, &mut command_buffer) };
+    app.saw((result, command_buffer));
+    let begin: vk::PFN_vkBeginCommandBuffer = app.f(c"vkBeginCommandBuffer");
+    let info =
+        vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+    // SAFETY: valid arguments.
+    app.saw(unsafe { begin(command_buffer, &info) });
+    *app.micromap_info = micromap_build(micromaps[0], input, input + 256, scratch);
+    let cmd_build_micromaps: vk::PFN_vkCmdBuildMicromapsEXT = app.f(c"vkCmdBuildMicromapsEXT");
+    // SAFETY: a recording command buffer, one info.
+    unsafe { cmd_build_micromaps(command_buffer, 1, &*app.micromap_info) };
+    let info = blas_build(&geometry, structures[0], scratch);
+    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR {
+        primitive_count: 2,
+        ..Default::default()
+    }];
+    let range_pointers = [ranges.as_ptr()];
+    let cmd_build_structures: vk::PFN_vkCmdBuildAccelerationStructuresKHR =
+        app.f(c"vkCmdBuildAccelerationStructuresKHR");
+    // SAFETY: a recording command buffer, one info and its ranges.
+    unsafe { cmd_build_structures(command_buffer, 1, &info, range_pointers.as_ptr()) };
+    let cmd_copy_micromap: vk::PFN_vkCmdCopyMicromapEXT = app.f(c"vkCmdCopyMicromapEXT");
+    let copy = vk::CopyMicromapInfoEXT {
+        src: micromaps[0],
+        dst: micromaps[1],
+        mode: vk::CopyMicromapModeEXT::CLONE,
+        ..Default::default()
+    };
+    // SAFETY: a recording command buffer; valid pointers.
+    unsafe { cmd_copy_micromap(command_buffer, &copy) };
+    let cmd_copy_structure: vk::PFN_vkCmdCopyAccelerationStructureKHR =
+        app.f(c"vkCmdCopyAccelerationStructureKHR");
+    let copy_structure = vk::CopyAccelerationStructureInfoKHR {
+        src: structures[0],
+        dst: structures[1],
+        mode: vk::CopyAccelerationStructureModeKHR::CLONE,
+        ..Default::default()
+    };
+    // SAFETY: as above.
+    unsafe { cmd_copy_structure(command_buffer, &copy_structure) };
+    let end: vk::PFN_vkEndCommandBuffer = app.f(c"vkEndCommandBuffer");
+    // SAFETY: a recording command buffer.
+    app.saw(unsafe { end(command_buffer) });
+    let submit: vk::PFN_vkQueueSubmit = app.f(c"vkQueueSubmit");
+    let queue = app.queue;
+    let command_buffers = [command_buffer];
+    let submit_info = vk::SubmitInfo::default().command_buffers(&command_buffers);
+    // SAFETY: valid arguments.
+    app.saw(unsafe { submit(queue, 1, &submit_info, vk::Fence::null()) });
+
+    // Host builds and copies, from the application's own memory.
+    let host = |p: *const u8| p.expose_provenance() as u64;
+    let triangles = host(app.mapped.as_ptr());
+    let host_scratch = host(app.host_scratch.as_mut_ptr());
+    *app.micromap_info = micromap_build(micromaps[0], triangles, triangles + 256, host_scratch);
+    let build_micromaps: vk::PFN_vkBuildMicromapsEXT = app.f(c"vkBuildMicromapsEXT");
+    // SAFETY: one info with live host addresses.
+    app.saw(unsafe {
+        build_micromaps(
+            device,
+            vk::DeferredOperationKHR::null(),
+            1,
+            &*app.micromap_info,
+        )
+    });
+    let mut host_attachment = Default::default();
+    let host_geometry = attached_triangles(
+        triangles + 1024,
+        triangles + 512,
+        micromaps[0],
+        &mut host_attachment,
+    );
+    let host_info = blas_build(&host_geometry, structures[0], host_scratch);
+    let build_structures: vk::PFN_vkBuildAccelerationStructuresKHR =
+        app.f(c"vkBuildAccelerationStructuresKHR");
+    // SAFETY: one info with live host addresses, and its ranges.
+    app.saw(unsafe {
+        build_structures(
+            device,
+            vk::DeferredOperationKHR::null(),
+            1,
+            &host_info,
+            range_pointers.as_ptr(),
+        )
+    });
+    let copy_micromap: vk::PFN_vkCopyMicromapEXT = app.f(c"vkCopyMicromapEXT");
+    // SAFETY: valid arguments.
+    app.saw(unsafe { copy_micromap(device, vk::DeferredOperationKHR::null(), &copy) });
+    let copy_structure_on_host: vk::PFN_vkCopyAccelerationStructureKHR =
+        app.f(c"vkCopyAccelerationStructureKHR");
+    // SAFETY: valid arguments.
+    app.saw(unsafe {
+        copy_structure_on_host(device, vk::DeferredOperationKHR::null(), &copy_structure)
+    });
+
+    // Destruction.
+    let free: vk::PFN_vkFreeCommandBuffers = app.f(c"vkFreeCommandBuffers");
+    let destroy_pool: vk::PFN_vkDestroyCommandPool = app.f(c"vkDestroyCommandPool");
+    let destroy_structure: vk::PFN_vkDestroyAccelerationStructureKHR =
+        app.f(c"vkDestroyAccelerationStructureKHR");
+    let destroy_micromap: vk::PFN_vkDestroyMicromapEXT = app.f(c"vkDestroyMicromapEXT");
+    // SAFETY: objects of this device that nothing pending uses.
+    unsafe {
+        free(device, pool, 1, &command_buffer);
+        destroy_pool(device, pool, std::ptr::null());
+        for structure in structures {
+            destroy_structure(device, structure, std::ptr::null());
+        }
+        for micromap in micromaps {
+            destroy_micromap(device, micromap, std::ptr::null());
+        }
+    }
+}
+
+#[test]
+fn valid_calls_reach_the_driver_and_come_back_as_without_the_layer() {
+    let chain = chain();
+    let info = Box::<fake::Collector>::default();
+    let _messenger = fake::add_messenger(
+        chain.instance,
+        vk::DebugUtilsMessageSeverityFlagsEXT::INFO
+            | vk::DebugUtilsMessageSeverityFlagsEXT::VERBOSE,
+        &info,
+    );
+    let mut mapped = Box::new([0u8; 4096]);
+    // The triangle array, the data, the attachment's indices, the vertices.
+    // SAFETY: 16 bytes of triangles at 0, all inside the 4096.
+    unsafe {
+        mapped
+            .as_mut_ptr()
+            .copy_from_nonoverlapping(TRIANGLES.as_ptr().cast(), 16)
+    };
+    mapped[256..258].copy_from_slice(&[0x1, 0x2]);
+    mapped[512..520].copy_from_slice(&[0, 0, 0, 0, 1, 0, 0, 0]);
+    let mut app = App {
+        through: Through::Driver,
+        device: chain.device,
+        // A queue shares its device's dispatch key.
+        queue: vk::Queue::from_raw(dispatchable(key_of(chain.device.as_raw()))),
+        seen: Vec::new(),
+        mapped,
+        host_scratch: Box::new([0; 1 << 16]),
+        micromap_info: Box::default(),
+    };
+    fake::describe_calls(true);
+    let run = |app: &mut App, through| {
+        fake::reset();
+        app.through = through;
+        app.seen.clear();
+        valid_calls(app);
+        (fake::all_calls(), std::mem::take(&mut app.seen))
+    };
+    let (driver_alone, seen_alone) = run(&mut app, Through::Driver);
+    let (through_layer, seen_through) = run(&mut app, Through::Layer);
+    fake::describe_calls(false);
+
+    // The layer added, dropped and changed nothing.
+    assert_eq!(through_layer.len(), driver_alone.len());
+    for (with, without) in through_layer.iter().zip(&driver_alone) {
+        assert_eq!(with, without);
+    }
+    assert_eq!(seen_through, seen_alone);
+    // The log is the calls made, with the contents that matter.
+    let names: Vec<&str> = driver_alone.iter().map(|c| c.name).collect();
+    for name in [
+        "vkGetMicromapBuildSizesEXT",
+        "vkGetAccelerationStructureBuildSizesKHR",
+        "vkCmdBuildMicromapsEXT",
+        "vkCmdBuildAccelerationStructuresKHR",
+        "vkCmdCopyMicromapEXT",
+        "vkCmdCopyAccelerationStructureKHR",
+        "vkQueueSubmit",
+        "vkBuildMicromapsEXT",
+        "vkBuildAccelerationStructuresKHR",
+        "vkCopyMicromapEXT",
+        "vkCopyAccelerationStructureKHR",
+    ] {
+        assert_eq!(
+            names.iter().filter(|&&n| n == name).count(),
+            1,
+            "{name}: {names:?}"
+        );
+    }
+    let structure_build = &driver_alone[names
+        .iter()
+        .position(|&n| n == "vkBuildAccelerationStructuresKHR")
+        .unwrap()];
+    assert!(
+        structure_build.detail.contains("omm UINT32"),
+        "{}",
+        structure_build.detail
+    );
+    assert!(
+        structure_build.detail.contains("primitive_count: 2"),
+        "{}",
+        structure_build.detail
+    );
+    // And nothing was reported: the calls were valid.
+    let reported = chain.collector.take();
+    assert!(reported.is_empty(), "{reported:#?}");
+    let informed = info.take();
+    assert!(informed.is_empty(), "{informed:#?}");
+}
