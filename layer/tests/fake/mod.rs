@@ -67,7 +67,7 @@ thread_local! {
 }
 
 fn record(name: &'static str, args: Vec<u64>) {
-    record_with(name, args, || String::new());
+    record_with(name, args, String::new);
 }
 
 /// Records the call, with `detail()` when calls are described.

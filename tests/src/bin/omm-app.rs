@@ -1110,8 +1110,7 @@ fn threads(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
             .collect();
         workers
             .into_iter()
-            .map(|w| w.join().map_err(|_| "a thread panicked".to_string())?)
-            .collect()
+            .try_for_each(|w| w.join().map_err(|_| "a thread panicked".to_string())?)
     });
     let _ = disarm.send(());
     outcome?;
