@@ -382,3 +382,33 @@ fn ommcheck_stacks_with_the_khronos_validation_layer_in_either_order() {
         }
     }
 }
+
+#[test]
+fn eight_threads_over_the_mock_icd_report_exactly_their_faults() {
+    let Some(icd) = prepared("OMMCHECK_TEST_MOCK_ICD") else {
+        return;
+    };
+    // No duplicate limit: every finding must arrive, as often as made.
+    let run = Scenario {
+        settings: &[("OMMCHECK_DUPLICATE_LIMIT", "0")],
+        ..Scenario::new("threads", &icd)
+    }
+    .run();
+    assert_layer_inserted(&run);
+    // omm-app exits 2 if its threads have not finished within 60 s (a
+    // deadlock); it succeeded, so they did.
+    let runs = run.results["threads"].as_u64().expect("threads") as usize
+        * run.results["iterations"].as_u64().expect("iterations") as usize;
+    assert!(runs > 0, "{run:#?}");
+    assert_eq!(run.results["failed_calls"], 0, "{run:#?}");
+    let mut counts = std::collections::BTreeMap::new();
+    for message in &run.messages {
+        *counts.entry(message.id.as_str()).or_insert(0usize) += 1;
+    }
+    let expected = std::collections::BTreeMap::from([
+        (BOTH_USAGE_POINTERS, 2 * runs),
+        ("VUID-VkAccelerationStructureCreateInfoKHR-type-11600", runs),
+    ]);
+    assert_eq!(counts, expected, "{run:#?}");
+    assert!(run.messages.iter().all(|m| m.phase == "threads"));
+}

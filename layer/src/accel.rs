@@ -411,8 +411,9 @@ unsafe extern "system" fn destroy_acceleration_structure(
     })
 }
 
-/// `vkCmdBuildAccelerationStructuresKHR`: checked at recording; its
-/// contents (index buffers, micromap inputs) when the command buffer is submitted.
+/// `vkCmdBuildAccelerationStructuresKHR`: checked at recording; at the
+/// content tier and above its contents (index buffers, micromap inputs)
+/// when the command buffer is submitted.
 unsafe extern "system" fn cmd_build_acceleration_structures(
     command_buffer: vk::CommandBuffer,
     info_count: u32,
@@ -420,7 +421,8 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
     build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
 ) {
     // The build as read and the command buffer as checked, kept for the
-    // content checks at submission once the command is recorded below.
+    // content checks at submission once the command is recorded below
+    // (at the content tier and above: see `DeviceState::reads_contents`).
     let kept = std::cell::Cell::new(None);
     recorded(
         "vkCmdBuildAccelerationStructuresKHR",
@@ -436,7 +438,9 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
                     build_range_infos,
                 )
             };
-            kept.set(Some((build, model.clone())));
+            if state.reads_contents() {
+                kept.set(Some((build, model.clone())));
+            }
             report
         },
         |next| {

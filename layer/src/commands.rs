@@ -12,7 +12,7 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::{HashMap, HashSet};
+use foldhash::{HashMap, HashSet};
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError};
 
 use ash::vk;
@@ -184,7 +184,7 @@ struct CommandBuffers {
 const SHARDS: usize = 16;
 
 static COMMAND_BUFFERS: LazyLock<CommandBuffers> = LazyLock::new(|| CommandBuffers {
-    shards: std::array::from_fn(|_| Mutex::new(HashMap::new())),
+    shards: std::array::from_fn(|_| Mutex::new(HashMap::default())),
 });
 
 /// Command pools by (device dispatch key, pool handle): the queue flags of
@@ -196,7 +196,7 @@ struct Pool {
 }
 
 static POOLS: LazyLock<Mutex<HashMap<(usize, u64), Pool>>> =
-    LazyLock::new(|| Mutex::new(HashMap::new()));
+    LazyLock::new(|| Mutex::new(HashMap::default()));
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
     // The data behind these locks is plain maps updated in single steps;
@@ -310,7 +310,7 @@ unsafe extern "system" fn create_command_pool(
                     (device_key(device), pool.as_raw()),
                     Pool {
                         queue_flags,
-                        command_buffers: HashSet::new(),
+                        command_buffers: HashSet::default(),
                     },
                 );
             }

@@ -5,7 +5,7 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::HashMap;
+use foldhash::HashMap;
 use std::ffi::{c_void, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Mutex};
@@ -224,8 +224,8 @@ pub unsafe extern "system" fn create_device(
                 queue_family_flags,
                 state: Mutex::new(DeviceState {
                     validator,
-                    allocations: HashMap::new(),
-                    mappings: HashMap::new(),
+                    allocations: HashMap::default(),
+                    mappings: HashMap::default(),
                     memory_layout: Default::default(),
                     pipe: Default::default(),
                 }),
@@ -813,8 +813,9 @@ unsafe extern "system" fn destroy_micromap(
 }
 
 /// `vkCmdBuildMicromapsEXT`: checked against the command buffer's tracked
-/// state, then recorded below unless a messenger asks to skip it. The
-/// build's contents are checked when the command buffer is submitted.
+/// state, then recorded below unless a messenger asks to skip it. At the
+/// content tier and above the build's contents are checked when the
+/// command buffer is submitted.
 unsafe extern "system" fn cmd_build_micromaps(
     command_buffer: vk::CommandBuffer,
     info_count: u32,
@@ -835,7 +836,7 @@ unsafe extern "system" fn cmd_build_micromaps(
                     .validator
                     .cmd_build_micromaps_raw_kept(&recording, info_count, infos)
             };
-            kept = build;
+            kept = build.filter(|_| state.reads_contents());
             report
         });
         if !skip {
@@ -848,9 +849,9 @@ unsafe extern "system" fn cmd_build_micromaps(
     })
 }
 
-/// `vkBuildMicromapsEXT`: checked at the call, reading the triangle array
-/// and (where it lies in mapped memory) the data in full, then passed on
-/// unless a messenger asks to skip it.
+/// `vkBuildMicromapsEXT`: checked at the call, reading (at the content tier
+/// and above) the triangle array and, where it lies in mapped memory, the
+/// data in full, then passed on unless a messenger asks to skip it.
 unsafe extern "system" fn build_micromaps(
     device: vk::Device,
     deferred_operation: vk::DeferredOperationKHR,
@@ -869,7 +870,11 @@ unsafe extern "system" fn build_micromaps(
                 "vkBuildMicromapsEXT",
                 device_object(device),
                 |state| {
-                    let mapped: Vec<ReadableHost> = state.mappings.values().copied().collect();
+                    let mapped: Vec<ReadableHost> = if state.reads_contents() {
+                        state.mappings.values().copied().collect()
+                    } else {
+                        Vec::new()
+                    };
                     // SAFETY: the application's arguments, valid as the API
                     // requires; mapped ranges stay readable until unmapped.
                     unsafe {

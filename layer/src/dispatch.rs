@@ -6,13 +6,13 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::HashMap;
+use foldhash::HashMap;
 use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError, RwLock};
 
 use ash::vk;
 use ommcheck::raw::ReadableHost;
 use ommcheck::state::MemoryBinding;
-use ommcheck::Validator;
+use ommcheck::{Tier, Validator};
 
 use crate::abi::dispatch_key;
 use crate::report::Reporter;
@@ -272,6 +272,18 @@ pub struct DeviceData {
     pub state: Mutex<DeviceState>,
 }
 
+impl DeviceState {
+    /// The device's tier reads memory contents (`content` and above; the
+    /// layer fixes the tier at device creation): device builds are kept
+    /// for the content checks at submission, and host builds are offered
+    /// the mapped memory their data may lie in. Below it neither is done,
+    /// since no check would look at a byte; keeping every build recorded
+    /// would only cost time and memory.
+    pub fn reads_contents(&self) -> bool {
+        self.validator.tier() >= Tier::Content
+    }
+}
+
 impl DeviceData {
     /// The checked state; a check that panicked is caught inside the lock,
     /// so poisoning cannot happen, but is tolerated all the same.
@@ -314,7 +326,7 @@ pub struct Registry<T> {
 impl<T> Registry<T> {
     pub const fn new() -> Self {
         Self {
-            map: LazyLock::new(|| RwLock::new(HashMap::new())),
+            map: LazyLock::new(|| RwLock::new(HashMap::default())),
         }
     }
 

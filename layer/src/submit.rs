@@ -8,11 +8,12 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::ffi::CStr;
 use std::sync::Arc;
 
 use ash::vk;
+use foldhash::HashMap;
 use ommcheck::raw::MAX_HOST_BYTES;
 use ommcheck::state::Handle;
 use ommcheck::Severity;

@@ -20,10 +20,11 @@
 
 #![allow(unsafe_code)]
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
 use ash::vk;
 use ash::vk::Handle as _;
+use foldhash::HashMap;
 use ommcheck::checks::pipeline_sync::spirv::SpirvModule;
 use ommcheck::checks::pipeline_sync::WorkCommand;
 use ommcheck::model::pipeline::{

@@ -8,6 +8,7 @@
 
 mod fake;
 
+use std::ffi::CStr;
 use std::sync::Once;
 
 use ash::vk;
@@ -26,12 +27,30 @@ const CONTENTS_NOT_CHECKED: &str = "OMMCHECK-layer-contents-not-checked";
 
 /// The chain, with this binary's settings in place before the first instance.
 fn chain() -> Chain {
+    chain_at_tier(None)
+}
+
+/// As [`chain`], at `tier` (through VK_EXT_layer_settings) where given.
+fn chain_at_tier(tier: Option<&CStr>) -> Chain {
     static SETTINGS: Once = Once::new();
     SETTINGS.call_once(|| {
         std::env::set_var("OMMCHECK_REPORT", "error,warning,info");
         std::env::set_var("OMMCHECK_DUPLICATE_LIMIT", "0");
     });
-    Chain::new()
+    let Some(tier) = tier else {
+        return Chain::new();
+    };
+    let values = [tier.as_ptr()];
+    let settings = [vk::LayerSettingEXT {
+        p_layer_name: VkLayer_ommcheck::LAYER_NAME_C.as_ptr(),
+        p_setting_name: c"tier".as_ptr(),
+        ty: vk::LayerSettingTypeEXT::STRING,
+        value_count: 1,
+        p_values: values.as_ptr().cast(),
+        ..Default::default()
+    }];
+    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    Chain::with_instance_next((&info as *const vk::LayerSettingsCreateInfoEXT).cast())
 }
 
 fn ids(received: &[Received]) -> Vec<&str> {
@@ -352,6 +371,38 @@ fn contents_in_device_local_memory_are_reported_not_checked_once_per_device() {
         vk::DebugUtilsMessageSeverityFlagsEXT::INFO
     );
     assert!(chain.collector.take().is_empty());
+}
+
+/// Below the content tier no check reads a build's contents, so the layer
+/// keeps no device build for submission: neither the index past the
+/// micromap in mapped memory nor the contents in device-local memory are
+/// looked at, and nothing is reported at submission.
+#[test]
+fn below_the_content_tier_submission_looks_at_no_build() {
+    for tier in [c"params", c"state"] {
+        let chain = chain_at_tier(Some(tier));
+        let info = Box::<Collector>::default();
+        let _messenger = add_messenger(
+            chain.instance,
+            vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            &info,
+        );
+        let mut mapped = Scene::new(&chain, 1);
+        mapped.indices[1] = 5;
+        let device_local = Scene::new(&chain, 0);
+        let command_buffer = allocate_command_buffer(&chain);
+        begin(&chain, command_buffer);
+        mapped.record_micromap_build(&chain, command_buffer, &mapped.micromap_build());
+        mapped.record_blas_build(&chain, command_buffer);
+        device_local.record_blas_build(&chain, command_buffer);
+        end(&chain, command_buffer);
+        assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
+
+        let received = chain.collector.take();
+        assert!(received.is_empty(), "{tier:?}: {received:#?}");
+        let info = info.take();
+        assert!(info.is_empty(), "{tier:?}: {info:#?}");
+    }
 }
 
 #[test]

@@ -84,4 +84,4 @@ mod validator;
 pub use device::{Device, Features, Limits, Profile};
 pub use report::{Finding, Report, RuleId, Severity};
 pub use tier::Tier;
-pub use validator::Validator;
+pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};

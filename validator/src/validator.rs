@@ -85,9 +85,18 @@ impl Validator {
             hygiene: self.tier >= Tier::Simulate,
             function,
             report: Report::new(),
+            per_rule: Vec::new(),
+            unlisted: None,
         }
     }
 }
+
+/// At most this many findings of one rule are listed for one call; the last
+/// one listed says how many more there were. One call can hold up to 2^20
+/// infos, and an application that gets all of them wrong the same way would
+/// otherwise make us hold millions of findings (hundreds of bytes each)
+/// inside its process.
+pub const FINDINGS_PER_RULE_PER_CALL: u32 = 256;
 
 /// What one check runs with: the device, the tracked state (None below the
 /// state tier), whether buffer contents may be read, the function being
@@ -102,6 +111,12 @@ pub(crate) struct Ctx<'a> {
     pub hygiene: bool,
     pub function: &'static str,
     pub report: Report,
+    /// Findings reported so far per rule in this call (few rules a call, so
+    /// a list is as fast as a map), to apply [`FINDINGS_PER_RULE_PER_CALL`].
+    per_rule: Vec<(RuleId, u32)>,
+    /// Where a finding past the limit is built and dropped: `report` hands
+    /// out a `&mut Finding` whether or not the finding is listed.
+    unlisted: Option<Finding>,
 }
 
 impl<'a> Ctx<'a> {
@@ -119,13 +134,19 @@ impl<'a> Ctx<'a> {
         location: impl Into<String>,
         message: impl Into<String>,
     ) -> &mut Finding {
-        self.report.findings.push(Finding::new(
-            rule,
-            severity,
-            self.function,
-            location,
-            message,
-        ));
+        let finding = Finding::new(rule, severity, self.function, location, message);
+        let count = match self.per_rule.iter_mut().find(|(r, _)| *r == finding.rule) {
+            Some((_, count)) => count,
+            None => {
+                self.per_rule.push((finding.rule, 0));
+                &mut self.per_rule.last_mut().expect("just pushed").1
+            }
+        };
+        *count = count.saturating_add(1);
+        if *count > FINDINGS_PER_RULE_PER_CALL {
+            return self.unlisted.insert(finding);
+        }
+        self.report.findings.push(finding);
         self.report.findings.last_mut().expect("just pushed")
     }
 
@@ -152,7 +173,88 @@ impl<'a> Ctx<'a> {
         }
     }
 
-    pub fn finish(self) -> Report {
+    /// The findings, the last listed one of each rule past the limit saying
+    /// how many more were found.
+    pub fn finish(mut self) -> Report {
+        for (rule, count) in &self.per_rule {
+            let unlisted = count.saturating_sub(FINDINGS_PER_RULE_PER_CALL);
+            if unlisted == 0 {
+                continue;
+            }
+            if let Some(last) = self
+                .report
+                .findings
+                .iter_mut()
+                .rev()
+                .find(|f| f.rule == *rule)
+            {
+                let message = last.message.trim_end_matches('.').len();
+                last.message.truncate(message);
+                last.message.push_str(&format!(
+                    " ({unlisted} more findings of this rule in this call are not listed)."
+                ));
+            }
+        }
         self.report
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ommcheck_vuids::vuid;
+
+    fn ctx_with(validator: &Validator, findings: u32) -> Report {
+        let mut ctx = validator.ctx("vkCmdBuildMicromapsEXT");
+        for i in 0..findings {
+            ctx.error(
+                vuid::vkCmdBuildMicromapsEXT::dstMicromap_11649,
+                format!("pInfos[{i}]"),
+                "collides.",
+            )
+            .objects
+            .push(crate::report::ObjectRef {
+                ty: "VkMicromapEXT",
+                handle: u64::from(i),
+            });
+        }
+        ctx.error(
+            vuid::vkCmdBuildMicromapsEXT::scratchData_11651,
+            "pInfos[0]",
+            "other rule.",
+        );
+        ctx.finish()
+    }
+
+    #[test]
+    fn findings_of_one_rule_are_listed_up_to_the_limit_and_the_rest_counted() {
+        let validator = Validator::new(Device::default());
+        let over = ctx_with(&validator, FINDINGS_PER_RULE_PER_CALL + 1000);
+        let listed: Vec<_> = over
+            .with_rule(vuid::vkCmdBuildMicromapsEXT::dstMicromap_11649)
+            .collect();
+        assert_eq!(listed.len(), FINDINGS_PER_RULE_PER_CALL as usize);
+        let last = listed.last().unwrap();
+        assert_eq!(
+            last.location,
+            format!("pInfos[{}]", FINDINGS_PER_RULE_PER_CALL - 1)
+        );
+        assert_eq!(
+            last.message,
+            "collides (1000 more findings of this rule in this call are not listed)."
+        );
+        // Other rules keep their own count.
+        assert_eq!(
+            over.with_rule(vuid::vkCmdBuildMicromapsEXT::scratchData_11651)
+                .count(),
+            1
+        );
+
+        let at = ctx_with(&validator, FINDINGS_PER_RULE_PER_CALL);
+        assert_eq!(at.len(), FINDINGS_PER_RULE_PER_CALL as usize + 1);
+        assert!(at
+            .findings
+            .iter()
+            .all(|f| !f.message.contains("not listed")));
     }
 }

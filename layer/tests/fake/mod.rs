@@ -22,29 +22,59 @@ use layer::abi::{
     LayerInstanceCreateInfoUnion, LayerInstanceLink, LAYER_LINK_INFO,
 };
 
-/// A call the fake driver received: its name and the arguments a test looks at.
+/// A call the fake driver received: its name, the arguments a test looks
+/// at, and (while [`describe_calls`] is on) what its pointers pointed to
+/// and what it returned, as text.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Call {
     pub name: &'static str,
     pub args: Vec<u64>,
+    pub detail: String,
 }
 
 #[derive(Default)]
 struct Driver {
     calls: Vec<Call>,
+    /// This thread's handles are `base + 1`, `base + 2`, ...: threads share
+    /// the layer, which tracks objects by handle, so no two threads may hand
+    /// out the same one.
+    base: u64,
     next_handle: u64,
     /// What vkMapMemory hands out: test-owned memory.
     mapped: usize,
     /// The maxOpacity2StateSubdivisionLevel vkGetPhysicalDeviceProperties2 reports.
     reported_2_state_level: u32,
+    /// Whether calls are logged with their pointed-to contents. Off unless
+    /// a test asks: other tests pass counts their arrays do not hold (the
+    /// layer must bound what it reads; the fake driver would read them).
+    describe: bool,
+    /// Command buffers handed out since the last [`reset`], reused in order
+    /// after it, so a rerun of the same calls sees the same handles.
+    command_buffers: Vec<u64>,
+    next_command_buffer: usize,
 }
 
+/// Gives each thread's driver its own range of handles.
+static THREADS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
 thread_local! {
-    static DRIVER: RefCell<Driver> = RefCell::new(Driver { next_handle: 1, reported_2_state_level: 3, ..Driver::default() });
+    static DRIVER: RefCell<Driver> = RefCell::new({
+        // Handles stay below 2^44 (buffer addresses are `handle << 20`) for
+        // the first 2^20 threads; no test process starts that many.
+        let base = THREADS.fetch_add(1, std::sync::atomic::Ordering::Relaxed) << 24;
+        Driver { base, next_handle: base + 1, reported_2_state_level: 3, ..Driver::default() }
+    });
 }
 
 fn record(name: &'static str, args: Vec<u64>) {
-    DRIVER.with_borrow_mut(|d| d.calls.push(Call { name, args }));
+    record_with(name, args, String::new);
+}
+
+/// Records the call, with `detail()` when calls are described.
+fn record_with(name: &'static str, args: Vec<u64>, detail: impl FnOnce() -> String) {
+    let describe = DRIVER.with_borrow(|d| d.describe);
+    let detail = if describe { detail() } else { String::new() };
+    DRIVER.with_borrow_mut(|d| d.calls.push(Call { name, args, detail }));
 }
 
 fn next_handle() -> u64 {
@@ -57,6 +87,26 @@ fn next_handle() -> u64 {
 /// The calls this thread's fake driver received with `name`.
 pub fn calls(name: &str) -> Vec<Call> {
     DRIVER.with_borrow(|d| d.calls.iter().filter(|c| c.name == name).cloned().collect())
+}
+
+/// Every call this thread's fake driver received, in order.
+pub fn all_calls() -> Vec<Call> {
+    DRIVER.with_borrow(|d| d.calls.clone())
+}
+
+/// Turns the logging of pointed-to contents on or off for this thread.
+pub fn describe_calls(on: bool) {
+    DRIVER.with_borrow_mut(|d| d.describe = on);
+}
+
+/// Forgets this thread's calls and starts its handles (and command
+/// buffers) over, so the same calls made again get the same handles back.
+pub fn reset() {
+    DRIVER.with_borrow_mut(|d| {
+        d.calls.clear();
+        d.next_handle = d.base + 1;
+        d.next_command_buffer = 0;
+    });
 }
 
 /// Makes vkMapMemory return `memory`.
@@ -175,7 +225,20 @@ unsafe extern "system" fn create_buffer(
     out: *mut vk::Buffer,
 ) -> vk::Result {
     let handle = next_handle();
-    record("vkCreateBuffer", vec![unsafe { (*info).size }, handle]);
+    record_with(
+        "vkCreateBuffer",
+        vec![unsafe { (*info).size }, handle],
+        || {
+            let i = unsafe { &*info };
+            format!(
+                "{:?} {:?} {:?} next={}",
+                i.flags,
+                i.usage,
+                i.sharing_mode,
+                unsafe { chain(i.p_next) }
+            )
+        },
+    );
     unsafe { *out = vk::Buffer::from_raw(handle) };
     vk::Result::SUCCESS
 }
@@ -190,11 +253,21 @@ unsafe extern "system" fn destroy_buffer(
 
 unsafe extern "system" fn allocate_memory(
     _: vk::Device,
-    _: *const vk::MemoryAllocateInfo<'_>,
+    info: *const vk::MemoryAllocateInfo<'_>,
     _: *const vk::AllocationCallbacks<'_>,
     out: *mut vk::DeviceMemory,
 ) -> vk::Result {
-    unsafe { *out = vk::DeviceMemory::from_raw(next_handle()) };
+    let handle = next_handle();
+    record_with("vkAllocateMemory", vec![handle], || {
+        let i = unsafe { &*info };
+        format!(
+            "size={} type={} next={}",
+            i.allocation_size,
+            i.memory_type_index,
+            unsafe { chain(i.p_next) }
+        )
+    });
+    unsafe { *out = vk::DeviceMemory::from_raw(handle) };
     vk::Result::SUCCESS
 }
 
@@ -208,13 +281,23 @@ unsafe extern "system" fn free_memory(
 
 unsafe extern "system" fn map_memory(
     _: vk::Device,
-    _: vk::DeviceMemory,
-    _: vk::DeviceSize,
-    _: vk::DeviceSize,
-    _: vk::MemoryMapFlags,
+    m: vk::DeviceMemory,
+    offset: vk::DeviceSize,
+    size: vk::DeviceSize,
+    flags: vk::MemoryMapFlags,
     out: *mut *mut c_void,
 ) -> vk::Result {
     let mapped = DRIVER.with_borrow(|d| d.mapped);
+    record(
+        "vkMapMemory",
+        vec![
+            m.as_raw(),
+            offset,
+            size,
+            u64::from(flags.as_raw()),
+            mapped as u64,
+        ],
+    );
     unsafe { *out = std::ptr::with_exposed_provenance_mut(mapped) };
     vk::Result::SUCCESS
 }
@@ -247,17 +330,31 @@ unsafe extern "system" fn get_buffer_device_address(
     _: vk::Device,
     info: *const vk::BufferDeviceAddressInfo<'_>,
 ) -> vk::DeviceAddress {
-    unsafe { (*info).buffer.as_raw() << 20 }
+    let buffer = unsafe { (*info).buffer.as_raw() };
+    record("vkGetBufferDeviceAddress", vec![buffer, buffer << 20]);
+    buffer << 20
 }
 
 unsafe extern "system" fn create_micromap(
     _: vk::Device,
-    _: *const vk::MicromapCreateInfoEXT<'_>,
+    info: *const vk::MicromapCreateInfoEXT<'_>,
     _: *const vk::AllocationCallbacks<'_>,
     out: *mut vk::MicromapEXT,
 ) -> vk::Result {
     let handle = next_handle();
-    record("vkCreateMicromapEXT", vec![handle]);
+    record_with("vkCreateMicromapEXT", vec![handle], || {
+        let i = unsafe { &*info };
+        format!(
+            "{:?} buffer={} offset={} size={} {:?} address={} next={}",
+            i.create_flags,
+            i.buffer.as_raw(),
+            i.offset,
+            i.size,
+            i.ty,
+            i.device_address,
+            unsafe { chain(i.p_next) }
+        )
+    });
     unsafe { *out = vk::MicromapEXT::from_raw(handle) };
     vk::Result::SUCCESS
 }
@@ -280,7 +377,7 @@ unsafe extern "system" fn cmd_build_micromaps(
     } else {
         0
     };
-    record(
+    record_with(
         "vkCmdBuildMicromapsEXT",
         vec![
             cb.as_raw(),
@@ -288,6 +385,7 @@ unsafe extern "system" fn cmd_build_micromaps(
             infos.expose_provenance() as u64,
             stride,
         ],
+        || unsafe { each(infos, count, |i| micromap_build_info(i)) },
     );
 }
 
@@ -297,7 +395,7 @@ unsafe extern "system" fn build_micromaps(
     count: u32,
     infos: *const vk::MicromapBuildInfoEXT<'_>,
 ) -> vk::Result {
-    record(
+    record_with(
         "vkBuildMicromapsEXT",
         vec![
             d.as_raw(),
@@ -305,6 +403,7 @@ unsafe extern "system" fn build_micromaps(
             u64::from(count),
             infos.expose_provenance() as u64,
         ],
+        || unsafe { each(infos, count, |i| micromap_build_info(i)) },
     );
     vk::Result::SUCCESS
 }
@@ -335,11 +434,16 @@ unsafe extern "system" fn get_queue_family_properties(
 
 unsafe extern "system" fn create_command_pool(
     _: vk::Device,
-    _: *const vk::CommandPoolCreateInfo<'_>,
+    info: *const vk::CommandPoolCreateInfo<'_>,
     _: *const vk::AllocationCallbacks<'_>,
     out: *mut vk::CommandPool,
 ) -> vk::Result {
-    unsafe { *out = vk::CommandPool::from_raw(next_handle()) };
+    let handle = next_handle();
+    record_with("vkCreateCommandPool", vec![handle], || {
+        let i = unsafe { &*info };
+        format!("{:?} family={}", i.flags, i.queue_family_index)
+    });
+    unsafe { *out = vk::CommandPool::from_raw(handle) };
     vk::Result::SUCCESS
 }
 
@@ -371,19 +475,54 @@ unsafe extern "system" fn allocate_command_buffers(
     info: *const vk::CommandBufferAllocateInfo<'_>,
     out: *mut vk::CommandBuffer,
 ) -> vk::Result {
-    let count = unsafe { (*info).command_buffer_count } as usize;
-    for i in 0..count {
-        let handle = dispatchable(key_of(device.as_raw()));
-        unsafe { *out.add(i) = vk::CommandBuffer::from_raw(handle) };
+    let i = unsafe { &*info };
+    let key = key_of(device.as_raw());
+    let handles: Vec<u64> = (0..i.command_buffer_count)
+        .map(|_| {
+            DRIVER.with_borrow_mut(|d| {
+                // Reuse the handle this position had before a reset, if it
+                // was this device's.
+                let reused = d
+                    .command_buffers
+                    .get(d.next_command_buffer)
+                    .copied()
+                    .filter(|&h| key_of(h) == key);
+                let handle = reused.unwrap_or_else(|| dispatchable(key));
+                if reused.is_none() {
+                    d.command_buffers.truncate(d.next_command_buffer);
+                    d.command_buffers.push(handle);
+                }
+                d.next_command_buffer += 1;
+                handle
+            })
+        })
+        .collect();
+    for (k, &handle) in handles.iter().enumerate() {
+        unsafe { *out.add(k) = vk::CommandBuffer::from_raw(handle) };
     }
+    record_with("vkAllocateCommandBuffers", handles, || {
+        format!(
+            "pool={} {:?} count={}",
+            i.command_pool.as_raw(),
+            i.level,
+            i.command_buffer_count
+        )
+    });
     vk::Result::SUCCESS
 }
 
 unsafe extern "system" fn begin_command_buffer(
     cb: vk::CommandBuffer,
-    _: *const vk::CommandBufferBeginInfo<'_>,
+    info: *const vk::CommandBufferBeginInfo<'_>,
 ) -> vk::Result {
-    record("vkBeginCommandBuffer", vec![cb.as_raw()]);
+    record_with("vkBeginCommandBuffer", vec![cb.as_raw()], || {
+        let i = unsafe { &*info };
+        format!(
+            "{:?} inheritance={}",
+            i.flags,
+            !i.p_inheritance_info.is_null()
+        )
+    });
     vk::Result::SUCCESS
 }
 
@@ -418,21 +557,51 @@ unsafe extern "system" fn cmd_end_rendering(cb: vk::CommandBuffer) {
 unsafe extern "system" fn queue_submit(
     queue: vk::Queue,
     count: u32,
-    _: *const vk::SubmitInfo<'_>,
-    _: vk::Fence,
+    submits: *const vk::SubmitInfo<'_>,
+    fence: vk::Fence,
 ) -> vk::Result {
-    record("vkQueueSubmit", vec![queue.as_raw(), u64::from(count)]);
+    record_with(
+        "vkQueueSubmit",
+        vec![queue.as_raw(), u64::from(count)],
+        || {
+            let submits = unsafe {
+                each(submits, count, |s| {
+                    format!(
+                        "waits={:?} stages={:?} command_buffers={:?} signals={:?} next={}",
+                        slice(s.p_wait_semaphores, s.wait_semaphore_count),
+                        slice(s.p_wait_dst_stage_mask, s.wait_semaphore_count),
+                        slice(s.p_command_buffers, s.command_buffer_count),
+                        slice(s.p_signal_semaphores, s.signal_semaphore_count),
+                        chain(s.p_next),
+                    )
+                })
+            };
+            format!("{submits} fence={}", fence.as_raw())
+        },
+    );
     vk::Result::SUCCESS
 }
 
 unsafe extern "system" fn create_acceleration_structure(
     _: vk::Device,
-    _: *const vk::AccelerationStructureCreateInfoKHR<'_>,
+    info: *const vk::AccelerationStructureCreateInfoKHR<'_>,
     _: *const vk::AllocationCallbacks<'_>,
     out: *mut vk::AccelerationStructureKHR,
 ) -> vk::Result {
     let handle = next_handle();
-    record("vkCreateAccelerationStructureKHR", vec![handle]);
+    record_with("vkCreateAccelerationStructureKHR", vec![handle], || {
+        let i = unsafe { &*info };
+        format!(
+            "{:?} buffer={} offset={} size={} {:?} address={} next={}",
+            i.create_flags,
+            i.buffer.as_raw(),
+            i.offset,
+            i.size,
+            i.ty,
+            i.device_address,
+            unsafe { chain(i.p_next) }
+        )
+    });
     unsafe { *out = vk::AccelerationStructureKHR::from_raw(handle) };
     vk::Result::SUCCESS
 }
@@ -440,20 +609,23 @@ unsafe extern "system" fn create_acceleration_structure(
 unsafe extern "system" fn cmd_build_acceleration_structures(
     cb: vk::CommandBuffer,
     count: u32,
-    _: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
-    _: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    ranges: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
 ) {
-    record(
+    record_with(
         "vkCmdBuildAccelerationStructuresKHR",
         vec![cb.as_raw(), u64::from(count)],
+        || unsafe { structure_builds(count, infos, ranges) },
     );
 }
 
 unsafe extern "system" fn cmd_copy_micromap(
     cb: vk::CommandBuffer,
-    _: *const vk::CopyMicromapInfoEXT<'_>,
+    info: *const vk::CopyMicromapInfoEXT<'_>,
 ) {
-    record("vkCmdCopyMicromapEXT", vec![cb.as_raw()]);
+    record_with("vkCmdCopyMicromapEXT", vec![cb.as_raw()], || unsafe {
+        copy_micromap_info(&*info)
+    });
 }
 
 /// Fills the opacity micromap properties chained in `properties`.
@@ -630,6 +802,341 @@ unsafe extern "system" fn cmd_trace_rays(
     );
 }
 
+// What the call log shows of pointed-to structures (only while
+// `describe_calls` is on): every member the application set, arrays
+// element by element (at most `MAX_DESCRIBED` elements), pNext chains as
+// their sTypes.
+
+/// The most elements of one array a description shows.
+const MAX_DESCRIBED: u32 = 64;
+
+/// The first `count` elements at `pointer` (at most [`MAX_DESCRIBED`]);
+/// None for NULL.
+unsafe fn slice<T: Copy + std::fmt::Debug>(pointer: *const T, count: u32) -> Option<Vec<T>> {
+    (!pointer.is_null()).then(|| {
+        unsafe { std::slice::from_raw_parts(pointer, count.min(MAX_DESCRIBED) as usize) }.to_vec()
+    })
+}
+
+/// `describe` of each of the `count` structures at `pointer`.
+unsafe fn each<T>(pointer: *const T, count: u32, describe: impl Fn(&T) -> String) -> String {
+    if pointer.is_null() {
+        return "NULL".into();
+    }
+    let items: Vec<String> = (0..count.min(MAX_DESCRIBED) as usize)
+        .map(|k| describe(unsafe { &*pointer.add(k) }))
+        .collect();
+    format!("[{}]", items.join("; "))
+}
+
+/// The sTypes of a pNext chain (at most 16).
+unsafe fn chain(mut next: *const c_void) -> String {
+    let mut types = Vec::new();
+    while !next.is_null() && types.len() < 16 {
+        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+        types.push(base.s_type.as_raw());
+        next = base.p_next.cast();
+    }
+    format!("{types:?}")
+}
+
+fn address(a: vk::DeviceOrHostAddressConstKHR) -> u64 {
+    // SAFETY: both members are 64 bits; any bits are a valid u64.
+    unsafe { a.device_address }
+}
+
+fn address_mut(a: vk::DeviceOrHostAddressKHR) -> u64 {
+    // SAFETY: as above.
+    unsafe { a.device_address }
+}
+
+/// The usage counts, by array and by pointers.
+unsafe fn usage_counts(
+    count: u32,
+    array: *const vk::MicromapUsageEXT,
+    pointers: *const *const vk::MicromapUsageEXT,
+) -> String {
+    let by_pointer = unsafe { each(pointers, count, |p| format!("{:?}", p.as_ref())) };
+    format!("count={count} array={:?} pointers={by_pointer}", unsafe {
+        slice(array, count)
+    })
+}
+
+unsafe fn micromap_build_info(i: &vk::MicromapBuildInfoEXT<'_>) -> String {
+    format!(
+        "{:?} {:?} {:?} dst={} usage=({}) data={:#x} scratch={:#x} triangles={:#x} stride={} next={}",
+        i.ty,
+        i.flags,
+        i.mode,
+        i.dst_micromap.as_raw(),
+        unsafe { usage_counts(i.usage_counts_count, i.p_usage_counts, i.pp_usage_counts) },
+        address(i.data),
+        address_mut(i.scratch_data),
+        address(i.triangle_array),
+        i.triangle_array_stride,
+        unsafe { chain(i.p_next) },
+    )
+}
+
+unsafe fn geometry(g: &vk::AccelerationStructureGeometryKHR<'_>) -> String {
+    let data = match g.geometry_type {
+        vk::GeometryTypeKHR::TRIANGLES => {
+            let t = unsafe { g.geometry.triangles };
+            let mut attachments = Vec::new();
+            let mut next = t.p_next;
+            while !next.is_null() && attachments.len() < 16 {
+                let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+                if base.s_type
+                    == vk::StructureType::ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT
+                {
+                    let a = unsafe {
+                        &*next.cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
+                    };
+                    attachments.push(format!(
+                        "omm {:?} indices={:#x} stride={} base={} usage=({}) micromap={}",
+                        a.index_type,
+                        address(a.index_buffer),
+                        a.index_stride,
+                        a.base_triangle,
+                        unsafe {
+                            usage_counts(a.usage_counts_count, a.p_usage_counts, a.pp_usage_counts)
+                        },
+                        a.micromap.as_raw(),
+                    ));
+                } else {
+                    attachments.push(format!("{}", base.s_type.as_raw()));
+                }
+                next = base.p_next.cast();
+            }
+            format!(
+                "triangles {:?} vertices={:#x} stride={} max={} {:?} indices={:#x} transform={:#x} next={attachments:?}",
+                t.vertex_format,
+                address(t.vertex_data),
+                t.vertex_stride,
+                t.max_vertex,
+                t.index_type,
+                address(t.index_data),
+                address(t.transform_data),
+            )
+        }
+        vk::GeometryTypeKHR::AABBS => {
+            let a = unsafe { g.geometry.aabbs };
+            format!(
+                "aabbs data={:#x} stride={} next={}",
+                address(a.data),
+                a.stride,
+                unsafe { chain(a.p_next) }
+            )
+        }
+        vk::GeometryTypeKHR::INSTANCES => {
+            let n = unsafe { g.geometry.instances };
+            format!(
+                "instances pointers={} data={:#x} next={}",
+                n.array_of_pointers,
+                address(n.data),
+                unsafe { chain(n.p_next) }
+            )
+        }
+        other => format!("{other:?}"),
+    };
+    format!("{:?} {data} next={}", g.flags, unsafe { chain(g.p_next) })
+}
+
+unsafe fn build_geometry_info(i: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>) -> String {
+    let geometries = unsafe { each(i.p_geometries, i.geometry_count, |g| geometry(g)) };
+    let by_pointer = unsafe {
+        each(i.pp_geometries, i.geometry_count, |g| match g.as_ref() {
+            Some(g) => geometry(g),
+            None => "NULL".into(),
+        })
+    };
+    format!(
+        "{:?} {:?} {:?} src={} dst={} count={} geometries={geometries} pointers={by_pointer} scratch={:#x} next={}",
+        i.ty,
+        i.flags,
+        i.mode,
+        i.src_acceleration_structure.as_raw(),
+        i.dst_acceleration_structure.as_raw(),
+        i.geometry_count,
+        address_mut(i.scratch_data),
+        unsafe { chain(i.p_next) },
+    )
+}
+
+/// The infos of a build and, for each, its `geometryCount` range infos.
+unsafe fn structure_builds(
+    count: u32,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    ranges: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+) -> String {
+    let described = unsafe { each(infos, count, |i| build_geometry_info(i)) };
+    let ranges: Vec<String> = (0..count.min(MAX_DESCRIBED) as usize)
+        .map(|k| {
+            if ranges.is_null() || infos.is_null() {
+                return "NULL".into();
+            }
+            let list = unsafe { *ranges.add(k) };
+            format!("{:?}", unsafe {
+                slice(list, (*infos.add(k)).geometry_count)
+            })
+        })
+        .collect();
+    format!("{described} ranges={ranges:?}")
+}
+
+fn copy_micromap_info(i: &vk::CopyMicromapInfoEXT<'_>) -> String {
+    format!(
+        "src={} dst={} {:?} next={}",
+        i.src.as_raw(),
+        i.dst.as_raw(),
+        i.mode,
+        unsafe { chain(i.p_next) }
+    )
+}
+
+fn copy_structure_info(i: &vk::CopyAccelerationStructureInfoKHR<'_>) -> String {
+    format!(
+        "src={} dst={} {:?} next={}",
+        i.src.as_raw(),
+        i.dst.as_raw(),
+        i.mode,
+        unsafe { chain(i.p_next) }
+    )
+}
+
+unsafe extern "system" fn destroy_acceleration_structure(
+    _: vk::Device,
+    s: vk::AccelerationStructureKHR,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkDestroyAccelerationStructureKHR", vec![s.as_raw()]);
+}
+
+/// A host build; returns OPERATION_NOT_DEFERRED_KHR with a deferred
+/// operation (a success code the application must see as such).
+unsafe extern "system" fn build_acceleration_structures(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    count: u32,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    ranges: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+) -> vk::Result {
+    record_with(
+        "vkBuildAccelerationStructuresKHR",
+        vec![d.as_raw(), op.as_raw(), u64::from(count)],
+        || unsafe { structure_builds(count, infos, ranges) },
+    );
+    if op == vk::DeferredOperationKHR::null() {
+        vk::Result::SUCCESS
+    } else {
+        vk::Result::OPERATION_NOT_DEFERRED_KHR
+    }
+}
+
+/// Writes sizes that depend on every primitive count, so an altered
+/// argument shows in what the application gets.
+unsafe extern "system" fn get_acceleration_structure_build_sizes(
+    _: vk::Device,
+    build_type: vk::AccelerationStructureBuildTypeKHR,
+    info: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    max_primitive_counts: *const u32,
+    out: *mut vk::AccelerationStructureBuildSizesInfoKHR<'_>,
+) {
+    let i = unsafe { &*info };
+    let counts = unsafe { slice(max_primitive_counts, i.geometry_count) }.unwrap_or_default();
+    let primitives: u64 = counts.iter().map(|&c| u64::from(c)).sum();
+    let out = unsafe { &mut *out };
+    out.acceleration_structure_size = 256 + 64 * primitives;
+    out.update_scratch_size = 128 + 16 * primitives;
+    out.build_scratch_size = 512 + 32 * primitives;
+    record_with(
+        "vkGetAccelerationStructureBuildSizesKHR",
+        vec![build_type.as_raw() as u64, out.acceleration_structure_size],
+        || format!("{} counts={counts:?}", unsafe { build_geometry_info(i) }),
+    );
+}
+
+/// Writes sizes that depend on the usage counts (see
+/// [`get_acceleration_structure_build_sizes`]).
+unsafe extern "system" fn get_micromap_build_sizes(
+    _: vk::Device,
+    build_type: vk::AccelerationStructureBuildTypeKHR,
+    info: *const vk::MicromapBuildInfoEXT<'_>,
+    out: *mut vk::MicromapBuildSizesInfoEXT<'_>,
+) {
+    let i = unsafe { &*info };
+    let usage = unsafe { slice(i.p_usage_counts, i.usage_counts_count) }.unwrap_or_default();
+    let triangles: u64 = usage.iter().map(|u| u64::from(u.count)).sum();
+    let out = unsafe { &mut *out };
+    out.micromap_size = 1024 + 8 * triangles;
+    out.build_scratch_size = 4096 + triangles;
+    out.discardable = vk::TRUE;
+    record_with(
+        "vkGetMicromapBuildSizesEXT",
+        vec![build_type.as_raw() as u64, out.micromap_size],
+        || unsafe { micromap_build_info(i) },
+    );
+}
+
+unsafe extern "system" fn copy_micromap(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    info: *const vk::CopyMicromapInfoEXT<'_>,
+) -> vk::Result {
+    record_with("vkCopyMicromapEXT", vec![d.as_raw(), op.as_raw()], || {
+        copy_micromap_info(unsafe { &*info })
+    });
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn cmd_copy_acceleration_structure(
+    cb: vk::CommandBuffer,
+    info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
+) {
+    record_with(
+        "vkCmdCopyAccelerationStructureKHR",
+        vec![cb.as_raw()],
+        || copy_structure_info(unsafe { &*info }),
+    );
+}
+
+unsafe extern "system" fn copy_acceleration_structure(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
+) -> vk::Result {
+    record_with(
+        "vkCopyAccelerationStructureKHR",
+        vec![d.as_raw(), op.as_raw()],
+        || copy_structure_info(unsafe { &*info }),
+    );
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn free_command_buffers(
+    _: vk::Device,
+    pool: vk::CommandPool,
+    count: u32,
+    command_buffers: *const vk::CommandBuffer,
+) {
+    let mut args = vec![pool.as_raw()];
+    args.extend(
+        unsafe { slice(command_buffers, count) }
+            .unwrap_or_default()
+            .iter()
+            .map(|c| c.as_raw()),
+    );
+    record("vkFreeCommandBuffers", args);
+}
+
+unsafe extern "system" fn destroy_command_pool(
+    _: vk::Device,
+    pool: vk::CommandPool,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkDestroyCommandPool", vec![pool.as_raw()]);
+}
+
 /// A command no layer knows, which the fake driver has.
 pub unsafe extern "system" fn unknown_command() {
     record("vkOmmcheckTestUnknownCommand", vec![]);
@@ -704,6 +1211,28 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         }
         b"vkCmdBindPipeline" => void(cmd_bind_pipeline as vk::PFN_vkCmdBindPipeline),
         b"vkCmdTraceRaysKHR" => void(cmd_trace_rays as vk::PFN_vkCmdTraceRaysKHR),
+        b"vkDestroyAccelerationStructureKHR" => {
+            void(destroy_acceleration_structure as vk::PFN_vkDestroyAccelerationStructureKHR)
+        }
+        b"vkBuildAccelerationStructuresKHR" => {
+            void(build_acceleration_structures as vk::PFN_vkBuildAccelerationStructuresKHR)
+        }
+        b"vkGetAccelerationStructureBuildSizesKHR" => void(
+            get_acceleration_structure_build_sizes
+                as vk::PFN_vkGetAccelerationStructureBuildSizesKHR,
+        ),
+        b"vkGetMicromapBuildSizesEXT" => {
+            void(get_micromap_build_sizes as vk::PFN_vkGetMicromapBuildSizesEXT)
+        }
+        b"vkCopyMicromapEXT" => void(copy_micromap as vk::PFN_vkCopyMicromapEXT),
+        b"vkCmdCopyAccelerationStructureKHR" => {
+            void(cmd_copy_acceleration_structure as vk::PFN_vkCmdCopyAccelerationStructureKHR)
+        }
+        b"vkCopyAccelerationStructureKHR" => {
+            void(copy_acceleration_structure as vk::PFN_vkCopyAccelerationStructureKHR)
+        }
+        b"vkFreeCommandBuffers" => void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
+        b"vkDestroyCommandPool" => void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),
         _ => None,
     }
 }

@@ -22,6 +22,8 @@
 //! command a stub): `host-build-valid`, `host-build-usage-pointers`,
 //! `host-build-data-past-end`, `device-build-valid`,
 //! `device-build-usage-pointers`, `device-build-histogram-mismatch`.
+//! `threads` (Mock ICD): eight threads creating, building and destroying
+//! at once, with known faults.
 //! Over lavapipe (acceleration structures that really build): `blas`.
 //! `overhead` (Mock ICD) times `--iterations` valid calls (default 10000) of
 //! three build commands and reports nanoseconds per call; `cargo xtask
@@ -1025,6 +1027,335 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
     Ok(())
 }
 
+/// Threads and iterations of `threads`.
+const THREADS: usize = 8;
+const THREAD_ITERATIONS: usize = 16;
+/// How long `threads` waits for its threads before it calls it a deadlock
+/// (exit status 2): far beyond what the work takes.
+const DEADLOCK_BOUND: std::time::Duration = std::time::Duration::from_secs(60);
+
+/// A buffer of `size` bytes bound to host-visible memory of its own,
+/// mapped: the buffer, its memory and the mapping.
+fn owned_mapped_buffer(
+    gpu: &Gpu<'_>,
+    size: u64,
+    usage: vk::BufferUsageFlags,
+) -> Result<(vk::Buffer, vk::DeviceMemory, *mut u8), String> {
+    let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+    // SAFETY: valid arguments.
+    let buffer = unsafe { gpu.device.create_buffer(&info, None) }
+        .map_err(|e| format!("vkCreateBuffer: {e}"))?;
+    // SAFETY: a buffer of this device.
+    let requirements = unsafe { gpu.device.get_buffer_memory_requirements(buffer) };
+    let memory = gpu.allocate(
+        requirements.size.max(size),
+        requirements.memory_type_bits,
+        vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+        usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
+    )?;
+    // SAFETY: fresh memory large enough for the buffer.
+    unsafe { gpu.device.bind_buffer_memory(buffer, memory, 0) }
+        .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
+    Ok((buffer, memory, gpu.map(memory)?))
+}
+
+/// `threads` (Mock ICD): [`THREADS`] threads at once, each with its own
+/// command pool, [`THREAD_ITERATIONS`] times creating a micromap and two
+/// acceleration structures on buffers of their own, recording device builds
+/// of both into a command buffer of its own and submitting it, making host
+/// builds of both, and destroying all of it again. Known faults per
+/// iteration: a device and a host micromap build with both usage pointers
+/// (VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516, twice) and a structure
+/// created with the opacity-micromap type
+/// (VUID-VkAccelerationStructureCreateInfoKHR-type-11600). Everything else is
+/// valid. Results: `threads`, `iterations` and `failed_calls` (calls that
+/// returned an error, 0 expected).
+fn threads(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
+    let physical = vulkan.physical_device()?;
+    let mut structure_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+        .acceleration_structure(true)
+        .acceleration_structure_host_commands(true);
+    let mut micromap_features = vk::PhysicalDeviceOpacityMicromapFeaturesEXT::default()
+        .micromap(true)
+        .micromap_host_commands(true);
+    let mut features = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut micromap_features)
+        .push_next(&mut structure_features);
+    let gpu = Gpu::new(
+        vulkan,
+        physical,
+        &[
+            ash::ext::opacity_micromap::NAME,
+            ash::khr::acceleration_structure::NAME,
+            ash::khr::deferred_host_operations::NAME,
+        ],
+        &mut features,
+    )?;
+    let omm = ash::ext::opacity_micromap::Device::new(&vulkan.instance, &gpu.device);
+    let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
+    // The queue is externally synchronized: the threads take turns.
+    let queue = Mutex::new(());
+    let failed = std::sync::atomic::AtomicU64::new(0);
+    let (disarm, armed) = std::sync::mpsc::channel::<()>();
+    std::thread::spawn(move || {
+        if armed.recv_timeout(DEADLOCK_BOUND).is_err() {
+            eprintln!("omm-app: threads: not finished within {DEADLOCK_BOUND:?}: a deadlock");
+            std::process::exit(2);
+        }
+    });
+    vulkan.phase("threads");
+    let outcome: Result<(), String> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..THREADS)
+            .map(|_| scope.spawn(|| thread_iterations(&gpu, &omm, &accel, &queue, &failed)))
+            .collect();
+        workers
+            .into_iter()
+            .try_for_each(|w| w.join().map_err(|_| "a thread panicked".to_string())?)
+    });
+    let _ = disarm.send(());
+    outcome?;
+    results.insert("threads".into(), json!(THREADS));
+    results.insert("iterations".into(), json!(THREAD_ITERATIONS));
+    results.insert("failed_calls".into(), json!(failed.into_inner()));
+    Ok(())
+}
+
+/// One thread's work in [`threads`].
+fn thread_iterations(
+    gpu: &Gpu<'_>,
+    omm: &ash::ext::opacity_micromap::Device,
+    accel: &ash::khr::acceleration_structure::Device,
+    queue: &Mutex<()>,
+    failed: &std::sync::atomic::AtomicU64,
+) -> Result<(), String> {
+    let count = |result: vk::Result| {
+        if result != vk::Result::SUCCESS {
+            failed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
+    // SAFETY: valid arguments.
+    let pool = unsafe { gpu.device.create_command_pool(&pool_info, None) }
+        .map_err(|e| format!("vkCreateCommandPool: {e}"))?;
+    let address_usage = vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+    let usage_pointers = [&USAGE[0] as *const vk::MicromapUsageEXT];
+    let vertices = [0.5f32; 18];
+    let omm_indices = [0u32, 1];
+    let host_triangles = triangles([0, 1], 1);
+    let mut host_scratch = vec![0u8; 1 << 16];
+    for _ in 0..THREAD_ITERATIONS {
+        let (micromap_storage, micromap_memory, _) =
+            owned_mapped_buffer(gpu, 4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT)?;
+        let info = vk::MicromapCreateInfoEXT::default()
+            .buffer(micromap_storage)
+            .size(4096)
+            .ty(vk::MicromapTypeEXT::OPACITY_MICROMAP);
+        let mut micromap = vk::MicromapEXT::null();
+        // SAFETY: valid arguments.
+        count(unsafe {
+            (omm.fp().create_micromap_ext)(
+                gpu.device.handle(),
+                &info,
+                std::ptr::null(),
+                &mut micromap,
+            )
+        });
+        let (structure_storage, structure_memory, _) = owned_mapped_buffer(
+            gpu,
+            1 << 16,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | address_usage,
+        )?;
+        let create = |ty| {
+            let info = vk::AccelerationStructureCreateInfoKHR::default()
+                .buffer(structure_storage)
+                .size(1 << 16)
+                .ty(ty);
+            // SAFETY: a storage buffer as large as the structure.
+            unsafe { accel.create_acceleration_structure(&info, None) }
+                .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))
+        };
+        let blas = create(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)?;
+        // The fault: the opacity-micromap type in the KHR create info.
+        let misused = create(vk::AccelerationStructureTypeKHR::from_raw(
+            ommcheck::model::accel::ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+        ))?;
+        // The data in the last two bytes of a mapped allocation, as in
+        // `host_build`.
+        let data_memory = gpu.allocate(64, !0, vk::MemoryPropertyFlags::HOST_VISIBLE, false)?;
+        let mapped = gpu.map(data_memory)?;
+        // SAFETY: the mapping is 64 bytes long; bytes 62 and 63.
+        let data = unsafe { mapped.add(62) };
+        // SAFETY: as above.
+        unsafe { data.copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2) };
+
+        // Device builds at stand-in addresses (the Mock ICD returns 0).
+        let command_info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: valid arguments; this thread's pool.
+        let command_buffer = unsafe { gpu.device.allocate_command_buffers(&command_info) }
+            .map_err(|e| format!("vkAllocateCommandBuffers: {e}"))?[0];
+        // SAFETY: a fresh command buffer.
+        unsafe {
+            gpu.device
+                .begin_command_buffer(command_buffer, &vk::CommandBufferBeginInfo::default())
+        }
+        .map_err(|e| format!("vkBeginCommandBuffer: {e}"))?;
+        let device_info = build_info(
+            micromap,
+            vk::DeviceOrHostAddressConstKHR {
+                device_address: STAND_IN_INPUT,
+            },
+            vk::DeviceOrHostAddressConstKHR {
+                device_address: STAND_IN_INPUT + 256,
+            },
+            vk::DeviceOrHostAddressKHR {
+                device_address: STAND_IN_SCRATCH,
+            },
+        );
+        let device_both = vk::MicromapBuildInfoEXT {
+            pp_usage_counts: usage_pointers.as_ptr(),
+            ..device_info
+        };
+        // SAFETY: a recording command buffer, one info each.
+        unsafe {
+            (omm.fp().cmd_build_micromaps_ext)(command_buffer, 1, &device_info);
+            (omm.fp().cmd_build_micromaps_ext)(command_buffer, 1, &device_both);
+        }
+        let mut attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT::default()
+            .index_type(vk::IndexType::UINT32)
+            .index_buffer(vk::DeviceOrHostAddressConstKHR {
+                device_address: STAND_IN_OMM_INDICES,
+            })
+            .index_stride(4)
+            .usage_counts(&USAGE)
+            .micromap(micromap);
+        let device_triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+            .vertex_format(vk::Format::R32G32B32_SFLOAT)
+            .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                device_address: STAND_IN_VERTICES,
+            })
+            .vertex_stride(12)
+            .max_vertex(5)
+            .index_type(vk::IndexType::NONE_KHR)
+            .push_next(&mut attachment);
+        let geometries = [vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                triangles: device_triangles,
+            })];
+        let blas_info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+            .geometries(&geometries)
+            .dst_acceleration_structure(blas)
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                device_address: STAND_IN_BLAS_SCRATCH,
+            });
+        let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(2)];
+        let range_pointers = [ranges.as_ptr()];
+        // SAFETY: a recording command buffer, one info and its ranges.
+        unsafe {
+            (accel.fp().cmd_build_acceleration_structures_khr)(
+                command_buffer,
+                1,
+                &blas_info,
+                range_pointers.as_ptr(),
+            )
+        };
+        // SAFETY: the command buffer is recording.
+        unsafe { gpu.device.end_command_buffer(command_buffer) }
+            .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+        {
+            let _turn = queue.lock().unwrap_or_else(|e| e.into_inner());
+            count(vk::Result::from_raw(gpu.submit(command_buffer)?));
+        }
+
+        // Host builds from this thread's memory.
+        let host = |p: *const u8| vk::DeviceOrHostAddressConstKHR {
+            host_address: p.cast(),
+        };
+        let host_info = build_info(
+            micromap,
+            host(host_triangles.as_ptr().cast()),
+            host(data.cast_const()),
+            vk::DeviceOrHostAddressKHR {
+                host_address: host_scratch.as_mut_ptr().cast(),
+            },
+        );
+        let host_both = vk::MicromapBuildInfoEXT {
+            pp_usage_counts: usage_pointers.as_ptr(),
+            ..host_info
+        };
+        for info in [&host_info, &host_both] {
+            // SAFETY: one info whose host addresses are live.
+            count(unsafe {
+                (omm.fp().build_micromaps_ext)(
+                    gpu.device.handle(),
+                    vk::DeferredOperationKHR::null(),
+                    1,
+                    info,
+                )
+            });
+        }
+        let mut host_attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT::default()
+            .index_type(vk::IndexType::UINT32)
+            .index_buffer(host(omm_indices.as_ptr().cast()))
+            .index_stride(4)
+            .usage_counts(&USAGE)
+            .micromap(micromap);
+        let host_triangle_data = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+            .vertex_format(vk::Format::R32G32B32_SFLOAT)
+            .vertex_data(host(vertices.as_ptr().cast()))
+            .vertex_stride(12)
+            .max_vertex(5)
+            .index_type(vk::IndexType::NONE_KHR)
+            .push_next(&mut host_attachment);
+        let host_geometries = [vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                triangles: host_triangle_data,
+            })];
+        let host_blas = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+            .geometries(&host_geometries)
+            .dst_acceleration_structure(blas)
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                host_address: host_scratch.as_mut_ptr().cast(),
+            });
+        // SAFETY: one info with live host addresses, and its ranges.
+        count(unsafe {
+            (accel.fp().build_acceleration_structures_khr)(
+                gpu.device.handle(),
+                vk::DeferredOperationKHR::null(),
+                1,
+                &host_blas,
+                range_pointers.as_ptr(),
+            )
+        });
+
+        // Everything goes again while the other threads make theirs.
+        // SAFETY: the queue was idle after the submission; nothing uses
+        // these objects any more.
+        unsafe {
+            gpu.device.free_command_buffers(pool, &[command_buffer]);
+            accel.destroy_acceleration_structure(blas, None);
+            accel.destroy_acceleration_structure(misused, None);
+            (omm.fp().destroy_micromap_ext)(gpu.device.handle(), micromap, std::ptr::null());
+            gpu.device.destroy_buffer(micromap_storage, None);
+            gpu.device.destroy_buffer(structure_storage, None);
+            for memory in [micromap_memory, structure_memory, data_memory] {
+                gpu.device.free_memory(memory, None);
+            }
+        }
+    }
+    // SAFETY: this thread's pool, its command buffers freed.
+    unsafe { gpu.device.destroy_command_pool(pool, None) };
+    Ok(())
+}
+
 /// `vkCreateBuffer` with size 0: VUID-VkBufferCreateInfo-size-00912, which
 /// the Khronos validation layer checks. The Mock ICD accepts it.
 fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
@@ -1081,6 +1412,7 @@ fn run(args: &[String]) -> Result<Value, String> {
         }
         ("blas", "") => blas(&vulkan, &mut results)?,
         ("overhead", "") => overhead(&vulkan, iterations, &mut results)?,
+        ("threads", "") => threads(&vulkan, &mut results)?,
         _ => return Err(format!("unknown scenario {scenario:?}")),
     }
     if with_core_fault {

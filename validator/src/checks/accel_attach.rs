@@ -16,10 +16,11 @@ use ommcheck_vuids::vuid::{
     VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
 };
 use std::collections::BTreeMap;
+use std::fmt::{self, Display};
 
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
-use crate::checks::accel_build::BuildCommand;
+use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
 use crate::checks::common::{self, Tally, TriangleHistogram};
 use crate::checks::Coverage;
 use crate::model::accel::*;
@@ -300,11 +301,29 @@ struct UsageCountVuids {
     pointers: Vuid,
 }
 
+/// Where an attachment is: `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`,
+/// written out only when a finding needs it (a valid call has none).
+#[derive(Clone, Copy)]
+struct AttachmentAt {
+    geometry: GeometryAt,
+    kind: Kind,
+}
+
+impl Display for AttachmentAt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}.geometry.triangles.pNext<{}>",
+            self.geometry,
+            self.kind.struct_name()
+        )
+    }
+}
+
 /// The members the three attachments share, and where the structure is.
 struct Attachment<'a> {
     kind: Kind,
-    /// `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`
-    at: String,
+    at: AttachmentAt,
     s_type: i32,
     index_type: i32,
     index_buffer: u64,
@@ -315,60 +334,95 @@ struct Attachment<'a> {
 }
 
 impl Attachment<'_> {
+    /// The location of the member `name`, for a finding.
     fn member(&self, name: &str) -> String {
-        format!("{}.{name}", self.at)
+        self.member_at(name).to_string()
+    }
+
+    /// The location of the member `name`, written out only where it is
+    /// displayed: for the checks that take a location before they know
+    /// whether there is a finding.
+    fn member_at<'n>(&self, name: &'n str) -> impl Display + Copy + 'n {
+        let at = self.at;
+        MemberAt { at, name }
     }
 }
 
-/// The attachments chained to one triangles geometry.
-fn attachments<'a>(geometry_at: &str, data: &'a TrianglesData) -> Vec<Attachment<'a>> {
-    let at = |kind: Kind| {
-        format!(
-            "{geometry_at}.geometry.triangles.pNext<{}>",
-            kind.struct_name()
-        )
+/// `{attachment}.{name}`.
+#[derive(Clone, Copy)]
+struct MemberAt<'n> {
+    at: AttachmentAt,
+    name: &'n str,
+}
+
+impl Display for MemberAt<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{}", self.at, self.name)
+    }
+}
+
+/// The attachments chained to one triangles geometry, at most one of each
+/// kind, made one at a time as the caller reaches them (no Vec: a valid call
+/// should not allocate).
+fn attachments(
+    geometry_at: GeometryAt,
+    data: &TrianglesData,
+) -> impl Iterator<Item = Attachment<'_>> {
+    [Kind::Ext, Kind::Khr, Kind::Nv]
+        .into_iter()
+        .filter_map(move |kind| attachment(geometry_at, data, kind))
+}
+
+/// The attachment of `kind` chained to a triangles geometry, if any.
+fn attachment(geometry_at: GeometryAt, data: &TrianglesData, kind: Kind) -> Option<Attachment<'_>> {
+    let at = AttachmentAt {
+        geometry: geometry_at,
+        kind,
     };
-    let mut found = Vec::new();
-    if let Some(a) = &data.opacity_ext {
-        found.push(Attachment {
-            kind: Kind::Ext,
-            at: at(Kind::Ext),
-            s_type: a.s_type,
-            index_type: a.index_type,
-            index_buffer: a.index_buffer,
-            index_stride: a.index_stride,
-            base_triangle: a.base_triangle,
-            micromap: a.micromap,
-            usage_counts: Some(&a.usage_counts),
-        });
-    }
-    if let Some(a) = &data.opacity_khr {
-        found.push(Attachment {
-            kind: Kind::Khr,
-            at: at(Kind::Khr),
-            s_type: a.s_type,
-            index_type: a.index_type,
-            index_buffer: a.index_buffer,
-            index_stride: a.index_stride,
-            base_triangle: a.base_triangle,
-            micromap: a.micromap,
-            usage_counts: None,
-        });
-    }
-    if let Some(a) = &data.displacement_nv {
-        found.push(Attachment {
-            kind: Kind::Nv,
-            at: at(Kind::Nv),
-            s_type: a.s_type,
-            index_type: a.index_type,
-            index_buffer: a.index_buffer,
-            index_stride: a.index_stride,
-            base_triangle: a.base_triangle,
-            micromap: a.micromap,
-            usage_counts: Some(&a.usage_counts),
-        });
-    }
-    found
+    Some(match kind {
+        Kind::Ext => {
+            let a = data.opacity_ext.as_ref()?;
+            Attachment {
+                kind,
+                at,
+                s_type: a.s_type,
+                index_type: a.index_type,
+                index_buffer: a.index_buffer,
+                index_stride: a.index_stride,
+                base_triangle: a.base_triangle,
+                micromap: a.micromap,
+                usage_counts: Some(&a.usage_counts),
+            }
+        }
+        Kind::Khr => {
+            let a = data.opacity_khr.as_ref()?;
+            Attachment {
+                kind,
+                at,
+                s_type: a.s_type,
+                index_type: a.index_type,
+                index_buffer: a.index_buffer,
+                index_stride: a.index_stride,
+                base_triangle: a.base_triangle,
+                micromap: a.micromap,
+                usage_counts: None,
+            }
+        }
+        Kind::Nv => {
+            let a = data.displacement_nv.as_ref()?;
+            Attachment {
+                kind,
+                at,
+                s_type: a.s_type,
+                index_type: a.index_type,
+                index_buffer: a.index_buffer,
+                index_stride: a.index_stride,
+                base_triangle: a.base_triangle,
+                micromap: a.micromap,
+                usage_counts: Some(&a.usage_counts),
+            }
+        }
+    })
 }
 
 /// A triangles geometry at `at` (e.g. `pInfos[0].pGeometries[1]`) of `info`,
@@ -376,7 +430,7 @@ fn attachments<'a>(geometry_at: &str, data: &'a TrianglesData) -> Vec<Attachment
 pub(crate) fn triangles(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
-    at: &str,
+    at: GeometryAt,
     info: &BuildGeometryInfo,
     triangles: &TrianglesData,
     range: Option<&BuildRangeInfo>,
@@ -405,20 +459,26 @@ pub(crate) fn triangles(
 /// The pNext chain of `VkAccelerationStructureGeometryTrianglesDataKHR`: the
 /// attachments and motion triangles, nothing else (the model keeps the
 /// attachments apart; the sTypes chained after them are in their `next`).
-fn pnext_chain(ctx: &mut Ctx<'_>, at: &str, data: &TrianglesData) {
+fn pnext_chain(ctx: &mut Ctx<'_>, at: GeometryAt, data: &TrianglesData) {
     const ALLOWED: [i32; 4] = [
         STRUCTURE_TYPE_GEOMETRY_MOTION_TRIANGLES_DATA_NV,
         STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT,
         STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
         STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
     ];
-    let chained = data
-        .next
-        .iter()
-        .chain(data.opacity_ext.iter().flat_map(|a| &a.next))
-        .chain(data.opacity_khr.iter().flat_map(|a| &a.next))
-        .chain(data.displacement_nv.iter().flat_map(|a| &a.next));
-    if let Some(s_type) = chained.copied().find(|s| !ALLOWED.contains(s)) {
+    // The sTypes in chain order; plain slices, which are cheaper to walk
+    // than chained iterator adapters.
+    let none: &[i32] = &[];
+    let chained = [
+        &data.next[..],
+        data.opacity_ext.as_ref().map_or(none, |a| &a.next),
+        data.opacity_khr.as_ref().map_or(none, |a| &a.next),
+        data.displacement_nv.as_ref().map_or(none, |a| &a.next),
+    ];
+    let outsider = chained
+        .into_iter()
+        .find_map(|list| list.iter().copied().find(|s| !ALLOWED.contains(s)));
+    if let Some(s_type) = outsider {
         ctx.error(
             triangles_vuid::pNext_pNext,
             format!("{at}.geometry.triangles.pNext"),
@@ -462,7 +522,7 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     }
     if let Some(size) = index_size(a.index_type) {
         if let Some(vuid) = vuids.stride_multiple {
-            common::aligned(ctx, a.index_stride, size, vuid, a.member("indexStride"));
+            common::aligned(ctx, a.index_stride, size, vuid, a.member_at("indexStride"));
         }
         if let Some(vuid) = vuids.stride_max {
             ctx.require(
@@ -542,7 +602,7 @@ fn usage_count_pointers(
     ctx.require(
         !(counts.array.is_some() && counts.pointers.is_some()),
         vuids.one_of,
-        || a.at.clone(),
+        || a.at.to_string(),
         || "both pUsageCounts and ppUsageCounts are set".into(),
     );
     if counts.count == 0 {
@@ -587,7 +647,7 @@ fn usage_count_pointers(
 /// against the index type (10904/10905, 10892/11821), and the usage counts
 /// against the type the micromap was created with (11679-11683).
 fn ext_attachment(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>) {
-    let location = a.member(match command {
+    let location = a.member_at(match command {
         BuildCommand::Host => "indexBuffer.hostAddress",
         _ => "indexBuffer.deviceAddress",
     });
@@ -600,7 +660,7 @@ fn ext_attachment(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>) 
         ctx.require(
             a.index_buffer == 0,
             must_be_zero,
-            || location.clone(),
+            || location.to_string(),
             || {
                 format!(
                     "indexType is VK_INDEX_TYPE_NONE_KHR but the address is {:#x}",
@@ -612,11 +672,11 @@ fn ext_attachment(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>) 
         ctx.require(
             a.index_buffer != 0,
             must_be_valid,
-            || location.clone(),
+            || location.to_string(),
             || "the address is 0".into(),
         );
     } else {
-        common::valid_device_address(ctx, a.index_buffer, must_be_valid, &location);
+        common::valid_device_address(ctx, a.index_buffer, must_be_valid, location);
     }
     ext_usage_counts(ctx, a);
 }
@@ -630,9 +690,10 @@ fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     let opacity = micromap.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
     let displacement = micromap.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
     let limits = ctx.device.limits.clone();
-    let (member, entries) = counts.entries();
-    for (k, usage) in entries {
-        let loc = a.member(&format!("{member}[{k}]"));
+    let member = counts.member();
+    for (k, usage) in counts.usages_read() {
+        // Written out only for a finding.
+        let loc = format_args!("{}.{member}[{k}]", a.at);
         let level = usage.subdivision_level;
         let exceeds =
             |max: u32, name: &'static str| move || format!("{level} exceeds {name} = {max}");
@@ -723,7 +784,7 @@ fn khr_attachment(
             ctx,
             a.index_buffer,
             khr::indexBuffer_11572,
-            a.member("indexBuffer"),
+            a.member_at("indexBuffer"),
         );
     }
     if command == BuildCommand::Host {
@@ -1090,7 +1151,7 @@ fn usage_counts_match_indices(
 pub(crate) fn instances(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
-    at: &str,
+    at: GeometryAt,
     info: &BuildGeometryInfo,
     instances: &InstancesData,
 ) {
@@ -1185,22 +1246,25 @@ pub(crate) fn across_infos(ctx: &mut Ctx<'_>, command: BuildCommand, infos: &[Bu
     }
 }
 
-/// The KHR micromaps an info's geometries reference, with their locations.
-fn khr_micromaps(i: usize, info: &BuildGeometryInfo) -> Vec<(String, Handle)> {
-    let (member, geometries) = info.geometry_entries();
-    geometries
-        .into_iter()
-        .filter_map(|(g, geometry)| match KhrOpacityAttachment::of(geometry) {
-            KhrOpacityAttachment::Micromap(m) => Some((
-                format!(
-                    "pInfos[{i}].{member}[{g}].geometry.triangles.pNext<{}>.micromap",
-                    Kind::Khr.struct_name()
-                ),
-                m,
-            )),
+/// The KHR micromaps an info's geometries reference, with where their
+/// attachments are.
+fn khr_micromaps(
+    i: usize,
+    info: &BuildGeometryInfo,
+) -> impl Iterator<Item = (AttachmentAt, Handle)> + '_ {
+    let member = info.geometry_member();
+    info.geometries_read().filter_map(move |(g, geometry)| {
+        match KhrOpacityAttachment::of(geometry) {
+            KhrOpacityAttachment::Micromap(m) => {
+                let at = AttachmentAt {
+                    geometry: GeometryAt::new(InfoAt::Element(i), member, g),
+                    kind: Kind::Khr,
+                };
+                Some((at, m))
+            }
             _ => None,
-        })
-        .collect()
+        }
+    })
 }
 
 fn micromaps_against_destinations(ctx: &mut Ctx<'_>, infos: &[BuildGeometryInfo]) {
@@ -1214,13 +1278,14 @@ fn micromaps_against_destinations(ctx: &mut Ctx<'_>, infos: &[BuildGeometryInfo]
             .and_then(|s| memory_range(state, s))
     };
     for (i, info) in infos.iter().enumerate() {
-        for (location, micromap) in khr_micromaps(i, info) {
+        for (attachment, micromap) in khr_micromaps(i, info) {
+            let location = || format!("{attachment}.micromap");
             for (j, other) in infos.iter().enumerate().filter(|(j, _)| *j != i) {
                 let dst = other.dst_acceleration_structure;
                 if dst == micromap {
                     ctx.error(
                         cmd::dstAccelerationStructure_11548,
-                        location.clone(),
+                        location(),
                         format!("{micromap:#x} is also pInfos[{j}].dstAccelerationStructure"),
                     );
                     continue;
@@ -1229,7 +1294,7 @@ fn micromaps_against_destinations(ctx: &mut Ctx<'_>, infos: &[BuildGeometryInfo]
                     if a.0 < b.1 && b.0 < a.1 {
                         ctx.error(
                             cmd::dstAccelerationStructure_11549,
-                            location.clone(),
+                            location(),
                             format!("the memory of micromap {micromap:#x} [{:#x}, {:#x}) overlaps that of pInfos[{j}].dstAccelerationStructure [{:#x}, {:#x})", a.0, a.1, b.0, b.1),
                         );
                     }
@@ -1276,28 +1341,29 @@ fn update_matches_original(
         | khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_BIT_EXT
             .as_raw();
     let handle_must_match = original.flags & update_bits == 0 && !original.deserialized;
-    let (member, geometries) = info.geometry_entries();
-    for (g, geometry) in geometries {
+    let member = info.geometry_member();
+    for (g, geometry) in info.geometries_read() {
         if geometry.geometry_type != GEOMETRY_TYPE_TRIANGLES {
             continue;
         }
         let Some(before) = original.geometries.get(g).copied() else {
             continue;
         };
-        let at = format!("pInfos[{i}].{member}[{g}].geometry.triangles.pNext");
+        // Written out only for a finding.
+        let at = format_args!("pInfos[{i}].{member}[{g}].geometry.triangles.pNext");
         use KhrOpacityAttachment::{Absent, Micromap, NullMicromap};
         match (before, KhrOpacityAttachment::of(geometry)) {
             (Micromap(_), Absent | NullMicromap) => {
-                ctx.error(kept_micromap, at, "the original build chained a VkAccelerationStructureTrianglesOpacityMicromapKHR with a micromap; this update chains none with a micromap");
+                ctx.error(kept_micromap, at.to_string(), "the original build chained a VkAccelerationStructureTrianglesOpacityMicromapKHR with a micromap; this update chains none with a micromap");
             }
             (NullMicromap, Absent | Micromap(_)) => {
-                ctx.error(kept_null, at, "the original build chained a VkAccelerationStructureTrianglesOpacityMicromapKHR with micromap VK_NULL_HANDLE; this update does not");
+                ctx.error(kept_null, at.to_string(), "the original build chained a VkAccelerationStructureTrianglesOpacityMicromapKHR with micromap VK_NULL_HANDLE; this update does not");
             }
             (Absent, NullMicromap | Micromap(_)) => {
-                ctx.error(none_added, at, "the original build chained no VkAccelerationStructureTrianglesOpacityMicromapKHR; this update chains one");
+                ctx.error(none_added, at.to_string(), "the original build chained no VkAccelerationStructureTrianglesOpacityMicromapKHR; this update chains one");
             }
             (Micromap(old), Micromap(new)) if handle_must_match && old != new => {
-                ctx.error(same_handle, at, format!("micromap {new:#x} differs from {old:#x} of the original build, which allowed no opacity micromap update"));
+                ctx.error(same_handle, at.to_string(), format!("micromap {new:#x} differs from {old:#x} of the original build, which allowed no opacity micromap update"));
             }
             _ => {}
         }
@@ -1315,15 +1381,16 @@ pub fn record_original_attachments(state: &mut State, infos: &[BuildGeometryInfo
         {
             continue;
         }
-        let mut geometries = Vec::new();
-        if let Some(list) = &info.geometries {
-            geometries.extend(list.iter().map(KhrOpacityAttachment::of));
+        // Collected at their exact length: one allocation, no regrowth.
+        let geometries = if let Some(list) = &info.geometries {
+            list.iter().map(KhrOpacityAttachment::of).collect()
         } else if let Some(list) = &info.geometry_pointers {
-            geometries.extend(
-                list.iter()
-                    .map(|g| g.as_ref().map(KhrOpacityAttachment::of).unwrap_or_default()),
-            );
-        }
+            list.iter()
+                .map(|g| g.as_ref().map(KhrOpacityAttachment::of).unwrap_or_default())
+                .collect()
+        } else {
+            Vec::new()
+        };
         state.original_attachments.insert(
             info.dst_acceleration_structure,
             OriginalAttachments {

@@ -11,6 +11,7 @@
 //! checking it: there is no catalog VUID to cite.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::{self, Display};
 use std::sync::Arc;
 
 use ommcheck_vuids::vuid::{
@@ -238,7 +239,7 @@ impl Validator {
         max_primitive_counts: Option<&[u32]>,
     ) -> Report {
         let mut ctx = self.ctx("vkGetAccelerationStructureBuildSizesKHR");
-        build_geometry_info(&mut ctx, "pBuildInfo->", build_info);
+        build_geometry_info(&mut ctx, InfoAt::Pointer, build_info);
         if build_info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
             ctx.require(
                 build_type == BUILD_TYPE_DEVICE,
@@ -515,17 +516,16 @@ fn record_builds(
             continue;
         }
         let info_ranges = ranges.get(i).and_then(Option::as_ref);
-        let (_, geometries) = info.geometry_entries();
-        let content = geometries
-            .iter()
+        let content = info
+            .geometries_read()
             .find_map(|(_, g)| g.micromap.as_ref())
             .filter(|_| tier >= Tier::Content)
             .and_then(|data| micromap_content(state, host, data))
             .map(Arc::new);
-        let geometries = geometries
-            .iter()
+        let geometries = info
+            .geometries_read()
             .map(|(g, geometry)| {
-                geometry_record(geometry, info_ranges.and_then(|r| r.get(*g)).copied())
+                geometry_record(geometry, info_ranges.and_then(|r| r.get(g)).copied())
             })
             .collect();
         if let Some(dst) = state
@@ -628,9 +628,7 @@ fn geometry_record(
 /// The number of micromap triangles a build describes: the sum of its
 /// micromap geometries' usage counts.
 fn micromap_triangle_count(info: &BuildGeometryInfo) -> u64 {
-    info.geometry_entries()
-        .1
-        .iter()
+    info.geometries_read()
         .filter_map(|(_, g)| g.micromap.as_ref())
         .map(|m| m.usage_counts.total())
         .fold(0, u64::saturating_add)
@@ -646,7 +644,7 @@ pub(crate) fn builds(
     ranges: Option<&[Option<Vec<BuildRangeInfo>>]>,
 ) {
     for (i, info) in infos.iter().enumerate() {
-        build_geometry_info(ctx, &format!("pInfos[{i}]."), info);
+        build_geometry_info(ctx, InfoAt::Element(i), info);
         let info_ranges = ranges.map(|r| r.get(i).and_then(Option::as_ref));
         match command {
             BuildCommand::Cmd => cmd_rules(ctx, i, info, info_ranges.flatten()),
@@ -658,19 +656,19 @@ pub(crate) fn builds(
             ),
             BuildCommand::Host => {}
         }
-        let (member, geometries) = info.geometry_entries();
-        for (g, geometry) in geometries {
-            let at = format!("pInfos[{i}].{member}[{g}]");
+        let member = info.geometry_member();
+        for (g, geometry) in info.geometries_read() {
+            let at = GeometryAt::new(InfoAt::Element(i), member, g);
             if let Some(micromap) = &geometry.micromap {
-                micromap_inputs(ctx, command, &micromap_location(&at), info, micromap);
+                micromap_inputs(ctx, command, MicromapAt(at), info, micromap);
             }
             let range = info_ranges.flatten().and_then(|r| r.get(g));
             match &geometry.geometry {
                 GeometryData::Triangles(triangles) => {
-                    accel_attach::triangles(ctx, command, &at, info, triangles, range)
+                    accel_attach::triangles(ctx, command, at, info, triangles, range)
                 }
                 GeometryData::Instances(instances) => {
-                    accel_attach::instances(ctx, command, &at, info, instances)
+                    accel_attach::instances(ctx, command, at, info, instances)
                 }
                 GeometryData::Aabbs(_) | GeometryData::None => {}
             }
@@ -679,9 +677,64 @@ pub(crate) fn builds(
     accel_attach::across_infos(ctx, command, infos);
 }
 
+/// Where a `VkAccelerationStructureBuildGeometryInfoKHR` is, as the start
+/// of its members' locations: `pInfos[i].` in the build commands,
+/// `pBuildInfo->` in the size query. This and the location types below are
+/// written out only when a finding needs them: a valid call has none, and
+/// building every location string was most of its cost.
+#[derive(Clone, Copy)]
+pub(crate) enum InfoAt {
+    Element(usize),
+    Pointer,
+}
+
+impl Display for InfoAt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            InfoAt::Element(i) => write!(f, "pInfos[{i}]."),
+            InfoAt::Pointer => f.write_str("pBuildInfo->"),
+        }
+    }
+}
+
+/// Where one geometry of an info is: `pInfos[i].pGeometries[g]` (or
+/// `ppGeometries[g]`).
+#[derive(Clone, Copy)]
+pub(crate) struct GeometryAt {
+    info: InfoAt,
+    /// `pGeometries` or `ppGeometries`.
+    member: &'static str,
+    index: usize,
+}
+
+impl GeometryAt {
+    pub(crate) fn new(info: InfoAt, member: &'static str, index: usize) -> Self {
+        Self {
+            info,
+            member,
+            index,
+        }
+    }
+}
+
+impl Display for GeometryAt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}{}[{}]", self.info, self.member, self.index)
+    }
+}
+
 /// Where a geometry's `VkAccelerationStructureGeometryMicromapDataKHR` is.
-fn micromap_location(geometry_at: &str) -> String {
-    format!("{geometry_at}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>")
+#[derive(Clone, Copy)]
+struct MicromapAt(GeometryAt);
+
+impl Display for MicromapAt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>",
+            self.0
+        )
+    }
 }
 
 /// `vkCmdBuildAccelerationStructuresKHR`'s own rules for `pInfos[i]`, with
@@ -734,8 +787,7 @@ fn cmd_rules(
             );
         }
     }
-    let geometries = info.geometry_entries().1;
-    let has_type = |ty: i32| geometries.iter().any(|(_, g)| g.geometry_type == ty);
+    let has_type = |ty: i32| info.geometries_read().any(|(_, g)| g.geometry_type == ty);
     if has_type(GEOMETRY_TYPE_MICROMAP) {
         ctx.require(
             ranges.is_none(),
@@ -763,22 +815,22 @@ fn cmd_rules(
 /// The rules of `VkAccelerationStructureBuildGeometryInfoKHR` and the
 /// structures it points to, which the build commands and the size query
 /// share; `prefix` is `pInfos[i].` or `pBuildInfo->`.
-fn build_geometry_info(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
+fn build_geometry_info(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
     build_flags(ctx, prefix, info);
     micromap_type(ctx, prefix, info);
     let lossy = info.flags & BUILD_MICROMAP_LOSSY != 0;
-    let (member, geometries) = info.geometry_entries();
-    for (g, geometry) in geometries {
-        let at = format!("{prefix}{member}[{g}]");
-        geometry_rules(ctx, &at, geometry);
+    let member = info.geometry_member();
+    for (g, geometry) in info.geometries_read() {
+        let at = GeometryAt::new(prefix, member, g);
+        geometry_rules(ctx, at, geometry);
         if let Some(micromap) = &geometry.micromap {
-            micromap_data(ctx, &micromap_location(&at), micromap, lossy);
+            micromap_data(ctx, MicromapAt(at), micromap, lossy);
         }
     }
 }
 
 /// The build flags' micromap rules.
-fn build_flags(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
+fn build_flags(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
     let flags = info.flags;
     let features = &ctx.device.features;
     let (ext_micromap, any_micromap) = (
@@ -834,10 +886,10 @@ fn build_flags(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
 }
 
 /// The rules tying the build's type to its geometries.
-fn micromap_type(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
-    let (member, geometries) = info.geometry_entries();
+fn micromap_type(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
+    let member = info.geometry_member();
     if info.ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
-        for (g, geometry) in geometries {
+        for (g, geometry) in info.geometries_read() {
             ctx.require(
                 geometry.geometry_type != GEOMETRY_TYPE_MICROMAP,
                 info_vuid::geometryType_11707,
@@ -859,7 +911,7 @@ fn micromap_type(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
         || format!("{prefix}geometryCount"),
         || format!("is {}, not 1, for an opacity micromap", info.geometry_count),
     );
-    for (g, geometry) in geometries {
+    for (g, geometry) in info.geometries_read() {
         ctx.require(
             geometry.geometry_type == GEOMETRY_TYPE_MICROMAP,
             info_vuid::geometryType_11561,
@@ -876,7 +928,7 @@ fn micromap_type(ctx: &mut Ctx<'_>, prefix: &str, info: &BuildGeometryInfo) {
 
 /// `VkAccelerationStructureGeometryKHR`: its pNext chain, and what micromap
 /// geometry needs.
-fn geometry_rules(ctx: &mut Ctx<'_>, at: &str, geometry: &Geometry) {
+fn geometry_rules(ctx: &mut Ctx<'_>, at: GeometryAt, geometry: &Geometry) {
     for s_type in geometry
         .next
         .iter()
@@ -913,7 +965,7 @@ fn geometry_rules(ctx: &mut Ctx<'_>, at: &str, geometry: &Geometry) {
 
 /// `VkAccelerationStructureGeometryMicromapDataKHR` at `at` and its usage
 /// counts, in a build with or without the LOSSY flag.
-fn micromap_data(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData, lossy: bool) {
+fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData, lossy: bool) {
     ctx.require(
         data.s_type == STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
         micromap_vuid::sType_sType,
@@ -941,7 +993,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData, lossy
     usage_count_pointers(ctx, at, &data.usage_counts);
     let total = data.usage_counts.total();
     let max_triangles = ctx.device.limits.max_micromap_triangles;
-    let (member, usages) = data.usage_counts.entries();
+    let member = data.usage_counts.member();
     ctx.require(
         total <= max_triangles,
         micromap_vuid::count_11643,
@@ -949,11 +1001,15 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData, lossy
         || format!("the counts sum to {total}, more than maxMicromapTriangles = {max_triangles}"),
     );
     let limits = ctx.device.limits.clone();
-    for (k, usage) in usages {
-        let loc = format!("{at}.{member}[{k}]");
+    for (k, usage) in data.usage_counts.usages_read() {
+        let loc = UsageAt {
+            micromap: at,
+            member,
+            index: k,
+        };
         usage_rules(
             ctx,
-            &loc,
+            loc,
             usage.format,
             usage.subdivision_level,
             lossy,
@@ -962,10 +1018,25 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData, lossy
     }
 }
 
+/// Where one `VkMicromapUsageKHR` of a micromap geometry is.
+#[derive(Clone, Copy)]
+struct UsageAt {
+    micromap: MicromapAt,
+    /// `pUsageCounts` or `ppUsageCounts`.
+    member: &'static str,
+    index: usize,
+}
+
+impl Display for UsageAt {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{}[{}]", self.micromap, self.member, self.index)
+    }
+}
+
 /// One `VkMicromapUsageKHR`'s format and subdivision level.
 fn usage_rules(
     ctx: &mut Ctx<'_>,
-    loc: &str,
+    loc: UsageAt,
     format: u32,
     level: u32,
     lossy: bool,
@@ -1017,7 +1088,7 @@ fn usage_rules(
 
 /// Only one of `pUsageCounts` and `ppUsageCounts` (11642), each holding
 /// `usageCountsCount` elements, none NULL.
-fn usage_count_pointers(ctx: &mut Ctx<'_>, at: &str, counts: &UsageCounts) {
+fn usage_count_pointers(ctx: &mut Ctx<'_>, at: MicromapAt, counts: &UsageCounts) {
     ctx.require(
         !(counts.array.is_some() && counts.pointers.is_some()),
         micromap_vuid::pUsageCounts_11642,
@@ -1066,7 +1137,7 @@ fn usage_count_pointers(ctx: &mut Ctx<'_>, at: &str, counts: &UsageCounts) {
 fn micromap_inputs(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
-    at: &str,
+    at: MicromapAt,
     info: &BuildGeometryInfo,
     data: &GeometryMicromapData,
 ) {
@@ -1076,22 +1147,26 @@ fn micromap_inputs(
             (data.triangle_array, ".triangleArray"),
         ] {
             // Written out only for a finding.
-            let loc = common::At(at, member);
-            common::valid_device_address(ctx, address, cmd::micromap_11550, loc);
+            common::valid_device_address(
+                ctx,
+                address,
+                cmd::micromap_11550,
+                format_args!("{at}{member}"),
+            );
             common::device_address_usage(
                 ctx,
                 address,
                 BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
                 "VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR",
                 cmd::micromap_11551,
-                loc,
+                format_args!("{at}{member}"),
             );
             common::aligned(
                 ctx,
                 address,
                 MICROMAP_INPUT_ALIGNMENT,
                 cmd::micromap_11552,
-                loc,
+                format_args!("{at}{member}"),
             );
         }
         triangle_array_in_buffer(ctx, at, data);
@@ -1107,7 +1182,7 @@ fn micromap_inputs(
 
 /// 11554: `[triangleArray, triangleArray + stride * Σcount)` inside the
 /// buffer `triangleArray` lies in (addresses inside no buffer are 11550's).
-fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: &str, data: &GeometryMicromapData) {
+fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData) {
     let total = data.usage_counts.total();
     let start = data.triangle_array;
     let Some(state) = ctx.state else {
@@ -1152,15 +1227,15 @@ fn bytes_available(state: &State, host: bool, address: u64) -> Option<u64> {
 /// tracked memory: formats and levels against the limits (11555, 11556,
 /// 11566, 11567, 11713), each triangle's data inside the buffer (11553),
 /// and the usage counts against the entries.
-struct TriangleArrayCheck<'a> {
+struct TriangleArrayCheck {
     command: BuildCommand,
     /// The micromap structure's location.
-    at: &'a str,
+    at: MicromapAt,
     lossy: bool,
     limits: Limits,
 }
 
-impl TriangleArrayCheck<'_> {
+impl TriangleArrayCheck {
     fn run(&self, ctx: &mut Ctx<'_>, data: &GeometryMicromapData) {
         let total = data.usage_counts.total();
         let stride = data.triangle_array_stride;
@@ -1258,7 +1333,7 @@ impl TriangleArrayCheck<'_> {
         // skipped there).
         if ctx.hygiene {
             if let Some(data_bytes) = bytes_from(state, host, data.data) {
-                hygiene::opacity_blocks(ctx, self.at, data_bytes, &entries);
+                hygiene::opacity_blocks(ctx, &self.at.to_string(), data_bytes, &entries);
             }
         }
         if read == total {
@@ -1374,7 +1449,7 @@ impl TriangleArrayCheck<'_> {
 /// the sum of the counts equals the number of entries.
 fn usage_counts_match(
     ctx: &mut Ctx<'_>,
-    at: &str,
+    at: MicromapAt,
     counts: &UsageCounts,
     found: &BTreeMap<(u32, u32), u64>,
 ) {

@@ -163,14 +163,14 @@ impl Display for At<'_> {
 /// Triangle-array entry `m` of the micromap at `at`, or one of its members
 /// (`"{at}.triangleArray[{m}].{member}"`), written out only for a finding.
 #[derive(Clone, Copy)]
-pub(crate) struct TriangleEntry<'a> {
-    at: &'a str,
+pub(crate) struct TriangleEntry<A> {
+    at: A,
     m: u64,
     member: Option<&'static str>,
 }
 
-impl<'a> TriangleEntry<'a> {
-    pub fn new(at: &'a str, m: u64) -> Self {
+impl<A: Display> TriangleEntry<A> {
+    pub fn new(at: A, m: u64) -> Self {
         Self {
             at,
             m,
@@ -187,7 +187,7 @@ impl<'a> TriangleEntry<'a> {
     }
 }
 
-impl Display for TriangleEntry<'_> {
+impl<A: Display> Display for TriangleEntry<A> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}.triangleArray[{}]", self.at, self.m)?;
         match self.member {
@@ -316,12 +316,12 @@ pub(crate) fn device_address_usage(
     let Some(state) = ctx.state else {
         return;
     };
-    let buffers: Vec<(Handle, u64)> = state
-        .buffers_at(address)
-        .map(|(h, b)| (h, b.usage))
-        .collect();
-    if !buffers.is_empty() && !buffers.iter().any(|(_, u)| u & usage != 0) {
-        let handle = buffers[0].0;
+    // Walked, not collected: a valid call should not allocate.
+    let mut buffers = state.buffers_at(address);
+    let Some((handle, first)) = buffers.next() else {
+        return;
+    };
+    if first.usage & usage == 0 && !buffers.any(|(_, b)| b.usage & usage != 0) {
         ctx.error(vuid, location.to_string(), format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
             .objects
             .push(crate::report::ObjectRef { ty: "VkBuffer", handle });

@@ -1,5 +1,6 @@
 //! `VkMicromapBuildInfoEXT`, `vkCmdBuildMicromapsEXT` and `vkBuildMicromapsEXT`.
 
+use std::collections::hash_map::{Entry, HashMap};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -420,6 +421,12 @@ fn dst_micromap(
 
 /// Memory ranges `[start, end)` the builds write: each dstMicromap's backing
 /// memory (when its buffer's address is known) and each scratch start.
+///
+/// Each info is reported at most once per rule, against one other info it
+/// collides with, and the collisions are found by sorting: comparing every
+/// pair, as the rules read, would take time and findings quadratic in
+/// `infoCount` (the reader takes up to 2^20 infos: 2^39 pairs, and as many
+/// findings when all name one micromap).
 fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
     let (dst_dst, dst_scratch, scratch_scratch) = match side {
         Side::Device => (
@@ -444,15 +451,33 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
         let begin = start.checked_add(micromap.offset)?;
         Some((begin, begin.checked_add(micromap.size)?))
     };
-    let ranges: Vec<Option<(u64, u64)>> = infos.iter().map(dst_range).collect();
-    for (i, a) in ranges.iter().enumerate() {
-        for (j, b) in ranges.iter().enumerate().skip(i + 1) {
-            if let (Some(a), Some(b)) = (a, b) {
-                if a.0 < b.1 && b.0 < a.1 {
-                    ctx.error(dst_dst, format!("pInfos[{j}].dstMicromap"), format!("its memory [{:#x}, {:#x}) overlaps that of pInfos[{i}].dstMicromap [{:#x}, {:#x})", b.0, b.1, a.0, a.1));
-                }
+    // (start, end, info index), by start (then index).
+    let mut sorted: Vec<(u64, u64, usize)> = infos
+        .iter()
+        .enumerate()
+        .filter_map(|(k, info)| dst_range(info).map(|(start, end)| (start, end, k)))
+        .collect();
+    sorted.sort_unstable();
+    // For each position, the range among those up to it that reaches
+    // furthest: any range overlapping a later-starting one overlaps it too.
+    let mut furthest: Vec<(u64, u64, usize)> = Vec::with_capacity(sorted.len());
+    for &range in &sorted {
+        let reach = match furthest.last() {
+            Some(&last) if last.1 >= range.1 => last,
+            _ => range,
+        };
+        if let Some(&(a_start, a_end, a)) = furthest.last() {
+            let (b_start, b_end, b) = range;
+            if a_start < b_end && b_start < a_end {
+                let ((i, (i_start, i_end)), (j, (j_start, j_end))) = if a < b {
+                    ((a, (a_start, a_end)), (b, (b_start, b_end)))
+                } else {
+                    ((b, (b_start, b_end)), (a, (a_start, a_end)))
+                };
+                ctx.error(dst_dst, format!("pInfos[{j}].dstMicromap"), format!("its memory [{j_start:#x}, {j_end:#x}) overlaps that of pInfos[{i}].dstMicromap [{i_start:#x}, {i_end:#x})"));
             }
         }
+        furthest.push(reach);
     }
     // The scratch size is the implementation's; a scratch start inside a
     // destination is an overlap whatever that size is.
@@ -460,34 +485,41 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
         if info.scratch_data == 0 || side == Side::Host {
             continue;
         }
-        for (i, range) in ranges.iter().enumerate() {
-            if let Some((start, end)) = range {
-                if (*start..*end).contains(&info.scratch_data) {
-                    ctx.error(
-                        dst_scratch,
-                        format!("pInfos[{j}].scratchData"),
-                        format!(
-                            "{:#x} lies inside the memory of pInfos[{i}].dstMicromap",
-                            info.scratch_data
-                        ),
-                    );
-                }
-            }
+        // The last range starting at or before the scratch start, and the
+        // furthest-reaching range up to it.
+        let at = sorted.partition_point(|&(start, _, _)| start <= info.scratch_data);
+        let Some(&(_, end, i)) = at.checked_sub(1).and_then(|k| furthest.get(k)) else {
+            continue;
+        };
+        if info.scratch_data < end {
+            ctx.error(
+                dst_scratch,
+                format!("pInfos[{j}].scratchData"),
+                format!(
+                    "{:#x} lies inside the memory of pInfos[{i}].dstMicromap",
+                    info.scratch_data
+                ),
+            );
         }
     }
+    // The first info using each scratch start.
+    let mut first_with: HashMap<u64, usize> = HashMap::new();
     for (j, b) in infos.iter().enumerate() {
-        for (i, a) in infos.iter().enumerate().take(j) {
-            if b.scratch_data != 0
-                && a.scratch_data == b.scratch_data
-                && a.usage_counts.total() > 0
-                && b.usage_counts.total() > 0
-            {
+        if b.scratch_data == 0 || b.usage_counts.total() == 0 {
+            continue;
+        }
+        match first_with.entry(b.scratch_data) {
+            Entry::Vacant(vacant) => {
+                vacant.insert(j);
+            }
+            Entry::Occupied(first) => {
+                let i = *first.get();
                 ctx.error(
                     scratch_scratch,
                     format!("pInfos[{j}].scratchData"),
                     format!(
                         "pInfos[{i}] and pInfos[{j}] use the same scratch memory {:#x}",
-                        a.scratch_data
+                        b.scratch_data
                     ),
                 );
             }
@@ -593,8 +625,8 @@ pub(crate) fn build_info(
         limits.max_opacity4_state_subdivision_level,
         limits.max_displacement_micromap_subdivision_level,
     );
-    let (member, entries) = counts.entries();
-    for (k, usage) in &entries {
+    let member = counts.member();
+    for (k, usage) in counts.usages_read() {
         // Built only for a finding.
         let loc = || format!("{at}.{member}[{k}]");
         if opacity {

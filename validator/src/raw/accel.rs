@@ -17,8 +17,11 @@ use std::sync::Arc;
 use ash::vk;
 use ommcheck_vuids::khr;
 
+use std::fmt::Display;
+
 use super::{
-    bounded_len, chain, chain_s_types, read_array, usage_counts, MAX_ELEMENTS, MAX_HOST_BYTES,
+    array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, Index, Member,
+    MAX_ELEMENTS, MAX_HOST_BYTES,
 };
 use crate::checks::device_contents::DeviceBuild;
 use crate::model::accel::{
@@ -83,7 +86,7 @@ pub(crate) fn scratch_address(value: &vk::DeviceOrHostAddressKHR) -> u64 {
 pub unsafe fn build_geometry_info(
     info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> BuildGeometryInfo {
     let count = info.geometry_count;
@@ -92,38 +95,31 @@ pub unsafe fn build_geometry_info(
         geometry_bound(
             count,
             function,
-            &format!("{location}.geometryCount"),
+            Member(location, ".geometryCount"),
             findings,
         )
     } else {
         count
     };
-    let array_at = format!("{location}.pGeometries");
+    let array_at = Member(location, ".pGeometries");
     // SAFETY: the caller guarantees `pGeometries` is NULL or valid for
     // `geometryCount` elements; `bounded` is at most that many.
     let geometries =
-        unsafe { read_array(info.p_geometries, bounded, function, &array_at, findings) };
+        unsafe { array_slice(info.p_geometries, bounded, function, array_at, findings) };
     let geometries = geometries.map(|list| {
         list.iter()
             .enumerate()
             // SAFETY: each element is a geometry the caller guarantees valid.
             .map(|(g, geometry)| unsafe {
-                read_geometry(geometry, function, &format!("{array_at}[{g}]"), findings)
+                read_geometry(geometry, function, Index(array_at, g), findings)
             })
             .collect::<Vec<_>>()
     });
-    let pointers_at = format!("{location}.ppGeometries");
+    let pointers_at = Member(location, ".ppGeometries");
     // SAFETY: the caller guarantees `ppGeometries` is NULL or valid for
     // `geometryCount` pointers; `bounded` is at most that many.
-    let pointers = unsafe {
-        read_array(
-            info.pp_geometries,
-            bounded,
-            function,
-            &pointers_at,
-            findings,
-        )
-    };
+    let pointers =
+        unsafe { array_slice(info.pp_geometries, bounded, function, pointers_at, findings) };
     let geometry_pointers = pointers.map(|list| {
         list.iter()
             .enumerate()
@@ -132,9 +128,7 @@ pub unsafe fn build_geometry_info(
                 // caller guarantees valid; a NULL one is kept as None.
                 let geometry = unsafe { pointer.as_ref() }?;
                 // SAFETY: as above.
-                Some(unsafe {
-                    read_geometry(geometry, function, &format!("{pointers_at}[{g}]"), findings)
-                })
+                Some(unsafe { read_geometry(geometry, function, Index(pointers_at, g), findings) })
             })
             .collect::<Vec<_>>()
     });
@@ -172,7 +166,7 @@ pub const MAX_GEOMETRIES: u32 = 1 << 16;
 fn geometry_bound(
     count: u32,
     function: &'static str,
-    location: &str,
+    location: impl Display,
     findings: &mut Vec<Finding>,
 ) -> u32 {
     if count > MAX_GEOMETRIES {
@@ -198,7 +192,7 @@ fn geometry_bound(
 unsafe fn read_geometry(
     geometry: &vk::AccelerationStructureGeometryKHR<'_>,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> Geometry {
     let mut next = Vec::new();
@@ -215,9 +209,12 @@ unsafe fn read_geometry(
                     .address
                     .cast::<khr::AccelerationStructureGeometryMicromapDataKHR>()
             };
-            let at = format!("{location}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>");
+            let at = Member(
+                location,
+                ".pNext<VkAccelerationStructureGeometryMicromapDataKHR>",
+            );
             // SAFETY: forwarded from the caller.
-            micromap = Some(unsafe { geometry_micromap_data(data, function, &at, findings) });
+            micromap = Some(unsafe { geometry_micromap_data(data, function, at, findings) });
         } else {
             next.push(link.s_type);
         }
@@ -228,9 +225,9 @@ unsafe fn read_geometry(
             // SAFETY: the caller guarantees the union holds the member
             // `geometryType` selects: triangles.
             let triangles = unsafe { &geometry.geometry.triangles };
-            let at = format!("{location}.geometry.triangles");
+            let at = Member(location, ".geometry.triangles");
             // SAFETY: forwarded from the caller.
-            GeometryData::Triangles(unsafe { triangles_data(triangles, function, &at, findings) })
+            GeometryData::Triangles(unsafe { triangles_data(triangles, function, at, findings) })
         }
         GEOMETRY_TYPE_AABBS => {
             // SAFETY: the union holds the member `geometryType` selects: aabbs.
@@ -272,7 +269,7 @@ unsafe fn read_geometry(
 unsafe fn geometry_micromap_data(
     data: &khr::AccelerationStructureGeometryMicromapDataKHR,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> GeometryMicromapData {
     // VkMicromapUsageKHR and VkMicromapUsageEXT have the same layout: three
@@ -311,7 +308,7 @@ unsafe fn geometry_micromap_data(
 unsafe fn triangles_data(
     triangles: &vk::AccelerationStructureGeometryTrianglesDataKHR<'_>,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> TrianglesData {
     let (vertex_data, index_data, transform_data) = (
@@ -333,7 +330,6 @@ unsafe fn triangles_data(
         opacity_khr: None,
         displacement_nv: None,
     };
-    let at = |name: &str| format!("{location}.pNext<{name}>");
     // SAFETY: forwarded from the caller.
     let links = unsafe { chain(triangles.p_next, function, location, findings) };
     for link in links {
@@ -346,7 +342,10 @@ unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
                 };
-                let loc = at("VkAccelerationStructureTrianglesOpacityMicromapEXT");
+                let loc = Member(
+                    location,
+                    ".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>",
+                );
                 data.opacity_ext = Some(TrianglesOpacityMicromapExt {
                     s_type: a.s_type.as_raw(),
                     next: Vec::new(),
@@ -361,7 +360,7 @@ unsafe fn triangles_data(
                             a.p_usage_counts,
                             a.pp_usage_counts,
                             function,
-                            &loc,
+                            loc,
                             findings,
                         )
                     },
@@ -394,7 +393,10 @@ unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>>()
                 };
-                let loc = at("VkAccelerationStructureTrianglesDisplacementMicromapNV");
+                let loc = Member(
+                    location,
+                    ".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>",
+                );
                 let (bias_and_scale, vector, primitive_flags, index_buffer) = (
                     address(&a.displacement_bias_and_scale_buffer),
                     address(&a.displacement_vector_buffer),
@@ -426,7 +428,7 @@ unsafe fn triangles_data(
                             a.p_usage_counts,
                             a.pp_usage_counts,
                             function,
-                            &loc,
+                            loc,
                             findings,
                         )
                     },
@@ -456,7 +458,7 @@ unsafe fn build_geometry_infos(
         .enumerate()
         // SAFETY: forwarded from the caller.
         .map(|(i, info)| unsafe {
-            build_geometry_info(info, function, &format!("pInfos[{i}]"), findings)
+            build_geometry_info(info, function, Index("pInfos", i), findings)
         })
         .collect()
 }
@@ -481,15 +483,15 @@ unsafe fn read_build_range_infos(
         .enumerate()
         .map(|(i, info)| {
             let pointer = pointers.get(i).copied().unwrap_or(std::ptr::null());
-            let location = format!("ppBuildRangeInfos[{i}]");
+            let location = Index("ppBuildRangeInfos", i);
             let count = if pointer.is_null() {
                 info.geometry_count
             } else {
-                geometry_bound(info.geometry_count, function, &location, findings)
+                geometry_bound(info.geometry_count, function, location, findings)
             };
             // SAFETY: forwarded from the caller; at most geometryCount
             // elements are read.
-            let ranges = unsafe { read_array(pointer, count, function, &location, findings) };
+            let ranges = unsafe { read_array(pointer, count, function, location, findings) };
             ranges.map(|list| {
                 list.into_iter()
                     .map(|r| BuildRangeInfo {

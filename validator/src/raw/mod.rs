@@ -15,8 +15,8 @@ pub mod commands;
 pub mod objects;
 pub mod pipeline;
 
-use std::collections::HashSet;
 use std::ffi::c_void;
+use std::fmt::{self, Display};
 use std::sync::Arc;
 
 use ash::vk;
@@ -26,6 +26,7 @@ use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts}
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
 use crate::state::HostRange;
+use crate::tier::Tier;
 use crate::Validator;
 use ommcheck_vuids::vuid;
 
@@ -36,65 +37,112 @@ pub const MAX_CHAIN: usize = 64;
 /// The most bytes of host memory read for one array of a host command.
 pub const MAX_HOST_BYTES: u64 = 1 << 28;
 
+/// A location in the application's arguments, as findings name it:
+/// `{parent}{member}`, the member with its leading `.` (`pInfos[0]` and
+/// `.pUsageCounts`). Readers pass locations as values like this one and
+/// [`Index`], written out only when a finding names them, so a call that
+/// has no findings builds no location strings.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Member<P>(pub P, pub &'static str);
+
+impl<P: Display> Display for Member<P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}{}", self.0, self.1)
+    }
+}
+
+/// Element `.1` of the array at `.0`: `{array}[{index}]` (see [`Member`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Index<P>(pub P, pub usize);
+
+impl<P: Display> Display for Index<P> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}[{}]", self.0, self.1)
+    }
+}
+
 /// One structure of a pNext chain: its sType and where it is.
 pub(crate) struct Link {
     pub s_type: i32,
     pub address: *const c_void,
 }
 
-/// The structures of a pNext chain, stopping at NULL, after [`MAX_CHAIN`]
-/// structures, or at an address already visited (a cycle), which is
-/// reported as [`rules::PNEXT_CHAIN`] at `{location}.pNext`.
+/// Walks a pNext chain, handing `visit` each structure, stopping at NULL,
+/// after [`MAX_CHAIN`] structures, or at an address already visited (a
+/// cycle), which is reported as [`rules::PNEXT_CHAIN`] at
+/// `{location}.pNext`. The addresses visited are kept on the stack: a
+/// chain is short, and most calls walk one.
 ///
 /// # Safety
 /// Every non-NULL `pNext` in the chain must point to a readable structure
 /// that starts with `sType` and `pNext`, as the Vulkan API requires.
-pub(crate) unsafe fn chain(
+unsafe fn walk_chain(
     mut next: *const c_void,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
-) -> Vec<Link> {
-    let mut links = Vec::new();
-    let mut visited = HashSet::new();
+    mut visit: impl FnMut(Link),
+) {
+    let mut visited = [std::ptr::null::<c_void>(); MAX_CHAIN];
+    let mut walked = 0;
     while !next.is_null() {
-        if !visited.insert(next as usize) || links.len() >= MAX_CHAIN {
+        if walked >= MAX_CHAIN || visited[..walked].contains(&next) {
             findings.push(Finding::new(
                 &rules::PNEXT_CHAIN,
                 Severity::Error,
                 function,
                 format!("{location}.pNext"),
-                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {} of it", links.len()),
+                format!("the pNext chain loops back or is longer than {MAX_CHAIN} structures; read {walked} of it"),
             ));
             break;
         }
+        visited[walked] = next;
+        walked += 1;
         // SAFETY: the caller guarantees `next` points to a Vulkan structure,
         // whose first members are sType and pNext (VkBaseInStructure).
         let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
-        links.push(Link {
+        visit(Link {
             s_type: base.s_type.as_raw(),
             address: next,
         });
         next = base.p_next.cast();
     }
+}
+
+/// The structures of a pNext chain, walked as [`walk_chain`] walks it.
+///
+/// # Safety
+/// As for [`walk_chain`].
+pub(crate) unsafe fn chain(
+    next: *const c_void,
+    function: &'static str,
+    location: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> Vec<Link> {
+    let mut links = Vec::new();
+    // SAFETY: forwarded from the caller.
+    unsafe { walk_chain(next, function, location, findings, |link| links.push(link)) };
     links
 }
 
-/// The sTypes of a pNext chain, walked as [`chain`] walks it.
+/// The sTypes of a pNext chain, walked as [`walk_chain`] walks it.
 ///
 /// # Safety
-/// As for [`chain`].
+/// As for [`walk_chain`].
 pub(crate) unsafe fn chain_s_types(
     next: *const c_void,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> Vec<i32> {
+    let mut s_types = Vec::new();
     // SAFETY: forwarded from the caller.
-    unsafe { chain(next, function, location, findings) }
-        .into_iter()
-        .map(|link| link.s_type)
-        .collect()
+    unsafe {
+        walk_chain(next, function, location, findings, |link| {
+            s_types.push(link.s_type)
+        })
+    };
+    s_types
 }
 
 /// Copies up to [`MAX_ELEMENTS`] elements of an application array; `None`
@@ -106,23 +154,41 @@ pub(crate) unsafe fn read_array<T: Copy>(
     pointer: *const T,
     count: u32,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> Option<Vec<T>> {
+    // SAFETY: forwarded from the caller.
+    unsafe { array_slice(pointer, count, function, location, findings) }.map(<[T]>::to_vec)
+}
+
+/// Up to [`MAX_ELEMENTS`] elements of an application array in place, for
+/// a reader that turns each into the model at once (a copy would be
+/// dropped as soon as it is read); `None` for a NULL pointer.
+///
+/// # Safety
+/// A non-NULL `pointer` must point to `count` readable, initialised `T`s
+/// that stay so for `'a` (the call being checked).
+pub(crate) unsafe fn array_slice<'a, T>(
+    pointer: *const T,
+    count: u32,
+    function: &'static str,
+    location: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> Option<&'a [T]> {
     if pointer.is_null() {
         return None;
     }
     let len = bounded_len(count, function, location, findings);
     // SAFETY: the caller guarantees `count` elements are readable, and `len`
     // is at most `count`.
-    Some(unsafe { std::slice::from_raw_parts(pointer, len) }.to_vec())
+    Some(unsafe { std::slice::from_raw_parts(pointer, len) })
 }
 
 /// `count` bounded by [`MAX_ELEMENTS`], with a warning when it is cut.
 pub(crate) fn bounded_len(
     count: u32,
     function: &'static str,
-    location: &str,
+    location: impl Display,
     findings: &mut Vec<Finding>,
 ) -> usize {
     let len = usize::try_from(count).unwrap_or(usize::MAX);
@@ -155,35 +221,36 @@ pub(crate) unsafe fn usage_counts(
     array: *const vk::MicromapUsageEXT,
     pointers: *const *const vk::MicromapUsageEXT,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> UsageCounts {
     // SAFETY: forwarded from the caller.
     let array = unsafe {
-        read_array(
+        array_slice(
             array,
             count,
             function,
-            &format!("{location}.pUsageCounts"),
+            Member(location, ".pUsageCounts"),
             findings,
         )
     };
     // SAFETY: forwarded from the caller.
     let pointers = unsafe {
-        read_array(
+        array_slice(
             pointers,
             count,
             function,
-            &format!("{location}.ppUsageCounts"),
+            Member(location, ".ppUsageCounts"),
             findings,
         )
     };
     let pointers = pointers.map(|list| {
-        list.into_iter()
+        list.iter()
             // SAFETY: each non-NULL element points to one VkMicromapUsageEXT.
-            .map(|p| (!p.is_null()).then(|| usage(unsafe { *p })))
+            .map(|&p| (!p.is_null()).then(|| usage(unsafe { *p })))
             .collect::<Vec<_>>()
     });
+    let array = array.map(|list| list.iter().copied().map(usage).collect::<Vec<_>>());
     let read = array
         .as_ref()
         .map(Vec::len)
@@ -191,7 +258,7 @@ pub(crate) unsafe fn usage_counts(
     UsageCounts {
         // A count cut to the bound is reported above; the model holds what was read.
         count: read.map_or(count, |n| n as u32),
-        array: array.map(|list| list.into_iter().map(usage).collect()),
+        array,
         pointers,
     }
 }
@@ -207,7 +274,7 @@ pub(crate) unsafe fn usage_counts(
 pub unsafe fn micromap_build_info(
     info: &vk::MicromapBuildInfoEXT<'_>,
     function: &'static str,
-    location: &str,
+    location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> MicromapBuildInfo {
     // The host members' provenance is exposed so a host build can read
@@ -273,7 +340,7 @@ pub(crate) unsafe fn micromap_build_infos(
         .enumerate()
         // SAFETY: forwarded from the caller.
         .map(|(i, info)| unsafe {
-            micromap_build_info(info, function, &format!("pInfos[{i}]"), findings)
+            micromap_build_info(info, function, Index("pInfos", i), findings)
         })
         .collect()
 }
@@ -392,7 +459,8 @@ impl Validator {
     /// end of that range, so each triangle's data can be checked to lie
     /// inside it (`OMMCHECK-build-triangle-data-in-range`) and decoded.
     /// A range longer than [`MAX_HOST_BYTES`] from `data` on is reported
-    /// and not read.
+    /// and not read. Below [`Tier::Content`] no host memory is read at all
+    /// (neither triangle arrays nor data): no check there looks at bytes.
     ///
     /// # Safety
     /// As [`Self::build_micromaps_raw`], and each of `readable` must be
@@ -426,7 +494,13 @@ impl Validator {
         // What is read here is not all the memory the application described,
         // unless it described memory to the validator before the call.
         self.state.host_memory_partial = partial_before || described_before == 0;
-        for (i, info) in model.iter().enumerate() {
+        // Below the content tier no check reads a byte, so none is copied.
+        let read_for = if self.tier >= Tier::Content {
+            &model[..]
+        } else {
+            &[]
+        };
+        for (i, info) in read_for.iter().enumerate() {
             // SAFETY: forwarded from the caller (`readable` is readable).
             unsafe { self.read_data_in_readable(i, info.data, readable, &mut findings) };
             let triangles = info.usage_counts.total();
@@ -703,6 +777,37 @@ mod tests {
         let report = build(&mut v, &[ReadableHost { len: 1, ..whole }]);
         assert_eq!(report.ids(), [rules::TRIANGLE_DATA_RANGE.id], "{report}");
         assert!(v.state.host_memory.is_empty() && !v.state.host_memory_partial);
+    }
+
+    #[test]
+    fn host_build_reads_host_memory_only_from_the_content_tier_on() {
+        let triangles = [0u8; 16];
+        let usages = [usage_ext(2)];
+        let mut scratch = [0u8; 64];
+        let data = [0u8; 8];
+        // The stride makes the triangle array longer than ommcheck reads, so
+        // reading it is reported (and nothing past the array is touched).
+        let info = vk::MicromapBuildInfoEXT {
+            triangle_array_stride: MAX_HOST_BYTES,
+            ..host_build_info(&triangles, &usages, &data, &mut scratch)
+        };
+        for tier in Tier::ALL {
+            let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+            v.set_tier(tier);
+            // SAFETY: the array is never read: its extent is past the bound.
+            let report = unsafe {
+                v.build_micromaps_ash(
+                    <vk::Device as vk::Handle>::from_raw(1),
+                    vk::DeferredOperationKHR::null(),
+                    &[info],
+                )
+            };
+            assert_eq!(
+                report.contains(&rules::READ_BOUND),
+                tier >= Tier::Content,
+                "{tier}: {report}"
+            );
+        }
     }
 
     #[test]

@@ -147,7 +147,7 @@ impl Validator {
             }
             let info_ranges = ranges.get(i).and_then(Option::as_ref);
             let mut geometry = MicromapGeometry::default();
-            for (g, entry) in info.geometry_entries().1 {
+            for (g, entry) in info.geometries_read() {
                 let primitives = info_ranges
                     .and_then(|r| r.get(g))
                     .map_or(0, |r| r.primitive_count);
