@@ -98,10 +98,12 @@ fn t(data_offset: u32, subdivision_level: u16, format: u16) -> MicromapTriangle 
 /// A valid device build of `triangles` whose data starts with `data`.
 fn data_build(triangles: &[MicromapTriangle], data: &[u8]) -> Report {
     let mut v = validator_with(device(), triangles);
-    let input = v.state_mut().buffers.get_mut(&INPUT).unwrap();
+    let mut input = v.state_mut().buffers.get_mut(&INPUT).unwrap();
     let mut contents = input.contents.as_deref().unwrap().to_vec();
     contents[..data.len()].copy_from_slice(data);
     input.contents = Some(contents.into());
+    // The guard re-indexes the buffer when dropped; it borrows the state until then.
+    drop(input);
     let mut usage: Vec<MicromapUsage> = Vec::new();
     for tri in triangles {
         usage.push(MicromapUsage {
