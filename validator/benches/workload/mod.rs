@@ -327,6 +327,30 @@ pub fn assert_clean(what: &str, report: &Report) {
     );
 }
 
+/// Where [`track_other_buffers`] puts its buffers: above every workload
+/// buffer, so none of them holds an address a workload build names.
+const OTHER_BUFFERS_ADDRESS: u64 = 16 << 32;
+const OTHER_BUFFERS_HANDLE: u64 = 0x1_0000;
+
+/// Tracks `count` more bound buffers of 64 KiB, each at its own address
+/// and none holding the workload's addresses: the application's other
+/// buffers, which a state-tier check must not pay for when it resolves an
+/// address.
+pub fn track_other_buffers(validator: &mut Validator, count: u64) {
+    let buffers = &mut validator.state_mut().buffers;
+    for i in 0..count {
+        buffers.insert(
+            OTHER_BUFFERS_HANDLE + i,
+            bound_buffer(
+                OTHER_BUFFERS_ADDRESS + i * 0x1_0000,
+                0x1_0000,
+                BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                None,
+            ),
+        );
+    }
+}
+
 /// One micromap build, ready to be checked again and again: a prepared
 /// validator to clone and the call's parameters.
 pub struct MicromapBuild {
