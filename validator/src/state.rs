@@ -7,7 +7,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 mod buffers;
-pub use buffers::{BufferMut, Buffers};
+pub use buffers::{BufferMut, Buffers, WALK_AT_MOST};
 
 /// A Vulkan handle's value; 0 is VK_NULL_HANDLE.
 pub type Handle = u64;

@@ -3,9 +3,10 @@
 //! reference, across inserts, re-inserts, address and size changes and
 //! destroys: overlapping ranges, shared starts, zero sizes, ranges that
 //! saturate at the top of the address space, and addresses exactly at a
-//! range's end.
+//! range's end. Lookups among few buffers walk them all; the tests add
+//! filler buffers to take the index's path as well.
 
-use ommcheck::state::{Buffer, Handle, State};
+use ommcheck::state::{Buffer, Handle, State, WALK_AT_MOST};
 use proptest::prelude::*;
 
 /// The lookup as it was: every buffer, lowest handle first.
@@ -38,11 +39,51 @@ fn indexed_buffers_at(state: &State, address: u64) -> Vec<Handle> {
         .collect()
 }
 
-/// Addresses worth asking about: every start, end and their neighbours,
-/// and the ends of the address space.
+/// Handles of filler buffers: above those the operations use.
+const FILLER_HANDLE: Handle = 1_000;
+/// Where filler buffers lie: away from the operations' addresses, save the
+/// one filler that spans them all.
+const FILLER_ADDRESS: u64 = 0x100_0000;
+
+/// Enough buffers for lookups to go through the index rather than walk
+/// them: address-less ones, neighbours 0x100 long, and one range over the
+/// addresses the operations use.
+fn add_fillers(state: &mut State) {
+    for i in 0..=WALK_AT_MOST as u64 {
+        let (device_address, size) = match i % 3 {
+            0 => (None, 0x100),
+            1 => (Some(FILLER_ADDRESS + i * 0x100), 0x100),
+            _ => (Some(FILLER_ADDRESS + i * 0x100), 0x80),
+        };
+        state.buffers.insert(
+            FILLER_HANDLE + i,
+            Buffer {
+                size,
+                device_address,
+                ..Default::default()
+            },
+        );
+    }
+    state.buffers.insert(
+        FILLER_HANDLE + WALK_AT_MOST as u64 + 1,
+        Buffer {
+            size: 0x10_0000,
+            device_address: Some(0xf00),
+            ..Default::default()
+        },
+    );
+}
+
+/// Addresses worth asking about: every start, end and their neighbours
+/// (of the fillers, only the first few), and the ends of the address space.
 fn probe_addresses(state: &State) -> Vec<u64> {
     let mut probes = vec![0, 1, u64::MAX - 1, u64::MAX];
-    for (_, buffer) in state.buffers.iter() {
+    let fillers_to_probe = FILLER_HANDLE..FILLER_HANDLE + 4;
+    for (_, buffer) in state
+        .buffers
+        .iter()
+        .filter(|(handle, _)| **handle < FILLER_HANDLE || fillers_to_probe.contains(handle))
+    {
         if let Some((start, end)) = buffer.address_range() {
             for address in [start, end] {
                 probes.extend([address.wrapping_sub(1), address, address.wrapping_add(1)]);
@@ -172,10 +213,14 @@ proptest! {
 
     #[test]
     fn lookups_match_the_walk_over_every_buffer(
+        fillers in any::<bool>(),
         ops in prop::collection::vec(op(), 1..64),
         extra in prop::collection::vec(any::<u64>(), 0..4),
     ) {
         let mut state = State::default();
+        if fillers {
+            add_fillers(&mut state);
+        }
         for op in &ops {
             apply(&mut state, op);
             assert_matches_reference(&state, &extra)?;

@@ -13,6 +13,10 @@ use std::ops::{Deref, DerefMut, Index};
 
 use super::{Buffer, Handle};
 
+/// Up to this many buffers, a lookup walks them all: cheaper than a look in
+/// each size class of the index, and the same answer.
+pub const WALK_AT_MOST: usize = 32;
+
 /// One size class for each possible bit length of an address range's
 /// length (1 to 2^64 - 1 bytes).
 const SIZE_CLASSES: usize = u64::BITS as usize;
@@ -97,22 +101,33 @@ impl Buffers {
     /// Buffers whose device-address range contains `address`, lowest handle
     /// first.
     ///
-    /// Cost: O(C·log n + s + k·log n) for n buffers, of which k contain
-    /// `address`; C ≤ 64 is the number of size classes in use (buffers whose
-    /// range lengths have the same bit length), and s counts the buffers
-    /// looked at that turn out not to contain `address`. A buffer of a class
-    /// is looked at only if it starts at most twice the class's smallest
-    /// length below `address`, so s is at most C unless buffers of one class
-    /// overlap (aliased memory): then up to all of those overlapping ones
-    /// that end just below `address`.
+    /// Cost: with at most [`WALK_AT_MOST`] buffers, a walk over them all.
+    /// Beyond, through the index: O(C·log n + s + k·log n) for n buffers, of
+    /// which k contain `address`; C ≤ 64 is the number of size classes in use
+    /// (buffers whose range lengths have the same bit length), and s counts
+    /// the buffers looked at that turn out not to contain `address`. A buffer
+    /// of a class is looked at only if it starts less than twice the class's
+    /// smallest length below `address`, so s is at most C unless buffers of
+    /// one class overlap (aliased memory): then up to all of those
+    /// overlapping ones that end below `address` within that window.
     pub fn containing(&self, address: u64) -> impl Iterator<Item = (Handle, &Buffer)> {
-        let mut handles = self.index.holding(address);
-        // Checks report the first buffer found: keep the order they had when
-        // this was a walk over every buffer by handle.
-        handles.sort_unstable();
-        handles
-            .into_iter()
-            .filter_map(move |handle| Some((handle, self.map.get(&handle)?)))
+        let walk = (self.map.len() <= WALK_AT_MOST).then(|| {
+            self.map.iter().filter_map(move |(handle, buffer)| {
+                let (start, end) = Placement::of(buffer).range()?;
+                (start <= address && address < end).then_some((*handle, buffer))
+            })
+        });
+        let indexed = walk.is_none().then(|| {
+            let mut handles = self.index.holding(address);
+            // Checks report the first buffer found: the same order as the walk.
+            handles.sort_unstable();
+            handles
+                .into_iter()
+                .filter_map(move |handle| Some((handle, self.map.get(&handle)?)))
+        });
+        walk.into_iter()
+            .flatten()
+            .chain(indexed.into_iter().flatten())
     }
 
     /// Whether some buffer has a known device address (of any size).
