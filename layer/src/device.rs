@@ -449,7 +449,7 @@ fn bind(
         .get(&memory.as_raw())
         .map(|allocation| allocation.binding)
         .unwrap_or_default();
-    if let Some(tracked) = state
+    if let Some(mut tracked) = state
         .validator
         .state_mut()
         .buffers
@@ -565,7 +565,7 @@ unsafe fn get_buffer_device_address_with(
         if let Some(info) = unsafe { read::value(info) }.filter(|_| address != 0) {
             track(&data, function, |state| {
                 let buffers = &mut state.validator.state_mut().buffers;
-                if let Some(buffer) = buffers.get_mut(&info.buffer.as_raw()) {
+                if let Some(mut buffer) = buffers.get_mut(&info.buffer.as_raw()) {
                     buffer.device_address = Some(address);
                 }
             });

@@ -3,13 +3,19 @@
 //! number of micromap triangles N (1 to 10^6), for both formats, built
 //! through EXT (`vkCmdBuildMicromapsEXT`) and KHR
 //! (`vkCmdBuildAccelerationStructuresKHR` of type OPACITY_MICROMAP); and
-//! (d) the per-call cost of the params tier on one small build.
+//! (d) the per-call cost of the params tier on one small build; and the
+//! per-call cost of the state tier on one small build against the number
+//! of other buffers the application has (0 to 10^4), which resolving
+//! addresses through an index keeps from growing with that number.
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
 use ommcheck::Tier;
 
 mod workload;
-use workload::{time_check, Api, Format, MicromapBuild, MicromapWorkload, ReferencingBuild};
+use workload::{
+    assert_clean, time_check, track_other_buffers, Api, Format, MicromapBuild, MicromapWorkload,
+    ReferencingBuild,
+};
 
 /// Subdivision level of the N sweep: 8 (2-state) or 16 (4-state) bytes a
 /// triangle, so that 10^6 triangles stay at 16 or 24 MB with the array.
@@ -69,5 +75,39 @@ fn params_per_call(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, build_time, params_per_call);
+/// How many other buffers the state-per-call group tracks besides the
+/// build's own.
+const OTHER_BUFFERS: [u64; 3] = [0, 100, 10_000];
+
+fn state_per_call(c: &mut Criterion) {
+    let mut group = c.benchmark_group("state-per-call");
+    let one = MicromapWorkload::new(1, SWEEP_LEVEL, Format::FourState);
+    for api in Api::ALL {
+        for others in OTHER_BUFFERS {
+            let mut build = MicromapBuild::new(&one, api);
+            track_other_buffers(&mut build.validator, others);
+            build.validator.set_tier(Tier::State);
+            // One validator checks the build again and again, rather than a
+            // fresh clone each iteration: cloned anew, 10,000 buffers are out
+            // of cache, and the bench would time cache misses, not lookups.
+            // A valid build leaves the state as it found it but for the
+            // build's record, which the next check replaces.
+            let mut warm = build.validator.clone();
+            for pass in ["first", "second"] {
+                assert_clean(
+                    &format!(
+                        "{} build among {others} other buffers, {pass} check",
+                        api.name()
+                    ),
+                    &build.check(&mut warm),
+                );
+            }
+            let id = BenchmarkId::new(format!("{}-micromap", api.name()), others);
+            group.bench_function(id, |b| b.iter(|| build.check(&mut warm)));
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, build_time, params_per_call, state_per_call);
 criterion_main!(benches);

@@ -6,6 +6,9 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
+mod buffers;
+pub use buffers::{BufferMut, Buffers, WALK_AT_MOST};
+
 /// A Vulkan handle's value; 0 is VK_NULL_HANDLE.
 pub type Handle = u64;
 
@@ -149,7 +152,8 @@ pub struct HostRange {
 /// Everything tracked.
 #[derive(Clone, Debug, Default)]
 pub struct State {
-    pub buffers: BTreeMap<Handle, Buffer>,
+    /// By handle, with an index of their device addresses.
+    pub buffers: Buffers,
     pub micromaps: BTreeMap<Handle, Micromap>,
     pub acceleration_structures: BTreeMap<Handle, AccelerationStructure>,
     pub query_pools: BTreeMap<Handle, QueryPool>,
@@ -185,12 +189,11 @@ pub struct State {
 }
 
 impl State {
-    /// Buffers whose device-address range contains `address`, lowest handle first.
+    /// Buffers whose device-address range contains `address`, lowest handle
+    /// first; through the address index, not a walk over every buffer (see
+    /// [`Buffers::containing`] for the cost).
     pub fn buffers_at(&self, address: u64) -> impl Iterator<Item = (Handle, &Buffer)> {
-        self.buffers.iter().filter_map(move |(handle, buffer)| {
-            let (start, end) = buffer.address_range()?;
-            (start <= address && address < end).then_some((*handle, buffer))
-        })
+        self.buffers.containing(address)
     }
 
     /// Whether some buffer holds all of `[address, address + len)`.
@@ -205,7 +208,7 @@ impl State {
     /// Whether the checker knows the buffers behind device addresses at all
     /// (no buffer has a known address: address rules cannot be decided).
     pub fn knows_addresses(&self) -> bool {
-        self.buffers.values().any(|b| b.device_address.is_some())
+        self.buffers.any_with_address()
     }
 
     /// The bytes `[address, address + len)` of device memory, if one buffer

@@ -23,18 +23,20 @@ use ommcheck::state::{Buffer, MemoryBinding, Micromap};
 use ommcheck::{Device, Profile, Report, Tier, Validator};
 
 /// Buffers, each at its own 4 GiB-aligned device address (so every
-/// alignment rule holds and no two ranges meet).
-const DATA: u64 = 0xd1;
+/// alignment rule holds and no two ranges meet); their handles lie between
+/// those of [`track_other_buffers`], as an application's would among its
+/// other buffers.
+const DATA: u64 = 0x8000_00d1;
 const DATA_ADDRESS: u64 = 1 << 32;
-const TRIANGLES: u64 = 0xd2;
+const TRIANGLES: u64 = 0x8000_00d2;
 const TRIANGLES_ADDRESS: u64 = 2 << 32;
-const INDICES: u64 = 0xd3;
+const INDICES: u64 = 0x8000_00d3;
 const INDICES_ADDRESS: u64 = 3 << 32;
-const VERTICES: u64 = 0xd4;
+const VERTICES: u64 = 0x8000_00d4;
 const VERTICES_ADDRESS: u64 = 4 << 32;
-const SCRATCH: u64 = 0xd5;
+const SCRATCH: u64 = 0x8000_00d5;
 const SCRATCH_ADDRESS: u64 = 5 << 32;
-const STORAGE: u64 = 0xd6;
+const STORAGE: u64 = 0x8000_00d6;
 const STORAGE_ADDRESS: u64 = 6 << 32;
 const STORAGE_SIZE: u64 = 0x10_0000;
 /// The EXT micromap (`VkMicromapEXT`) builds write.
@@ -331,6 +333,37 @@ pub fn assert_clean(what: &str, report: &Report) {
         report.is_empty(),
         "{what} is not valid; a benchmark of it would measure error reporting:\n{report}"
     );
+}
+
+/// Where [`track_other_buffers`] puts its buffers: above every workload
+/// buffer, so none of them holds an address a workload build names.
+const OTHER_BUFFERS_ADDRESS: u64 = 16 << 32;
+/// Half of the other buffers' handles are below the workload's, half above.
+const OTHER_BUFFERS_HANDLE_BELOW: u64 = 0x1_0000;
+const OTHER_BUFFERS_HANDLE_ABOVE: u64 = 0x1_0000_0000;
+
+/// Tracks `count` more bound buffers of 64 KiB, each at its own address
+/// and none holding the workload's addresses: the application's other
+/// buffers, which a state-tier check must not pay for when it resolves an
+/// address.
+pub fn track_other_buffers(validator: &mut Validator, count: u64) {
+    let buffers = &mut validator.state_mut().buffers;
+    for i in 0..count {
+        let base = if i % 2 == 0 {
+            OTHER_BUFFERS_HANDLE_BELOW
+        } else {
+            OTHER_BUFFERS_HANDLE_ABOVE
+        };
+        buffers.insert(
+            base + i,
+            bound_buffer(
+                OTHER_BUFFERS_ADDRESS + i * 0x1_0000,
+                0x1_0000,
+                BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                None,
+            ),
+        );
+    }
 }
 
 /// One micromap build, ready to be checked again and again: a prepared

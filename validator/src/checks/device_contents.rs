@@ -142,7 +142,7 @@ impl Validator {
         let (without, _) = self.device_build_rules(command_buffer, build);
         let mut previous = Vec::new();
         for (handle, bytes) in contents {
-            if let Some(buffer) = self.state.buffers.get_mut(&handle) {
+            if let Some(mut buffer) = self.state.buffers.get_mut(&handle) {
                 previous.push((handle, buffer.contents.replace(bytes)));
             }
         }
@@ -150,7 +150,7 @@ impl Validator {
         self.record_built_contents(build, micromap_contents);
         // Restored in reverse, so a buffer named twice gets its first value back.
         for (handle, old) in previous.into_iter().rev() {
-            if let Some(buffer) = self.state.buffers.get_mut(&handle) {
+            if let Some(mut buffer) = self.state.buffers.get_mut(&handle) {
                 buffer.contents = old;
             }
         }

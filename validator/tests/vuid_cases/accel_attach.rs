@@ -112,7 +112,7 @@ fn built(ty: i32, flags: u32, triangle_count: u64) -> Option<BuildRecord> {
 fn world() -> Validator {
     let mut v = validator();
     let state = v.state_mut();
-    let input = state.buffers.get_mut(&INPUT).expect("fixture buffer");
+    let mut input = state.buffers.get_mut(&INPUT).expect("fixture buffer");
     let mut contents = input.contents.as_deref().expect("contents").to_vec();
     for (offset, indices) in [
         (INDICES_OFFSET, GOOD),
@@ -124,6 +124,8 @@ fn world() -> Validator {
         contents[at..at + 16].copy_from_slice(&le_bytes(&indices));
     }
     input.contents = Some(Arc::from(contents));
+    // The guard re-indexes the buffer when dropped; it borrows the state until then.
+    drop(input);
     for (address, indices) in [(HOST_INDICES, GOOD), (HOST_SPECIAL_INDICES, SPECIAL)] {
         state.host_memory.push(HostRange {
             address,
@@ -1327,7 +1329,7 @@ fn world_with_content() -> Validator {
             })
             .collect()
     };
-    let input = v
+    let mut input = v
         .state_mut()
         .buffers
         .get_mut(&INPUT)
@@ -1337,6 +1339,8 @@ fn world_with_content() -> Validator {
     contents[at..at + 32].copy_from_slice(&entries(2));
     contents[at + 0x100..at + 0x120].copy_from_slice(&entries(1));
     input.contents = Some(Arc::from(contents));
+    // The guard re-indexes the buffer when dropped; it borrows the state until then.
+    drop(input);
     let opacity = MicromapBuildInfo {
         dst_micromap: MICROMAP,
         usage_counts: UsageCounts::array(vec![usage(

@@ -58,7 +58,7 @@ fn world_with_entries(entries: &[(usize, MicromapTriangle)]) -> Validator {
     for (at, entry) in entries {
         bytes[*at..*at + 8].copy_from_slice(&entry.to_bytes());
     }
-    if let Some(input) = v.state_mut().buffers.get_mut(&INPUT) {
+    if let Some(mut input) = v.state_mut().buffers.get_mut(&INPUT) {
         input.contents = Some(bytes.into());
     }
     v

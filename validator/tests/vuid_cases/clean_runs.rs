@@ -115,13 +115,15 @@ fn usage_of(entries: &[MicromapTriangle]) -> UsageCounts {
 /// [`TRIANGLES_OFFSET`], checking at `tier`.
 fn world_with_stride(entries: &[MicromapTriangle], stride: usize, tier: Tier) -> Validator {
     let mut v = validator_with(device(), &[]);
-    let input = v.state_mut().buffers.get_mut(&INPUT).expect("the input");
+    let mut input = v.state_mut().buffers.get_mut(&INPUT).expect("the input");
     let mut bytes = input.contents.as_deref().expect("contents").to_vec();
     for (i, e) in entries.iter().enumerate() {
         let at = TRIANGLES_OFFSET as usize + i * stride;
         bytes[at..at + 8].copy_from_slice(&e.to_bytes());
     }
     input.contents = Some(bytes.into());
+    // The guard re-indexes the buffer when dropped; it borrows the validator until then.
+    drop(input);
     v.create_acceleration_structure2(
         &AccelerationStructureCreateInfo2 {
             address: STORAGE_ADDRESS + 0x8000,

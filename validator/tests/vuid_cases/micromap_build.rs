@@ -95,7 +95,6 @@ fn t(data_offset: u32, subdivision_level: u16, format: u16) -> MicromapTriangle 
     }
 }
 
-/// A valid device build of `triangles` whose data starts with `data`.
 /// A build of `triangles` over `data`, checked at the simulate tier, the
 /// one that computes the hygiene information.
 fn data_build(triangles: &[MicromapTriangle], data: &[u8]) -> Report {
@@ -105,10 +104,12 @@ fn data_build(triangles: &[MicromapTriangle], data: &[u8]) -> Report {
 fn data_build_at(tier: Tier, triangles: &[MicromapTriangle], data: &[u8]) -> Report {
     let mut v = validator_with(device(), triangles);
     v.set_tier(tier);
-    let input = v.state_mut().buffers.get_mut(&INPUT).unwrap();
+    let mut input = v.state_mut().buffers.get_mut(&INPUT).unwrap();
     let mut contents = input.contents.as_deref().unwrap().to_vec();
     contents[..data.len()].copy_from_slice(data);
     input.contents = Some(contents.into());
+    // The guard re-indexes the buffer when dropped; it borrows the state until then.
+    drop(input);
     let mut usage: Vec<MicromapUsage> = Vec::new();
     for tri in triangles {
         usage.push(MicromapUsage {
