@@ -10,7 +10,9 @@
 //!   many bytes;
 //! - `referenced-fraction/{api}/{K}-of-{M}`: a bottom-level build referencing
 //!   K of a micromap's M triangles, at the content tier;
-//! - `params-per-call/{call}`: one small build at the params tier.
+//! - `params-per-call/{call}`: one small build at the params tier;
+//! - `state-per-call/{api}-micromap/{B}`: one small build at the state tier
+//!   while B other buffers are tracked.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -454,6 +456,40 @@ fn params_table(out: &mut String, estimates: &[Estimate]) {
     out.push('\n');
 }
 
+/// The state tier against how many buffers the application has: lookups of
+/// device addresses go through an index, so the time should not follow B.
+fn state_table(out: &mut String, estimates: &[Estimate]) {
+    let rows: BTreeMap<(&str, u64), &Estimate> = estimates
+        .iter()
+        .filter(|e| e.group == "state-per-call")
+        .filter_map(|e| {
+            let others = e.value.as_deref()?.parse().ok()?;
+            Some(((e.function.as_str(), others), e))
+        })
+        .collect();
+    if rows.is_empty() {
+        return;
+    }
+    out.push_str(
+        "### State tier, one small build among B other buffers
+
+",
+    );
+    out.push_str("One build of one level-3 4-state triangle at the state tier, with B other buffers tracked besides the build's own.
+
+");
+    out.push_str("| call | other buffers | mean | median |\n| --- | ---: | ---: | ---: |\n");
+    for ((function, others), e) in rows {
+        let _ = writeln!(
+            out,
+            "| {function} | {others} | {} | {} |",
+            format_time(e.mean_ns),
+            format_time(e.median_ns)
+        );
+    }
+    out.push('\n');
+}
+
 /// The markdown table of what each tier costs, with the machine in its header.
 pub fn render_table(machine: &Machine, quick: bool, estimates: &[Estimate]) -> String {
     let mut out = String::from("## What accuracy costs: measurements\n\n");
@@ -473,6 +509,7 @@ pub fn render_table(machine: &Machine, quick: bool, estimates: &[Estimate]) -> S
     throughput_table(&mut out, estimates);
     referenced_table(&mut out, estimates);
     params_table(&mut out, estimates);
+    state_table(&mut out, estimates);
     out
 }
 
@@ -1009,6 +1046,8 @@ mod tests {
             ),
             estimate("params-per-call", "ext-micromap", "", "null", 750.0),
             estimate("params-per-call", "khr-micromap", "", "null", 1_300.0),
+            estimate("state-per-call", "ext-micromap", "10000", "null", 900.0),
+            estimate("state-per-call", "ext-micromap", "100", "null", 800.0),
         ]
     }
 
@@ -1126,6 +1165,14 @@ mod tests {
             table.contains("| khr-micromap | 1.30 µs | 1.17 µs | missed |"),
             "{table}"
         );
+        // Buffer counts in numeric order, not string order.
+        let hundred = table
+            .find("| ext-micromap | 100 | 800 ns | 720 ns |")
+            .expect(&table);
+        let ten_thousand = table
+            .find("| ext-micromap | 10000 | 900 ns | 810 ns |")
+            .expect(&table);
+        assert!(hundred < ten_thousand);
     }
 
     #[test]
