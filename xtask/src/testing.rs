@@ -198,9 +198,10 @@ fn host_triple() -> Result<String, Error> {
 /// AddressSanitizer. `RUSTFLAGS=-Zsanitizer=address` with an explicit
 /// `--target` instruments what is built for the target (the test binaries,
 /// vk-probe and omm-app, and the layer's cdylib) but not build scripts and
-/// proc-macros. The executables carry the ASan runtime; the layer, loaded
-/// by the (uninstrumented) system loader into them, finds the runtime's
-/// symbols there, so no LD_PRELOAD is needed. Leak detection is off: the
+/// proc-macros. The executables carry the ASan runtime and export it
+/// (`--export-dynamic`); the layer, loaded by the (uninstrumented) system
+/// loader into them, binds to it there, so no LD_PRELOAD of a shared
+/// runtime is needed. Leak detection is off: the
 /// loader and the Mock ICD keep allocations until exit by design.
 pub fn sanitize(root: &Path, install: bool) -> Result<(), Error> {
     ensure_prerequisites(install)?;
@@ -211,7 +212,16 @@ pub fn sanitize(root: &Path, install: bool) -> Result<(), Error> {
         "loader end-to-end tests under AddressSanitizer",
         crate::fuzz::nightly_cargo()
             .current_dir(root)
-            .env("RUSTFLAGS", "-Zsanitizer=address")
+            // Rust links the ASan runtime into executables statically and,
+            // unlike clang, does not export its symbols; a dlopen'ed
+            // instrumented layer then fails with `undefined symbol:
+            // __asan_option_detect_stack_use_after_return` (the loader says
+            // "Layer specified does not exist"). Exporting the executables'
+            // symbols lets the layer bind to the one runtime in the process.
+            .env(
+                "RUSTFLAGS",
+                "-Zsanitizer=address -Clink-arg=-Wl,--export-dynamic",
+            )
             .env("ASAN_OPTIONS", "detect_leaks=0")
             .env("CARGO_TARGET_DIR", crate::target_dir(root).join("asan"))
             .envs(driver_vars)

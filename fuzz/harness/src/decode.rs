@@ -248,7 +248,7 @@ fn slow_triangle(
     let level = u128::from(t.subdivision_level);
     if 2 * level + bits > 120 {
         // Far more than any memory: sized as no data can hold it (or not at all).
-        return Err(if 2 * level + bits - 1 >= 67 {
+        return Err(if 2 * level + bits > 67 {
             "format"
         } else {
             "data"

@@ -12,8 +12,11 @@ pub mod raw;
 pub mod scene;
 pub mod simulate;
 
+/// A target's body: panics on a finding.
+pub type Body = fn(&[u8]);
+
 /// The targets, by the names `cargo fuzz` knows them by.
-pub const TARGETS: [(&str, fn(&[u8])); 4] = [
+pub const TARGETS: [(&str, Body); 4] = [
     ("raw_reader", raw::run),
     ("decode", decode::run),
     ("simulate", simulate::run),

@@ -55,7 +55,9 @@ type OmmExt = vk::AccelerationStructureTrianglesOpacityMicromapEXT<'static>;
 type Geometry = vk::AccelerationStructureGeometryKHR<'static>;
 
 /// Every allocation the structures point into; kept alive for the calls.
-/// Boxes do not move when the vectors holding them grow.
+/// Boxes do not move when the vectors holding them grow (the elements of a
+/// `Vec<T>` would), so pointers taken into them stay valid.
+#[allow(clippy::vec_box)]
 #[derive(Default)]
 struct Arena {
     nodes: Vec<Box<Node>>,
