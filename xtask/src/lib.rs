@@ -7,6 +7,7 @@ pub mod bench;
 pub mod catalog;
 mod drivers;
 pub mod faults;
+pub mod fuzz;
 pub mod khr;
 pub mod layer;
 pub mod registry;

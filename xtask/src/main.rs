@@ -54,6 +54,30 @@ enum Task {
         /// Do not install missing prerequisites; report them.
         #[arg(long)]
         no_install: bool,
+        /// Instead of the suite: the loader end-to-end tests (tests/loader.rs,
+        /// tests/layer_e2e.rs) with the test binaries and the layer built
+        /// with AddressSanitizer (nightly).
+        #[arg(long)]
+        sanitize: bool,
+    },
+    /// Fuzz the reader, decoder, simulator and scene parser with cargo-fuzz
+    /// (installing nightly and cargo-fuzz where missing).
+    Fuzz {
+        /// 25 s per target, as `cargo xtask test` runs it.
+        #[arg(long, conflicts_with_all = ["long", "seconds"])]
+        smoke: bool,
+        /// 10 minutes per target.
+        #[arg(long, conflicts_with = "seconds")]
+        long: bool,
+        /// Seconds per target (default: the smoke run's).
+        #[arg(long)]
+        seconds: Option<u64>,
+        /// Afterwards, replace fuzz/corpus/<target> with the inputs of it and
+        /// of the run that add coverage.
+        #[arg(long)]
+        minimize: bool,
+        /// Targets to run (default: all).
+        targets: Vec<String>,
     },
 }
 
@@ -112,7 +136,41 @@ fn main() -> ExitCode {
             quick,
             overhead_only,
         } => xtask::bench::run(&root, quick, overhead_only),
-        Task::Test { no_install } => xtask::testing::run(&root, !no_install),
+        Task::Test {
+            no_install,
+            sanitize: false,
+        } => xtask::testing::run(&root, !no_install),
+        Task::Test {
+            no_install,
+            sanitize: true,
+        } => xtask::testing::sanitize(&root, !no_install),
+        Task::Fuzz {
+            smoke: _,
+            long,
+            seconds,
+            minimize,
+            targets,
+        } => {
+            let seconds = seconds.unwrap_or(if long {
+                xtask::fuzz::LONG_SECONDS
+            } else {
+                xtask::fuzz::SMOKE_SECONDS
+            });
+            let targets = if targets.is_empty() {
+                xtask::fuzz::TARGETS.map(String::from).to_vec()
+            } else {
+                targets
+            };
+            xtask::fuzz::run(
+                &root,
+                &xtask::fuzz::Options {
+                    seconds,
+                    targets,
+                    minimize,
+                },
+            )
+            .map(|_| ())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -158,6 +158,75 @@ pub fn run(root: &Path, install: bool) -> Result<(), Error> {
             .current_dir(root)
             .args(["test", "--workspace"])
             .envs(driver_vars),
+    )?;
+    // Hostile input: the raw-pointer reader's tests under Miri, then every
+    // fuzz target for a short while (each finding fails the run).
+    let started = std::time::Instant::now();
+    crate::fuzz::miri(root, &crate::target_dir(root))?;
+    eprintln!("xtask: Miri took {} s", started.elapsed().as_secs());
+    let started = std::time::Instant::now();
+    crate::fuzz::run(
+        root,
+        &crate::fuzz::Options {
+            seconds: crate::fuzz::SMOKE_SECONDS,
+            targets: crate::fuzz::TARGETS.map(String::from).to_vec(),
+            minimize: false,
+        },
+    )?;
+    eprintln!(
+        "xtask: the fuzz smoke run took {} s",
+        started.elapsed().as_secs()
+    );
+    Ok(())
+}
+
+/// The host's target triple. With an explicit `--target`, cargo applies
+/// RUSTFLAGS only to what it builds for the target, not to build scripts
+/// and proc-macros, which would fail to load instrumented.
+fn host_triple() -> Result<String, Error> {
+    let out = Command::new("rustup")
+        .args(["run", "nightly", "rustc", "-vV"])
+        .output()
+        .map_err(|e| Error::Tool(format!("rustc -vV: {e}")))?;
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .find_map(|l| l.strip_prefix("host: ").map(str::to_string))
+        .ok_or_else(|| Error::Tool("rustc -vV names no host".into()))
+}
+
+/// `cargo xtask test --sanitize`: the loader end-to-end tests with
+/// AddressSanitizer. `RUSTFLAGS=-Zsanitizer=address` with an explicit
+/// `--target` instruments what is built for the target (the test binaries,
+/// vk-probe and omm-app, and the layer's cdylib) but not build scripts and
+/// proc-macros. The executables carry the ASan runtime and export it
+/// (`--export-dynamic`); the layer, loaded by the (uninstrumented) system
+/// loader into them, binds to it there, so no LD_PRELOAD of a shared
+/// runtime is needed. Leak detection is off: the
+/// loader and the Mock ICD keep allocations until exit by design.
+pub fn sanitize(root: &Path, install: bool) -> Result<(), Error> {
+    ensure_prerequisites(install)?;
+    let driver_vars = crate::drivers::prepare(root, install)?;
+    crate::fuzz::ensure_nightly(&["rust-src"])?;
+    let triple = host_triple()?;
+    run_step(
+        "loader end-to-end tests under AddressSanitizer",
+        crate::fuzz::nightly_cargo()
+            .current_dir(root)
+            // Rust links the ASan runtime into executables statically and,
+            // unlike clang, does not export its symbols; a dlopen'ed
+            // instrumented layer then fails with `undefined symbol:
+            // __asan_option_detect_stack_use_after_return` (the loader says
+            // "Layer specified does not exist"). Exporting the executables'
+            // symbols lets the layer bind to the one runtime in the process.
+            .env(
+                "RUSTFLAGS",
+                "-Zsanitizer=address -Clink-arg=-Wl,--export-dynamic",
+            )
+            .env("ASAN_OPTIONS", "detect_leaks=0")
+            .env("CARGO_TARGET_DIR", crate::target_dir(root).join("asan"))
+            .envs(driver_vars)
+            .args(["test", "-p", "ommcheck-tests", "--target", &triple])
+            .args(["--test", "loader", "--test", "layer_e2e"]),
     )
 }
 

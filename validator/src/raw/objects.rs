@@ -370,11 +370,13 @@ mod tests {
             vk::DeviceQueueCreateInfo::default().queue_priorities(&priorities),
             vk::DeviceQueueCreateInfo::default().queue_priorities(&priorities),
         ];
-        let info = vk::DeviceCreateInfo::default()
+        // Chained by hand: ash 0.38's push_next breaks Stacked Borrows (it
+        // keeps a shared pointer across a `&mut` reborrow), which Miri reports.
+        v12.p_next = (&raw mut omm).cast();
+        let mut info = vk::DeviceCreateInfo::default()
             .enabled_extension_names(&names)
-            .queue_create_infos(&queues)
-            .push_next(&mut omm)
-            .push_next(&mut v12);
+            .queue_create_infos(&queues);
+        info.p_next = (&raw mut v12).cast();
         // SAFETY: `info` and everything it points to is alive.
         let (device, findings) = unsafe {
             device_from_create_info(
@@ -398,10 +400,12 @@ mod tests {
             usage: vk::BufferUsageFlags2KHR::from_raw(1 << 40),
             ..Default::default()
         };
-        let info = vk::BufferCreateInfo::default()
+        // Chained by hand: ash 0.38's push_next breaks Stacked Borrows (it
+        // keeps a shared pointer across a `&mut` reborrow), which Miri reports.
+        let mut info = vk::BufferCreateInfo::default()
             .size(64)
-            .usage(vk::BufferUsageFlags::STORAGE_BUFFER)
-            .push_next(&mut usage2);
+            .usage(vk::BufferUsageFlags::STORAGE_BUFFER);
+        info.p_next = (&raw mut usage2).cast();
         // SAFETY: the chain holds one live structure.
         let (buffer, _) = unsafe { buffer_from_create_info(&info) };
         assert_eq!((buffer.size, buffer.usage), (64, 1 << 40));

@@ -1160,11 +1160,13 @@ mod tests {
         let specialization = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(&data);
-        let stage = vk::PipelineShaderStageCreateInfo::default()
+        // Chained by hand: ash 0.38's push_next breaks Stacked Borrows (it
+        // keeps a shared pointer across a `&mut` reborrow), which Miri reports.
+        let mut stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::RAYGEN_KHR)
             .name(c"main")
-            .specialization_info(&specialization)
-            .push_next(&mut code);
+            .specialization_info(&specialization);
+        stage.p_next = (&raw mut code).cast();
         let mut findings = Vec::new();
         // SAFETY: everything `stage` points to is alive.
         let read = unsafe { shader_stage(&stage, "f", "pStages[0]", &mut findings) };
@@ -1188,10 +1190,12 @@ mod tests {
         let mut flags2 = vk::PipelineCreateFlags2CreateInfoKHR::default().flags(
             vk::PipelineCreateFlags2KHR::from_raw(CREATE_RAY_TRACING_OPACITY_MICROMAP),
         );
-        let graphics = vk::GraphicsPipelineCreateInfo::default()
-            .flags(vk::PipelineCreateFlags::LIBRARY_KHR)
-            .push_next(&mut library_info)
-            .push_next(&mut flags2);
+        // Chained by hand: ash 0.38's push_next breaks Stacked Borrows (it
+        // keeps a shared pointer across a `&mut` reborrow), which Miri reports.
+        flags2.p_next = (&raw mut library_info).cast();
+        let mut graphics =
+            vk::GraphicsPipelineCreateInfo::default().flags(vk::PipelineCreateFlags::LIBRARY_KHR);
+        graphics.p_next = (&raw mut flags2).cast();
         let mut findings = Vec::new();
         // SAFETY: the chain and arrays are alive; no stages.
         let read =
@@ -1350,9 +1354,13 @@ mod tests {
             max_micromap_triangles: 1 << 30,
             ..Default::default()
         };
-        let properties = vk::PhysicalDeviceProperties2::default()
-            .push_next(&mut ext)
-            .push_next(&mut khr_props);
+        // Chained by hand: ash 0.38's push_next breaks Stacked Borrows (it
+        // keeps a shared pointer across a `&mut` reborrow), which Miri reports.
+        khr_props.p_next = (&raw mut ext).cast();
+        let properties = vk::PhysicalDeviceProperties2 {
+            p_next: (&raw mut khr_props).cast(),
+            ..Default::default()
+        };
         let base = Profile::SpecMinimum.limits();
         // SAFETY: the chain holds two live structures.
         let limits = unsafe { reported_limits(properties.p_next, &base) };
@@ -1418,9 +1426,12 @@ mod tests {
                 dst_array_element: 1,
                 descriptor_count: 2,
                 descriptor_type: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+                // Chained by hand: ash 0.38's push_next breaks Stacked
+                // Borrows (it keeps a shared pointer across a `&mut`
+                // reborrow), which Miri reports.
+                p_next: (&raw mut chained).cast(),
                 ..Default::default()
-            }
-            .push_next(&mut chained),
+            },
             vk::WriteDescriptorSet {
                 descriptor_type: vk::DescriptorType::STORAGE_BUFFER,
                 ..Default::default()

@@ -1,0 +1,307 @@
+//! `cargo xtask fuzz`: the cargo-fuzz (libFuzzer) targets in
+//! `fuzz/libfuzzer/`, whose bodies and oracles are in `fuzz/harness/`; and
+//! the nightly tools the undefined-behaviour checks of `cargo xtask test`
+//! need (Miri, AddressSanitizer). Installs what is missing: the nightly
+//! toolchain (with rustup), its `miri` and `rust-src` components, and
+//! cargo-fuzz (`cargo install --locked`).
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use crate::Error;
+
+/// The fuzz targets (`fuzz/libfuzzer/fuzz_targets/<name>.rs`).
+pub const TARGETS: [&str; 4] = ["raw_reader", "decode", "simulate", "scene"];
+
+/// Seconds per target of `--smoke` (CI) and `--long`.
+pub const SMOKE_SECONDS: u64 = 25;
+pub const LONG_SECONDS: u64 = 600;
+
+/// The cargo-fuzz project, relative to the workspace root.
+const FUZZ_DIR: &str = "fuzz/libfuzzer";
+
+fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+/// `cargo +nightly fuzz` for the project in [`FUZZ_DIR`], building into its
+/// own target directory whatever `CARGO_TARGET_DIR` says: the instrumented
+/// artefacts are of no use to the other builds, and would evict theirs.
+fn cargo_fuzz(root: &Path, subcommand: &str) -> Command {
+    let mut command = nightly_cargo();
+    command
+        .current_dir(root)
+        .env("CARGO_TARGET_DIR", root.join(FUZZ_DIR).join("target"))
+        .args(["fuzz", subcommand, "--fuzz-dir", FUZZ_DIR]);
+    command
+}
+
+fn run_step(description: &str, command: &mut Command) -> Result<(), Error> {
+    eprintln!("xtask: {description}: {command:?}");
+    let status = command
+        .status()
+        .map_err(|e| Error::Tool(format!("{description}: could not start: {e}")))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(Error::Tool(format!("{description} failed ({status})")))
+    }
+}
+
+/// A `cargo` command for the nightly toolchain. Through rustup's proxy the
+/// `+nightly` argument selects it; `CARGO` (set by `cargo xtask`) points at
+/// the stable toolchain's cargo, which does not understand `+nightly`.
+pub fn nightly_cargo() -> Command {
+    let mut command = Command::new("cargo");
+    command
+        .arg("+nightly")
+        .env_remove("CARGO")
+        .env_remove("RUSTC");
+    command
+}
+
+fn nightly_has(component: &str) -> bool {
+    Command::new("rustup")
+        .args(["component", "list", "--installed", "--toolchain", "nightly"])
+        .output()
+        .is_ok_and(|out| {
+            out.status.success()
+                && String::from_utf8_lossy(&out.stdout)
+                    .lines()
+                    .any(|line| line.starts_with(component))
+        })
+}
+
+/// Installs the nightly toolchain and `components` where missing.
+pub fn ensure_nightly(components: &[&str]) -> Result<(), Error> {
+    let present = Command::new("rustup")
+        .args(["run", "nightly", "rustc", "--version"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !present {
+        run_step(
+            "install the nightly toolchain",
+            Command::new("rustup").args([
+                "toolchain",
+                "install",
+                "nightly",
+                "--profile",
+                "minimal",
+            ]),
+        )?;
+    }
+    let missing: Vec<&str> = components
+        .iter()
+        .copied()
+        .filter(|c| !nightly_has(c))
+        .collect();
+    if !missing.is_empty() {
+        run_step(
+            "add nightly components",
+            Command::new("rustup")
+                .args(["component", "add", "--toolchain", "nightly"])
+                .args(&missing),
+        )?;
+    }
+    Ok(())
+}
+
+/// Installs cargo-fuzz where missing.
+fn ensure_cargo_fuzz() -> Result<(), Error> {
+    let present = Command::new(cargo())
+        .args(["fuzz", "--version"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !present {
+        run_step(
+            "install cargo-fuzz",
+            Command::new(cargo()).args(["install", "cargo-fuzz", "--locked"]),
+        )?;
+    }
+    Ok(())
+}
+
+/// How long and what to fuzz.
+pub struct Options {
+    pub seconds: u64,
+    pub targets: Vec<String>,
+    /// Merge what the run found into the committed corpus (`fuzz/corpus/`),
+    /// keeping only inputs that add coverage.
+    pub minimize: bool,
+}
+
+/// What one target's run did.
+pub struct Outcome {
+    pub target: String,
+    /// libFuzzer's `Done N runs in S second(s)`.
+    pub runs: Option<(u64, u64)>,
+    pub wall_seconds: u64,
+}
+
+/// Builds the targets and runs each for `options.seconds`; fails on the
+/// first finding, naming the input libFuzzer saved.
+pub fn run(root: &Path, options: &Options) -> Result<Vec<Outcome>, Error> {
+    ensure_nightly(&[])?;
+    ensure_cargo_fuzz()?;
+    for target in &options.targets {
+        if !TARGETS.contains(&target.as_str()) {
+            return Err(Error::Tool(format!(
+                "no fuzz target {target}; the targets are {}",
+                TARGETS.join(", ")
+            )));
+        }
+    }
+    run_step("build the fuzz targets", &mut cargo_fuzz(root, "build"))?;
+    let mut outcomes = Vec::new();
+    for target in &options.targets {
+        let outcome = run_target(root, target, options.seconds)?;
+        if options.minimize {
+            minimize(root, target)?;
+        }
+        outcomes.push(outcome);
+    }
+    eprintln!("xtask: fuzzing without a finding:");
+    for o in &outcomes {
+        match o.runs {
+            Some((runs, seconds)) => {
+                eprintln!("xtask:   {:<10} {runs} runs in {seconds} s", o.target)
+            }
+            None => eprintln!("xtask:   {:<10} ({} s)", o.target, o.wall_seconds),
+        }
+    }
+    Ok(outcomes)
+}
+
+/// The corpus directories of `target`: the working one libFuzzer adds to
+/// (ignored by git) first, then the committed minimized one, then seeds.
+fn corpus_dirs(root: &Path, target: &str) -> Result<Vec<PathBuf>, Error> {
+    let work = root.join(FUZZ_DIR).join("work").join(target);
+    let committed = root.join("fuzz/corpus").join(target);
+    for dir in [&work, &committed] {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.clone(),
+            source,
+        })?;
+    }
+    let mut dirs = vec![work, committed];
+    if target == "scene" {
+        // Every corpus scene is a seed of the raw-text half as it is.
+        dirs.push(root.join("tests/scenes/corpus"));
+    }
+    Ok(dirs)
+}
+
+fn run_target(root: &Path, target: &str, seconds: u64) -> Result<Outcome, Error> {
+    let dirs = corpus_dirs(root, target)?;
+    let mut command = cargo_fuzz(root, "run");
+    command
+        .arg(target)
+        .args(&dirs)
+        .arg("--")
+        .arg(format!("-max_total_time={seconds}"))
+        // A single input taking 10 s is a finding (unbounded work), as is
+        // one needing more than 4 GiB (unbounded allocation).
+        .args(["-timeout=10", "-rss_limit_mb=4096", "-print_final_stats=1"])
+        .stderr(Stdio::piped());
+    eprintln!("xtask: fuzz {target} for {seconds} s: {command:?}");
+    let started = Instant::now();
+    let mut child = command
+        .spawn()
+        .map_err(|e| Error::Tool(format!("fuzz {target}: could not start: {e}")))?;
+    let stderr = child.stderr.take().expect("piped stderr");
+    let mut runs = None;
+    let mut artifact = None;
+    let mut tail: Vec<String> = Vec::new();
+    for line in BufReader::new(stderr).lines() {
+        let line = line.map_err(|e| Error::Tool(format!("fuzz {target}: {e}")))?;
+        // libFuzzer's status lines are many; keep the interesting ones.
+        if !(line.starts_with('#') || line.starts_with('\t'))
+            || line.contains("DONE")
+            || line.contains("INITED")
+        {
+            eprintln!("{line}");
+        }
+        if let Some(done) = line.strip_prefix("Done ") {
+            // "Done 123456 runs in 25 second(s)"
+            let words: Vec<&str> = done.split_whitespace().collect();
+            if let (Some(n), Some(s)) = (words.first(), words.get(3)) {
+                runs = n.parse().ok().zip(s.parse().ok());
+            }
+        }
+        if let Some(at) = line.split("Test unit written to ").nth(1) {
+            artifact = Some(at.trim().to_string());
+        }
+        tail.push(line);
+        if tail.len() > 40 {
+            tail.remove(0);
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|e| Error::Tool(format!("fuzz {target}: {e}")))?;
+    let wall_seconds = started.elapsed().as_secs();
+    if !status.success() {
+        return Err(Error::Tool(format!(
+            "fuzz {target} found a failing input ({status}){}; fix it, then keep the input in fuzz/regressions/{target}/ (replayed by `cargo test -p ommcheck-fuzz-harness`)",
+            artifact
+                .map(|a| format!(" saved at {a}"))
+                .unwrap_or_default()
+        )));
+    }
+    Ok(Outcome {
+        target: target.to_string(),
+        runs,
+        wall_seconds,
+    })
+}
+
+/// Replaces `fuzz/corpus/<target>` with the inputs of it and the working
+/// corpus that add coverage (libFuzzer's `-merge=1`).
+fn minimize(root: &Path, target: &str) -> Result<(), Error> {
+    let dirs = corpus_dirs(root, target)?;
+    let committed = root.join("fuzz/corpus").join(target);
+    let merged = root
+        .join(FUZZ_DIR)
+        .join("work")
+        .join(format!("{target}.merged"));
+    let _ = std::fs::remove_dir_all(&merged);
+    std::fs::create_dir_all(&merged).map_err(|source| Error::Io {
+        path: merged.clone(),
+        source,
+    })?;
+    // The corpus scenes are seeds, not corpus: they are in the repository already.
+    let sources: Vec<&PathBuf> = dirs.iter().take(2).collect();
+    run_step(
+        &format!("minimize the {target} corpus"),
+        cargo_fuzz(root, "run")
+            .arg(target)
+            .arg(&merged)
+            .args(sources)
+            .args(["--", "-merge=1", "-timeout=10", "-rss_limit_mb=4096"]),
+    )?;
+    let _ = std::fs::remove_dir_all(&committed);
+    std::fs::rename(&merged, &committed).map_err(|source| Error::Io {
+        path: committed,
+        source,
+    })
+}
+
+/// Runs the raw-pointer reader's unit tests (`ommcheck::raw`) under Miri.
+pub fn miri(root: &Path, target_dir: &Path) -> Result<(), Error> {
+    ensure_nightly(&["miri", "rust-src"])?;
+    run_step(
+        "the raw-pointer reader's tests under Miri",
+        nightly_cargo()
+            .current_dir(root)
+            // Its own target directory: Miri's artefacts are not the
+            // stable toolchain's, and would evict them.
+            .env("CARGO_TARGET_DIR", target_dir.join("miri"))
+            // The reader turns host addresses back into pointers
+            // (`with_exposed_provenance`), which Miri supports under
+            // permissive provenance; say so instead of warning per test.
+            .env("MIRIFLAGS", "-Zmiri-permissive-provenance")
+            .args(["miri", "test", "-p", "ommcheck", "--lib", "--", "raw::"]),
+    )
+}
