@@ -76,17 +76,53 @@ pub fn intersect(
     let err_u = gamma(8.0) * ls * ld * l2 + u.abs() * err_det;
     let err_v = gamma(8.0) * ld * ls * l1 + v.abs() * err_det;
     let magnitude = (det.abs() - err_det).max(f64::MIN_POSITIVE);
-    let delta = (err_u.max(err_v) / magnitude).min(1.0);
-    let inside = u >= -delta && v >= -delta && u + v <= 1.0 + 2.0 * delta;
+    let bound = err_u.max(err_v) / magnitude;
+    // Decide hit or miss with the whole bound: a point computed up to
+    // `bound` outside the triangle may lie on it. Only then is the reported
+    // bound capped at 1, which already makes every micro-triangle a
+    // candidate.
+    let inside = u >= -bound && v >= -bound && u + v <= 1.0 + 2.0 * bound;
     if !inside || t < ray.t_min || t > ray.t_max {
         return Ok(None);
     }
-    Ok(Some(Hit { t, u, v, delta }))
+    Ok(Some(Hit {
+        t,
+        u,
+        v,
+        delta: bound.min(1.0),
+    }))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_bound_over_1_still_decides_hit_or_miss_with_its_whole_size() {
+        // A triangle 1e-150 across seen from 1e140 away: the computed u is
+        // -1.5, but its error bound is far larger, so the ray may hit. A
+        // bound capped at 1 before the test (found by fuzzing) called it a
+        // certain miss.
+        let size = 1e-150;
+        let ray = Ray {
+            origin: DVec3::new(-1.5 * size, 0.2 * size, 1e140),
+            direction: DVec3::new(0.0, 0.0, -1.0),
+            t_min: 0.0,
+            t_max: f64::INFINITY,
+        };
+        let (v1, v2) = (DVec3::new(size, 0.0, 0.0), DVec3::new(0.0, size, 0.0));
+        let hit = intersect(&ray, DVec3::ZERO, v1, v2)
+            .unwrap()
+            .expect("may hit");
+        assert!((hit.u + 1.5).abs() < 1e-9, "{hit:?}");
+        assert_eq!(hit.delta, 1.0);
+        // The same ray from nearby is a certain miss: u = -1.5 with a tiny bound.
+        let near = Ray {
+            origin: DVec3::new(-1.5 * size, 0.2 * size, size),
+            ..ray
+        };
+        assert_eq!(intersect(&near, DVec3::ZERO, v1, v2), Ok(None));
+    }
 
     fn down_z(x: f64, y: f64) -> Ray {
         Ray {
