@@ -97,8 +97,13 @@ pub fn parse_estimate(
 }
 
 /// Every benchmark's latest estimates under criterion's output directory
-/// (`**/new/benchmark.json` with its `estimates.json`), sorted by id.
-pub fn read_estimates(criterion_dir: &Path) -> Result<Vec<Estimate>, Error> {
+/// (`**/new/benchmark.json` with its `estimates.json`), sorted by id; with
+/// `since`, only those written since then (criterion keeps the results of
+/// benchmarks that no longer exist, which must not reach a table).
+pub fn read_estimates(
+    criterion_dir: &Path,
+    since: Option<std::time::SystemTime>,
+) -> Result<Vec<Estimate>, Error> {
     let mut found = Vec::new();
     let mut pending = vec![criterion_dir.to_path_buf()];
     while let Some(dir) = pending.pop() {
@@ -114,6 +119,10 @@ pub fn read_estimates(criterion_dir: &Path) -> Result<Vec<Estimate>, Error> {
             let benchmark = path.join("benchmark.json");
             if path.file_name().is_some_and(|n| n == "new") && benchmark.is_file() {
                 let estimates = path.join("estimates.json");
+                let written = std::fs::metadata(&estimates).and_then(|m| m.modified());
+                if since.is_some_and(|since| written.is_ok_and(|at| at < since)) {
+                    continue;
+                }
                 found.push(parse_estimate(
                     &crate::read(&benchmark)?,
                     &crate::read(&estimates)?,
@@ -913,6 +922,7 @@ pub fn run(root: &Path, quick: bool, overhead_only: bool) -> Result<(), Error> {
 /// The criterion run: writes tiers.svg and returns the table.
 fn criterion(root: &Path, target: &Path, quick: bool, machine: &Machine) -> Result<String, Error> {
     let criterion_dir = target.join("criterion");
+    let started = std::time::SystemTime::now();
     let mut command = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     // Only the bench targets (`--benches` would add the library, whose libtest
     // harness rejects criterion's options).
@@ -930,7 +940,7 @@ fn criterion(root: &Path, target: &Path, quick: bool, machine: &Machine) -> Resu
     if !status.success() {
         return Err(Error::Tool(format!("cargo bench failed ({status})")));
     }
-    let estimates = read_estimates(&criterion_dir)?;
+    let estimates = read_estimates(&criterion_dir, Some(started))?;
     let path = target.join("bench").join("tiers.svg");
     std::fs::write(&path, render_plot(&estimates)?).map_err(|source| Error::Io {
         path: path.clone(),
@@ -1086,11 +1096,15 @@ mod tests {
             .unwrap();
             std::fs::write(at.join("estimates.json"), estimates_json(mean, mean)).unwrap();
         }
-        let found = read_estimates(&dir);
+        let found = read_estimates(&dir, None);
+        let later = std::time::SystemTime::now() + std::time::Duration::from_secs(3600);
+        let only_later = read_estimates(&dir, Some(later));
         std::fs::remove_dir_all(&dir).unwrap();
         let found = found.unwrap();
         assert_eq!(found.len(), 1, "{found:?}");
         assert_eq!(found[0].mean_ns, 10.0);
+        // Results written before the run are left out.
+        assert!(only_later.unwrap().is_empty());
     }
 
     #[test]

@@ -26,14 +26,15 @@ fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
 }
 
-/// `cargo +nightly fuzz` for the project in [`FUZZ_DIR`], building into its
-/// own target directory whatever `CARGO_TARGET_DIR` says: the instrumented
-/// artefacts are of no use to the other builds, and would evict theirs.
+/// `cargo +nightly fuzz` for the project in [`FUZZ_DIR`], building into
+/// `fuzz/` under the workspace's target directory: a directory of its own,
+/// as the instrumented artefacts are of no use to the other builds and
+/// would evict theirs, but kept (and cached) with them.
 fn cargo_fuzz(root: &Path, subcommand: &str) -> Command {
     let mut command = nightly_cargo();
     command
         .current_dir(root)
-        .env("CARGO_TARGET_DIR", root.join(FUZZ_DIR).join("target"))
+        .env("CARGO_TARGET_DIR", crate::target_dir(root).join("fuzz"))
         .args(["fuzz", subcommand, "--fuzz-dir", FUZZ_DIR]);
     command
 }
