@@ -201,6 +201,147 @@ mod tests {
         );
     }
 
+    // Which fake function ran: function addresses are not comparable
+    // (Miri gives each cast of one function a new address), so the tests
+    // call what was taken and look at what it did.
+    std::thread_local! {
+        static CALLED: std::cell::Cell<&'static str> = const { std::cell::Cell::new("") };
+    }
+    fn called_by(f: impl FnOnce()) -> &'static str {
+        CALLED.set("");
+        f();
+        CALLED.get()
+    }
+
+    unsafe extern "system" fn first_gipa(
+        _: vk::Instance,
+        _: *const c_char,
+    ) -> vk::PFN_vkVoidFunction {
+        CALLED.set("first");
+        None
+    }
+    unsafe extern "system" fn second_gipa(
+        _: vk::Instance,
+        _: *const c_char,
+    ) -> vk::PFN_vkVoidFunction {
+        CALLED.set("second");
+        None
+    }
+    unsafe extern "system" fn gdpa(_: vk::Device, _: *const c_char) -> vk::PFN_vkVoidFunction {
+        CALLED.set("gdpa");
+        None
+    }
+
+    /// Calls a taken `vkGetInstanceProcAddr`; "" for none.
+    fn call_gipa(f: Option<vk::PFN_vkGetInstanceProcAddr>) -> &'static str {
+        called_by(|| {
+            // SAFETY: the fakes above read none of their arguments.
+            f.map(|f| unsafe { f(vk::Instance::null(), std::ptr::null()) });
+        })
+    }
+
+    #[test]
+    fn the_instance_link_is_taken_and_advanced_past_other_loader_infos() {
+        let mut second = LayerInstanceLink {
+            p_next: std::ptr::null_mut(),
+            pfn_next_get_instance_proc_addr: Some(second_gipa),
+            pfn_next_get_physical_device_proc_addr: None,
+        };
+        let mut first = LayerInstanceLink {
+            p_next: &mut second,
+            pfn_next_get_instance_proc_addr: Some(first_gipa),
+            pfn_next_get_physical_device_proc_addr: None,
+        };
+        let mut link = LayerInstanceCreateInfo {
+            s_type: vk::StructureType::LOADER_INSTANCE_CREATE_INFO,
+            p_next: std::ptr::null(),
+            function: LAYER_LINK_INFO,
+            u: LayerInstanceCreateInfoUnion {
+                p_layer_info: &mut first,
+            },
+        };
+        // A loader info of another function (VK_LOADER_DATA_CALLBACK) first.
+        let callback = LayerInstanceCreateInfo {
+            s_type: vk::StructureType::LOADER_INSTANCE_CREATE_INFO,
+            p_next: std::ptr::addr_of_mut!(link).cast_const().cast(),
+            function: 1,
+            u: LayerInstanceCreateInfoUnion {
+                layer_device: [std::ptr::null(); 2],
+            },
+        };
+        let info = vk::InstanceCreateInfo {
+            p_next: std::ptr::addr_of!(callback).cast(),
+            ..Default::default()
+        };
+        // SAFETY: a chain as the loader builds it, writable where it writes.
+        let taken = unsafe { take_instance_link(&info) };
+        assert_eq!(call_gipa(taken), "first");
+        // SAFETY: as above; the link now names the next layer's.
+        let taken = unsafe { take_instance_link(&info) };
+        assert_eq!(call_gipa(taken), "second");
+        // SAFETY: as above; the links are used up.
+        assert!(unsafe { take_instance_link(&info) }.is_none());
+    }
+
+    #[test]
+    fn the_device_link_is_taken_and_advanced() {
+        let mut only = LayerDeviceLink {
+            p_next: std::ptr::null_mut(),
+            pfn_next_get_instance_proc_addr: Some(first_gipa),
+            pfn_next_get_device_proc_addr: Some(gdpa),
+        };
+        let mut link = LayerDeviceCreateInfo {
+            s_type: vk::StructureType::LOADER_DEVICE_CREATE_INFO,
+            p_next: std::ptr::null(),
+            function: LAYER_LINK_INFO,
+            u: LayerDeviceCreateInfoUnion {
+                p_layer_info: &mut only,
+            },
+        };
+        let info = vk::DeviceCreateInfo {
+            p_next: std::ptr::addr_of_mut!(link).cast_const().cast(),
+            ..Default::default()
+        };
+        // SAFETY: a chain as the loader builds it, writable where it writes.
+        let (gipa, device_gpa) = unsafe { take_device_link(&info) }.expect("a link");
+        assert_eq!(call_gipa(Some(gipa)), "first");
+        let called = called_by(|| {
+            // SAFETY: the fake reads none of its arguments.
+            unsafe { device_gpa(vk::Device::null(), std::ptr::null()) };
+        });
+        assert_eq!(called, "gdpa");
+        // SAFETY: as above; the link is used up.
+        assert!(unsafe { take_device_link(&info) }.is_none());
+    }
+
+    #[test]
+    fn a_cyclic_chain_without_link_info_ends() {
+        let mut a = vk::ValidationFeaturesEXT::default();
+        let a_at = std::ptr::addr_of_mut!(a);
+        let b = vk::ValidationFeaturesEXT {
+            p_next: a_at.cast_const().cast(),
+            ..Default::default()
+        };
+        // SAFETY: `a_at` points to `a`.
+        unsafe { (*a_at).p_next = std::ptr::addr_of!(b).cast() };
+        let info = vk::InstanceCreateInfo {
+            p_next: a_at.cast_const().cast(),
+            ..Default::default()
+        };
+        // SAFETY: every structure is valid; the chain loops.
+        assert!(unsafe { take_instance_link(&info) }.is_none());
+    }
+
+    #[test]
+    fn the_dispatch_key_is_the_first_word() {
+        let object: [usize; 2] = [0xd15, 0];
+        let handle = object.as_ptr().expose_provenance() as u64;
+        // SAFETY: `handle` points to an object starting with a word.
+        assert_eq!(unsafe { dispatch_key(handle) }, Some(0xd15));
+        // SAFETY: NULL is not read.
+        assert_eq!(unsafe { dispatch_key(0) }, None);
+    }
+
     #[test]
     fn a_chain_without_link_info_yields_nothing() {
         let info = vk::InstanceCreateInfo::default();

@@ -268,3 +268,299 @@ pub unsafe fn mapped_bytes(address: usize, len: usize) -> Arc<[u8]> {
         std::slice::from_raw_parts(std::ptr::with_exposed_provenance::<u8>(address), len)
     })
 }
+
+/// Every reader on the structures an application (or the next layer) could
+/// hand it, so that Miri (`cargo xtask test`) checks each read stays inside
+/// them. Chains are linked by hand through raw pointers: ash's `push_next`
+/// keeps a `&mut` to the chained structure, which Stacked Borrows rejects
+/// once the chain is read through the head.
+#[cfg(test)]
+mod tests {
+    use std::ffi::{c_void, CStr};
+    use std::ptr;
+
+    use ash::vk;
+
+    use super::*;
+
+    unsafe extern "system" fn callback(
+        _: vk::DebugUtilsMessageSeverityFlagsEXT,
+        _: vk::DebugUtilsMessageTypeFlagsEXT,
+        _: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+        _: *mut c_void,
+    ) -> vk::Bool32 {
+        vk::FALSE
+    }
+
+    fn as_next<T>(structure: &T) -> *const c_void {
+        (structure as *const T).cast()
+    }
+
+    #[test]
+    fn value_copies_what_is_there_and_none_for_null() {
+        let x = 7u64;
+        // SAFETY: `&x` is a readable u64; NULL is allowed.
+        assert_eq!(unsafe { value(&x) }, Some(7));
+        assert_eq!(unsafe { value::<u64>(ptr::null()) }, None);
+    }
+
+    #[test]
+    fn name_reads_to_the_terminator_and_none_for_null() {
+        let text = c"vkCmdBuildMicromapsEXT";
+        // SAFETY: a NUL-terminated string; NULL is allowed.
+        assert_eq!(unsafe { name(text.as_ptr()) }, Some(text));
+        assert_eq!(unsafe { name(ptr::null()) }, None);
+    }
+
+    #[test]
+    fn messengers_are_found_anywhere_in_the_chain_and_skipped_without_callback() {
+        let mut without_callback = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING);
+        let mut other = vk::ValidationFeaturesEXT::default();
+        let mut with_callback = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
+            .message_type(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION)
+            .pfn_user_callback(Some(callback));
+        with_callback.p_user_data = ptr::without_provenance_mut(0x1234);
+        other.p_next = as_next(&with_callback);
+        without_callback.p_next = as_next(&other);
+        // SAFETY: a well-formed chain of three structures.
+        let found = unsafe { chained_messengers(as_next(&without_callback)) };
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].handle, 0);
+        assert_eq!(
+            found[0].severities,
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+        );
+        assert_eq!(
+            found[0].types,
+            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+        );
+        assert_eq!(found[0].user_data, 0x1234);
+        // SAFETY: an empty chain.
+        assert!(unsafe { chained_messengers(ptr::null()) }.is_empty());
+    }
+
+    #[test]
+    fn a_cyclic_chain_is_walked_once() {
+        let mut first =
+            vk::DebugUtilsMessengerCreateInfoEXT::default().pfn_user_callback(Some(callback));
+        let mut second = vk::ValidationFeaturesEXT::default();
+        let first_at = ptr::addr_of_mut!(first);
+        second.p_next = first_at.cast_const().cast();
+        // SAFETY: `first_at` points to `first`; written through it so the
+        // pointer stays valid for the read below.
+        unsafe { (*first_at).p_next = as_next(&second) };
+        // SAFETY: every structure is valid; the chain loops back to the head.
+        let found = unsafe { chained_messengers(first_at.cast_const().cast()) };
+        assert_eq!(
+            found.len(),
+            1,
+            "the messenger is read once, not once per lap"
+        );
+    }
+
+    #[test]
+    fn a_chain_longer_than_the_bound_is_walked_to_the_bound() {
+        let mut nodes: Vec<vk::DebugUtilsMessengerCreateInfoEXT<'_>> = (0..MAX_CHAIN + 8)
+            .map(|_| {
+                vk::DebugUtilsMessengerCreateInfoEXT::default().pfn_user_callback(Some(callback))
+            })
+            .collect();
+        let base = nodes.as_mut_ptr();
+        for k in 0..nodes.len() - 1 {
+            // SAFETY: k + 1 is inside `nodes`; the pointers come from one
+            // raw pointer to the whole vector, so none invalidates another.
+            unsafe { (*base.add(k)).p_next = base.add(k + 1).cast_const().cast() };
+        }
+        // SAFETY: a well-formed chain of `nodes.len()` structures.
+        let found = unsafe { chained_messengers(base.cast_const().cast()) };
+        assert_eq!(found.len(), MAX_CHAIN);
+    }
+
+    fn setting<'a>(
+        layer: &'a CStr,
+        setting: &'a CStr,
+        ty: vk::LayerSettingTypeEXT,
+        count: u32,
+        values: *const c_void,
+    ) -> vk::LayerSettingEXT<'a> {
+        vk::LayerSettingEXT {
+            p_layer_name: layer.as_ptr(),
+            p_setting_name: setting.as_ptr(),
+            ty,
+            value_count: count,
+            p_values: values,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn layer_settings_of_every_type_are_read_for_this_layer_only() {
+        let layer = c"VK_LAYER_OMMCHECK_validation";
+        let other = c"VK_LAYER_KHRONOS_validation";
+        let bools = [vk::TRUE, vk::FALSE];
+        let i32s = [-3i32];
+        let i64s = [i64::MIN];
+        let u32s = [u32::MAX];
+        let u64s = [u64::MAX, 5];
+        let f32s = [0.5f32];
+        let f64s = [-2.25f64];
+        let texts = [c"params".as_ptr(), ptr::null()];
+        let unknown = [1u8; 16];
+        use vk::LayerSettingTypeEXT as Type;
+        let list = [
+            setting(layer, c"a", Type::BOOL32, 2, bools.as_ptr().cast()),
+            setting(layer, c"b", Type::INT32, 1, i32s.as_ptr().cast()),
+            setting(layer, c"c", Type::INT64, 1, i64s.as_ptr().cast()),
+            setting(layer, c"d", Type::UINT32, 1, u32s.as_ptr().cast()),
+            setting(layer, c"e", Type::UINT64, 2, u64s.as_ptr().cast()),
+            setting(layer, c"f", Type::FLOAT32, 1, f32s.as_ptr().cast()),
+            setting(layer, c"g", Type::FLOAT64, 1, f64s.as_ptr().cast()),
+            setting(layer, c"h", Type::STRING, 2, texts.as_ptr().cast()),
+            setting(layer, c"i", Type::from_raw(99), 16, unknown.as_ptr().cast()),
+            setting(layer, c"j", Type::UINT32, 3, ptr::null()),
+            setting(other, c"a", Type::BOOL32, 2, bools.as_ptr().cast()),
+        ];
+        let info = vk::LayerSettingsCreateInfoEXT {
+            setting_count: list.len() as u32,
+            p_settings: list.as_ptr(),
+            ..Default::default()
+        };
+        // SAFETY: every setting holds `valueCount` values of its type.
+        let read = unsafe { layer_settings(as_next(&info), layer) };
+        let expected: ApiSettings = vec![
+            (
+                "a".into(),
+                vec![ApiValue::Bool(true), ApiValue::Bool(false)],
+            ),
+            ("b".into(), vec![ApiValue::Int(-3)]),
+            ("c".into(), vec![ApiValue::Int(i64::MIN)]),
+            ("d".into(), vec![ApiValue::Int(i64::from(u32::MAX))]),
+            ("e".into(), vec![ApiValue::Int(i64::MAX), ApiValue::Int(5)]),
+            ("f".into(), vec![ApiValue::Float(0.5)]),
+            ("g".into(), vec![ApiValue::Float(-2.25)]),
+            // A NULL string is no value.
+            ("h".into(), vec![ApiValue::Text("params".into())]),
+            ("i".into(), vec![]),
+            ("j".into(), vec![]),
+        ];
+        assert_eq!(read, expected);
+    }
+
+    #[test]
+    fn layer_settings_stop_at_their_bounds_and_at_null() {
+        let layer = c"VK_LAYER_OMMCHECK_validation";
+        let values = vec![7u32; MAX_VALUES + 3];
+        let many = setting(
+            layer,
+            c"many",
+            vk::LayerSettingTypeEXT::UINT32,
+            values.len() as u32,
+            values.as_ptr().cast(),
+        );
+        let settings = vec![many; MAX_SETTINGS + 2];
+        let info = vk::LayerSettingsCreateInfoEXT {
+            setting_count: settings.len() as u32,
+            p_settings: settings.as_ptr(),
+            ..Default::default()
+        };
+        let null_settings = vk::LayerSettingsCreateInfoEXT {
+            p_next: as_next(&info),
+            setting_count: u32::MAX,
+            ..Default::default()
+        };
+        // SAFETY: `null_settings` has NULL pSettings (nothing to read);
+        // `info` holds `settingCount` settings of `valueCount` values.
+        let read = unsafe { layer_settings(as_next(&null_settings), layer) };
+        assert_eq!(read.len(), MAX_SETTINGS);
+        assert!(read.iter().all(|(_, v)| v.len() == MAX_VALUES));
+    }
+
+    #[test]
+    fn arrays_are_read_for_their_count_and_empty_for_null() {
+        let list = [1u32, 2, 3];
+        // SAFETY: three elements; NULL is allowed.
+        assert_eq!(unsafe { array(list.as_ptr(), 3) }, &list);
+        assert_eq!(unsafe { array(list.as_ptr(), 2) }, &list[..2]);
+        assert!(unsafe { array::<u32>(ptr::null(), u32::MAX) }.is_empty());
+    }
+
+    #[test]
+    fn submitted_command_buffers_are_gathered_from_every_submit() {
+        let a: [vk::CommandBuffer; 2] = [vk::Handle::from_raw(1), vk::Handle::from_raw(2)];
+        let b: [vk::CommandBuffer; 1] = [vk::Handle::from_raw(3)];
+        let first = vk::SubmitInfo::default().command_buffers(&a);
+        let second = vk::SubmitInfo::default().command_buffers(&b);
+        let empty = vk::SubmitInfo {
+            command_buffer_count: u32::MAX,
+            ..Default::default()
+        };
+        let submits = [first, empty, second];
+        // SAFETY: three submits, each valid for its count (or NULL).
+        let got = unsafe { submitted_command_buffers(3, submits.as_ptr()) };
+        assert_eq!(got, [a[0], a[1], b[0]]);
+        // SAFETY: NULL pSubmits is not read.
+        assert!(unsafe { submitted_command_buffers(5, ptr::null()) }.is_empty());
+
+        let infos: Vec<vk::CommandBufferSubmitInfo<'_>> = a
+            .iter()
+            .chain(&b)
+            .map(|&cb| vk::CommandBufferSubmitInfo::default().command_buffer(cb))
+            .collect();
+        let first2 = vk::SubmitInfo2::default().command_buffer_infos(&infos);
+        let empty2 = vk::SubmitInfo2 {
+            command_buffer_info_count: 9,
+            ..Default::default()
+        };
+        let submits2 = [empty2, first2];
+        // SAFETY: two submits, each valid for its count (or NULL).
+        let got = unsafe { submitted_command_buffers2(2, submits2.as_ptr()) };
+        assert_eq!(got, [a[0], a[1], b[0]]);
+    }
+
+    /// A next layer's `vkGetPhysicalDeviceQueueFamilyProperties` with 100
+    /// families, each flagged by its index's parity: it writes no more than
+    /// the count it is given, as the API requires.
+    unsafe extern "system" fn hundred_families(
+        _: vk::PhysicalDevice,
+        count: *mut u32,
+        properties: *mut vk::QueueFamilyProperties,
+    ) {
+        const FAMILIES: u32 = 100;
+        // SAFETY: the caller passes a valid count (as the API requires).
+        let count = unsafe { &mut *count };
+        if properties.is_null() {
+            *count = FAMILIES;
+            return;
+        }
+        *count = (*count).min(FAMILIES);
+        for k in 0..*count as usize {
+            let flags = if k % 2 == 0 {
+                vk::QueueFlags::GRAPHICS
+            } else {
+                vk::QueueFlags::TRANSFER
+            };
+            // SAFETY: `properties` holds `count` elements (the API's rule).
+            unsafe { (*properties.add(k)).queue_flags = flags };
+        }
+    }
+
+    #[test]
+    fn queue_families_are_read_up_to_the_bound() {
+        // SAFETY: the function follows the count-then-fill protocol.
+        let flags = unsafe { queue_family_flags(hundred_families, vk::PhysicalDevice::null()) };
+        assert_eq!(flags.len(), 64);
+        assert_eq!(flags[0], vk::QueueFlags::GRAPHICS);
+        assert_eq!(flags[63], vk::QueueFlags::TRANSFER);
+    }
+
+    #[test]
+    fn mapped_bytes_copies_the_range() {
+        let memory: Vec<u8> = (0..32).collect();
+        let address = memory.as_ptr().expose_provenance();
+        // SAFETY: bytes 4..12 of a live allocation whose provenance is exposed.
+        let copy = unsafe { mapped_bytes(address + 4, 8) };
+        assert_eq!(&copy[..], &memory[4..12]);
+    }
+}

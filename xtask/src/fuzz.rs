@@ -289,20 +289,37 @@ fn minimize(root: &Path, target: &str) -> Result<(), Error> {
     })
 }
 
-/// Runs the raw-pointer reader's unit tests (`ommcheck::raw`) under Miri.
+/// The unit tests run under Miri: those of every module that reads
+/// through pointers an application (or the loader) handed over — the
+/// core's reader (`ommcheck::raw`) and the layer's own (`read`, and `abi`
+/// for the loader's link chain).
+const MIRI_TESTS: [(&str, &str, &[&str]); 2] = [
+    ("the core's raw-pointer reader", "ommcheck", &["raw::"]),
+    (
+        "the layer's pointer readers",
+        "ommcheck-layer",
+        &["read::", "abi::"],
+    ),
+];
+
+/// Runs the pointer readers' unit tests ([`MIRI_TESTS`]) under Miri.
 pub fn miri(root: &Path, target_dir: &Path) -> Result<(), Error> {
     ensure_nightly(&["miri", "rust-src"])?;
-    run_step(
-        "the raw-pointer reader's tests under Miri",
-        nightly_cargo()
-            .current_dir(root)
-            // Its own target directory: Miri's artefacts are not the
-            // stable toolchain's, and would evict them.
-            .env("CARGO_TARGET_DIR", target_dir.join("miri"))
-            // The reader turns host addresses back into pointers
-            // (`with_exposed_provenance`), which Miri supports under
-            // permissive provenance; say so instead of warning per test.
-            .env("MIRIFLAGS", "-Zmiri-permissive-provenance")
-            .args(["miri", "test", "-p", "ommcheck", "--lib", "--", "raw::"]),
-    )
+    for (what, package, filters) in MIRI_TESTS {
+        run_step(
+            &format!("{what}'s tests under Miri"),
+            nightly_cargo()
+                .current_dir(root)
+                // Its own target directory: Miri's artefacts are not the
+                // stable toolchain's, and would evict them.
+                .env("CARGO_TARGET_DIR", target_dir.join("miri"))
+                // The readers turn addresses back into pointers
+                // (`with_exposed_provenance`), which Miri supports under
+                // permissive provenance; say so instead of warning per test.
+                .env("MIRIFLAGS", "-Zmiri-permissive-provenance")
+                .args(["miri", "test", "-p", package, "--lib", "--"])
+                .args(filters),
+        )?;
+    }
+    Ok(())
 }
