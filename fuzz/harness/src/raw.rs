@@ -483,12 +483,14 @@ fn body(data: &[u8]) -> String {
             ..Default::default()
         });
         // Build ranges and max primitive counts: `geometryCount` elements,
-        // up to the reader's bound for any array.
+        // up to the reader's bound for each: ranges are read as far as the
+        // geometries ([`MAX_GEOMETRIES`]), counts as any array
+        // ([`MAX_ELEMENTS`]).
         let m = (geometry_count as usize).min(MAX_ELEMENTS);
         if input.below(4) == 0 {
             range_pointers.push(std::ptr::null());
         } else {
-            let list = elements(m, Default::default(), || {
+            let list = elements(n, Default::default(), || {
                 vk::AccelerationStructureBuildRangeInfoKHR {
                     primitive_count: if input.bool() {
                         input.u32()

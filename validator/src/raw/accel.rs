@@ -946,7 +946,7 @@ impl Validator {
         let function = "vkGetAccelerationStructureBuildSizesKHR";
         let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
-        let model =
+        let mut model =
             unsafe { build_geometry_info(build_info, function, "pBuildInfo", &mut findings) };
         // SAFETY: forwarded from the caller.
         let counts = unsafe {
@@ -958,6 +958,15 @@ impl Validator {
                 &mut findings,
             )
         };
+        // A count past the read bound was cut (with a warning); the counts
+        // read are all the check may compare, or it would call the array
+        // short for holding more values than ommcheck reads.
+        if let Some(read) = &counts {
+            let read = u32::try_from(read.len()).unwrap_or(u32::MAX);
+            if build_info.geometry_count > read {
+                model.geometry_count = model.geometry_count.min(read);
+            }
+        }
         let mut report = Report { findings };
         report.extend(self.get_acceleration_structure_build_sizes(
             build_type.as_raw(),
@@ -1435,6 +1444,55 @@ mod tests {
             report.contains(
                 vuid::VkAccelerationStructureGeometryMicromapDataKHR::ppUsageCounts_parameter
             ),
+            "{report}"
+        );
+    }
+
+    /// A `geometryCount` past [`MAX_ELEMENTS`] with NULL geometries: the
+    /// counts are read to the bound (a warning says so), and their array is
+    /// not called short for it; the NULL geometries are still an error.
+    #[test]
+    #[cfg_attr(miri, ignore = "reads 2^20 values")]
+    fn max_primitive_counts_past_the_read_bound_are_not_called_short() {
+        let count = MAX_ELEMENTS as u32 + 1;
+        let counts = vec![1u32; count as usize];
+        let info = vk::AccelerationStructureBuildGeometryInfoKHR {
+            ty: vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            geometry_count: count,
+            ..Default::default()
+        };
+        let mut v = validator();
+        // SAFETY: `counts` holds geometryCount values; geometries are NULL.
+        let report = unsafe {
+            v.get_acceleration_structure_build_sizes_ash(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &info,
+                counts.as_ptr(),
+            )
+        };
+        assert_eq!(
+            rule_count(&report.findings, rules::READ_BOUND.id),
+            1,
+            "{report}"
+        );
+        assert!(
+            !report
+                .contains(vuid::vkGetAccelerationStructureBuildSizesKHR::pMaxPrimitiveCounts_11612),
+            "{report}"
+        );
+        // Short for real: NULL.
+        let mut v = validator();
+        // SAFETY: NULL pointers are not read.
+        let report = unsafe {
+            v.get_acceleration_structure_build_sizes_ash(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &info,
+                std::ptr::null(),
+            )
+        };
+        assert!(
+            report
+                .contains(vuid::vkGetAccelerationStructureBuildSizesKHR::pMaxPrimitiveCounts_11612),
             "{report}"
         );
     }
