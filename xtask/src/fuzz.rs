@@ -194,6 +194,20 @@ fn corpus_dirs(root: &Path, target: &str) -> Result<Vec<PathBuf>, Error> {
     Ok(dirs)
 }
 
+/// libFuzzer options of one target beyond the common ones. The targets
+/// that build API structures from their input read it as a stream of
+/// numbers (its end reads as zeros), so an input describes more the longer
+/// it is: they start at full length (`-len_control=0`) instead of growing
+/// from a few bytes. In 60 s from the committed corpus, `raw_reader` ran
+/// 31,300 inputs to 2,907 edges (8,141 features) with these options and
+/// 65,883 to 2,789 (6,335) without (the inputs stayed under 76 bytes).
+fn libfuzzer_options(target: &str) -> &'static [&'static str] {
+    match target {
+        "raw_reader" | "host_build" => &["-len_control=0", "-max_len=2048"],
+        _ => &[],
+    }
+}
+
 fn run_target(root: &Path, target: &str, seconds: u64) -> Result<Outcome, Error> {
     let dirs = corpus_dirs(root, target)?;
     let mut command = cargo_fuzz(root, "run");
@@ -205,6 +219,7 @@ fn run_target(root: &Path, target: &str, seconds: u64) -> Result<Outcome, Error>
         // A single input taking 10 s is a finding (unbounded work), as is
         // one needing more than 4 GiB (unbounded allocation).
         .args(["-timeout=10", "-rss_limit_mb=4096", "-print_final_stats=1"])
+        .args(libfuzzer_options(target))
         .stderr(Stdio::piped());
     eprintln!("xtask: fuzz {target} for {seconds} s: {command:?}");
     let started = Instant::now();

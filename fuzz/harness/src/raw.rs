@@ -16,6 +16,11 @@
 //! reader must not read (its extent past [`MAX_HOST_BYTES`]) gets 8 bytes.
 //! Oracle beyond no crash: the same input gives the same findings.
 //!
+//! Under cargo-fuzz the reader's bounds are small (`--cfg fuzzing`: 2^10
+//! elements, 2^6 geometries, 2^16 host bytes; see `ommcheck::raw`), so the
+//! arrays an input past a bound gets are small too; `cargo test` replays
+//! the same inputs with the real bounds.
+//!
 //! Past the first 8 elements, usage arrays hold a valid usage and pointer
 //! arrays point to one: the reader still reads all of them, but the checks
 //! report nothing per element. With NULL or zero elements instead, one call

@@ -159,7 +159,8 @@ pub unsafe fn build_geometry_info(
 /// from one `ppBuildRangeInfos` element). Tighter than [`MAX_ELEMENTS`]: each
 /// geometry's model is some 600 bytes, and 2^16 geometries (more than any
 /// real build holds) keep one info's model near 40 MB.
-pub const MAX_GEOMETRIES: u32 = 1 << 16;
+/// Small under cargo-fuzz, as [`MAX_ELEMENTS`] is.
+pub const MAX_GEOMETRIES: u32 = if cfg!(fuzzing) { 1 << 6 } else { 1 << 16 };
 
 /// `geometryCount` bounded by [`MAX_GEOMETRIES`], with a warning at
 /// `location` when it is cut.
