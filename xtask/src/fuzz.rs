@@ -13,7 +13,7 @@ use std::time::Instant;
 use crate::Error;
 
 /// The fuzz targets (`fuzz/libfuzzer/fuzz_targets/<name>.rs`).
-pub const TARGETS: [&str; 4] = ["raw_reader", "decode", "simulate", "scene"];
+pub const TARGETS: [&str; 5] = ["raw_reader", "decode", "simulate", "scene", "host_build"];
 
 /// Seconds per target of `--smoke` (CI) and `--long`.
 pub const SMOKE_SECONDS: u64 = 25;

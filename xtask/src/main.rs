@@ -60,8 +60,9 @@ enum Task {
         #[arg(long)]
         sanitize: bool,
     },
-    /// Fuzz the reader, decoder, simulator and scene parser with cargo-fuzz
-    /// (installing nightly and cargo-fuzz where missing).
+    /// Fuzz the reader (device and host builds), decoder, simulator and
+    /// scene parser with cargo-fuzz (installing nightly and cargo-fuzz where
+    /// missing).
     Fuzz {
         /// 25 s per target, as `cargo xtask test` runs it.
         #[arg(long, conflicts_with_all = ["long", "seconds"])]

@@ -7,18 +7,21 @@
 //! fuzzer kept (`fuzz/regressions/`) under `cargo test` on stable.
 
 pub mod decode;
+pub mod host_build;
 pub mod input;
 pub mod raw;
 pub mod scene;
 pub mod simulate;
+mod structs;
 
 /// A target's body: panics on a finding.
 pub type Body = fn(&[u8]);
 
 /// The targets, by the names `cargo fuzz` knows them by.
-pub const TARGETS: [(&str, Body); 4] = [
+pub const TARGETS: [(&str, Body); 5] = [
     ("raw_reader", raw::run),
     ("decode", decode::run),
     ("simulate", simulate::run),
     ("scene", scene::run),
+    ("host_build", host_build::run),
 ];

@@ -28,8 +28,6 @@
 //! text), each a real error, which made every such input a libFuzzer
 //! timeout without anything being wrong.
 
-use std::ffi::c_void;
-
 use ash::vk;
 use ommcheck::model::CommandBuffer;
 use ommcheck::raw::accel::MAX_GEOMETRIES;
@@ -37,274 +35,12 @@ use ommcheck::raw::{ReadableHost, MAX_ELEMENTS, MAX_HOST_BYTES};
 use ommcheck::{Device, Profile, Validator};
 
 use crate::input::Input;
+use crate::structs::{count, elements, usage_total, Arena, VALID_USAGE};
 
 pub fn run(data: &[u8]) {
     let first = body(data);
     let second = body(data);
     assert_eq!(first, second, "the same structures read differently");
-}
-
-/// A pNext chain element of a type the target does not model: sType and
-/// pNext, then zeros to 256 bytes. Whatever structure its sType names (the
-/// fuzzer may name one the reader knows), every member lies inside the node
-/// and reads as zero (NULL pointers, zero counts), which makes it a valid
-/// structure of that type.
-#[repr(C)]
-struct Node {
-    s_type: vk::StructureType,
-    p_next: *const c_void,
-    rest: [u64; 30],
-}
-
-type OmmExt = vk::AccelerationStructureTrianglesOpacityMicromapEXT<'static>;
-type Geometry = vk::AccelerationStructureGeometryKHR<'static>;
-
-/// Every allocation the structures point into; kept alive for the calls.
-/// Boxes do not move when the vectors holding them grow (the elements of a
-/// `Vec<T>` would), so pointers taken into them stay valid.
-#[allow(clippy::vec_box)]
-#[derive(Default)]
-struct Arena {
-    nodes: Vec<Box<Node>>,
-    omms: Vec<Box<OmmExt>>,
-    usages: Vec<Box<[vk::MicromapUsageEXT]>>,
-    usage_pointers: Vec<Box<[*const vk::MicromapUsageEXT]>>,
-    single_usages: Vec<Box<vk::MicromapUsageEXT>>,
-    bytes: Vec<Box<[u8]>>,
-    geometries: Vec<Box<[Geometry]>>,
-    geometry_pointers: Vec<Box<[*const Geometry]>>,
-    single_geometries: Vec<Box<Geometry>>,
-    ranges: Vec<Box<[vk::AccelerationStructureBuildRangeInfoKHR]>>,
-    range_pointers: Vec<Box<[*const vk::AccelerationStructureBuildRangeInfoKHR]>>,
-    counts: Vec<Box<[u32]>>,
-}
-
-/// A count: mostly small, one time in eight any u32 (up to 2^32 − 1).
-fn count(input: &mut Input<'_>) -> u32 {
-    let c = input.u8();
-    if c & 7 == 7 {
-        input.u32()
-    } else {
-        u32::from(c >> 3) % 5
-    }
-}
-
-/// `n` elements, the first few from `make`, the rest `fill`.
-fn elements<T: Copy>(n: usize, fill: T, mut make: impl FnMut() -> T) -> Box<[T]> {
-    let mut list = vec![fill; n];
-    for slot in list.iter_mut().take(8) {
-        *slot = make();
-    }
-    list.into_boxed_slice()
-}
-
-fn usage(input: &mut Input<'_>) -> vk::MicromapUsageEXT {
-    vk::MicromapUsageEXT {
-        count: if input.bool() {
-            input.u32()
-        } else {
-            u32::from(input.u8() % 8)
-        },
-        subdivision_level: if input.bool() {
-            input.u32()
-        } else {
-            u32::from(input.u8() % 14)
-        },
-        format: match input.below(4) {
-            0 | 1 => 1,
-            2 => 2,
-            _ => input.u32(),
-        },
-    }
-}
-
-impl Arena {
-    /// A pNext chain of up to 3 nodes, each linking to a node (itself and
-    /// earlier ones included: cycles), to `tail`, or to nothing.
-    fn chain(&mut self, input: &mut Input<'_>, tail: *const c_void) -> *const c_void {
-        let n = input.below(4) as usize;
-        let first = self.nodes.len();
-        for _ in 0..n {
-            let s_type = match input.below(4) {
-                0 => vk::StructureType::from_raw(input.i32()),
-                1 => vk::StructureType::ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT,
-                2 => vk::StructureType::from_raw(
-                    ommcheck::model::accel::STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
-                ),
-                _ => vk::StructureType::from_raw(
-                    ommcheck::model::accel::STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
-                ),
-            };
-            self.nodes.push(Box::new(Node {
-                s_type,
-                p_next: std::ptr::null(),
-                rest: [0; 30],
-            }));
-        }
-        let addresses: Vec<*const c_void> = self.nodes[first..]
-            .iter()
-            .map(|node| (&**node as *const Node).cast())
-            .collect();
-        for k in 0..n {
-            let to = input.below(n as u32 + 2) as usize;
-            self.nodes[first + k].p_next = match to {
-                t if t < n => addresses[t],
-                t if t == n => tail,
-                _ => std::ptr::null(),
-            };
-        }
-        addresses.first().copied().unwrap_or(tail)
-    }
-
-    /// A usage-count triple: (count, pUsageCounts, ppUsageCounts).
-    fn usage_counts(
-        &mut self,
-        input: &mut Input<'_>,
-    ) -> (
-        u32,
-        *const vk::MicromapUsageEXT,
-        *const *const vk::MicromapUsageEXT,
-    ) {
-        let count = count(input);
-        let n = (count as usize).min(MAX_ELEMENTS);
-        let which = input.below(4);
-        let mut array = std::ptr::null();
-        let mut pointers = std::ptr::null();
-        let valid = vk::MicromapUsageEXT {
-            count: 0,
-            subdivision_level: 0,
-            format: 1,
-        };
-        if which & 1 == 1 {
-            let list = elements(n, valid, || usage(input));
-            array = list.as_ptr();
-            self.usages.push(list);
-        }
-        if which & 2 == 2 {
-            let shared = Box::new(valid);
-            let fill: *const vk::MicromapUsageEXT = &*shared;
-            self.single_usages.push(shared);
-            let list = elements(n, fill, || {
-                if input.below(4) == 0 {
-                    std::ptr::null()
-                } else {
-                    let one = Box::new(usage(input));
-                    let p: *const vk::MicromapUsageEXT = &*one;
-                    self.single_usages.push(one);
-                    p
-                }
-            });
-            pointers = list.as_ptr();
-            self.usage_pointers.push(list);
-        }
-        (count, array, pointers)
-    }
-
-    fn bytes(&mut self, len: usize, seed: &[u8]) -> *const u8 {
-        let list: Box<[u8]> = (0..len)
-            .map(|k| seed.get(k % seed.len().max(1)).copied().unwrap_or(0))
-            .collect();
-        let p = list.as_ptr();
-        self.bytes.push(list);
-        p
-    }
-
-    fn omm(&mut self, input: &mut Input<'_>) -> *const c_void {
-        let (count, array, pointers) = self.usage_counts(input);
-        let next = if input.below(4) == 0 {
-            self.chain(input, std::ptr::null())
-        } else {
-            std::ptr::null()
-        };
-        let omm = Box::new(OmmExt {
-            p_next: next.cast_mut(),
-            index_type: vk::IndexType::from_raw(match input.below(4) {
-                0 => vk::IndexType::UINT16.as_raw(),
-                1 => vk::IndexType::UINT32.as_raw(),
-                2 => vk::IndexType::NONE_KHR.as_raw(),
-                _ => input.i32(),
-            }),
-            index_buffer: vk::DeviceOrHostAddressConstKHR {
-                device_address: input.u64(),
-            },
-            index_stride: u64::from(input.u8()),
-            base_triangle: input.u32(),
-            usage_counts_count: count,
-            p_usage_counts: array,
-            pp_usage_counts: pointers,
-            micromap: vk::Handle::from_raw(u64::from(input.u8())),
-            ..Default::default()
-        });
-        let p = (&*omm as *const OmmExt).cast();
-        self.omms.push(omm);
-        p
-    }
-
-    fn geometry(&mut self, input: &mut Input<'_>) -> Geometry {
-        let ty = match input.below(5) {
-            0 | 1 => vk::GeometryTypeKHR::TRIANGLES,
-            2 => vk::GeometryTypeKHR::AABBS,
-            3 => vk::GeometryTypeKHR::INSTANCES,
-            _ => vk::GeometryTypeKHR::from_raw(input.i32()),
-        };
-        let next = self.chain(input, std::ptr::null());
-        let mut geometry = Geometry {
-            p_next: next,
-            geometry_type: ty,
-            flags: vk::GeometryFlagsKHR::from_raw(input.u32()),
-            ..Default::default()
-        };
-        match ty {
-            vk::GeometryTypeKHR::TRIANGLES => {
-                let omm = if input.below(4) != 0 {
-                    self.omm(input)
-                } else {
-                    std::ptr::null()
-                };
-                let next = self.chain(input, omm);
-                geometry.geometry.triangles = vk::AccelerationStructureGeometryTrianglesDataKHR {
-                    p_next: next,
-                    vertex_format: vk::Format::from_raw(input.i32()),
-                    vertex_data: vk::DeviceOrHostAddressConstKHR {
-                        device_address: input.u64(),
-                    },
-                    vertex_stride: u64::from(input.u16()),
-                    max_vertex: input.u32(),
-                    index_type: vk::IndexType::from_raw(i32::from(input.u8() % 4)),
-                    index_data: vk::DeviceOrHostAddressConstKHR {
-                        device_address: input.u64(),
-                    },
-                    transform_data: vk::DeviceOrHostAddressConstKHR {
-                        device_address: input.u64(),
-                    },
-                    ..Default::default()
-                };
-            }
-            vk::GeometryTypeKHR::AABBS => {
-                geometry.geometry.aabbs = vk::AccelerationStructureGeometryAabbsDataKHR {
-                    p_next: self.chain(input, std::ptr::null()),
-                    data: vk::DeviceOrHostAddressConstKHR {
-                        device_address: input.u64(),
-                    },
-                    stride: u64::from(input.u16()),
-                    ..Default::default()
-                };
-            }
-            vk::GeometryTypeKHR::INSTANCES => {
-                geometry.geometry.instances = vk::AccelerationStructureGeometryInstancesDataKHR {
-                    p_next: self.chain(input, std::ptr::null()),
-                    array_of_pointers: u32::from(input.bool()),
-                    data: vk::DeviceOrHostAddressConstKHR {
-                        device_address: input.u64(),
-                    },
-                    ..Default::default()
-                };
-            }
-            // Another type: the union stays zero (no member is selected).
-            _ => {}
-        }
-        geometry
-    }
 }
 
 fn validator() -> Validator {
@@ -321,7 +57,7 @@ fn body(data: &[u8]) -> String {
     let mut infos = Vec::new();
     for _ in 0..info_count {
         let next = arena.chain(&mut input, std::ptr::null());
-        let (count, array, pointers) = arena.usage_counts(&mut input);
+        let (count, array, pointers) = arena.usage_counts(&mut input, VALID_USAGE);
         infos.push(vk::MicromapBuildInfoEXT {
             s_type: if input.below(8) == 0 {
                 vk::StructureType::from_raw(input.i32())
@@ -370,21 +106,11 @@ fn body(data: &[u8]) -> String {
     // The same infos as a host build, with host addresses.
     let mut readable = Vec::new();
     for info in infos.iter_mut() {
-        let entries: Vec<vk::MicromapUsageEXT> = if !info.p_usage_counts.is_null() {
-            let n = (info.usage_counts_count as usize).min(MAX_ELEMENTS);
-            // SAFETY: the arena holds `n` usages there.
-            unsafe { std::slice::from_raw_parts(info.p_usage_counts, n) }.to_vec()
-        } else if !info.pp_usage_counts.is_null() {
-            let n = (info.usage_counts_count as usize).min(MAX_ELEMENTS);
-            // SAFETY: the arena holds `n` pointers there, each NULL or to one usage.
-            unsafe { std::slice::from_raw_parts(info.pp_usage_counts, n) }
-                .iter()
-                .filter_map(|p| unsafe { p.as_ref() }.copied())
-                .collect()
-        } else {
-            Vec::new()
-        };
-        let total: u64 = entries.iter().map(|u| u64::from(u.count)).sum();
+        let total = usage_total(
+            info.usage_counts_count,
+            info.p_usage_counts,
+            info.pp_usage_counts,
+        );
         let extent = total
             .checked_sub(1)
             .and_then(|n| n.checked_mul(info.triangle_array_stride))
@@ -449,44 +175,12 @@ fn body(data: &[u8]) -> String {
     for _ in 0..as_count {
         let geometry_count = count(&mut input);
         let n = geometry_count.min(MAX_GEOMETRIES) as usize;
-        let which = input.below(4);
-        let mut array = std::ptr::null();
-        let mut pointers = std::ptr::null();
-        if which & 1 == 1 {
-            let list = elements(n, Geometry::default(), || arena.geometry(&mut input));
-            array = list.as_ptr();
-            arena.geometries.push(list);
-        }
-        if which & 2 == 2 {
-            let list = elements(n, std::ptr::null(), || {
-                if input.below(4) == 0 {
-                    std::ptr::null()
-                } else {
-                    let one = Box::new(arena.geometry(&mut input));
-                    let p: *const Geometry = &*one;
-                    arena.single_geometries.push(one);
-                    p
-                }
-            });
-            pointers = list.as_ptr();
-            arena.geometry_pointers.push(list);
-        }
+        let geometries = arena.geometry_arrays(&mut input, n, |_| None);
         let next = arena.chain(&mut input, std::ptr::null());
-        as_infos.push(vk::AccelerationStructureBuildGeometryInfoKHR {
-            p_next: next,
-            ty: vk::AccelerationStructureTypeKHR::from_raw(i32::from(input.u8() % 4)),
-            flags: vk::BuildAccelerationStructureFlagsKHR::from_raw(input.u32()),
-            mode: vk::BuildAccelerationStructureModeKHR::from_raw(i32::from(input.u8() % 3)),
-            src_acceleration_structure: vk::Handle::from_raw(u64::from(input.u8())),
-            dst_acceleration_structure: vk::Handle::from_raw(u64::from(input.u8())),
-            geometry_count,
-            p_geometries: array,
-            pp_geometries: pointers,
-            scratch_data: vk::DeviceOrHostAddressKHR {
-                device_address: input.u64(),
-            },
-            ..Default::default()
-        });
+        let ty = vk::AccelerationStructureTypeKHR::from_raw(i32::from(input.u8() % 4));
+        let flags = input.u32();
+        let info = arena.build_info(&mut input, next, ty, flags, geometry_count, geometries);
+        as_infos.push(info);
         // Build ranges and max primitive counts: `geometryCount` elements,
         // up to the reader's bound for each: ranges are read as far as the
         // geometries ([`MAX_GEOMETRIES`]), counts as any array

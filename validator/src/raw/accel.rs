@@ -528,26 +528,33 @@ fn instance(raw: &vk::AccelerationStructureInstanceKHR) -> Instance {
     }
 }
 
-/// Reads the instances of an instances geometry of a host build: `count`
-/// (at most [`MAX_ELEMENTS`]) `VkAccelerationStructureInstanceKHR` at the
-/// host address `data`, or with `arrayOfPointers` that many host pointers,
-/// each to one instance (a NULL element reads as a default instance, which
-/// no rule looks at: mask 0, no flags, no reference).
+/// Reads the instances of an instances geometry of a host build, as the
+/// API consumes them: `range.primitiveCount` (at most [`MAX_ELEMENTS`])
+/// `VkAccelerationStructureInstanceKHR` from the host address `data +
+/// range.primitiveOffset`, or with `arrayOfPointers` that many host
+/// pointers from there, each to one instance (a NULL element reads as a
+/// default instance, which no rule looks at: mask 0, no flags, no
+/// reference). A NULL `data`, or `data + primitiveOffset` past 2^64, is
+/// not read (None).
 ///
 /// # Safety
-/// `data` must be a host address readable as the API describes it for
-/// `count` primitives.
+/// `data + range.primitiveOffset` must be a host address readable as the
+/// API describes it for `range.primitiveCount` primitives.
 unsafe fn host_instances(
     data: &InstancesData,
-    count: u32,
+    range: &BuildRangeInfo,
     function: &'static str,
     location: &str,
     findings: &mut Vec<Finding>,
 ) -> Option<Vec<Instance>> {
-    let address = usize::try_from(data.data).ok()?;
-    if address == 0 {
+    if data.data == 0 {
         return None;
     }
+    // The instances (or pointers) start primitiveOffset bytes after data;
+    // the bytes before them need not be readable.
+    let start = data.data.checked_add(u64::from(range.primitive_offset))?;
+    let address = usize::try_from(start).ok()?;
+    let count = range.primitive_count;
     let len = bounded_len(count, function, location, findings);
     let list = if data.array_of_pointers {
         let pointers = std::ptr::with_exposed_provenance::<
@@ -556,8 +563,8 @@ unsafe fn host_instances(
         (0..len)
             .map(|k| {
                 // SAFETY: the caller guarantees `count` readable pointers at
-                // `data`, and `k < len <= count`; unaligned reads tolerate a
-                // misaligned array.
+                // `data + primitiveOffset`, and `k < len <= count`; unaligned
+                // reads tolerate a misaligned array.
                 let pointer = unsafe { pointers.add(k).read_unaligned() };
                 if pointer.is_null() {
                     return Instance::default();
@@ -571,7 +578,7 @@ unsafe fn host_instances(
             std::ptr::with_exposed_provenance::<vk::AccelerationStructureInstanceKHR>(address);
         (0..len)
             // SAFETY: the caller guarantees `count` readable instances at
-            // `data`, and `k < len <= count`.
+            // `data + primitiveOffset`, and `k < len <= count`.
             .map(|k| instance(&unsafe { array.add(k).read_unaligned() }))
             .collect()
     };
@@ -878,8 +885,9 @@ impl Validator {
     /// infoCount, pInfos, ppBuildRangeInfos)` called with ash structures
     /// whose addresses are host pointers. Read as the API describes them:
     /// the instances of instances geometries (`primitiveCount` of them, or
-    /// of pointers to them; not for MOTION_NV builds, whose instances are
-    /// another structure), each micromap geometry's triangle array
+    /// of pointers to them, from `data + primitiveOffset`; not for
+    /// MOTION_NV builds, whose instances are another structure), each
+    /// micromap geometry's triangle array
     /// (`(Σ usage counts − 1) × triangleArrayStride + 8` bytes) and each EXT
     /// or KHR opacity attachment's index buffer
     /// (`(primitiveCount − 1) × indexStride + index size` bytes). Micromap data is read only where the validator
@@ -1087,8 +1095,8 @@ unsafe fn raw_arrays<'a, 'b>(
 /// where the build range gives their count.
 ///
 /// # Safety
-/// Each instances geometry's `data` must be a host address readable as the
-/// API describes it for its range's `primitiveCount`.
+/// Each instances geometry's `data + primitiveOffset` must be a host
+/// address readable as the API describes it for its range's `primitiveCount`.
 unsafe fn read_host_instances(
     i: usize,
     info: &mut BuildGeometryInfo,
@@ -1125,8 +1133,7 @@ unsafe fn read_host_instances(
         };
         let location = format!("pInfos[{i}].{member}[{g}].geometry.instances.data");
         // SAFETY: forwarded from the caller.
-        data.instances =
-            unsafe { host_instances(data, range.primitive_count, HOST_BUILD, &location, findings) };
+        data.instances = unsafe { host_instances(data, range, HOST_BUILD, &location, findings) };
     }
 }
 
@@ -1852,6 +1859,69 @@ mod tests {
                 .starts_with("pInfos[0].pGeometries[0].geometry.instances.data[0]"),
             "{report}"
         );
+    }
+
+    #[test]
+    fn host_instances_are_read_from_the_primitive_offset() {
+        // The API consumes instances from data + primitiveOffset: the
+        // second of two instances (or pointers) here, never the first.
+        let instance = |index: u32| vk::AccelerationStructureInstanceKHR {
+            transform: vk::TransformMatrixKHR { matrix: [0.0; 12] },
+            instance_custom_index_and_mask: vk::Packed24_8::new(index, 0xff),
+            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(0, 0),
+            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+                device_handle: 0,
+            },
+        };
+        let instances = [instance(1), instance(2)];
+        let pointers: [*const vk::AccelerationStructureInstanceKHR; 2] =
+            [&instances[0], &instances[1]];
+        let size = std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u32;
+        for (array_of_pointers, offset) in [(false, size), (true, 8)] {
+            let data: *const c_void = if array_of_pointers {
+                pointers.as_ptr().cast()
+            } else {
+                instances.as_ptr().cast()
+            };
+            let geometry = vk::AccelerationStructureGeometryKHR {
+                geometry_type: vk::GeometryTypeKHR::INSTANCES,
+                geometry: vk::AccelerationStructureGeometryDataKHR {
+                    instances: vk::AccelerationStructureGeometryInstancesDataKHR {
+                        array_of_pointers: u32::from(array_of_pointers),
+                        data: vk::DeviceOrHostAddressConstKHR { host_address: data },
+                        ..Default::default()
+                    },
+                },
+                ..Default::default()
+            };
+            let info = vk::AccelerationStructureBuildGeometryInfoKHR {
+                ty: vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                geometry_count: 1,
+                p_geometries: &geometry,
+                ..Default::default()
+            };
+            let mut findings = Vec::new();
+            // SAFETY: every pointer points to live structures.
+            let mut model =
+                unsafe { build_geometry_info(&info, HOST_BUILD, "pInfos[0]", &mut findings) };
+            let ranges = vec![BuildRangeInfo {
+                primitive_count: 1,
+                primitive_offset: offset,
+                ..Default::default()
+            }];
+            // SAFETY: one instance (or pointer) lies at data + primitiveOffset.
+            unsafe { read_host_instances(0, &mut model, Some(&ranges), &mut findings) };
+            let read = match &model.geometries.expect("read")[0].geometry {
+                GeometryData::Instances(data) => data.instances.clone().expect("instances read"),
+                other => panic!("not instances: {other:?}"),
+            };
+            assert_eq!(read.len(), 1);
+            assert_eq!(
+                read[0].instance_custom_index, 2,
+                "pointers: {array_of_pointers}"
+            );
+            assert!(findings.is_empty(), "{findings:?}");
+        }
     }
 
     #[test]
