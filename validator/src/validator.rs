@@ -135,19 +135,25 @@ impl<'a> Ctx<'a> {
         message: impl Into<String>,
     ) -> &mut Finding {
         let finding = Finding::new(rule, severity, self.function, location, message);
-        let count = match self.per_rule.iter_mut().find(|(r, _)| *r == finding.rule) {
-            Some((_, count)) => count,
-            None => {
-                self.per_rule.push((finding.rule, 0));
-                &mut self.per_rule.last_mut().expect("just pushed").1
-            }
-        };
-        *count = count.saturating_add(1);
-        if *count > FINDINGS_PER_RULE_PER_CALL {
+        if !self.counted(finding.rule) {
             return self.unlisted.insert(finding);
         }
         self.report.findings.push(finding);
         self.report.findings.last_mut().expect("just pushed")
+    }
+
+    /// Counts one more finding of `rule` in this call; whether it is listed
+    /// (within [`FINDINGS_PER_RULE_PER_CALL`]).
+    fn counted(&mut self, rule: RuleId) -> bool {
+        let count = match self.per_rule.iter_mut().find(|(r, _)| *r == rule) {
+            Some((_, count)) => count,
+            None => {
+                self.per_rule.push((rule, 0));
+                &mut self.per_rule.last_mut().expect("just pushed").1
+            }
+        };
+        *count = count.saturating_add(1);
+        *count <= FINDINGS_PER_RULE_PER_CALL
     }
 
     /// Reports an error.
@@ -160,7 +166,10 @@ impl<'a> Ctx<'a> {
         self.report(rule, Severity::Error, location, message)
     }
 
-    /// Reports an error unless `ok`; location and message are built only on failure.
+    /// Reports an error unless `ok`; location and message are built only
+    /// for a failure that is listed (past [`FINDINGS_PER_RULE_PER_CALL`] of
+    /// its rule it is only counted, which keeps a call with millions of
+    /// alike faults from formatting millions of messages).
     pub fn require(
         &mut self,
         ok: bool,
@@ -168,8 +177,13 @@ impl<'a> Ctx<'a> {
         location: impl FnOnce() -> String,
         message: impl FnOnce() -> String,
     ) {
-        if !ok {
-            self.error(rule, location(), message());
+        if ok {
+            return;
+        }
+        let rule = rule.into();
+        if self.counted(rule) {
+            let finding = Finding::new(rule, Severity::Error, self.function, location(), message());
+            self.report.findings.push(finding);
         }
     }
 
@@ -256,5 +270,39 @@ mod tests {
             .findings
             .iter()
             .all(|f| !f.message.contains("not listed")));
+    }
+
+    #[test]
+    fn require_builds_text_only_for_listed_failures_and_counts_the_rest() {
+        let validator = Validator::new(Device::default());
+        let mut ctx = validator.ctx("vkCmdBuildMicromapsEXT");
+        let mut built = 0u32;
+        let failures = FINDINGS_PER_RULE_PER_CALL + 10;
+        for i in 0..failures {
+            ctx.require(
+                false,
+                vuid::vkCmdBuildMicromapsEXT::dstMicromap_11649,
+                || {
+                    built += 1;
+                    format!("pInfos[{i}]")
+                },
+                || "collides.".into(),
+            );
+            ctx.require(
+                true,
+                vuid::vkCmdBuildMicromapsEXT::scratchData_11651,
+                || unreachable!("a passing check builds no text"),
+                || unreachable!("a passing check builds no text"),
+            );
+        }
+        let report = ctx.finish();
+        assert_eq!(built, FINDINGS_PER_RULE_PER_CALL);
+        assert_eq!(report.len(), FINDINGS_PER_RULE_PER_CALL as usize);
+        assert!(report
+            .findings
+            .last()
+            .unwrap()
+            .message
+            .contains("(10 more findings"));
     }
 }

@@ -450,8 +450,8 @@ impl Arena {
     /// instance) from `data + primitiveOffset`, the first few from the
     /// input. `number` where nothing is read (no range, a MOTION_NV build);
     /// NULL for more instances than the target allocates; for more than
-    /// the reader's bound ([`MAX_ELEMENTS`]), exactly that many pointers
-    /// (one time in four; 8 MiB) or NULL.
+    /// the reader's bound ([`MAX_ELEMENTS`]), exactly that many (one time
+    /// in four, where affordable) or NULL.
     fn host_instances(
         &mut self,
         input: &mut Input<'_>,
@@ -463,8 +463,16 @@ impl Arena {
             return number;
         };
         let mut n = count as usize;
-        if n > MAX_ELEMENTS && pointers && input.below(4) == 0 {
-            n = MAX_ELEMENTS;
+        if n > MAX_ELEMENTS {
+            // Past the reader's bound: exactly the bound, one time in four,
+            // where the target can afford it (pointers: 8 MiB at the real
+            // bound; instances only at cargo-fuzz's small one); else NULL.
+            let affordable = pointers || MAX_ELEMENTS <= HOST_INSTANCES;
+            if affordable && input.below(4) == 0 {
+                n = MAX_ELEMENTS;
+            } else {
+                return 0;
+            }
         } else if n > HOST_INSTANCES {
             return 0;
         }
