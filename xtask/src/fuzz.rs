@@ -351,7 +351,7 @@ pub fn miri(root: &Path, target_dir: &Path) -> Result<(), Error> {
     ensure_nightly(&["miri", "rust-src"])?;
     for (what, package, filters) in MIRI_TESTS {
         run_step(
-            &format!("{what}'s tests under Miri"),
+            &format!("the tests of {what} under Miri"),
             nightly_cargo()
                 .current_dir(root)
                 // Its own target directory: Miri's artefacts are not the
