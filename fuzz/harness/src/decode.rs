@@ -51,11 +51,7 @@ fn body(data: &[u8]) -> String {
     let count = input.below(5) as usize;
     let triangles: Vec<MicromapTriangle> = (0..count)
         .map(|_| MicromapTriangle {
-            data_offset: if input.bool() {
-                input.u32()
-            } else {
-                u32::from(input.u8())
-            },
+            data_offset: input.u32_mostly_below(256),
             subdivision_level: level(&mut input),
             format: format(&mut input),
         })
@@ -69,11 +65,7 @@ fn body(data: &[u8]) -> String {
     let data_start = usize::from(input.u16());
     let mut content = MicromapContent::at(triangles.clone(), Arc::from(bytes), data_start);
     if input.below(4) == 0 {
-        let repeat = if input.bool() {
-            input.u64()
-        } else {
-            u64::from(input.u8())
-        };
+        let repeat = input.u64_mostly_below(256);
         content = content.repeating(repeat);
     }
     let data_bytes = content.data_bytes().to_vec();
@@ -88,11 +80,7 @@ fn body(data: &[u8]) -> String {
 
     // Lookups of the micromap's triangles (and a few past its end).
     for _ in 0..3 {
-        let m = if input.bool() {
-            input.u64()
-        } else {
-            u64::from(input.u8() % 8)
-        };
+        let m = input.u64_mostly_below(8);
         let got = content.triangle_data(m);
         let want = slow_triangle(&content, m);
         match (&got, &want) {
@@ -175,26 +163,14 @@ fn body(data: &[u8]) -> String {
     let attachment = Attachment {
         index_type,
         index_bytes: readable.then_some(&index_bytes[..]),
-        index_stride: if input.bool() {
-            input.u64()
-        } else {
-            u64::from(input.u8() % 8)
-        },
-        base_triangle: if input.bool() {
-            input.u32()
-        } else {
-            u32::from(input.u8())
-        },
+        index_stride: input.u64_mostly_below(8),
+        base_triangle: input.u32_mostly_below(256),
         micromap: input.bool().then_some(&content),
         lossy: input.bool(),
         cluster: input.bool(),
     };
     for _ in 0..3 {
-        let t = if input.bool() {
-            input.u64()
-        } else {
-            u64::from(input.u8())
-        };
+        let t = input.u64_mostly_below(256);
         let got = fetch_slot(&attachment, t);
         let want = slow_slot(&attachment, t);
         assert_eq!(got, want, "slot of triangle {t} ({attachment:?})");

@@ -50,6 +50,24 @@ impl<'a> Input<'a> {
     pub fn f64(&mut self) -> f64 {
         f64::from_bits(self.u64())
     }
+    /// One time in two any u32, else a byte below `below` (1 to 256):
+    /// the shape of the counts, levels and offsets the targets describe,
+    /// mostly small and sometimes past every bound.
+    pub fn u32_mostly_below(&mut self, below: u32) -> u32 {
+        if self.bool() {
+            self.u32()
+        } else {
+            u32::from(self.u8()) % below
+        }
+    }
+    /// [`Self::u32_mostly_below`] for u64 fields (strides).
+    pub fn u64_mostly_below(&mut self, below: u64) -> u64 {
+        if self.bool() {
+            self.u64()
+        } else {
+            u64::from(self.u8()) % below
+        }
+    }
     /// A small number below `n` (n > 0).
     pub fn below(&mut self, n: u32) -> u32 {
         u32::from(self.u8()) % n

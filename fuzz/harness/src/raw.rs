@@ -81,11 +81,7 @@ fn body(data: &[u8]) -> String {
             triangle_array: vk::DeviceOrHostAddressConstKHR {
                 device_address: input.u64(),
             },
-            triangle_array_stride: if input.bool() {
-                input.u64()
-            } else {
-                u64::from(input.u8() % 16)
-            },
+            triangle_array_stride: input.u64_mostly_below(16),
             ..Default::default()
         });
     }
@@ -191,11 +187,7 @@ fn body(data: &[u8]) -> String {
         } else {
             let list = elements(n, Default::default(), || {
                 vk::AccelerationStructureBuildRangeInfoKHR {
-                    primitive_count: if input.bool() {
-                        input.u32()
-                    } else {
-                        u32::from(input.u8())
-                    },
+                    primitive_count: input.u32_mostly_below(256),
                     primitive_offset: u32::from(input.u16()),
                     first_vertex: u32::from(input.u8()),
                     transform_offset: u32::from(input.u8()),

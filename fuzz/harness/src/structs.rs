@@ -196,18 +196,21 @@ pub(crate) fn elements<T: Copy>(n: usize, fill: T, mut make: impl FnMut() -> T) 
     list.into_boxed_slice()
 }
 
+/// Moves `value` into a box `list` keeps and returns its address, which
+/// stays valid while the arena lives (a box's contents do not move when
+/// `list` grows).
+#[allow(clippy::vec_box)]
+fn keep<T>(list: &mut Vec<Box<T>>, value: T) -> *const T {
+    let boxed = Box::new(value);
+    let address: *const T = &*boxed;
+    list.push(boxed);
+    address
+}
+
 pub(crate) fn usage(input: &mut Input<'_>) -> vk::MicromapUsageEXT {
     vk::MicromapUsageEXT {
-        count: if input.bool() {
-            input.u32()
-        } else {
-            u32::from(input.u8() % 8)
-        },
-        subdivision_level: if input.bool() {
-            input.u32()
-        } else {
-            u32::from(input.u8() % 14)
-        },
+        count: input.u32_mostly_below(8),
+        subdivision_level: input.u32_mostly_below(14),
         format: match input.below(4) {
             0 | 1 => 1,
             2 => 2,
@@ -271,17 +274,12 @@ impl Arena {
             self.usages.push(list);
         }
         if which & 2 == 2 {
-            let shared = Box::new(valid);
-            let fill: *const vk::MicromapUsageEXT = &*shared;
-            self.single_usages.push(shared);
+            let fill = keep(&mut self.single_usages, valid);
             let list = elements(n, fill, || {
                 if input.below(4) == 0 {
                     std::ptr::null()
                 } else {
-                    let one = Box::new(usage(input));
-                    let p: *const vk::MicromapUsageEXT = &*one;
-                    self.single_usages.push(one);
-                    p
+                    keep(&mut self.single_usages, usage(input))
                 }
             });
             pointers = list.as_ptr();
@@ -314,7 +312,7 @@ impl Arena {
         } else {
             tail
         };
-        let mut omm = Box::new(OmmExt {
+        let mut omm = OmmExt {
             p_next: next.cast_mut(),
             index_type: vk::IndexType::from_raw(match input.below(4) {
                 0 => vk::IndexType::UINT16.as_raw(),
@@ -332,7 +330,7 @@ impl Arena {
             pp_usage_counts: pointers,
             micromap: vk::Handle::from_raw(u64::from(input.u8())),
             ..Default::default()
-        });
+        };
         if let Some(host) = host {
             // The members above are read as `raw_reader` reads them (its
             // corpus stays what it was); a host build picks the index type
@@ -347,9 +345,7 @@ impl Arena {
                 device_address: address,
             };
         }
-        let p = (&*omm as *const OmmExt).cast();
-        self.omms.push(omm);
-        p
+        keep(&mut self.omms, omm).cast()
     }
 
     /// A KHR opacity attachment of a host build (`raw_reader` builds only
@@ -359,7 +355,7 @@ impl Arena {
         let index_type = host_index_type(input);
         let index_stride = host_stride(input);
         let number = input.u64();
-        let omm = Box::new(OmmKhr {
+        let omm = OmmKhr {
             p_next: next.cast_mut(),
             index_type,
             index_buffer: self.index_buffer(input, host, index_type, index_stride, number),
@@ -367,10 +363,8 @@ impl Arena {
             base_triangle: input.u32(),
             micromap: vk::Handle::from_raw(u64::from(input.u8())),
             ..Default::default()
-        });
-        let p = (&*omm as *const OmmKhr).cast();
-        self.omms_khr.push(omm);
-        p
+        };
+        keep(&mut self.omms_khr, omm).cast()
     }
 
     /// An opacity index buffer for `host`'s geometry: read for
@@ -429,7 +423,7 @@ impl Arena {
         let extent = strided_extent(usage_total(count, array, pointers), stride, 8);
         let number = input.u64();
         let triangle_array = self.host_bytes(input, extent, number);
-        let data = Box::new(MicromapData {
+        let data = MicromapData {
             p_next: next,
             usage_counts_count: count,
             // VkMicromapUsageKHR and VkMicromapUsageEXT have one layout.
@@ -439,10 +433,8 @@ impl Arena {
             triangle_array,
             triangle_array_stride: stride,
             ..Default::default()
-        });
-        let p = (&*data as *const MicromapData).cast();
-        self.micromap_data.push(data);
-        p
+        };
+        keep(&mut self.micromap_data, data).cast()
     }
 
     /// The `data` of an instances geometry of a host build: `count`
@@ -481,10 +473,7 @@ impl Arena {
                 if input.below(4) == 0 {
                     std::ptr::null()
                 } else {
-                    let one = Box::new(instance(input));
-                    let p: *const Instance = &*one;
-                    self.single_instances.push(one);
-                    p
+                    keep(&mut self.single_instances, instance(input))
                 }
             });
             let p = list.as_ptr().expose_provenance();
@@ -530,10 +519,8 @@ impl Arena {
                 if input.below(4) == 0 {
                     std::ptr::null()
                 } else {
-                    let one = Box::new(self.geometry(input, host(g - 1)));
-                    let p: *const Geometry = &*one;
-                    self.single_geometries.push(one);
-                    p
+                    let one = self.geometry(input, host(g - 1));
+                    keep(&mut self.single_geometries, one)
                 }
             });
             pointers = list.as_ptr();

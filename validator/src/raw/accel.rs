@@ -1469,40 +1469,28 @@ mod tests {
             geometry_count: count,
             ..Default::default()
         };
-        let mut v = validator();
-        // SAFETY: `counts` holds geometryCount values; geometries are NULL.
-        let report = unsafe {
-            v.get_acceleration_structure_build_sizes_ash(
-                vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                &info,
-                counts.as_ptr(),
-            )
+        let sizes = |max_primitive_counts: *const u32| {
+            // SAFETY: `max_primitive_counts` is NULL or `counts`, which
+            // holds geometryCount values; the geometries are NULL.
+            unsafe {
+                validator().get_acceleration_structure_build_sizes_ash(
+                    vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                    &info,
+                    max_primitive_counts,
+                )
+            }
         };
+        let short = vuid::vkGetAccelerationStructureBuildSizesKHR::pMaxPrimitiveCounts_11612;
+        let report = sizes(counts.as_ptr());
         assert_eq!(
             rule_count(&report.findings, rules::READ_BOUND.id),
             1,
             "{report}"
         );
-        assert!(
-            !report
-                .contains(vuid::vkGetAccelerationStructureBuildSizesKHR::pMaxPrimitiveCounts_11612),
-            "{report}"
-        );
+        assert!(!report.contains(short), "{report}");
         // Short for real: NULL.
-        let mut v = validator();
-        // SAFETY: NULL pointers are not read.
-        let report = unsafe {
-            v.get_acceleration_structure_build_sizes_ash(
-                vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                &info,
-                std::ptr::null(),
-            )
-        };
-        assert!(
-            report
-                .contains(vuid::vkGetAccelerationStructureBuildSizesKHR::pMaxPrimitiveCounts_11612),
-            "{report}"
-        );
+        let report = sizes(std::ptr::null());
+        assert!(report.contains(short), "{report}");
     }
 
     #[test]
