@@ -11,6 +11,8 @@
 //! | `OMMCHECK_PROFILE` | `profile` (string) | device limits: `spec-minimum`, `permissive` or a JSON limits file | `spec-minimum` |
 //! | `OMMCHECK_BREAK_ON_ERROR` | `break_on_error` (boolean) | raise SIGTRAP after reporting an error, to stop in a debugger | false |
 //! | `OMMCHECK_TIER` | `tier` (string) | how far checks look: `params`, `state`, `content`, `simulate` | `content` |
+//! | `OMMCHECK_GPU_READBACK` | `gpu_readback` (boolean) | copy device build inputs the host cannot read into layer memory before the build, and check them once the submission completes | true (from the `content` tier) |
+//! | `OMMCHECK_GPU_READBACK_MAX_BYTES` | `gpu_readback_max_bytes` (integer) | the most bytes of layer memory readback copies hold at once per device | 268435456 (256 MiB) |
 
 use std::path::{Path, PathBuf};
 
@@ -22,6 +24,8 @@ pub const REPORT: &str = "OMMCHECK_REPORT";
 pub const PROFILE: &str = "OMMCHECK_PROFILE";
 pub const BREAK_ON_ERROR: &str = "OMMCHECK_BREAK_ON_ERROR";
 pub const TIER: &str = "OMMCHECK_TIER";
+pub const GPU_READBACK: &str = "OMMCHECK_GPU_READBACK";
+pub const GPU_READBACK_MAX_BYTES: &str = "OMMCHECK_GPU_READBACK_MAX_BYTES";
 
 /// A setting as the layer manifest's `features.settings` describes it
 /// (the format the Khronos layers use and vkconfig reads).
@@ -41,7 +45,7 @@ pub struct SettingDoc {
 }
 
 /// Every setting, for the manifest.
-pub const DOCUMENTED: [SettingDoc; 6] = [
+pub const DOCUMENTED: [SettingDoc; 8] = [
     SettingDoc {
         key: "duplicate_message_limit",
         env: DUPLICATE_LIMIT,
@@ -96,6 +100,24 @@ pub const DOCUMENTED: [SettingDoc; 6] = [
         default_json: "\"content\"",
         flags: &["params", "state", "content", "simulate"],
     },
+    SettingDoc {
+        key: "gpu_readback",
+        env: GPU_READBACK,
+        label: "GPU readback of build inputs",
+        description: "From the content tier: before a device build whose inputs the host cannot read (device-local memory, or memory the GPU writes), copy the ranges it reads into layer-owned host-visible memory and check them once the submission is known to be complete. The application's memory is never written.",
+        kind: "BOOL",
+        default_json: "true",
+        flags: &[],
+    },
+    SettingDoc {
+        key: "gpu_readback_max_bytes",
+        env: GPU_READBACK_MAX_BYTES,
+        label: "GPU readback memory",
+        description: "The most bytes of layer-owned memory the readback copies of one device hold at once; a build past it is reported as not checked.",
+        kind: "INT",
+        default_json: "268435456",
+        flags: &[],
+    },
 ];
 
 /// A value the application gave a setting through VK_EXT_layer_settings.
@@ -132,7 +154,15 @@ pub struct Settings {
     pub break_on_error: bool,
     /// How far the checks look.
     pub tier: Tier,
+    /// Copy device build inputs the host cannot read into layer memory and
+    /// check them at completion (from the content tier on).
+    pub gpu_readback: bool,
+    /// The most bytes the readback copies of one device hold at once.
+    pub gpu_readback_max_bytes: u64,
 }
+
+/// The default of `gpu_readback_max_bytes`: 256 MiB.
+pub const DEFAULT_GPU_READBACK_MAX_BYTES: u64 = 256 << 20;
 
 impl Default for Settings {
     fn default() -> Self {
@@ -144,6 +174,8 @@ impl Default for Settings {
             profile_chosen: false,
             break_on_error: false,
             tier: Tier::default(),
+            gpu_readback: true,
+            gpu_readback_max_bytes: DEFAULT_GPU_READBACK_MAX_BYTES,
         }
     }
 }
@@ -251,11 +283,26 @@ pub fn parse(
         }
     }
     if let Some((from, value)) = get(BREAK_ON_ERROR) {
-        match value.trim().to_ascii_lowercase().as_str() {
-            "1" | "true" | "on" | "yes" => settings.break_on_error = true,
-            "0" | "false" | "off" | "no" | "" => settings.break_on_error = false,
-            _ => problems.push(format!(
+        match boolean(&value) {
+            Some(on) => settings.break_on_error = on,
+            None => problems.push(format!(
                 "{from}={value:?} is not a boolean (true or false); not breaking"
+            )),
+        }
+    }
+    if let Some((from, value)) = get(GPU_READBACK) {
+        match boolean(&value) {
+            Some(on) => settings.gpu_readback = on,
+            None => problems.push(format!(
+                "{from}={value:?} is not a boolean (true or false); reading back"
+            )),
+        }
+    }
+    if let Some((from, value)) = get(GPU_READBACK_MAX_BYTES) {
+        match value.trim().parse::<u64>() {
+            Ok(bytes) => settings.gpu_readback_max_bytes = bytes,
+            Err(_) => problems.push(format!(
+                "{from}={value:?} is not a whole number of bytes; using {DEFAULT_GPU_READBACK_MAX_BYTES}"
             )),
         }
     }
@@ -266,6 +313,16 @@ pub fn parse(
         }
     }
     (settings, problems)
+}
+
+/// A boolean setting's value: true/false, on/off, yes/no, 1/0 in any case
+/// (empty is false); None for anything else.
+fn boolean(value: &str) -> Option<bool> {
+    match value.trim().to_ascii_lowercase().as_str() {
+        "1" | "true" | "on" | "yes" => Some(true),
+        "0" | "false" | "off" | "no" | "" => Some(false),
+        _ => None,
+    }
 }
 
 /// The settings of an instance: this process's environment over `api`.
