@@ -118,7 +118,9 @@ mod tests {
                 "OMMCHECK_REPORT",
                 "OMMCHECK_PROFILE",
                 "OMMCHECK_BREAK_ON_ERROR",
-                "OMMCHECK_TIER"
+                "OMMCHECK_TIER",
+                "OMMCHECK_GPU_READBACK",
+                "OMMCHECK_GPU_READBACK_MAX_BYTES"
             ]
         );
         assert_eq!(layer["features"]["settings"][0]["default"], 10);
