@@ -445,7 +445,9 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
         },
         |next| {
             if let Some((build, model)) = kept.take() {
-                commands::keep_for_submission(command_buffer, &model, build);
+                if let Some(data) = crate::dispatch::DEVICES.get(command_buffer) {
+                    commands::keep_build(&data, command_buffer, &model, build);
+                }
             }
             // SAFETY: the next layer's function, with the application's arguments.
             unsafe { next(command_buffer, info_count, infos, build_range_infos) }

@@ -22,7 +22,9 @@ use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;
 use crate::device::{as_void, device_and};
-use crate::dispatch::{next_fn, DeviceFns};
+use crate::dispatch::{next_fn, DeviceData, DeviceFns};
+use crate::readback::{Plan, Readback};
+use crate::shadow::Transfer;
 use crate::{guarded, read, submit};
 
 /// The next layer's command pool, command buffer and submission functions.
@@ -148,6 +150,22 @@ pub struct KeptBuild {
     /// The command buffer as the checks saw it when the build was recorded.
     pub recorded_in: CommandBuffer,
     pub build: Arc<DeviceBuild>,
+    /// The copies of its inputs the layer recorded before it (route 2):
+    /// the build is then checked once its submission completes.
+    pub readback: Option<Arc<Readback>>,
+    /// Why its inputs, which the host could not read at recording, were
+    /// not read back.
+    pub not_read_back: Option<String>,
+}
+
+/// What a submission of a command buffer runs that the content checks
+/// follow, in recording order.
+#[derive(Clone, Debug)]
+pub enum Recorded {
+    Build(KeptBuild),
+    Transfer(Arc<Transfer>),
+    /// `vkCmdExecuteCommands` ran this secondary command buffer.
+    Executes(u64),
 }
 
 /// What the layer keeps of one command buffer.
@@ -158,9 +176,9 @@ struct Tracked {
     /// The render pass instance begun by vkCmdBeginRendering has
     /// VK_RENDERING_SUSPENDING_BIT: its end suspends it.
     rendering_suspends: bool,
-    builds: Vec<KeptBuild>,
-    /// Secondary command buffers vkCmdExecuteCommands recorded.
-    executed: Vec<u64>,
+    /// Builds, transfers and executed secondaries, in recording order
+    /// (kept from the content tier on).
+    recorded: Vec<Recorded>,
 }
 
 impl Tracked {
@@ -171,8 +189,7 @@ impl Tracked {
         self.model.in_video_coding = false;
         self.model.suspended = false;
         self.rendering_suspends = false;
-        self.builds.clear();
-        self.executed.clear();
+        self.recorded.clear();
     }
 }
 
@@ -233,17 +250,8 @@ pub fn model(command_buffer: vk::CommandBuffer) -> CommandBuffer {
     )
 }
 
-/// Keeps a device build recorded into `command_buffer` for the checks of
-/// its contents at submission.
-pub fn keep_for_submission(
-    command_buffer: vk::CommandBuffer,
-    recorded_in: &CommandBuffer,
-    build: DeviceBuild,
-) {
-    let kept = KeptBuild {
-        recorded_in: recorded_in.clone(),
-        build: Arc::new(build),
-    };
+/// Keeps what `command_buffer` records for the content checks at submission.
+pub fn keep(command_buffer: vk::CommandBuffer, recorded_in: &CommandBuffer, recorded: Recorded) {
     let handle = command_buffer.as_raw();
     COMMAND_BUFFERS
         .shard(handle)
@@ -252,25 +260,82 @@ pub fn keep_for_submission(
             model: recorded_in.clone(),
             ..Tracked::default()
         })
-        .builds
-        .push(kept);
+        .recorded
+        .push(recorded);
 }
 
-/// The builds a submission of `command_buffer` runs: its own, then those
-/// of the secondary command buffers it executes, in recording order.
-pub fn builds_run_by(command_buffer: vk::CommandBuffer) -> Vec<(u64, KeptBuild)> {
+/// Keeps a device build recorded into `command_buffer` for the checks of
+/// its contents, recording before it the copies of its inputs that GPU
+/// readback needs (see [`crate::readback::plan`]); the caller records the
+/// build itself next.
+pub fn keep_build(
+    data: &DeviceData,
+    command_buffer: vk::CommandBuffer,
+    recorded_in: &CommandBuffer,
+    build: DeviceBuild,
+) {
+    let plan = crate::device::track_with(data, build.function(), |state| {
+        crate::readback::plan(data, state, command_buffer, &build)
+    });
+    let (readback, not_read_back) = match plan {
+        Some(Plan::ReadBack(readback)) => (Some(readback), None),
+        Some(Plan::NotReadBack(reason)) => (None, Some(reason)),
+        Some(Plan::AtSubmission) | None => (None, None),
+    };
+    let kept = KeptBuild {
+        recorded_in: recorded_in.clone(),
+        build: Arc::new(build),
+        readback,
+        not_read_back,
+    };
+    keep(command_buffer, recorded_in, Recorded::Build(kept));
+}
+
+/// What a submission of `command_buffer` runs, in order: its own builds
+/// and transfers, with those of each secondary command buffer it executes
+/// where it executes them. Each entry carries the command buffer that
+/// recorded it.
+pub fn run_by(command_buffer: vk::CommandBuffer) -> Vec<(u64, Recorded)> {
     let handle = command_buffer.as_raw();
-    let (own, executed) = match COMMAND_BUFFERS.shard(handle).get(&handle) {
-        Some(tracked) => (tracked.builds.clone(), tracked.executed.clone()),
+    let own = match COMMAND_BUFFERS.shard(handle).get(&handle) {
+        Some(tracked) => tracked.recorded.clone(),
         None => return Vec::new(),
     };
-    let mut builds: Vec<(u64, KeptBuild)> = own.into_iter().map(|b| (handle, b)).collect();
-    for secondary in executed {
-        if let Some(tracked) = COMMAND_BUFFERS.shard(secondary).get(&secondary) {
-            builds.extend(tracked.builds.iter().cloned().map(|b| (secondary, b)));
+    let mut run = Vec::with_capacity(own.len());
+    for recorded in own {
+        match recorded {
+            Recorded::Executes(secondary) => {
+                // A secondary executes no further secondaries (without
+                // VK_EXT_nested_command_buffer, which the layer does not follow).
+                if let Some(tracked) = COMMAND_BUFFERS.shard(secondary).get(&secondary) {
+                    run.extend(
+                        tracked
+                            .recorded
+                            .iter()
+                            .filter(|r| !matches!(r, Recorded::Executes(_)))
+                            .cloned()
+                            .map(|r| (secondary, r)),
+                    );
+                }
+            }
+            other => run.push((handle, other)),
         }
     }
-    builds
+    run
+}
+
+/// Drops what the command buffers of `device` keep (their readback
+/// memory among it), before the device is destroyed below.
+pub fn forget_device(device: vk::Device) {
+    let key = device_key(device);
+    let pools: Vec<(usize, u64)> = lock(&POOLS)
+        .keys()
+        .filter(|(k, _)| *k == key)
+        .copied()
+        .collect();
+    for (_, pool) in pools {
+        forget_pool(device, vk::CommandPool::from_raw(pool));
+    }
 }
 
 /// The device's dispatch key, for keying its pools.
@@ -760,7 +825,11 @@ unsafe extern "system" fn cmd_execute_commands(
         "vkCmdExecuteCommands",
         command_buffer,
         |f| f.commands.cmd_execute_commands,
-        |tracked| tracked.executed.extend(handles),
+        |tracked| {
+            tracked
+                .recorded
+                .extend(handles.into_iter().map(Recorded::Executes))
+        },
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(command_buffer, count, secondaries) },
     );

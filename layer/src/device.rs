@@ -19,7 +19,10 @@ use crate::dispatch::{
     next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
 };
 use crate::report::Message;
-use crate::{abi, commands, guarded, panic_message, pipelines, properties, read, testing};
+use crate::shadow::Shadows;
+use crate::{
+    abi, commands, guarded, panic_message, pipelines, properties, read, readback, testing,
+};
 
 /// A command as the loader's `PFN_vkVoidFunction`.
 pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
@@ -71,7 +74,8 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkBuildMicromapsEXT" => as_void(build_micromaps as vk::PFN_vkBuildMicromapsEXT),
         _ => crate::accel::intercept(name)
             .or_else(|| crate::commands::intercept(name))
-            .or_else(|| crate::pipe::intercept(name)),
+            .or_else(|| crate::pipe::intercept(name))
+            .or_else(|| crate::transfer::intercept(name)),
     }
 }
 
@@ -125,17 +129,30 @@ pub(crate) fn track(
     function: &'static str,
     body: impl FnOnce(&mut DeviceState),
 ) {
+    track_with(data, function, body);
+}
+
+/// [`track`] with the body's result; None when it panicked.
+pub(crate) fn track_with<R>(
+    data: &DeviceData,
+    function: &'static str,
+    body: impl FnOnce(&mut DeviceState) -> R,
+) -> Option<R> {
     let outcome = {
         let mut state = data.state();
         catch_unwind(AssertUnwindSafe(|| body(&mut state)))
     };
-    if let Err(payload) = outcome {
-        let message = panic_message(
-            function,
-            payload.as_ref(),
-            "what the call created is not tracked",
-        );
-        data.instance.reporter.deliver(&[message], false);
+    match outcome {
+        Ok(result) => Some(result),
+        Err(payload) => {
+            let message = panic_message(
+                function,
+                payload.as_ref(),
+                "what the call created is not tracked",
+            );
+            data.instance.reporter.deliver(&[message], false);
+            None
+        }
     }
 }
 
@@ -205,8 +222,9 @@ pub unsafe extern "system" fn create_device(
                 // SAFETY: the next layer's function, with a physical device of its instance.
                 .map(|get| unsafe { read::queue_family_flags(get, physical_device) })
                 .unwrap_or_default();
-            let limits = instance.reporter.settings().limits.clone();
-            let tier = instance.reporter.settings().tier;
+            let settings = instance.reporter.settings().clone();
+            let limits = settings.limits.clone();
+            let tier = settings.tier;
             // SAFETY: the create info is valid, as vkCreateDevice requires.
             let (mut device, findings) =
                 unsafe { objects::device_from_create_info(info, limits, handle) };
@@ -228,6 +246,9 @@ pub unsafe extern "system" fn create_device(
                     mappings: HashMap::default(),
                     memory_layout: Default::default(),
                     pipe: Default::default(),
+                    shadows: Shadows::new(settings.gpu_readback_max_bytes),
+                    readback_held: Default::default(),
+                    submissions: Default::default(),
                 }),
             });
             let messages: Vec<Message> = findings
@@ -257,7 +278,13 @@ unsafe extern "system" fn destroy_device(
         let Some(key) = (unsafe { abi::dispatch_key(device.as_raw()) }) else {
             return;
         };
-        if let Some(destroy) = DEVICES.remove(key).and_then(|data| data.fns.destroy_device) {
+        let Some(data) = DEVICES.remove(key) else {
+            return;
+        };
+        // The layer's readback memory goes before the device does.
+        commands::forget_device(device);
+        data.state().submissions = Default::default();
+        if let Some(destroy) = data.fns.destroy_device {
             // SAFETY: the next layer's function, with the application's arguments.
             unsafe { destroy(device, allocator) };
         }
@@ -278,12 +305,29 @@ unsafe extern "system" fn create_buffer(
             let Some((data, next)) = device_and(device, |f| f.create_buffer) else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
-            // SAFETY: the next layer's function, with the application's arguments.
-            let result = unsafe { next(device, create_info, allocator, buffer_out) };
+            // SAFETY: the create info is valid (the API's requirement).
+            let app_info = unsafe { create_info.as_ref() };
+            // Build inputs gain TRANSFER_SRC, so GPU readback may copy them.
+            let passed = app_info.and_then(|info| {
+                // SAFETY: the chain is well formed (the API's requirement).
+                let chained = unsafe {
+                    read::chain_has(
+                        info.p_next,
+                        vk::StructureType::BUFFER_USAGE_FLAGS_2_CREATE_INFO_KHR,
+                    )
+                };
+                let settings = data.instance.reporter.settings();
+                let reads_back = settings.gpu_readback && settings.tier >= ommcheck::Tier::Content;
+                readback::with_transfer_source(info, chained, reads_back)
+            });
+            let info_down = passed.as_ref().map_or(create_info, |p| p as *const _);
+            // SAFETY: the next layer's function, with the application's
+            // arguments (the create info possibly with one more usage bit).
+            let result = unsafe { next(device, info_down, allocator, buffer_out) };
             if result == vk::Result::SUCCESS {
-                // SAFETY: the create info is valid (the API's requirement); on
-                // success the next layer wrote the handle.
-                let (info, buffer) = unsafe { (create_info.as_ref(), read::value(buffer_out)) };
+                // SAFETY: the create info passed down is valid; on success
+                // the next layer wrote the handle.
+                let (info, buffer) = unsafe { (info_down.as_ref(), read::value(buffer_out)) };
                 if let (Some(info), Some(buffer)) = (info, buffer) {
                     track(&data, "vkCreateBuffer", |state| {
                         // SAFETY: as above; the chain is well formed.
@@ -314,6 +358,7 @@ unsafe extern "system" fn destroy_buffer(
         track(&data, "vkDestroyBuffer", |state| {
             state.validator.state_mut().buffers.remove(&buffer.as_raw());
             state.memory_layout.forget_buffer(buffer.as_raw());
+            state.shadows.forget_buffer(buffer.as_raw());
         });
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, buffer, allocator) };
@@ -841,7 +886,7 @@ unsafe extern "system" fn cmd_build_micromaps(
         });
         if !skip {
             if let Some(build) = kept {
-                commands::keep_for_submission(command_buffer, &recording, build);
+                commands::keep_build(&data, command_buffer, &recording, build);
             }
             // SAFETY: the next layer's function, with the application's arguments.
             unsafe { next(command_buffer, info_count, infos) };

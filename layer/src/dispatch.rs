@@ -128,6 +128,8 @@ pub struct DeviceFns {
     pub commands: crate::commands::CommandFns,
     /// The pipeline, shader, synchronization and shader-running commands.
     pub pipe: crate::pipe::PipeFns,
+    /// Transfers, completion and what GPU readback records.
+    pub memory: crate::transfer::MemoryFns,
 }
 
 impl DeviceFns {
@@ -227,6 +229,7 @@ impl DeviceFns {
             accel: crate::accel::AccelFns::load(gdpa, device),
             commands: crate::commands::CommandFns::load(gdpa, device),
             pipe: crate::pipe::PipeFns::load(gdpa, device),
+            memory: crate::transfer::MemoryFns::load(gdpa, device),
         }
     }
 }
@@ -251,6 +254,12 @@ pub struct DeviceState {
     pub memory_layout: crate::submit::MemoryLayout,
     /// Bound pipelines, shaders and descriptor sets, and what pipelines' stages use.
     pub pipe: crate::work::PipeState,
+    /// What transfers wrote into the windows builds read (route 1).
+    pub shadows: crate::shadow::Shadows,
+    /// Bytes of layer memory the device's GPU readbacks hold (route 2).
+    pub readback_held: Arc<std::sync::atomic::AtomicU64>,
+    /// Submitted builds whose read-back inputs are checked at completion.
+    pub submissions: crate::completion::Submissions,
 }
 
 /// What the layer keeps of a `VkDevice`.

@@ -14,7 +14,11 @@
 //! - `accel`: acceleration-structure objects and builds, micromap copies,
 //!   queries, size queries and compatibility;
 //! - `commands`, `submit`: command-pool and command-buffer state, and the
-//!   contents of device builds read from mapped memory at submission;
+//!   contents of device builds read at submission from mapped memory or
+//!   from what recorded transfers wrote (`shadow`, `transfer`);
+//! - `readback`, `completion`: device builds whose inputs the host cannot
+//!   read are copied on the GPU into layer memory and checked once their
+//!   submission is known to be complete;
 //! - `pipe`, `pipelines`, `sync`, `work`, `properties`: shaders, pipelines,
 //!   synchronization, the commands that run shaders (with descriptor
 //!   tracking) and the feature and property chains;
@@ -31,6 +35,7 @@
 pub mod abi;
 mod accel;
 mod commands;
+mod completion;
 mod device;
 mod dispatch;
 mod instance;
@@ -38,12 +43,15 @@ mod pipe;
 mod pipelines;
 mod properties;
 mod read;
+mod readback;
 pub mod report;
 pub mod settings;
+mod shadow;
 mod submit;
 mod sync;
 #[doc(hidden)]
 pub mod testing;
+mod transfer;
 mod work;
 
 use std::any::Any;

@@ -9,6 +9,7 @@ use std::ffi::{c_char, c_void, CStr};
 use std::sync::Arc;
 
 use ash::vk;
+use ash::vk::Handle as _;
 use ommcheck::raw::MAX_ELEMENTS;
 
 use crate::report::Messenger;
@@ -71,6 +72,25 @@ pub unsafe fn chained_messengers(mut next: *const c_void) -> Vec<Messenger> {
         next = base.p_next.cast();
     }
     messengers
+}
+
+/// Whether the chain at `next` holds a structure of `s_type`, walking at
+/// most [`MAX_CHAIN`] structures and never one address twice.
+///
+/// # Safety
+/// The chain at `next` must be well formed: each structure starts with
+/// sType and pNext.
+pub unsafe fn chain_has(mut next: *const c_void, s_type: vk::StructureType) -> bool {
+    let mut visited = HashSet::new();
+    while !next.is_null() && visited.len() < MAX_CHAIN && visited.insert(next as usize) {
+        // SAFETY: the caller guarantees a structure starting with sType and pNext.
+        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+        if base.s_type == s_type {
+            return true;
+        }
+        next = base.p_next.cast();
+    }
+    false
 }
 
 /// The most settings and values per setting read from a
@@ -207,6 +227,79 @@ pub unsafe fn submitted_command_buffers(
         command_buffers.extend(list.iter().take(room).copied());
     }
     command_buffers
+}
+
+/// The semaphores `vkQueueSubmit`'s `pSubmits` signal with the values a
+/// chained `VkTimelineSemaphoreSubmitInfo` gives them (binary semaphores
+/// get whatever value is there, or 0; only timeline values are looked up).
+///
+/// # Safety
+/// A non-NULL `submits` must point to `count` valid `VkSubmitInfo`s.
+pub unsafe fn submitted_signals(count: u32, submits: *const vk::SubmitInfo<'_>) -> Vec<(u64, u64)> {
+    let mut signals = Vec::new();
+    // SAFETY: forwarded from the caller.
+    for submit in unsafe { array(submits, count) } {
+        // SAFETY: forwarded from the caller.
+        let semaphores =
+            unsafe { array(submit.p_signal_semaphores, submit.signal_semaphore_count) };
+        let mut values: &[u64] = &[];
+        let mut next: *const c_void = submit.p_next;
+        let mut visited = HashSet::new();
+        while !next.is_null() && visited.len() < MAX_CHAIN && visited.insert(next as usize) {
+            // SAFETY: a well-formed chain (the caller's guarantee).
+            let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+            if base.s_type == vk::StructureType::TIMELINE_SEMAPHORE_SUBMIT_INFO {
+                // SAFETY: the sType says what the structure is.
+                let timeline = unsafe { &*next.cast::<vk::TimelineSemaphoreSubmitInfo<'_>>() };
+                // SAFETY: `pSignalSemaphoreValues` holds its count of values.
+                values = unsafe {
+                    array(
+                        timeline.p_signal_semaphore_values,
+                        timeline.signal_semaphore_value_count,
+                    )
+                };
+            }
+            next = base.p_next.cast();
+        }
+        let room = MAX_ELEMENTS.saturating_sub(signals.len());
+        signals.extend(
+            semaphores
+                .iter()
+                .enumerate()
+                .take(room)
+                .map(|(k, s)| (s.as_raw(), values.get(k).copied().unwrap_or(0))),
+        );
+    }
+    signals
+}
+
+/// The semaphores and values `vkQueueSubmit2`'s `pSubmits` signal.
+///
+/// # Safety
+/// A non-NULL `submits` must point to `count` valid `VkSubmitInfo2`s.
+pub unsafe fn submitted_signals2(
+    count: u32,
+    submits: *const vk::SubmitInfo2<'_>,
+) -> Vec<(u64, u64)> {
+    let mut signals = Vec::new();
+    // SAFETY: forwarded from the caller.
+    for submit in unsafe { array(submits, count) } {
+        // SAFETY: forwarded from the caller.
+        let infos = unsafe {
+            array(
+                submit.p_signal_semaphore_infos,
+                submit.signal_semaphore_info_count,
+            )
+        };
+        let room = MAX_ELEMENTS.saturating_sub(signals.len());
+        signals.extend(
+            infos
+                .iter()
+                .take(room)
+                .map(|i| (i.semaphore.as_raw(), i.value)),
+        );
+    }
+    signals
 }
 
 /// The command buffers of `vkQueueSubmit2`'s `pSubmits`, at most

@@ -1,24 +1,26 @@
 //! Queue submission: the contents of the device builds a submitted command
-//! buffer runs are read here, before the GPU can change them, from the
-//! buffers holding them where those are bound to host-visible memory the
-//! application has mapped, and handed to the core as buffer contents
-//! ([`ommcheck::Validator::check_device_build_contents`]). Contents in
-//! memory the layer cannot read are reported once per device
-//! ([`CONTENTS_NOT_CHECKED`]).
+//! buffer runs are read here, in submission order, before the GPU can
+//! change them: from buffers bound to host-visible memory the application
+//! has mapped, and from what the transfers recorded before them wrote
+//! ([`crate::shadow`], route 1), and handed to the core as buffer contents
+//! ([`ommcheck::Validator::check_device_build_contents`]). Builds whose
+//! inputs the layer copies on the GPU ([`crate::readback`], route 2) wait
+//! for completion instead ([`crate::completion`]). Contents neither route
+//! can read are reported once per device and reason ([`CONTENTS_NOT_CHECKED`]).
 
 #![allow(unsafe_code)]
 
-use std::collections::BTreeMap;
 use std::ffi::CStr;
-use std::sync::Arc;
 
 use ash::vk;
-use foldhash::HashMap;
+use ash::vk::Handle as _;
+use foldhash::{HashMap, HashSet};
+use ommcheck::checks::device_contents::KnownBytes;
 use ommcheck::raw::MAX_HOST_BYTES;
 use ommcheck::state::Handle;
 use ommcheck::Severity;
 
-use crate::commands::{self, KeptBuild};
+use crate::commands::{self, KeptBuild, Recorded};
 use crate::device::{as_void, device_and};
 use crate::dispatch::{DeviceData, DeviceFns, DeviceState};
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
@@ -31,8 +33,8 @@ pub struct MemoryLayout {
     bound: HashMap<u64, (u64, u64)>,
     /// Memory → offset of its mapping (the host range is in `DeviceState::mappings`).
     mapped_at: HashMap<u64, u64>,
-    /// [`CONTENTS_NOT_CHECKED`] was reported for this device.
-    reported_unreadable: bool,
+    /// The reasons [`CONTENTS_NOT_CHECKED`] was reported for on this device.
+    reported_unreadable: HashSet<String>,
 }
 
 impl MemoryLayout {
@@ -51,6 +53,13 @@ impl MemoryLayout {
     pub fn unmap(&mut self, memory: u64) {
         self.mapped_at.remove(&memory);
     }
+
+    /// Whether `buffer`'s memory is mapped now.
+    pub fn is_mapped(&self, buffer: u64) -> bool {
+        self.bound
+            .get(&buffer)
+            .is_some_and(|(memory, _)| self.mapped_at.contains_key(memory))
+    }
 }
 
 /// The next layer's submission function for one of the submit commands.
@@ -64,13 +73,15 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
 }
 
 /// Why the bytes of one buffer could not be read at submission.
-fn unreadable_reason(state: &DeviceState, buffer: Handle) -> Option<&'static str> {
-    let tracked = state.validator.state().buffers.get(&buffer)?;
+fn unreadable_reason(state: &DeviceState, buffer: Handle) -> &'static str {
+    let Some(tracked) = state.validator.state().buffers.get(&buffer) else {
+        return "the buffer holding them is not tracked";
+    };
     let Some(binding) = tracked.memory else {
-        return Some("the buffer holding them is not bound to memory");
+        return "the buffer holding them is not bound to memory";
     };
     if !binding.host_visible {
-        return Some("the buffer holding them is bound to memory that is not host-visible (device-local), which the host cannot read");
+        return "the buffer holding them is bound to memory that is not host-visible (device-local), and no transfer the layer follows wrote them";
     }
     let mapped = state
         .memory_layout
@@ -78,35 +89,62 @@ fn unreadable_reason(state: &DeviceState, buffer: Handle) -> Option<&'static str
         .get(&buffer)
         .and_then(|(memory, _)| state.memory_layout.mapped_at.get(memory));
     match mapped {
-        None => Some("the buffer holding them is bound to host-visible memory that is not mapped at submission"),
-        Some(_) => Some("the mapping of the buffer's memory does not cover the buffer's start"),
+        None => "the buffer holding them is bound to host-visible memory that is not mapped at submission, and no transfer the layer follows wrote them",
+        Some(_) => "the mapping of the buffer's memory does not cover what the build reads",
     }
 }
 
-/// The bytes of `buffer` from its start, as far as its memory's mapping,
-/// its size and [`MAX_HOST_BYTES`] allow; None when its start is not mapped.
-fn mapped_contents(state: &DeviceState, buffer: Handle) -> Option<Arc<[u8]>> {
+/// Where `[offset, offset + len)` of `buffer` lies in host memory the
+/// application has mapped, if all of it does (at most [`MAX_HOST_BYTES`]).
+fn mapped_address(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> Option<usize> {
+    if len > MAX_HOST_BYTES {
+        return None;
+    }
     let size = state.validator.state().buffers.get(&buffer)?.size;
-    let &(memory, offset) = state.memory_layout.bound.get(&buffer)?;
+    if offset.checked_add(len)? > size {
+        return None;
+    }
+    let &(memory, bound_at) = state.memory_layout.bound.get(&buffer)?;
     let &mapped_offset = state.memory_layout.mapped_at.get(&memory)?;
     let mapping = state.mappings.get(&memory)?;
-    // The buffer's start inside the mapping.
-    let into_mapping = offset.checked_sub(mapped_offset)?;
-    let left_in_mapping = mapping.len.checked_sub(into_mapping)?;
-    let len = size.min(left_in_mapping).min(MAX_HOST_BYTES);
-    if len == 0 {
+    // The window's start inside the mapping.
+    let into_mapping = bound_at.checked_add(offset)?.checked_sub(mapped_offset)?;
+    if into_mapping.checked_add(len)? > mapping.len {
         return None;
     }
     let address = usize::try_from(mapping.address.checked_add(into_mapping)?).ok()?;
-    let len = usize::try_from(len).ok()?;
-    address.checked_add(len)?;
-    // SAFETY: `[address, address + len)` lies inside the range vkMapMemory
-    // returned for this memory, which stays mapped until vkUnmapMemory or
-    // vkFreeMemory (both of which forget the mapping here).
-    Some(unsafe { read::mapped_bytes(address, len) })
+    address.checked_add(usize::try_from(len).ok()?)?;
+    Some(address)
 }
 
-/// The messages of one kept build's content checks.
+/// Whether the host can read `[offset, offset + len)` of `buffer` now.
+pub fn host_can_read(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> bool {
+    mapped_address(state, buffer, offset, len).is_some()
+}
+
+/// A copy of `[offset, offset + len)` of `buffer` from mapped memory.
+fn mapped_window(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> Option<Vec<u8>> {
+    let address = mapped_address(state, buffer, offset, len)?;
+    // SAFETY: `[address, address + len)` lies inside the range vkMapMemory
+    // returned for the buffer's memory (checked above), which stays mapped
+    // until vkUnmapMemory or vkFreeMemory (both of which forget the mapping).
+    Some(unsafe { read::mapped_bytes(address, usize::try_from(len).ok()?) }.to_vec())
+}
+
+/// The bytes of `[offset, offset + len)` of `buffer` as a build submitted
+/// now reads them: mapped memory with what transfers of this submission
+/// wrote over it, or what transfers wrote alone.
+fn window_bytes(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> Option<Vec<u8>> {
+    match mapped_window(state, buffer, offset, len) {
+        Some(mut bytes) => {
+            state.shadows.overlay(buffer, offset, &mut bytes);
+            Some(bytes)
+        }
+        None => state.shadows.read(buffer, offset, len),
+    }
+}
+
+/// The messages of one kept build's content checks at submission.
 fn check_kept(
     data: &DeviceData,
     command_buffer: u64,
@@ -117,49 +155,53 @@ fn check_kept(
     let object = (vk::ObjectType::COMMAND_BUFFER, command_buffer);
     let mut state = data.state();
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        let mut contents: BTreeMap<Handle, Arc<[u8]>> = BTreeMap::new();
-        let mut unreadable = None;
-        for source in kept.build.content_sources() {
-            let holder = state
-                .validator
-                .state()
-                .buffers_at(source.address)
-                .next()
-                .map(|(handle, _)| handle);
-            let Some(buffer) = holder else {
-                unreadable.get_or_insert((source, "no buffer whose device address the layer knows (from vkGetBufferDeviceAddress) holds them"));
-                continue;
-            };
-            if contents.contains_key(&buffer) {
-                continue;
-            }
-            match mapped_contents(&state, buffer) {
-                Some(bytes) => {
-                    contents.insert(buffer, bytes);
+        let mut contents = Vec::new();
+        let mut unreadable: Option<String> = None;
+        match crate::readback::windows(&state, &kept.build) {
+            Ok(windows) => {
+                for w in &windows {
+                    match window_bytes(&state, w.buffer, w.offset, w.len) {
+                        Some(bytes) => contents.push(KnownBytes {
+                            buffer: w.buffer,
+                            offset: w.offset,
+                            bytes: bytes.into(),
+                        }),
+                        None => {
+                            unreadable.get_or_insert_with(|| {
+                                format!(
+                                    "{} in VkBuffer {:#x}, bytes {}..{}: {}",
+                                    w.location,
+                                    w.buffer,
+                                    w.offset,
+                                    w.offset.saturating_add(w.len),
+                                    unreadable_reason(&state, w.buffer)
+                                )
+                            });
+                        }
+                    }
                 }
-                None => {
-                    let reason = unreadable_reason(&state, buffer).unwrap_or("unknown");
-                    unreadable.get_or_insert((source, reason));
-                }
             }
+            Err(reason) => unreadable = Some(reason),
         }
         let mut messages: Vec<Message> = state
             .validator
-            .check_device_build_contents(
-                &kept.recorded_in,
-                &kept.build,
-                contents.into_iter().collect(),
-            )
+            .check_device_build_contents(&kept.recorded_in, &kept.build, contents)
             .findings
             .iter()
             .map(|finding| Message::from_finding(finding, object))
             .collect();
-        if let Some((source, reason)) = unreadable {
-            if !state.memory_layout.reported_unreadable {
-                state.memory_layout.reported_unreadable = true;
+        if let Some(reason) = unreadable {
+            let why_not_read_back = kept
+                .not_read_back
+                .as_deref()
+                .unwrap_or("GPU readback was not set up when the build was recorded");
+            if state
+                .memory_layout
+                .reported_unreadable
+                .insert(why_not_read_back.to_string())
+            {
                 let text = format!(
-                    "the contents of {} (device address {:#x}) of a build recorded in VkCommandBuffer {command_buffer:#x} could not be read at {submit_function}: {reason}; the build's contents are not checked. This is reported once per device.",
-                    source.location, source.address
+                    "the inputs of a build recorded in VkCommandBuffer {command_buffer:#x} could not be read at {submit_function} ({reason}), nor read back on the GPU: {why_not_read_back}; the build's content rules are not checked. This is reported once per device and reason."
                 );
                 let mut message =
                     Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Info, function, &text);
@@ -179,21 +221,81 @@ fn check_kept(
     })
 }
 
-/// Checks the contents of every build the submitted command buffers run;
-/// returns whether a messenger asked for the submission to be skipped.
+/// What one submission carries besides its command buffers.
+struct Submitted {
+    queue: vk::Queue,
+    fence: vk::Fence,
+    /// Semaphores and the values the submission signals.
+    signals: Vec<(u64, u64)>,
+    function: &'static str,
+}
+
+/// Runs the transfers and checks the builds of the submitted command
+/// buffers in order; returns whether a messenger asked for the submission
+/// to be skipped.
 fn check_submission(
     data: &DeviceData,
     command_buffers: &[vk::CommandBuffer],
-    submit_function: &'static str,
+    submitted: &Submitted,
 ) -> bool {
+    let run: Vec<(u64, Recorded)> = command_buffers
+        .iter()
+        .flat_map(|&cb| commands::run_by(cb))
+        .collect();
+    if run.is_empty() {
+        return false;
+    }
+    let sequence = {
+        let mut state = data.state();
+        // The host may have written mapped memory since the last submission:
+        // what transfers wrote there before is superseded by what it holds.
+        let mapped: Vec<u64> = state
+            .shadows
+            .buffers_known()
+            .filter(|&b| state.memory_layout.is_mapped(b))
+            .collect();
+        for buffer in mapped {
+            state.shadows.forget_contents(buffer);
+        }
+        let reads_back = run
+            .iter()
+            .any(|(_, r)| matches!(r, Recorded::Build(k) if k.readback.is_some()));
+        reads_back.then(|| {
+            state.submissions.submit(
+                submitted.queue.as_raw(),
+                submitted.fence.as_raw(),
+                &submitted.signals,
+            )
+        })
+    };
     let mut skip = false;
-    for &command_buffer in command_buffers {
-        for (recorded_in, kept) in commands::builds_run_by(command_buffer) {
-            // The device lock is taken per build and released before delivery.
-            let messages = check_kept(data, recorded_in, &kept, submit_function);
-            if !messages.is_empty() {
-                skip |= data.instance.reporter.deliver(&messages, false);
+    for (recorded_in, recorded) in run {
+        match recorded {
+            Recorded::Transfer(transfer) => {
+                let mut state = data.state();
+                let mut shadows = std::mem::take(&mut state.shadows);
+                shadows.apply(&transfer, |buffer, offset, len| {
+                    mapped_window(&state, buffer, offset, len)
+                });
+                state.shadows = shadows;
             }
+            Recorded::Build(kept) => match (sequence, kept.readback.is_some()) {
+                (Some(sequence), true) => data.state().submissions.add(
+                    submitted.queue.as_raw(),
+                    sequence,
+                    recorded_in,
+                    kept,
+                    submitted.function,
+                ),
+                _ => {
+                    // The device lock is taken per build and released before delivery.
+                    let messages = check_kept(data, recorded_in, &kept, submitted.function);
+                    if !messages.is_empty() {
+                        skip |= data.instance.reporter.deliver(&messages, false);
+                    }
+                }
+            },
+            Recorded::Executes(_) => {} // Expanded by `run_by`.
         }
     }
     skip
@@ -204,8 +306,9 @@ fn check_submission(
 fn submit_with<F: Copy>(
     function: &'static str,
     queue: vk::Queue,
+    fence: vk::Fence,
     pick: fn(&DeviceFns) -> Option<F>,
-    command_buffers: impl FnOnce() -> Vec<vk::CommandBuffer>,
+    read_submission: impl FnOnce() -> (Vec<vk::CommandBuffer>, Vec<(u64, u64)>),
     call_down: impl FnOnce(F) -> vk::Result,
 ) -> vk::Result {
     guarded(function, vk::Result::ERROR_DEVICE_LOST, || {
@@ -213,7 +316,14 @@ fn submit_with<F: Copy>(
         let Some((data, next)) = device_and(queue, pick) else {
             return vk::Result::ERROR_DEVICE_LOST;
         };
-        if check_submission(&data, &command_buffers(), function) {
+        let (command_buffers, signals) = read_submission();
+        let submitted = Submitted {
+            queue,
+            fence,
+            signals,
+            function,
+        };
+        if check_submission(&data, &command_buffers, &submitted) {
             return vk::Result::ERROR_VALIDATION_FAILED_EXT;
         }
         call_down(next)
@@ -230,9 +340,15 @@ unsafe extern "system" fn queue_submit(
     submit_with(
         "vkQueueSubmit",
         queue,
+        fence,
         |f| f.commands.queue_submit,
         // SAFETY: the application's submit infos, valid as the API requires.
-        || unsafe { read::submitted_command_buffers(count, submits) },
+        || unsafe {
+            (
+                read::submitted_command_buffers(count, submits),
+                read::submitted_signals(count, submits),
+            )
+        },
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(queue, count, submits, fence) },
     )
@@ -258,9 +374,15 @@ unsafe fn queue_submit2_with(
     submit_with(
         function,
         queue,
+        fence,
         pick,
         // SAFETY: the application's submit infos, valid as the API requires.
-        || unsafe { read::submitted_command_buffers2(count, submits) },
+        || unsafe {
+            (
+                read::submitted_command_buffers2(count, submits),
+                read::submitted_signals2(count, submits),
+            )
+        },
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(queue, count, submits, fence) },
     )

@@ -588,6 +588,7 @@ macro_rules! work_commands {
                     return;
                 };
                 if !run_shaders(&data, command, command_buffer) {
+                    crate::transfer::shaders_run(&data, command_buffer);
                     // SAFETY: the next layer's function, with the application's arguments.
                     unsafe { next(command_buffer, $($arg),*) };
                 }

@@ -35,11 +35,28 @@ pub struct Buffer {
     /// Set once the buffer is bound to memory.
     pub memory: Option<MemoryBinding>,
     /// The buffer's bytes where the checker can read them (a host-visible
-    /// mapping, or the contents a scene or test supplied).
+    /// mapping, or the contents a scene or test supplied), starting
+    /// `contents_offset` bytes into the buffer.
     pub contents: Option<Arc<[u8]>>,
+    /// Where in the buffer `contents` starts: 0, unless only a window of
+    /// the buffer is known (an adaptor that read back just the ranges a
+    /// build reads).
+    pub contents_offset: u64,
 }
 
 impl Buffer {
+    /// The known contents from device `address` on, with `address`'s offset
+    /// in them; None when `address` lies before the known window or the
+    /// buffer has no address or contents. An address one past the window
+    /// gives an empty tail.
+    fn contents_at(&self, address: u64) -> Option<(&Arc<[u8]>, usize)> {
+        let (start, _) = self.address_range()?;
+        let contents = self.contents.as_ref()?;
+        let window = start.checked_add(self.contents_offset)?;
+        let offset = usize::try_from(address.checked_sub(window)?).ok()?;
+        (offset <= contents.len()).then_some((contents, offset))
+    }
+
     /// The device-address range `[start, end)`, if the address is known.
     pub fn address_range(&self) -> Option<(u64, u64)> {
         let start = self.device_address?;
@@ -214,13 +231,10 @@ impl State {
     /// The bytes `[address, address + len)` of device memory, if one buffer
     /// with readable contents holds them all.
     pub fn read_device(&self, address: u64, len: u64) -> Option<&[u8]> {
-        let end = address.checked_add(len)?;
+        let len = usize::try_from(len).ok()?;
         self.buffers_at(address).find_map(|(_, b)| {
-            let (start, _) = b.address_range()?;
-            let contents = b.contents.as_ref()?;
-            let from = usize::try_from(address - start).ok()?;
-            let to = usize::try_from(end - start).ok()?;
-            contents.get(from..to)
+            let (contents, from) = b.contents_at(address)?;
+            contents.get(from..from.checked_add(len)?)
         })
     }
 
@@ -257,10 +271,8 @@ impl State {
     /// buffer holding `address` and the offset of `address` in them.
     pub fn device_contents_from(&self, address: u64) -> Option<(Arc<[u8]>, usize)> {
         self.buffers_at(address).find_map(|(_, b)| {
-            let (start, _) = b.address_range()?;
-            let contents = b.contents.as_ref()?;
-            let offset = usize::try_from(address - start).ok()?;
-            (offset <= contents.len()).then(|| (Arc::clone(contents), offset))
+            let (contents, offset) = b.contents_at(address)?;
+            Some((Arc::clone(contents), offset))
         })
     }
 
@@ -276,10 +288,8 @@ impl State {
     /// The device bytes from `address` to the end of the buffer holding it.
     pub fn device_bytes_from(&self, address: u64) -> Option<&[u8]> {
         self.buffers_at(address).find_map(|(_, b)| {
-            let (start, _) = b.address_range()?;
-            b.contents
-                .as_ref()?
-                .get(usize::try_from(address - start).ok()?..)
+            let (contents, offset) = b.contents_at(address)?;
+            contents.get(offset..)
         })
     }
 }
@@ -311,6 +321,28 @@ mod tests {
         assert!(state.range_in_one_buffer(0x1000, 16));
         assert!(!state.range_in_one_buffer(0x1000, 17));
         assert!(!state.range_in_one_buffer(u64::MAX, 2));
+    }
+
+    #[test]
+    fn device_reads_of_a_known_window_stay_inside_it() {
+        let mut state = state_with_buffer();
+        let mut buffer = state.buffers.get_mut(&1).unwrap();
+        // Bytes 8..12 of the buffer are known, nothing else.
+        buffer.contents = Some(Arc::from(vec![8u8, 9, 10, 11]));
+        buffer.contents_offset = 8;
+        drop(buffer);
+        assert_eq!(state.read_device(0x1008, 4), Some(&[8u8, 9, 10, 11][..]));
+        assert_eq!(state.read_device(0x100a, 2), Some(&[10u8, 11][..]));
+        assert_eq!(
+            state.read_device(0x1004, 8),
+            None,
+            "starts before the window"
+        );
+        assert_eq!(state.read_device(0x100a, 4), None, "ends past the window");
+        assert_eq!(state.device_bytes_from(0x1009), Some(&[9u8, 10, 11][..]));
+        assert_eq!(state.device_bytes_from(0x1007), None);
+        let (bytes, offset) = state.device_contents_from(0x100b).unwrap();
+        assert_eq!((bytes.len(), offset), (4, 3));
     }
 
     #[test]

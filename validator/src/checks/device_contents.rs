@@ -11,12 +11,14 @@ use std::sync::Arc;
 
 use crate::checks::accel_build::{self, BuildCommand};
 use crate::checks::micromap_build;
-use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData};
+use crate::model::accel::{
+    BuildGeometryInfo, BuildRangeInfo, GeometryData, Instance, InstancesData,
+};
 use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
-use crate::model::{CommandBuffer, MicromapBuildInfo};
+use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle, UsageCounts};
 use crate::report::Report;
 use crate::sim::decode::MicromapContent;
-use crate::state::Handle;
+use crate::state::{Handle, State};
 use crate::validator::Validator;
 
 /// A device build command as recorded, in the owned model.
@@ -31,12 +33,173 @@ pub enum DeviceBuild {
     },
 }
 
-/// Device memory whose contents a build's checks read: where it starts and
-/// which parameter names it.
+/// Bytes of one buffer an adaptor could read: `bytes` are the buffer's
+/// bytes from `offset` on (a window of it, or all of it from offset 0).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ContentSource {
+pub struct KnownBytes {
+    pub buffer: Handle,
+    pub offset: u64,
+    pub bytes: Arc<[u8]>,
+}
+
+/// How far a build reads from where a [`ContentRead`] starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Extent {
+    /// Exactly this many bytes, as the build's parameters give them.
+    Bytes(u64),
+    /// To the end of the buffer holding the start: micromap `data`, whose
+    /// extent only the triangle entries give (and they may be wrong).
+    ToBufferEnd,
+    /// The parameters give more than 2^64 bytes.
+    Overflow,
+}
+
+/// What one build input is: the kind decides which reads a host build
+/// takes from host memory and which a device build takes from buffers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReadKind {
+    /// A micromap build's (or micromap geometry's) `triangleArray`.
+    TriangleArray,
+    /// A micromap build's (or micromap geometry's) `data`.
+    MicromapData,
+    /// An opacity attachment's `indexBuffer`.
+    OpacityIndices,
+    /// A top-level build's instances, or its array of instance pointers.
+    Instances,
+}
+
+/// Memory a build's content rules read: where it starts, how far, what it
+/// is and which parameter names it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ContentRead {
     pub address: u64,
+    pub extent: Extent,
+    pub kind: ReadKind,
     pub location: String,
+}
+
+/// `VkAccelerationStructureInstanceKHR` and a pointer to one, in bytes.
+const INSTANCE_SIZE: u64 = 64;
+const POINTER_SIZE: u64 = 8;
+
+/// Bytes of one index of `index_type` (None: NONE or not an index type).
+pub fn index_size(index_type: i32) -> Option<u64> {
+    match index_type {
+        INDEX_TYPE_UINT8 => Some(1),
+        INDEX_TYPE_UINT16 => Some(2),
+        INDEX_TYPE_UINT32 => Some(4),
+        _ => None,
+    }
+}
+
+/// The extent of `count` elements of `size` bytes at `stride`: `(count − 1)
+/// × stride + size`; 0 bytes for no elements.
+pub fn strided_extent(count: u64, stride: u64, size: u64) -> Extent {
+    match count.checked_sub(1) {
+        None => Extent::Bytes(0),
+        Some(last) => last
+            .checked_mul(stride)
+            .and_then(|n| n.checked_add(size))
+            .map_or(Extent::Overflow, Extent::Bytes),
+    }
+}
+
+/// What a micromap build (or micromap geometry) at `at` reads: its
+/// triangle array, one entry per triangle the usage counts give, and its
+/// data to the end of the buffer.
+fn micromap_reads(
+    usage_counts: &UsageCounts,
+    triangle_array: u64,
+    stride: u64,
+    data: u64,
+    at: &str,
+) -> [ContentRead; 2] {
+    [
+        ContentRead {
+            address: triangle_array,
+            extent: strided_extent(usage_counts.total(), stride, MicromapTriangle::SIZE),
+            kind: ReadKind::TriangleArray,
+            location: format!("{at}.triangleArray"),
+        },
+        ContentRead {
+            address: data,
+            extent: Extent::ToBufferEnd,
+            kind: ReadKind::MicromapData,
+            location: format!("{at}.data"),
+        },
+    ]
+}
+
+/// What acceleration-structure build info `i` reads: each micromap
+/// geometry's triangle array and data, each opacity attachment's indices
+/// for its geometry's `primitiveCount`, and each instances geometry's
+/// instances (or pointers) from `data + primitiveOffset`. Reads whose
+/// extent needs a build range are left out where `ranges` has none.
+pub fn geometry_reads(
+    i: usize,
+    info: &BuildGeometryInfo,
+    ranges: Option<&Vec<BuildRangeInfo>>,
+) -> Vec<ContentRead> {
+    let mut reads = Vec::new();
+    let (member, geometries) = info.geometry_entries();
+    for (g, geometry) in geometries {
+        let at = format!("pInfos[{i}].{member}[{g}]");
+        if let Some(m) = &geometry.micromap {
+            let data = format!("{at}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>");
+            reads.extend(micromap_reads(
+                &m.usage_counts,
+                m.triangle_array,
+                m.triangle_array_stride,
+                m.data,
+                &data,
+            ));
+        }
+        let Some(range) = ranges.and_then(|r| r.get(g)) else {
+            continue;
+        };
+        let count = u64::from(range.primitive_count);
+        match &geometry.geometry {
+            GeometryData::Triangles(triangles) => {
+                for buffer in triangles.opacity_index_buffers() {
+                    let Some(size) = index_size(buffer.index_type) else {
+                        continue; // NONE (or not an index type): no index buffer is read.
+                    };
+                    reads.push(ContentRead {
+                        address: buffer.address,
+                        extent: strided_extent(count, buffer.stride, size),
+                        kind: ReadKind::OpacityIndices,
+                        location: format!(
+                            "{at}.geometry.triangles.pNext<{}>.indexBuffer",
+                            buffer.structure
+                        ),
+                    });
+                }
+            }
+            GeometryData::Instances(instances) => {
+                let size = if instances.array_of_pointers {
+                    POINTER_SIZE
+                } else {
+                    INSTANCE_SIZE
+                };
+                let Some(start) = instances
+                    .data
+                    .checked_add(u64::from(range.primitive_offset))
+                else {
+                    continue;
+                };
+                reads.push(ContentRead {
+                    address: start,
+                    extent: count
+                        .checked_mul(size)
+                        .map_or(Extent::Overflow, Extent::Bytes),
+                    kind: ReadKind::Instances,
+                    location: format!("{at}.geometry.instances.data"),
+                });
+            }
+            _ => {}
+        }
+    }
+    reads
 }
 
 impl DeviceBuild {
@@ -48,59 +211,100 @@ impl DeviceBuild {
         }
     }
 
-    /// The device memory whose contents the build's content rules read:
-    /// micromap triangle arrays and data, and opacity attachments' index
-    /// buffers (an index type of NONE reads none). NULL addresses are left
-    /// out: the recording's rules report them.
-    pub fn content_sources(&self) -> Vec<ContentSource> {
-        let mut sources = Vec::new();
-        let mut add = |address: u64, location: String| {
-            if address != 0 {
-                sources.push(ContentSource { address, location });
-            }
-        };
+    /// The device memory the build's content rules read: micromap triangle
+    /// arrays and data, opacity attachments' index buffers (an index type
+    /// of NONE reads none) and top-level builds' instances. NULL addresses
+    /// and empty reads are left out: the recording's rules report them.
+    pub fn content_reads(&self) -> Vec<ContentRead> {
+        let mut reads = Vec::new();
         match self {
             DeviceBuild::Micromaps(infos) => {
                 for (i, info) in infos.iter().enumerate() {
-                    add(info.triangle_array, format!("pInfos[{i}].triangleArray"));
-                    add(info.data, format!("pInfos[{i}].data"));
+                    reads.extend(micromap_reads(
+                        &info.usage_counts,
+                        info.triangle_array,
+                        info.triangle_array_stride,
+                        info.data,
+                        &format!("pInfos[{i}]"),
+                    ));
                 }
             }
-            DeviceBuild::AccelerationStructures { infos, .. } => {
+            DeviceBuild::AccelerationStructures { infos, ranges } => {
                 for (i, info) in infos.iter().enumerate() {
-                    let (member, geometries) = info.geometry_entries();
-                    for (g, geometry) in geometries {
-                        let at = format!("pInfos[{i}].{member}[{g}]");
-                        if let Some(m) = &geometry.micromap {
-                            let data = format!(
-                                "{at}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>"
-                            );
-                            add(m.triangle_array, format!("{data}.triangleArray"));
-                            add(m.data, format!("{data}.data"));
-                        }
-                        let GeometryData::Triangles(t) = &geometry.geometry else {
-                            continue;
-                        };
-                        for buffer in t.opacity_index_buffers() {
-                            if matches!(
-                                buffer.index_type,
-                                INDEX_TYPE_UINT8 | INDEX_TYPE_UINT16 | INDEX_TYPE_UINT32
-                            ) {
-                                add(
-                                    buffer.address,
-                                    format!(
-                                        "{at}.geometry.triangles.pNext<{}>.indexBuffer",
-                                        buffer.structure
-                                    ),
-                                );
-                            }
-                        }
-                    }
+                    let info_ranges = ranges.get(i).and_then(Option::as_ref);
+                    reads.extend(geometry_reads(i, info, info_ranges));
                 }
             }
         }
-        sources
+        reads.retain(|read| read.address != 0 && read.extent != Extent::Bytes(0));
+        reads
     }
+}
+
+/// The instances of each instances geometry of `infos`, read from the
+/// memory the checker knows (host memory the application described for a
+/// host build, else the tracked buffers' contents) where it holds them
+/// all: `primitiveCount` instances from `data + primitiveOffset`, or as
+/// many pointers there and the instance each non-NULL pointer points to.
+/// Geometries whose instances are not all readable keep None (their rules
+/// are not decided).
+pub fn read_instances(
+    state: &State,
+    infos: &mut [BuildGeometryInfo],
+    ranges: &[Option<Vec<BuildRangeInfo>>],
+    host: bool,
+) {
+    let read = |address: u64, len: u64| {
+        if host {
+            state.read_host(address, len)
+        } else {
+            state.read_device(address, len)
+        }
+    };
+    for (i, info) in infos.iter_mut().enumerate() {
+        let info_ranges = ranges.get(i).and_then(Option::as_ref);
+        for (g, geometry) in info.geometries.iter_mut().flatten().enumerate() {
+            let GeometryData::Instances(instances) = &mut geometry.geometry else {
+                continue;
+            };
+            let Some(range) = info_ranges.and_then(|r| r.get(g)) else {
+                continue;
+            };
+            instances.instances = instances_from(&read, instances, range);
+        }
+    }
+}
+
+fn instances_from<'a>(
+    read: &impl Fn(u64, u64) -> Option<&'a [u8]>,
+    instances: &InstancesData,
+    range: &BuildRangeInfo,
+) -> Option<Vec<Instance>> {
+    let start = instances
+        .data
+        .checked_add(u64::from(range.primitive_offset))?;
+    let count = u64::from(range.primitive_count);
+    if !instances.array_of_pointers {
+        // The bytes exist, so the count they give is bounded by them.
+        let bytes = read(start, count.checked_mul(INSTANCE_SIZE)?)?;
+        return Some(
+            bytes
+                .chunks_exact(INSTANCE_SIZE as usize)
+                .filter_map(Instance::from_bytes)
+                .collect(),
+        );
+    }
+    let pointers = read(start, count.checked_mul(POINTER_SIZE)?)?;
+    pointers
+        .chunks_exact(POINTER_SIZE as usize)
+        .map(|pointer| {
+            let address = u64::from_le_bytes(pointer.try_into().ok()?);
+            if address == 0 {
+                return Some(Instance::default());
+            }
+            Instance::from_bytes(read(address, INSTANCE_SIZE)?)
+        })
+        .collect()
 }
 
 impl Validator {
@@ -125,33 +329,53 @@ impl Validator {
         (ctx.finish(), contents)
     }
 
-    /// Checks what a recorded device build reads, now that `contents` (bytes
-    /// from the start of each buffer, by handle) are known: the build's rules
-    /// run with the contents and without, and the findings only the contents
-    /// bring are reported (those of the recording were reported then). The
-    /// contents are forgotten after the check, except what the builds made:
-    /// each destination's recorded content (micromap triangles and data,
-    /// shared with these bytes) is replaced, so later builds that attach it
-    /// see what the GPU built.
+    /// Checks what a recorded device build reads, now that `contents` (a
+    /// known window of bytes of each buffer, by handle) are known: the
+    /// build's rules run with the contents and without, and the findings
+    /// only the contents bring are reported (those of the recording were
+    /// reported then). Top-level builds' instances are read from the
+    /// contents. The contents are forgotten after the check, except what
+    /// the builds made: each destination's recorded content (micromap
+    /// triangles and data, shared with these bytes) is replaced, so later
+    /// builds that attach it see what the GPU built.
     pub fn check_device_build_contents(
         &mut self,
         command_buffer: &CommandBuffer,
         build: &DeviceBuild,
-        contents: Vec<(Handle, Arc<[u8]>)>,
+        contents: Vec<KnownBytes>,
     ) -> Report {
         let (without, _) = self.device_build_rules(command_buffer, build);
         let mut previous = Vec::new();
-        for (handle, bytes) in contents {
-            if let Some(mut buffer) = self.state.buffers.get_mut(&handle) {
-                previous.push((handle, buffer.contents.replace(bytes)));
+        for known in contents {
+            if let Some(mut buffer) = self.state.buffers.get_mut(&known.buffer) {
+                let old_offset = std::mem::replace(&mut buffer.contents_offset, known.offset);
+                previous.push((
+                    known.buffer,
+                    buffer.contents.replace(known.bytes),
+                    old_offset,
+                ));
             }
         }
+        let with_instances;
+        let build = match build {
+            DeviceBuild::AccelerationStructures { infos, ranges } => {
+                let mut infos = infos.clone();
+                read_instances(&self.state, &mut infos, ranges, false);
+                with_instances = DeviceBuild::AccelerationStructures {
+                    infos,
+                    ranges: ranges.clone(),
+                };
+                &with_instances
+            }
+            DeviceBuild::Micromaps(_) => build,
+        };
         let (with, micromap_contents) = self.device_build_rules(command_buffer, build);
         self.record_built_contents(build, micromap_contents);
         // Restored in reverse, so a buffer named twice gets its first value back.
-        for (handle, old) in previous.into_iter().rev() {
+        for (handle, old, old_offset) in previous.into_iter().rev() {
             if let Some(mut buffer) = self.state.buffers.get_mut(&handle) {
                 buffer.contents = old;
+                buffer.contents_offset = old_offset;
             }
         }
         Report {
@@ -268,22 +492,171 @@ mod tests {
         values.iter().flat_map(|v| v.to_le_bytes()).collect()
     }
 
+    fn known(buffer: Handle, offset: u64, bytes: Arc<[u8]>) -> Vec<KnownBytes> {
+        vec![KnownBytes {
+            buffer,
+            offset,
+            bytes,
+        }]
+    }
+
     #[test]
-    fn the_index_buffer_is_a_content_source() {
+    fn the_index_buffer_is_read_for_its_primitive_count() {
         let (_, build) = validator_and_build();
-        let sources = build.content_sources();
-        assert_eq!(sources.len(), 1);
-        assert_eq!(sources[0].address, 0x1000);
-        assert!(sources[0]
+        let reads = build.content_reads();
+        assert_eq!(reads.len(), 1);
+        assert_eq!(reads[0].address, 0x1000);
+        assert_eq!(reads[0].extent, Extent::Bytes(8));
+        assert_eq!(reads[0].kind, ReadKind::OpacityIndices);
+        assert!(reads[0]
             .location
             .ends_with("pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.indexBuffer"));
+    }
+
+    #[test]
+    fn micromap_builds_read_their_triangle_array_and_data_to_the_buffer_end() {
+        let counts = crate::model::UsageCounts::array(vec![crate::model::MicromapUsage {
+            count: 3,
+            subdivision_level: 0,
+            format: 1,
+        }]);
+        let build = DeviceBuild::Micromaps(vec![MicromapBuildInfo {
+            usage_counts: counts,
+            triangle_array: 0x2000,
+            triangle_array_stride: 12,
+            data: 0x3000,
+            ..MicromapBuildInfo::default()
+        }]);
+        let reads = build.content_reads();
+        assert_eq!(reads.len(), 2);
+        // Two strides and the last entry's 8 bytes.
+        assert_eq!(
+            (reads[0].address, reads[0].extent),
+            (0x2000, Extent::Bytes(32))
+        );
+        assert_eq!(
+            (reads[1].address, reads[1].extent),
+            (0x3000, Extent::ToBufferEnd)
+        );
+        assert_eq!(strided_extent(u64::MAX, u64::MAX, 8), Extent::Overflow);
+    }
+
+    /// A top-level build of one instances geometry of `count` instances (or
+    /// pointers) at device address 0x8000 + 64.
+    fn top_level_build(pointers: bool, count: u32) -> DeviceBuild {
+        let info = BuildGeometryInfo {
+            geometry_count: 1,
+            geometries: Some(vec![Geometry {
+                geometry: GeometryData::Instances(InstancesData {
+                    array_of_pointers: pointers,
+                    data: 0x8000,
+                    instances: None,
+                }),
+                ..Geometry::default()
+            }]),
+            ..BuildGeometryInfo::default()
+        };
+        DeviceBuild::AccelerationStructures {
+            infos: vec![info],
+            ranges: vec![Some(vec![BuildRangeInfo {
+                primitive_count: count,
+                primitive_offset: 64,
+                ..BuildRangeInfo::default()
+            }])],
+        }
+    }
+
+    fn instance_bytes(flags: u8, reference: u64) -> Vec<u8> {
+        let mut bytes = vec![0u8; 64];
+        bytes[55] = flags;
+        bytes[56..].copy_from_slice(&reference.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn instances_are_read_from_the_primitive_offset_and_their_flags_checked() {
+        let build = top_level_build(false, 2);
+        let reads = build.content_reads();
+        assert_eq!(reads.len(), 1);
+        assert_eq!(
+            (reads[0].address, reads[0].extent),
+            (0x8040, Extent::Bytes(128))
+        );
+        assert_eq!(reads[0].kind, ReadKind::Instances);
+
+        let mut validator = Validator::new(Device::default());
+        validator.state_mut().buffers.insert(
+            9,
+            Buffer {
+                size: 256,
+                device_address: Some(0x8000),
+                ..Buffer::default()
+            },
+        );
+        let cb = CommandBuffer::default();
+        // Only the instances' window is known: bytes 64..192 of the buffer.
+        let mut window = instance_bytes(0, 0x1);
+        window.extend(instance_bytes(0x10, 0x1)); // FORCE_OPACITY_MICROMAP_2_STATE
+        let report =
+            validator.check_device_build_contents(&cb, &build, known(9, 64, window.into()));
+        let found: Vec<(&str, &str)> = report
+            .findings
+            .iter()
+            .map(|f| (f.rule.as_str(), f.location.as_str()))
+            .collect();
+        assert_eq!(
+            found,
+            [(
+                "VUID-VkAccelerationStructureInstanceKHR-micromap-11580",
+                "pInfos[0].pGeometries[0].geometry.instances.data[1].flags"
+            )],
+            "{report:#?}"
+        );
+        let valid = instance_bytes(0, 0x1).repeat(2);
+        let report = validator.check_device_build_contents(&cb, &build, known(9, 64, valid.into()));
+        assert!(report.findings.is_empty(), "{report:#?}");
+        // A window that misses the second instance decides nothing.
+        let short = instance_bytes(0x10, 0x1);
+        let report = validator.check_device_build_contents(&cb, &build, known(9, 64, short.into()));
+        assert!(report.findings.is_empty(), "{report:#?}");
+    }
+
+    #[test]
+    fn instance_pointers_are_followed_into_known_contents() {
+        let build = top_level_build(true, 2);
+        assert_eq!(build.content_reads()[0].extent, Extent::Bytes(16));
+        let mut validator = Validator::new(Device::default());
+        validator.state_mut().buffers.insert(
+            9,
+            Buffer {
+                size: 512,
+                device_address: Some(0x8000),
+                ..Buffer::default()
+            },
+        );
+        // Pointers at 0x8040: NULL and 0x8100; the instance at 0x8100.
+        let mut bytes = vec![0u8; 512];
+        bytes[72..80].copy_from_slice(&0x8100u64.to_le_bytes());
+        bytes[256..320].copy_from_slice(&instance_bytes(0x20, 0x1));
+        let cb = CommandBuffer::default();
+        let report = validator.check_device_build_contents(&cb, &build, known(9, 0, bytes.into()));
+        assert_eq!(
+            report
+                .findings
+                .iter()
+                .map(|f| f.location.as_str())
+                .collect::<Vec<_>>(),
+            ["pInfos[0].pGeometries[0].geometry.instances.data[1].flags"],
+            "{report:#?}"
+        );
     }
 
     #[test]
     fn only_findings_the_contents_bring_are_reported_and_contents_are_forgotten() {
         let (mut validator, build) = validator_and_build();
         let cb = CommandBuffer::default();
-        let report = validator.check_device_build_contents(&cb, &build, vec![(7, indices([0, 2]))]);
+        let report =
+            validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 2])));
         let ids: Vec<&str> = report.findings.iter().map(|f| f.rule.as_str()).collect();
         assert_eq!(ids, ["OMMCHECK-attach-index-in-range"], "{report:#?}");
         assert_eq!(
@@ -292,7 +665,8 @@ mod tests {
         );
         assert_eq!(validator.state().buffers[&7].contents, None);
 
-        let valid = validator.check_device_build_contents(&cb, &build, vec![(7, indices([0, 1]))]);
+        let valid =
+            validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 1])));
         assert!(valid.findings.is_empty(), "{valid:#?}");
     }
 }

@@ -413,6 +413,34 @@ pub struct Instance {
     pub acceleration_structure_reference: u64,
 }
 
+impl Instance {
+    /// Bytes of a `VkAccelerationStructureInstanceKHR`.
+    pub const SIZE: usize = 64;
+
+    /// An instance from its 64 bytes as the API lays them out (None when
+    /// fewer bytes are given).
+    pub fn from_bytes(bytes: &[u8]) -> Option<Instance> {
+        let word = |i: usize| -> Option<u32> {
+            Some(u32::from_le_bytes(bytes.get(i..i + 4)?.try_into().ok()?))
+        };
+        let mut transform = [0f32; 12];
+        for (k, t) in transform.iter_mut().enumerate() {
+            *t = f32::from_bits(word(4 * k)?);
+        }
+        let custom_and_mask = word(48)?;
+        let offset_and_flags = word(52)?;
+        let reference = u64::from_le_bytes(bytes.get(56..64)?.try_into().ok()?);
+        Some(Instance {
+            transform,
+            instance_custom_index: custom_and_mask & 0x00ff_ffff,
+            mask: (custom_and_mask >> 24) as u8,
+            instance_shader_binding_table_record_offset: offset_and_flags & 0x00ff_ffff,
+            flags: (offset_and_flags >> 24) as u8,
+            acceleration_structure_reference: reference,
+        })
+    }
+}
+
 /// `VkAccelerationStructureGeometryMicromapDataKHR` (in a geometry's pNext
 /// chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]

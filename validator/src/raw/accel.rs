@@ -23,18 +23,17 @@ use super::{
     array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, Index, Member,
     MAX_ELEMENTS, MAX_HOST_BYTES,
 };
-use crate::checks::device_contents::DeviceBuild;
+use crate::checks::device_contents::{geometry_reads, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, GeometryMicromapData, Instance,
     InstancesData, TrianglesData, TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt,
     TrianglesOpacityMicromapKhr, ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS,
-    GEOMETRY_TYPE_INSTANCES, GEOMETRY_TYPE_TRIANGLES, INDEX_TYPE_UINT16, INDEX_TYPE_UINT32,
-    INDEX_TYPE_UINT8, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
+    GEOMETRY_TYPE_INSTANCES, GEOMETRY_TYPE_TRIANGLES, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
     STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
     STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT, STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
 };
-use crate::model::{CommandBuffer, MicromapTriangle};
+use crate::model::CommandBuffer;
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
 use crate::state::HostRange;
@@ -585,25 +584,6 @@ unsafe fn host_instances(
     Some(list)
 }
 
-/// Bytes of one index of `index_type` (None: NONE or not an index type).
-fn index_size(index_type: i32) -> Option<u64> {
-    match index_type {
-        INDEX_TYPE_UINT8 => Some(1),
-        INDEX_TYPE_UINT16 => Some(2),
-        INDEX_TYPE_UINT32 => Some(4),
-        _ => None,
-    }
-}
-
-/// Bytes `count` elements of `size` bytes at `stride` span: `(count − 1) ×
-/// stride + size`; Some(0) for no elements, None on overflow.
-fn strided_extent(count: u64, stride: u64, size: u64) -> Option<u64> {
-    match count.checked_sub(1) {
-        None => Some(0),
-        Some(last) => last.checked_mul(stride)?.checked_add(size),
-    }
-}
-
 /// A host range the checks may read: where, how many bytes (None: the
 /// extent overflows), and what it is called in findings.
 struct HostRead {
@@ -616,51 +596,29 @@ struct HostRead {
 /// micromap geometry's triangle array, and each EXT or KHR opacity
 /// attachment's index buffer for its geometry's `primitiveCount`. Micromap
 /// `data` is not among them (its extent comes from the triangle entries,
-/// which may be wrong), nor are vertex, index or transform data (no check
+/// which may be wrong), nor are instances (read through their pointers, see
+/// [`read_host_instances`]) or vertex, index and transform data (no check
 /// reads them).
 fn host_reads(
     i: usize,
     info: &BuildGeometryInfo,
     ranges: Option<&Vec<BuildRangeInfo>>,
 ) -> Vec<HostRead> {
-    let mut reads = Vec::new();
-    let (member, geometries) = info.geometry_entries();
-    for (g, geometry) in geometries {
-        let at = format!("pInfos[{i}].{member}[{g}]");
-        if let Some(m) = &geometry.micromap {
-            reads.push(HostRead {
-                address: m.triangle_array,
-                extent: strided_extent(
-                    m.usage_counts.total(),
-                    m.triangle_array_stride,
-                    MicromapTriangle::SIZE,
-                ),
-                location: format!(
-                    "{at}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>.triangleArray"
-                ),
-            });
-        }
-        let GeometryData::Triangles(triangles) = &geometry.geometry else {
-            continue;
-        };
-        let Some(count) = ranges.and_then(|r| r.get(g)).map(|r| r.primitive_count) else {
-            continue;
-        };
-        for buffer in triangles.opacity_index_buffers() {
-            let Some(size) = index_size(buffer.index_type) else {
-                continue; // NONE (or not an index type): no index buffer is read.
+    geometry_reads(i, info, ranges)
+        .into_iter()
+        .filter_map(|read| {
+            let extent = match (read.kind, read.extent) {
+                (ReadKind::TriangleArray | ReadKind::OpacityIndices, Extent::Bytes(n)) => Some(n),
+                (ReadKind::TriangleArray | ReadKind::OpacityIndices, Extent::Overflow) => None,
+                _ => return None,
             };
-            reads.push(HostRead {
-                address: buffer.address,
-                extent: strided_extent(u64::from(count), buffer.stride, size),
-                location: format!(
-                    "{at}.geometry.triangles.pNext<{}>.indexBuffer",
-                    buffer.structure
-                ),
-            });
-        }
-    }
-    reads
+            Some(HostRead {
+                address: read.address,
+                extent,
+                location: read.location,
+            })
+        })
+        .collect()
 }
 
 impl Validator {
@@ -1142,7 +1100,9 @@ mod tests {
     use std::ffi::c_void;
 
     use super::*;
-    use crate::model::accel::{ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, INDEX_TYPE_NONE};
+    use crate::model::accel::{
+        ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, INDEX_TYPE_NONE, INDEX_TYPE_UINT16,
+    };
     use crate::raw::MAX_CHAIN;
     use crate::{Device, Profile};
     use ommcheck_vuids::vuid;

@@ -10,12 +10,13 @@ use std::sync::Arc;
 use base64::Engine as _;
 use glam::DVec3;
 
+use crate::checks::device_contents::read_instances;
 use crate::device::{Device, Limits, Profile};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, CopyAccelerationStructureInfo,
     CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo, Geometry,
-    GeometryData, GeometryMicromapData, Instance, InstancesData, TrianglesData,
+    GeometryData, GeometryMicromapData, InstancesData, TrianglesData,
     TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
 };
 use crate::model::command::{queue, CommandBuffer};
@@ -510,30 +511,6 @@ fn decode_hex(text: &str, at: &str) -> Result<Vec<u8>> {
         .collect()
 }
 
-fn instance_from_bytes(bytes: &[u8]) -> Option<Instance> {
-    let word = |i: usize| -> Option<u32> {
-        Some(u32::from_le_bytes(bytes.get(i..i + 4)?.try_into().ok()?))
-    };
-    let mut transform = [0f32; 12];
-    for (k, t) in transform.iter_mut().enumerate() {
-        *t = f32::from_bits(word(4 * k)?);
-    }
-    let custom_and_mask = word(48)?;
-    let offset_and_flags = word(52)?;
-    let reference = u64::from_le_bytes(bytes.get(56..64)?.try_into().ok()?);
-    Some(Instance {
-        transform,
-        instance_custom_index: custom_and_mask & 0x00ff_ffff,
-        mask: (custom_and_mask >> 24) as u8,
-        instance_shader_binding_table_record_offset: offset_and_flags & 0x00ff_ffff,
-        flags: (offset_and_flags >> 24) as u8,
-        acceleration_structure_reference: reference,
-    })
-}
-
-/// `VkAccelerationStructureInstanceKHR` is 64 bytes.
-const INSTANCE_SIZE: u64 = 64;
-
 impl Resolver<'_> {
     fn bind(&mut self, name: &str, kind: ObjectKind, at: &str) -> Result<Handle> {
         if let Some(existing) = self.objects.get(name) {
@@ -965,6 +942,7 @@ impl Resolver<'_> {
                     device_address: Some(address),
                     memory,
                     contents,
+                    contents_offset: 0,
                 },
             );
         }
@@ -1450,7 +1428,8 @@ impl Resolver<'_> {
 
     /// The build infos of an acceleration-structure build, with the
     /// instances of instance geometries read from memory where the scene
-    /// gives their bytes (`primitiveCount` instances from `data`).
+    /// gives their bytes (`primitiveCount` instances, or pointers to them,
+    /// from `data + primitiveOffset`).
     fn build_geometry_infos(
         &self,
         infos: &[BuildGeometryInfoDesc],
@@ -1463,37 +1442,7 @@ impl Resolver<'_> {
             .enumerate()
             .map(|(i, d)| self.build_geometry_info(d, &format!("{at}.pInfos[{i}]")))
             .collect::<Result<Vec<_>>>()?;
-        let state = self.validator.state();
-        for (i, info) in resolved.iter_mut().enumerate() {
-            let info_ranges = ranges.get(i).and_then(Option::as_ref);
-            for (g, geometry) in info.geometries.iter_mut().flatten().enumerate() {
-                let GeometryData::Instances(instances) = &mut geometry.geometry else {
-                    continue;
-                };
-                let Some(range) = info_ranges.and_then(|r| r.get(g)) else {
-                    continue;
-                };
-                if instances.array_of_pointers {
-                    continue;
-                }
-                let start = instances
-                    .data
-                    .checked_add(u64::from(range.primitive_offset));
-                let len = u64::from(range.primitive_count).checked_mul(INSTANCE_SIZE);
-                let bytes = match (start, len) {
-                    (Some(start), Some(len)) if host => state.read_host(start, len),
-                    (Some(start), Some(len)) => state.read_device(start, len),
-                    _ => None,
-                };
-                // The bytes exist, so the count they give is bounded by them.
-                instances.instances = bytes.map(|bytes| {
-                    bytes
-                        .chunks_exact(INSTANCE_SIZE as usize)
-                        .filter_map(instance_from_bytes)
-                        .collect()
-                });
-            }
-        }
+        read_instances(self.validator.state(), &mut resolved, ranges, host);
         Ok(resolved)
     }
 
@@ -2046,12 +1995,12 @@ mod tests {
         bytes[48..52].copy_from_slice(&(0xab00_0007u32).to_le_bytes());
         bytes[52..56].copy_from_slice(&(0x1800_0003u32).to_le_bytes());
         bytes[56..64].copy_from_slice(&0x1234u64.to_le_bytes());
-        let instance = instance_from_bytes(&bytes).unwrap();
+        let instance = crate::model::accel::Instance::from_bytes(&bytes).unwrap();
         assert_eq!(instance.instance_custom_index, 7);
         assert_eq!(instance.mask, 0xab);
         assert_eq!(instance.instance_shader_binding_table_record_offset, 3);
         assert_eq!(instance.flags, 0x18);
         assert_eq!(instance.acceleration_structure_reference, 0x1234);
-        assert!(instance_from_bytes(&bytes[..63]).is_none());
+        assert!(crate::model::accel::Instance::from_bytes(&bytes[..63]).is_none());
     }
 }

@@ -1,0 +1,344 @@
+//! The commands that write buffer memory, which route 1 follows
+//! ([`crate::shadow`]), the commands that tell a submission is complete,
+//! which route 2 waits for ([`crate::completion`]), and the next layer's
+//! functions GPU readback records with ([`crate::readback`]): one table
+//! gives each intercepted command's name, the next layer's function and
+//! this layer's intercept.
+
+#![allow(unsafe_code)]
+
+use std::ffi::CStr;
+use std::sync::Arc;
+
+use ash::vk;
+use ash::vk::Handle as _;
+
+use crate::commands::{self, Recorded};
+use crate::device::{as_void, device_and};
+use crate::dispatch::{next_fn, DeviceData, DeviceFns, DeviceState};
+use crate::shadow::Transfer;
+use crate::{completion, guarded, read};
+
+macro_rules! memory_commands {
+    (
+        intercepted { $($field:ident: $pfn:ty = $name:literal => $ours:path;)* }
+        called { $($called:ident: $called_pfn:ty = $called_name:literal;)* }
+    ) => {
+        /// The next layer's functions for the commands of this table.
+        pub struct MemoryFns {
+            $(pub $field: Option<$pfn>,)*
+            $(pub $called: Option<$called_pfn>,)*
+        }
+
+        impl MemoryFns {
+            pub fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> Self {
+                Self {
+                    $($field: next_fn!(gdpa, device, $name, $pfn),)*
+                    $($called: next_fn!(gdpa, device, $called_name, $called_pfn),)*
+                }
+            }
+        }
+
+        /// This layer's function for an intercepted command of this table.
+        pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
+            $(if name == $name {
+                return as_void($ours as $pfn);
+            })*
+            None
+        }
+    };
+}
+
+memory_commands! {
+    intercepted {
+        cmd_copy_buffer: vk::PFN_vkCmdCopyBuffer = c"vkCmdCopyBuffer" => cmd_copy_buffer;
+        cmd_copy_buffer2: vk::PFN_vkCmdCopyBuffer2 = c"vkCmdCopyBuffer2" => cmd_copy_buffer2;
+        cmd_copy_buffer2_khr: vk::PFN_vkCmdCopyBuffer2 = c"vkCmdCopyBuffer2KHR" => cmd_copy_buffer2_khr;
+        cmd_update_buffer: vk::PFN_vkCmdUpdateBuffer = c"vkCmdUpdateBuffer" => cmd_update_buffer;
+        cmd_fill_buffer: vk::PFN_vkCmdFillBuffer = c"vkCmdFillBuffer" => cmd_fill_buffer;
+        cmd_copy_image_to_buffer: vk::PFN_vkCmdCopyImageToBuffer = c"vkCmdCopyImageToBuffer" => cmd_copy_image_to_buffer;
+        cmd_copy_image_to_buffer2: vk::PFN_vkCmdCopyImageToBuffer2 = c"vkCmdCopyImageToBuffer2" => cmd_copy_image_to_buffer2;
+        cmd_copy_image_to_buffer2_khr: vk::PFN_vkCmdCopyImageToBuffer2 = c"vkCmdCopyImageToBuffer2KHR" => cmd_copy_image_to_buffer2_khr;
+        cmd_copy_query_pool_results: vk::PFN_vkCmdCopyQueryPoolResults = c"vkCmdCopyQueryPoolResults" => cmd_copy_query_pool_results;
+
+        wait_for_fences: vk::PFN_vkWaitForFences = c"vkWaitForFences" => completion::wait_for_fences;
+        get_fence_status: vk::PFN_vkGetFenceStatus = c"vkGetFenceStatus" => completion::get_fence_status;
+        queue_wait_idle: vk::PFN_vkQueueWaitIdle = c"vkQueueWaitIdle" => completion::queue_wait_idle;
+        device_wait_idle: vk::PFN_vkDeviceWaitIdle = c"vkDeviceWaitIdle" => completion::device_wait_idle;
+        wait_semaphores: vk::PFN_vkWaitSemaphores = c"vkWaitSemaphores" => completion::wait_semaphores;
+        wait_semaphores_khr: vk::PFN_vkWaitSemaphores = c"vkWaitSemaphoresKHR" => completion::wait_semaphores_khr;
+        get_semaphore_counter_value: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValue" => completion::get_semaphore_counter_value;
+        get_semaphore_counter_value_khr: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValueKHR" => completion::get_semaphore_counter_value_khr;
+    }
+    called {
+        get_buffer_memory_requirements: vk::PFN_vkGetBufferMemoryRequirements = c"vkGetBufferMemoryRequirements";
+        cmd_pipeline_barrier: vk::PFN_vkCmdPipelineBarrier = c"vkCmdPipelineBarrier";
+    }
+}
+
+/// Records a command that writes buffer memory (from the content tier on),
+/// then records it below.
+fn transfer_command<F: Copy>(
+    function: &'static str,
+    command_buffer: vk::CommandBuffer,
+    pick: fn(&DeviceFns) -> Option<F>,
+    transfer: impl FnOnce(&DeviceState) -> Transfer,
+    call_down: impl FnOnce(F),
+) {
+    guarded(function, (), || {
+        let Some((data, next)) = device_and(command_buffer, pick) else {
+            return;
+        };
+        keep_transfer(&data, command_buffer, transfer);
+        call_down(next);
+    })
+}
+
+fn keep_transfer(
+    data: &DeviceData,
+    command_buffer: vk::CommandBuffer,
+    transfer: impl FnOnce(&DeviceState) -> Transfer,
+) {
+    let transfer = {
+        let state = data.state();
+        if !state.reads_contents() {
+            return;
+        }
+        transfer(&state)
+    };
+    let model = commands::model(command_buffer);
+    commands::keep(
+        command_buffer,
+        &model,
+        Recorded::Transfer(Arc::new(transfer)),
+    );
+}
+
+/// A command that runs shaders was recorded: shaders may write any buffer
+/// through its device address, so what transfers made known is forgotten
+/// when it runs.
+pub fn shaders_run(data: &DeviceData, command_buffer: vk::CommandBuffer) {
+    keep_transfer(data, command_buffer, |_| Transfer::Unknown);
+}
+
+/// A copy's regions as `(src offset, dst offset, size)`.
+fn copy_regions<'a>(regions: impl IntoIterator<Item = &'a vk::BufferCopy>) -> Vec<(u64, u64, u64)> {
+    regions
+        .into_iter()
+        .map(|r| (r.src_offset, r.dst_offset, r.size))
+        .collect()
+}
+
+unsafe extern "system" fn cmd_copy_buffer(
+    command_buffer: vk::CommandBuffer,
+    src: vk::Buffer,
+    dst: vk::Buffer,
+    count: u32,
+    regions: *const vk::BufferCopy,
+) {
+    transfer_command(
+        "vkCmdCopyBuffer",
+        command_buffer,
+        |f| f.memory.cmd_copy_buffer,
+        |_| Transfer::Copy {
+            src: src.as_raw(),
+            dst: dst.as_raw(),
+            // SAFETY: `regions` holds `count` regions (the API's requirement).
+            regions: copy_regions(unsafe { read::array(regions, count) }),
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, src, dst, count, regions) },
+    );
+}
+
+/// The transfer of a `VkCopyBufferInfo2`.
+///
+/// # Safety
+/// A non-NULL `info` must be valid as `vkCmdCopyBuffer2` requires.
+unsafe fn copy2(info: *const vk::CopyBufferInfo2<'_>) -> Transfer {
+    // SAFETY: forwarded from the caller.
+    let Some(info) = (unsafe { info.as_ref() }) else {
+        return Transfer::Unknown;
+    };
+    // SAFETY: `pRegions` holds `regionCount` regions (the caller's guarantee).
+    let regions = unsafe { read::array(info.p_regions, info.region_count) };
+    Transfer::Copy {
+        src: info.src_buffer.as_raw(),
+        dst: info.dst_buffer.as_raw(),
+        regions: regions
+            .iter()
+            .map(|r| (r.src_offset, r.dst_offset, r.size))
+            .collect(),
+    }
+}
+
+unsafe extern "system" fn cmd_copy_buffer2(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyBufferInfo2<'_>,
+) {
+    transfer_command(
+        "vkCmdCopyBuffer2",
+        command_buffer,
+        |f| f.memory.cmd_copy_buffer2,
+        // SAFETY: the application's copy info.
+        |_| unsafe { copy2(info) },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_buffer2_khr(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyBufferInfo2<'_>,
+) {
+    transfer_command(
+        "vkCmdCopyBuffer2KHR",
+        command_buffer,
+        |f| f.memory.cmd_copy_buffer2_khr,
+        // SAFETY: the application's copy info.
+        |_| unsafe { copy2(info) },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+/// The most bytes `vkCmdUpdateBuffer` may write (its `dataSize` limit).
+const MAX_UPDATE: u64 = 65536;
+
+unsafe extern "system" fn cmd_update_buffer(
+    command_buffer: vk::CommandBuffer,
+    dst: vk::Buffer,
+    offset: u64,
+    size: u64,
+    bytes: *const std::ffi::c_void,
+) {
+    transfer_command(
+        "vkCmdUpdateBuffer",
+        command_buffer,
+        |f| f.memory.cmd_update_buffer,
+        |_| {
+            if size > MAX_UPDATE {
+                return Transfer::Unknown; // Invalid; what it writes is not followed.
+            }
+            // SAFETY: `pData` holds `dataSize` bytes (the API's requirement),
+            // at most 65536 here.
+            let bytes = unsafe { read::array(bytes.cast::<u8>(), size as u32) };
+            Transfer::Update {
+                dst: dst.as_raw(),
+                offset,
+                bytes: Arc::from(bytes),
+            }
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, dst, offset, size, bytes) },
+    );
+}
+
+unsafe extern "system" fn cmd_fill_buffer(
+    command_buffer: vk::CommandBuffer,
+    dst: vk::Buffer,
+    offset: u64,
+    size: u64,
+    value: u32,
+) {
+    transfer_command(
+        "vkCmdFillBuffer",
+        command_buffer,
+        |f| f.memory.cmd_fill_buffer,
+        |state| {
+            // VK_WHOLE_SIZE fills to the end, rounded down to whole words.
+            let size = if size == vk::WHOLE_SIZE {
+                let buffer = state.validator.state().buffers.get(&dst.as_raw());
+                buffer.map_or(0, |b| b.size.saturating_sub(offset) & !3)
+            } else {
+                size
+            };
+            Transfer::Fill {
+                dst: dst.as_raw(),
+                offset,
+                size,
+                value,
+            }
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, dst, offset, size, value) },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_image_to_buffer(
+    command_buffer: vk::CommandBuffer,
+    image: vk::Image,
+    layout: vk::ImageLayout,
+    dst: vk::Buffer,
+    count: u32,
+    regions: *const vk::BufferImageCopy,
+) {
+    transfer_command(
+        "vkCmdCopyImageToBuffer",
+        command_buffer,
+        |f| f.memory.cmd_copy_image_to_buffer,
+        |_| Transfer::Unknown,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, image, layout, dst, count, regions) },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_image_to_buffer2(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyImageToBufferInfo2<'_>,
+) {
+    transfer_command(
+        "vkCmdCopyImageToBuffer2",
+        command_buffer,
+        |f| f.memory.cmd_copy_image_to_buffer2,
+        |_| Transfer::Unknown,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+unsafe extern "system" fn cmd_copy_image_to_buffer2_khr(
+    command_buffer: vk::CommandBuffer,
+    info: *const vk::CopyImageToBufferInfo2<'_>,
+) {
+    transfer_command(
+        "vkCmdCopyImageToBuffer2KHR",
+        command_buffer,
+        |f| f.memory.cmd_copy_image_to_buffer2_khr,
+        |_| Transfer::Unknown,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info) },
+    );
+}
+
+#[allow(clippy::too_many_arguments)] // The command's own parameters.
+unsafe extern "system" fn cmd_copy_query_pool_results(
+    command_buffer: vk::CommandBuffer,
+    pool: vk::QueryPool,
+    first: u32,
+    count: u32,
+    dst: vk::Buffer,
+    offset: u64,
+    stride: u64,
+    flags: vk::QueryResultFlags,
+) {
+    transfer_command(
+        "vkCmdCopyQueryPoolResults",
+        command_buffer,
+        |f| f.memory.cmd_copy_query_pool_results,
+        |_| Transfer::Unknown,
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe {
+            next(
+                command_buffer,
+                pool,
+                first,
+                count,
+                dst,
+                offset,
+                stride,
+                flags,
+            )
+        },
+    );
+}
