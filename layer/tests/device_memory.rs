@@ -497,16 +497,19 @@ enum Completion {
     WaitSemaphores,
     /// vkWaitSemaphores on one vkQueueSubmit2 signals.
     WaitSemaphoresAfterSubmit2,
+    /// vkGetSemaphoreCounterValue reading the value vkQueueSubmit signals.
+    GetSemaphoreCounterValue,
 }
 
 impl Completion {
-    const ALL: [Completion; 6] = [
+    const ALL: [Completion; 7] = [
         Completion::WaitForFences,
         Completion::GetFenceStatus,
         Completion::QueueWaitIdle,
         Completion::DeviceWaitIdle,
         Completion::WaitSemaphores,
         Completion::WaitSemaphoresAfterSubmit2,
+        Completion::GetSemaphoreCounterValue,
     ];
 }
 
@@ -551,12 +554,16 @@ fn submit_for(
             // SAFETY: the device.
             Box::new(move || assert_eq!(unsafe { wait(device) }, vk::Result::SUCCESS))
         }
-        Completion::WaitSemaphores | Completion::WaitSemaphoresAfterSubmit2 => {
+        Completion::WaitSemaphores
+        | Completion::WaitSemaphoresAfterSubmit2
+        | Completion::GetSemaphoreCounterValue => {
             let semaphore = chain.timeline(0);
             let command_buffers = [command_buffer];
             let signals = [semaphore];
             let values = [1u64];
-            let result = if let Completion::WaitSemaphores = completion {
+            let result = if let Completion::WaitSemaphores | Completion::GetSemaphoreCounterValue =
+                completion
+            {
                 let submit: vk::PFN_vkQueueSubmit = app.f(c"vkQueueSubmit");
                 let mut timeline =
                     vk::TimelineSemaphoreSubmitInfo::default().signal_semaphore_values(&values);
@@ -580,6 +587,15 @@ fn submit_for(
             };
             assert_eq!(result, vk::Result::SUCCESS);
             let wait: vk::PFN_vkWaitSemaphores = app.f(c"vkWaitSemaphores");
+            let counter: vk::PFN_vkGetSemaphoreCounterValue = app.f(c"vkGetSemaphoreCounterValue");
+            if let Completion::GetSemaphoreCounterValue = completion {
+                return Box::new(move || {
+                    let mut value = 0;
+                    // SAFETY: a timeline semaphore of the device.
+                    let result = unsafe { counter(device, semaphore, &mut value) };
+                    assert_eq!((result, value), (vk::Result::SUCCESS, 1));
+                });
+            }
             Box::new(move || {
                 let info = vk::SemaphoreWaitInfo::default()
                     .semaphores(&signals)
@@ -837,6 +853,17 @@ fn the_fake_gpu_executes_transfers_and_shader_writes_in_order_at_submission() {
     // SAFETY: 4 bytes at `words`.
     unsafe { update(primary, target, 32, 4, words.as_ptr().cast()) };
     transfer_to_build_barrier(&app, primary);
+    // The fake logs what a barrier orders (the inserted-commands test reads it).
+    let logged = fake::calls("vkCmdPipelineBarrier2");
+    let barrier = dependency(logged.last().unwrap());
+    assert_eq!(barrier.dst_access, vk::AccessFlags2::SHADER_READ);
+    assert_eq!(
+        barrier.src_access,
+        vk::AccessFlags2::TRANSFER_WRITE | vk::AccessFlags2::SHADER_STORAGE_WRITE
+    );
+    assert!(barrier
+        .dst_stages
+        .contains(vk::PipelineStageFlags2::MICROMAP_BUILD_EXT));
     let execute: vk::PFN_vkCmdExecuteCommands = app.f(c"vkCmdExecuteCommands");
     // SAFETY: one secondary.
     unsafe { execute(primary, 1, &secondary) };
@@ -1179,6 +1206,36 @@ fn a_command_buffer_submitted_twice_is_checked_twice() {
     );
 }
 
+/// One recording begun with SIMULTANEOUS_USE, submitted twice before
+/// either completes: each submission has its own readback, checked when
+/// that submission's fence is waited on.
+#[test]
+fn a_simultaneous_use_command_buffer_pending_twice_has_a_readback_per_submission() {
+    let setup = Setup::new(true, &[]);
+    let chain = setup.chain();
+    let faulty = Rule::IndexPastMicromap.contents(true);
+    let command_buffer = chain.allocate_command_buffer();
+    let begin: vk::PFN_vkBeginCommandBuffer = setup.app.f(c"vkBeginCommandBuffer");
+    let info =
+        vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::SIMULTANEOUS_USE);
+    // SAFETY: valid arguments.
+    assert_eq!(unsafe { begin(command_buffer, &info) }, vk::Result::SUCCESS);
+    setup.record(command_buffer, Route::Shader, &faulty);
+    chain.end(command_buffer);
+    let fences = [chain.fence(), chain.fence()];
+    for fence in fences {
+        assert_eq!(
+            chain.submit_with(command_buffer, fence),
+            vk::Result::SUCCESS
+        );
+    }
+    assert_eq!(setup.app.reported(), Vec::<String>::new(), "at submission");
+    for fence in fences {
+        assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
+        assert_eq!(setup.app.reported(), [INDEX_IN_RANGE]);
+    }
+}
+
 /// The writes and the builds recorded in a secondary command buffer, run
 /// by vkCmdExecuteCommands: checked on completion (route 2) and at
 /// submission (route 1).
@@ -1332,8 +1389,74 @@ fn recorded_into(command_buffer: vk::CommandBuffer) -> Vec<Call> {
         .collect()
 }
 
-fn is_barrier(call: &Call) -> bool {
-    matches!(call.name, "vkCmdPipelineBarrier" | "vkCmdPipelineBarrier2")
+/// What a barrier the fake logged orders, as synchronization2 flags.
+struct Dependency {
+    src_access: vk::AccessFlags2,
+    dst_stages: vk::PipelineStageFlags2,
+    dst_access: vk::AccessFlags2,
+}
+
+fn dependency(call: &Call) -> Dependency {
+    assert!(
+        matches!(call.name, "vkCmdPipelineBarrier" | "vkCmdPipelineBarrier2"),
+        "not a barrier: {call:?}"
+    );
+    Dependency {
+        src_access: vk::AccessFlags2::from_raw(call.args[2]),
+        dst_stages: vk::PipelineStageFlags2::from_raw(call.args[3]),
+        dst_access: vk::AccessFlags2::from_raw(call.args[4]),
+    }
+}
+
+/// Whether `flags` holds any of `bits`.
+fn any<F: std::ops::BitAnd<Output = F> + PartialEq + Default + Copy>(flags: F, bits: F) -> bool {
+    flags & bits != F::default()
+}
+
+/// The barrier before the copies: the application's earlier writes made
+/// visible to transfer reads.
+fn assert_orders_writes_before_transfer_reads(call: &Call) {
+    let d = dependency(call);
+    assert!(
+        !d.src_access.is_empty(),
+        "no writes made available: {call:?}"
+    );
+    assert!(
+        any(
+            d.dst_stages,
+            vk::PipelineStageFlags2::TRANSFER
+                | vk::PipelineStageFlags2::COPY
+                | vk::PipelineStageFlags2::ALL_COMMANDS
+        ),
+        "{call:?}"
+    );
+    assert!(
+        any(
+            d.dst_access,
+            vk::AccessFlags2::TRANSFER_READ | vk::AccessFlags2::MEMORY_READ
+        ),
+        "{call:?}"
+    );
+}
+
+/// The barrier after the copies: their writes made visible to the host.
+fn assert_orders_copies_before_host_reads(call: &Call) {
+    let d = dependency(call);
+    assert!(
+        any(
+            d.src_access,
+            vk::AccessFlags2::TRANSFER_WRITE | vk::AccessFlags2::MEMORY_WRITE
+        ),
+        "{call:?}"
+    );
+    assert!(any(d.dst_stages, vk::PipelineStageFlags2::HOST), "{call:?}");
+    assert!(
+        any(
+            d.dst_access,
+            vk::AccessFlags2::HOST_READ | vk::AccessFlags2::MEMORY_READ
+        ),
+        "{call:?}"
+    );
 }
 
 /// What an inserted copy reads: (source buffer, offset, size) per region.
@@ -1403,8 +1526,8 @@ fn exactly_the_contract_commands_are_inserted_before_each_build() {
             ),
         ] {
             assert!(inserted.len() >= 3, "{inserted:#?}");
-            assert!(is_barrier(&inserted[0]), "{inserted:#?}");
-            assert!(is_barrier(&inserted[inserted.len() - 1]), "{inserted:#?}");
+            assert_orders_writes_before_transfer_reads(&inserted[0]);
+            assert_orders_copies_before_host_reads(&inserted[inserted.len() - 1]);
             let mut ranges: Vec<(u64, u64, u64)> = inserted[1..inserted.len() - 1]
                 .iter()
                 .flat_map(copied_ranges)

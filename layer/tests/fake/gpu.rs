@@ -525,27 +525,103 @@ pub unsafe extern "system" fn cmd_fill_buffer(
     );
 }
 
+/// What a barrier orders, as 64-bit (synchronization2) flags: the union of
+/// its stage masks and of its memory and buffer barriers' access masks.
+#[derive(Default)]
+struct Dependency {
+    src_stages: u64,
+    src_access: u64,
+    dst_stages: u64,
+    dst_access: u64,
+}
+
+impl Dependency {
+    /// Logs the barrier as `[command buffer, src stages, src access, dst
+    /// stages, dst access]`. The fake executes barriers as no-ops (every
+    /// command runs in order at submission); tests read what they order.
+    fn record(&self, name: &'static str, cb: vk::CommandBuffer) {
+        record(
+            name,
+            vec![
+                cb.as_raw(),
+                self.src_stages,
+                self.src_access,
+                self.dst_stages,
+                self.dst_access,
+            ],
+        );
+    }
+}
+
+/// The synchronization1 flags are the low bits of synchronization2's.
 #[allow(clippy::too_many_arguments)]
 pub unsafe extern "system" fn cmd_pipeline_barrier(
     cb: vk::CommandBuffer,
     src: vk::PipelineStageFlags,
     dst: vk::PipelineStageFlags,
     _: vk::DependencyFlags,
-    _: u32,
-    _: *const vk::MemoryBarrier<'_>,
-    _: u32,
-    _: *const vk::BufferMemoryBarrier<'_>,
+    memory_count: u32,
+    memory: *const vk::MemoryBarrier<'_>,
+    buffer_count: u32,
+    buffers: *const vk::BufferMemoryBarrier<'_>,
     _: u32,
     _: *const vk::ImageMemoryBarrier<'_>,
 ) {
-    record(
-        "vkCmdPipelineBarrier",
-        vec![
-            cb.as_raw(),
-            u64::from(src.as_raw()),
-            u64::from(dst.as_raw()),
-        ],
-    );
+    let mut dependency = Dependency {
+        src_stages: u64::from(src.as_raw()),
+        dst_stages: u64::from(dst.as_raw()),
+        ..Dependency::default()
+    };
+    let memory = unsafe { items(memory, memory_count) };
+    let buffers = unsafe { items(buffers, buffer_count) };
+    let access = memory
+        .iter()
+        .map(|m| (m.src_access_mask, m.dst_access_mask))
+        .chain(
+            buffers
+                .iter()
+                .map(|b| (b.src_access_mask, b.dst_access_mask)),
+        );
+    for (src, dst) in access {
+        dependency.src_access |= u64::from(src.as_raw());
+        dependency.dst_access |= u64::from(dst.as_raw());
+    }
+    dependency.record("vkCmdPipelineBarrier", cb);
+}
+
+pub unsafe extern "system" fn cmd_pipeline_barrier2(
+    cb: vk::CommandBuffer,
+    info: *const vk::DependencyInfo<'_>,
+) {
+    let i = unsafe { &*info };
+    let mut dependency = Dependency::default();
+    let memory = unsafe { items(i.p_memory_barriers, i.memory_barrier_count) };
+    let buffers = unsafe { items(i.p_buffer_memory_barriers, i.buffer_memory_barrier_count) };
+    let masks = memory
+        .iter()
+        .map(|m| {
+            (
+                m.src_stage_mask,
+                m.src_access_mask,
+                m.dst_stage_mask,
+                m.dst_access_mask,
+            )
+        })
+        .chain(buffers.iter().map(|b| {
+            (
+                b.src_stage_mask,
+                b.src_access_mask,
+                b.dst_stage_mask,
+                b.dst_access_mask,
+            )
+        }));
+    for (src_stages, src_access, dst_stages, dst_access) in masks {
+        dependency.src_stages |= src_stages.as_raw();
+        dependency.src_access |= src_access.as_raw();
+        dependency.dst_stages |= dst_stages.as_raw();
+        dependency.dst_access |= dst_access.as_raw();
+    }
+    dependency.record("vkCmdPipelineBarrier2", cb);
 }
 
 pub unsafe extern "system" fn cmd_execute_commands(

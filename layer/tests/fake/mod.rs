@@ -736,13 +736,6 @@ unsafe extern "system" fn deferred_operation_join(
     vk::Result::SUCCESS
 }
 
-unsafe extern "system" fn cmd_pipeline_barrier2(
-    cb: vk::CommandBuffer,
-    _: *const vk::DependencyInfo<'_>,
-) {
-    record("vkCmdPipelineBarrier2", vec![cb.as_raw()]);
-}
-
 unsafe extern "system" fn create_descriptor_set_layout(
     _: vk::Device,
     _: *const vk::DescriptorSetLayoutCreateInfo<'_>,
@@ -1230,7 +1223,7 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             void(deferred_operation_join as vk::PFN_vkDeferredOperationJoinKHR)
         }
         b"vkCmdPipelineBarrier2" | b"vkCmdPipelineBarrier2KHR" => {
-            void(cmd_pipeline_barrier2 as vk::PFN_vkCmdPipelineBarrier2)
+            void(gpu::cmd_pipeline_barrier2 as vk::PFN_vkCmdPipelineBarrier2)
         }
         b"vkCreateDescriptorSetLayout" => {
             void(create_descriptor_set_layout as vk::PFN_vkCreateDescriptorSetLayout)
