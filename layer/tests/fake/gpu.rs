@@ -65,6 +65,7 @@ impl Drop for Backing {
 #[derive(Clone, Copy)]
 struct Buffer {
     size: u64,
+    usage: vk::BufferUsageFlags,
     /// The memory and the offset in it, once bound.
     binding: Option<(u64, u64)>,
 }
@@ -166,19 +167,41 @@ impl Gpu {
         Ok(())
     }
 
+    /// Err unless `buffer` was created with `usage`, as a transfer needs.
+    fn needs(&self, buffer: u64, usage: vk::BufferUsageFlags) -> Result<(), String> {
+        match self.buffers.get(&buffer) {
+            Some(b) if b.usage.contains(usage) => Ok(()),
+            Some(b) => Err(format!(
+                "buffer {buffer:#x} lacks {usage:?} (it has {:?})",
+                b.usage
+            )),
+            None => Err(format!("buffer {buffer:#x} is unknown")),
+        }
+    }
+
     fn apply(&self, command: &Command, depth: u32) -> Result<(), String> {
+        let source = vk::BufferUsageFlags::TRANSFER_SRC;
+        let destination = vk::BufferUsageFlags::TRANSFER_DST;
         match command {
-            Command::Copy { src, dst, regions } => regions.iter().try_for_each(|r| {
-                let bytes = self.read(*src, r.src_offset, r.size)?;
-                self.write(*dst, r.dst_offset, &bytes)
-            }),
-            Command::Update { dst, offset, bytes } => self.write(*dst, *offset, bytes),
+            Command::Copy { src, dst, regions } => {
+                self.needs(*src, source)?;
+                self.needs(*dst, destination)?;
+                regions.iter().try_for_each(|r| {
+                    let bytes = self.read(*src, r.src_offset, r.size)?;
+                    self.write(*dst, r.dst_offset, &bytes)
+                })
+            }
+            Command::Update { dst, offset, bytes } => {
+                self.needs(*dst, destination)?;
+                self.write(*dst, *offset, bytes)
+            }
             Command::Fill {
                 dst,
                 offset,
                 size,
                 word,
             } => {
+                self.needs(*dst, destination)?;
                 let size = if *size == vk::WHOLE_SIZE {
                     let buffer_size = self.buffers.get(dst).map_or(0, |b| b.size);
                     buffer_size.saturating_sub(*offset) & !3
@@ -228,22 +251,22 @@ impl Gpu {
     }
 }
 
-/// What the fake could not execute (out of range, unbound, unknown),
-/// apart from the state so `execute` can add to it while reading.
-static FAULTS: Mutex<Vec<String>> = Mutex::new(Vec::new());
-
-fn fault(why: String) {
-    FAULTS
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .push(why);
+thread_local! {
+    /// What the fake could not execute (out of range, unbound, a missing
+    /// transfer usage), per thread: submissions run on the caller's
+    /// thread, so tests running side by side see only their own.
+    static FAULTS: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// What the fake could not execute since the last call (a copy outside a
-/// buffer, an unbound buffer, ...), emptied. Process-wide: a test that
-/// asserts on it runs its own work only.
+fn fault(why: String) {
+    FAULTS.with_borrow_mut(|f| f.push(why));
+}
+
+/// What the fake could not execute on this thread since the last call (a
+/// copy outside a buffer, an unbound buffer, a buffer without the
+/// transfer usage the command needs, ...), emptied.
 pub fn faults() -> Vec<String> {
-    std::mem::take(&mut *FAULTS.lock().unwrap_or_else(PoisonError::into_inner))
+    FAULTS.with_borrow_mut(std::mem::take)
 }
 
 /// The most elements of one array the fake reads; more is a fault.
@@ -334,14 +357,20 @@ pub fn mapping(memory: u64, offset: u64) -> Option<usize> {
     (offset <= backing.size as u64).then(|| backing.pointer(offset as usize).expose_provenance())
 }
 
-pub fn create_buffer(buffer: u64, size: u64) {
+pub fn create_buffer(buffer: u64, size: u64, usage: vk::BufferUsageFlags) {
     gpu().buffers.insert(
         buffer,
         Buffer {
             size,
+            usage,
             binding: None,
         },
     );
+}
+
+/// The usage `buffer` was created with, as the driver saw it.
+pub fn usage_of(buffer: vk::Buffer) -> Option<vk::BufferUsageFlags> {
+    gpu().buffers.get(&buffer.as_raw()).map(|b| b.usage)
 }
 
 pub fn destroy_buffer(buffer: u64) {

@@ -250,7 +250,7 @@ unsafe extern "system" fn create_buffer(
             )
         },
     );
-    gpu::create_buffer(handle, unsafe { (*info).size });
+    gpu::create_buffer(handle, unsafe { (*info).size }, unsafe { (*info).usage });
     unsafe { *out = vk::Buffer::from_raw(handle) };
     vk::Result::SUCCESS
 }
