@@ -339,13 +339,17 @@ impl Scene {
 enum Upload {
     CopyBuffer,
     CopyBuffer2,
+    /// The same command by its VK_KHR_copy_commands2 name, which the layer
+    /// must follow too.
+    CopyBuffer2KHR,
     UpdateBuffer,
 }
 
 impl Upload {
-    const ALL: [Upload; 3] = [
+    const ALL: [Upload; 4] = [
         Upload::CopyBuffer,
         Upload::CopyBuffer2,
+        Upload::CopyBuffer2KHR,
         Upload::UpdateBuffer,
     ];
 }
@@ -419,8 +423,13 @@ fn record_inputs(
                 // SAFETY: one region.
                 unsafe { copy(command_buffer, staging.buffer, dst, 1, &region) };
             }
-            Upload::CopyBuffer2 => {
-                let copy: vk::PFN_vkCmdCopyBuffer2 = app.f(c"vkCmdCopyBuffer2");
+            Upload::CopyBuffer2 | Upload::CopyBuffer2KHR => {
+                let name = if let Upload::CopyBuffer2 = upload {
+                    c"vkCmdCopyBuffer2"
+                } else {
+                    c"vkCmdCopyBuffer2KHR"
+                };
+                let copy: vk::PFN_vkCmdCopyBuffer2 = app.f(name);
                 let regions = [vk::BufferCopy2::default().src_offset(src_offset).size(size)];
                 let info = vk::CopyBufferInfo2::default()
                     .src_buffer(staging.buffer)
@@ -1133,6 +1142,74 @@ fn inputs_copied_through_an_intermediate_device_local_buffer_are_checked_at_subm
             }
         });
         assert_eq!(reported, strings(&expected), "{indices:?}");
+    }
+}
+
+/// Uploads run in submission order: a valid copy recorded after a faulty
+/// fill of the indices leaves nothing to report.
+#[test]
+fn a_later_upload_replaces_an_earlier_one() {
+    let setup = Setup::new(false, &[]);
+    let chain = setup.chain();
+    let contents = Contents::valid();
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
+    let fill: vk::PFN_vkCmdFillBuffer = setup.app.f(c"vkCmdFillBuffer");
+    // SAFETY: valid arguments.
+    unsafe { fill(command_buffer, setup.scene.indices, 0, vk::WHOLE_SIZE, 2) };
+    setup.record(command_buffer, Route::Upload(Upload::CopyBuffer), &contents);
+    chain.end(command_buffer);
+    assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
+    setup.assert_inputs_hold(&contents);
+    assert_eq!(setup.app.reported(), Vec::<String>::new());
+}
+
+/// The upload in one command buffer, the builds in another submitted after
+/// it (in the same vkQueueSubmit, or a later one): the builds are checked
+/// against what the earlier command buffer wrote, at the submission that
+/// holds them.
+#[test]
+fn uploads_in_an_earlier_command_buffer_reach_a_later_build() {
+    for same_submit in [true, false] {
+        let setup = Setup::new(false, &[]);
+        let chain = setup.chain();
+        let faulty = Rule::IndexPastMicromap.contents(true);
+        let upload = chain.allocate_command_buffer();
+        chain.begin(upload);
+        record_upload(
+            &setup.app,
+            &setup.scene,
+            &setup.staging,
+            upload,
+            Upload::CopyBuffer,
+            &faulty,
+        );
+        chain.end(upload);
+        let build = chain.allocate_command_buffer();
+        chain.begin(build);
+        setup.scene.record_builds(chain, build, &faulty);
+        chain.end(build);
+        setup.staging.write(&setup.scene, &faulty);
+        let reported = if same_submit {
+            let submit: vk::PFN_vkQueueSubmit = setup.app.f(c"vkQueueSubmit");
+            let command_buffers = [upload, build];
+            let info = vk::SubmitInfo::default().command_buffers(&command_buffers);
+            // SAFETY: valid pointers.
+            let result = unsafe { submit(chain.queue(), 1, &info, vk::Fence::null()) };
+            assert_eq!(result, vk::Result::SUCCESS);
+            setup.app.reported()
+        } else {
+            assert_eq!(chain.submit(upload), vk::Result::SUCCESS);
+            assert_eq!(setup.app.reported(), Vec::<String>::new(), "upload alone");
+            assert_eq!(chain.submit(build), vk::Result::SUCCESS);
+            setup.app.reported()
+        };
+        setup.assert_inputs_hold(&faulty);
+        assert_eq!(
+            reported,
+            [INDEX_IN_RANGE],
+            "same vkQueueSubmit: {same_submit}"
+        );
     }
 }
 
