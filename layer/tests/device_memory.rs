@@ -1448,6 +1448,33 @@ fn a_readback_over_gpu_readback_max_bytes_is_reported_not_checked_naming_the_set
     );
 }
 
+/// With `gpu_readback` off, inputs a shader wrote are what neither route
+/// can read: one information message per device (two submissions, one
+/// message) names the build, the reason, and the setting that would
+/// check them; no finding is made up.
+#[test]
+fn with_readback_off_shader_written_inputs_are_reported_not_checked_naming_gpu_readback() {
+    let setup = Setup::new(false, &[]);
+    let faulty = Rule::IndexPastMicromap.contents(true);
+    let command_buffer = setup.recorded(Route::Shader, &faulty);
+    let chain = setup.chain();
+    let mut info = Vec::new();
+    for _ in 0..2 {
+        let fence = chain.fence();
+        assert_eq!(
+            chain.submit_with(command_buffer, fence),
+            vk::Result::SUCCESS
+        );
+        assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
+        info.extend(setup.app.info_only());
+    }
+    assert_eq!(info.len(), 1, "{info:#?}");
+    assert_eq!(info[0].id, CONTENTS_NOT_CHECKED);
+    for words in ["vkCmdBuild", "device-local", "gpu_readback"] {
+        assert!(info[0].text.contains(words), "{words}: {}", info[0].text);
+    }
+}
+
 /// The layer writes only its own memory: the application's device-local
 /// inputs hold nothing after recording and exactly what the application's
 /// own commands wrote after completion, through both routes.
