@@ -999,6 +999,17 @@ fn the_fake_gpu_signals_fences_and_timeline_semaphores_at_submission() {
     assert_eq!(value(), 7);
     assert_eq!(chain.wait_semaphore(semaphore, 7), vk::Result::SUCCESS);
     assert_eq!(chain.queue(), chain.queue(), "one queue handle per index");
+
+    let buffer = chain.buffer(100, vk::BufferUsageFlags::TRANSFER_DST, 1);
+    let requirements: vk::PFN_vkGetBufferMemoryRequirements =
+        app.f(c"vkGetBufferMemoryRequirements");
+    let mut needed = vk::MemoryRequirements::default();
+    // SAFETY: a buffer of the device.
+    unsafe { requirements(chain.device, buffer, &mut needed) };
+    assert_eq!(
+        (needed.size, needed.alignment, needed.memory_type_bits),
+        (256, 256, 0b11)
+    );
 }
 
 #[test]

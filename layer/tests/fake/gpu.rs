@@ -398,6 +398,46 @@ pub unsafe extern "system" fn bind_buffer_memory2(
     vk::Result::SUCCESS
 }
 
+/// Memory an allocation for a buffer needs: its size rounded up to 256
+/// bytes, 256-byte aligned, of either memory type.
+fn requirements(buffer: u64) -> vk::MemoryRequirements {
+    let size = gpu().buffers.get(&buffer).map_or(0, |b| b.size);
+    vk::MemoryRequirements {
+        size: size.div_ceil(256) * 256,
+        alignment: 256,
+        memory_type_bits: 0b11,
+    }
+}
+
+pub unsafe extern "system" fn get_buffer_memory_requirements(
+    _: vk::Device,
+    buffer: vk::Buffer,
+    out: *mut vk::MemoryRequirements,
+) {
+    record("vkGetBufferMemoryRequirements", vec![buffer.as_raw()]);
+    unsafe { *out = requirements(buffer.as_raw()) };
+}
+
+pub unsafe extern "system" fn get_buffer_memory_requirements2(
+    _: vk::Device,
+    info: *const vk::BufferMemoryRequirementsInfo2<'_>,
+    out: *mut vk::MemoryRequirements2<'_>,
+) {
+    let buffer = unsafe { (*info).buffer.as_raw() };
+    record("vkGetBufferMemoryRequirements2", vec![buffer]);
+    unsafe { (*out).memory_requirements = requirements(buffer) };
+}
+
+/// The memory is coherent: flushes and invalidations have nothing to do.
+pub unsafe extern "system" fn flush_or_invalidate(
+    _: vk::Device,
+    count: u32,
+    _: *const vk::MappedMemoryRange<'_>,
+) -> vk::Result {
+    record("vkFlushMappedMemoryRanges", vec![u64::from(count)]);
+    vk::Result::SUCCESS
+}
+
 // Command buffers.
 
 /// Forgets what `command_buffer` recorded (begin, reset, allocation).

@@ -1267,6 +1267,15 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
 fn gpu_command(name: &CStr) -> vk::PFN_vkVoidFunction {
     match name.to_bytes() {
         b"vkResetCommandBuffer" => void(gpu::reset_command_buffer as vk::PFN_vkResetCommandBuffer),
+        b"vkGetBufferMemoryRequirements" => {
+            void(gpu::get_buffer_memory_requirements as vk::PFN_vkGetBufferMemoryRequirements)
+        }
+        b"vkGetBufferMemoryRequirements2" | b"vkGetBufferMemoryRequirements2KHR" => {
+            void(gpu::get_buffer_memory_requirements2 as vk::PFN_vkGetBufferMemoryRequirements2)
+        }
+        b"vkFlushMappedMemoryRanges" | b"vkInvalidateMappedMemoryRanges" => {
+            void(gpu::flush_or_invalidate as vk::PFN_vkFlushMappedMemoryRanges)
+        }
         b"vkResetCommandPool" => void(gpu::reset_command_pool as vk::PFN_vkResetCommandPool),
         b"vkCmdCopyBuffer" => void(gpu::cmd_copy_buffer as vk::PFN_vkCmdCopyBuffer),
         b"vkCmdCopyBuffer2" | b"vkCmdCopyBuffer2KHR" => {
