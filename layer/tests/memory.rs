@@ -14,7 +14,7 @@ mod fake;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use fake::{device_fn, dispatchable, key_of, Chain};
+use fake::{device_fn, device_micromap_build, dispatchable, key_of, Chain, TRIANGLES};
 
 #[path = "../../validator/tests/support/peak_memory.rs"]
 mod peak_memory;
@@ -29,20 +29,6 @@ const HUGE_USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
     subdivision_level: 12,
     format: 2,
 }];
-
-/// Two triangles' entries.
-const TRIANGLES: [vk::MicromapTriangleEXT; 2] = [
-    vk::MicromapTriangleEXT {
-        data_offset: 0,
-        subdivision_level: 1,
-        format: 1,
-    },
-    vk::MicromapTriangleEXT {
-        data_offset: 1,
-        subdivision_level: 1,
-        format: 1,
-    },
-];
 
 fn host(p: *const u8) -> u64 {
     p.expose_provenance() as u64
@@ -127,24 +113,7 @@ fn micromap_build(
     data: u64,
     scratch: u64,
 ) -> vk::MicromapBuildInfoEXT<'static> {
-    vk::MicromapBuildInfoEXT {
-        ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
-        mode: vk::BuildMicromapModeEXT::BUILD,
-        dst_micromap: micromap,
-        usage_counts_count: 1,
-        p_usage_counts: HUGE_USAGE.as_ptr(),
-        data: vk::DeviceOrHostAddressConstKHR {
-            device_address: data,
-        },
-        triangle_array: vk::DeviceOrHostAddressConstKHR {
-            device_address: triangles,
-        },
-        triangle_array_stride: 8,
-        scratch_data: vk::DeviceOrHostAddressKHR {
-            device_address: scratch,
-        },
-        ..Default::default()
-    }
+    device_micromap_build(micromap, &HUGE_USAGE, triangles, data, scratch)
 }
 
 #[test]

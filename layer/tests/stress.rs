@@ -16,7 +16,9 @@ use std::time::Duration;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use fake::{device_fn, dispatchable, key_of, Chain, Received, USAGE};
+use fake::{
+    device_fn, device_micromap_build, dispatchable, key_of, Chain, Received, TRIANGLES, USAGE,
+};
 
 const BOTH_USAGE_POINTERS: &str = "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516";
 const MICROMAP_STRUCTURE_TYPE: &str = "VUID-VkAccelerationStructureCreateInfoKHR-type-11600";
@@ -210,40 +212,8 @@ fn micromap_build(
     data: u64,
     scratch: u64,
 ) -> vk::MicromapBuildInfoEXT<'static> {
-    vk::MicromapBuildInfoEXT {
-        ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
-        mode: vk::BuildMicromapModeEXT::BUILD,
-        dst_micromap: dst,
-        usage_counts_count: 1,
-        p_usage_counts: USAGE.as_ptr(),
-        data: vk::DeviceOrHostAddressConstKHR {
-            device_address: data,
-        },
-        triangle_array: vk::DeviceOrHostAddressConstKHR {
-            device_address: triangles,
-        },
-        triangle_array_stride: 8,
-        scratch_data: vk::DeviceOrHostAddressKHR {
-            device_address: scratch,
-        },
-        ..Default::default()
-    }
+    device_micromap_build(dst, &USAGE, triangles, data, scratch)
 }
-
-/// The two 2-state level-1 triangles of [`USAGE`], their data at bytes 0
-/// and 1 (one byte each).
-const TRIANGLES: [vk::MicromapTriangleEXT; 2] = [
-    vk::MicromapTriangleEXT {
-        data_offset: 0,
-        subdivision_level: 1,
-        format: 1,
-    },
-    vk::MicromapTriangleEXT {
-        data_offset: 1,
-        subdivision_level: 1,
-        format: 1,
-    },
-];
 
 const ITERATIONS: usize = 24;
 const THREADS: usize = 8;

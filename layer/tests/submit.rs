@@ -13,10 +13,8 @@ use std::sync::Once;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use fake::{
-    add_messenger, calls, device_fn, dispatchable, key_of, Chain, Collector, DeviceBuild, Received,
-    USAGE,
-};
+use fake::app::{record_micromap_build, AttachmentBuild};
+use fake::{add_messenger, calls, device_fn, Chain, Collector, DeviceBuild, Received, USAGE};
 
 const INDEX_IN_RANGE: &str = "OMMCHECK-attach-index-in-range";
 const NOT_RECORDING: &str = "VUID-vkCmdBuildMicromapsEXT-commandBuffer-recording";
@@ -40,66 +38,11 @@ fn chain_at_tier(tier: Option<&CStr>) -> Chain {
     let Some(tier) = tier else {
         return Chain::new();
     };
-    let values = [tier.as_ptr()];
-    let settings = [vk::LayerSettingEXT {
-        p_layer_name: VkLayer_ommcheck::LAYER_NAME_C.as_ptr(),
-        p_setting_name: c"tier".as_ptr(),
-        ty: vk::LayerSettingTypeEXT::STRING,
-        value_count: 1,
-        p_values: values.as_ptr().cast(),
-        ..Default::default()
-    }];
-    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
-    Chain::with_instance_next((&info as *const vk::LayerSettingsCreateInfoEXT).cast())
+    Chain::with_settings(&[(c"tier", tier)])
 }
 
 fn ids(received: &[Received]) -> Vec<&str> {
     received.iter().map(|r| r.id.as_str()).collect()
-}
-
-/// A primary command buffer allocated through the layer from a pool of
-/// queue family 0 (graphics, compute and transfer).
-fn allocate_command_buffer(chain: &Chain) -> vk::CommandBuffer {
-    let create: vk::PFN_vkCreateCommandPool = device_fn(chain.device, c"vkCreateCommandPool");
-    let info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
-    let mut pool = vk::CommandPool::null();
-    // SAFETY: valid arguments.
-    let result = unsafe { create(chain.device, &info, std::ptr::null(), &mut pool) };
-    assert_eq!(result, vk::Result::SUCCESS);
-    let allocate: vk::PFN_vkAllocateCommandBuffers =
-        device_fn(chain.device, c"vkAllocateCommandBuffers");
-    let info = vk::CommandBufferAllocateInfo::default()
-        .command_pool(pool)
-        .level(vk::CommandBufferLevel::PRIMARY)
-        .command_buffer_count(1);
-    let mut command_buffer = vk::CommandBuffer::null();
-    // SAFETY: valid arguments, room for one handle.
-    let result = unsafe { allocate(chain.device, &info, &mut command_buffer) };
-    assert_eq!(result, vk::Result::SUCCESS);
-    command_buffer
-}
-
-fn begin(chain: &Chain, command_buffer: vk::CommandBuffer) {
-    let begin: vk::PFN_vkBeginCommandBuffer = device_fn(chain.device, c"vkBeginCommandBuffer");
-    let info = vk::CommandBufferBeginInfo::default();
-    // SAFETY: valid arguments.
-    assert_eq!(unsafe { begin(command_buffer, &info) }, vk::Result::SUCCESS);
-}
-
-fn end(chain: &Chain, command_buffer: vk::CommandBuffer) {
-    let end: vk::PFN_vkEndCommandBuffer = device_fn(chain.device, c"vkEndCommandBuffer");
-    // SAFETY: valid arguments.
-    assert_eq!(unsafe { end(command_buffer) }, vk::Result::SUCCESS);
-}
-
-fn submit(chain: &Chain, command_buffer: vk::CommandBuffer) -> vk::Result {
-    let submit: vk::PFN_vkQueueSubmit = device_fn(chain.device, c"vkQueueSubmit");
-    // A queue shares its device's dispatch key.
-    let queue = vk::Queue::from_raw(dispatchable(key_of(chain.device.as_raw())));
-    let command_buffers = [command_buffer];
-    let info = vk::SubmitInfo::default().command_buffers(&command_buffers);
-    // SAFETY: valid arguments.
-    unsafe { submit(queue, 1, &info, vk::Fence::null()) }
 }
 
 /// A micromap of two triangles, built on the device from inputs in
@@ -119,22 +62,7 @@ impl Scene {
     /// (1: host-visible and mapped; 0: device-local).
     fn new(chain: &Chain, index_memory_type: u32) -> Self {
         let micromap = DeviceBuild::new(chain);
-        let blas_storage = chain.buffer(
-            1 << 16,
-            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            0,
-        );
-        let create: vk::PFN_vkCreateAccelerationStructureKHR =
-            device_fn(chain.device, c"vkCreateAccelerationStructureKHR");
-        let info = vk::AccelerationStructureCreateInfoKHR::default()
-            .buffer(blas_storage)
-            .size(1 << 16)
-            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
-        let mut blas = vk::AccelerationStructureKHR::null();
-        // SAFETY: valid arguments.
-        let result = unsafe { create(chain.device, &info, std::ptr::null(), &mut blas) };
-        assert_eq!(result, vk::Result::SUCCESS);
+        let blas = AttachmentBuild::structure(chain);
         let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         let vertices = chain.buffer(4096, input_usage, 0);
@@ -163,62 +91,20 @@ impl Scene {
         command_buffer: vk::CommandBuffer,
         info: &vk::MicromapBuildInfoEXT<'_>,
     ) {
-        let build: vk::PFN_vkCmdBuildMicromapsEXT =
-            device_fn(chain.device, c"vkCmdBuildMicromapsEXT");
-        // SAFETY: valid pointers for one info.
-        unsafe { build(command_buffer, 1, info) };
+        record_micromap_build(chain, command_buffer, info);
     }
 
     /// Records the bottom-level build that attaches the micromap.
     fn record_blas_build(&self, chain: &Chain, command_buffer: vk::CommandBuffer) {
-        let attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT {
-            index_type: vk::IndexType::UINT32,
-            index_buffer: vk::DeviceOrHostAddressConstKHR {
-                device_address: self.index_buffer,
-            },
-            index_stride: 4,
-            usage_counts_count: 1,
-            p_usage_counts: USAGE.as_ptr(),
+        AttachmentBuild {
+            blas: self.blas,
+            vertices: self.vertices,
+            scratch: self.micromap.scratch,
+            indices: self.index_buffer,
+            usage_counts: &USAGE,
             micromap: self.micromap.micromap,
-            ..Default::default()
-        };
-        let mut triangles = vk::AccelerationStructureGeometryTrianglesDataKHR {
-            vertex_format: vk::Format::R32G32B32_SFLOAT,
-            vertex_data: vk::DeviceOrHostAddressConstKHR {
-                device_address: self.vertices,
-            },
-            vertex_stride: 12,
-            max_vertex: 5,
-            index_type: vk::IndexType::NONE_KHR,
-            ..Default::default()
-        };
-        triangles.p_next =
-            (&attachment as *const vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>).cast();
-        let geometry = vk::AccelerationStructureGeometryKHR {
-            geometry_type: vk::GeometryTypeKHR::TRIANGLES,
-            geometry: vk::AccelerationStructureGeometryDataKHR { triangles },
-            ..Default::default()
-        };
-        let info = vk::AccelerationStructureBuildGeometryInfoKHR {
-            ty: vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-            mode: vk::BuildAccelerationStructureModeKHR::BUILD,
-            dst_acceleration_structure: self.blas,
-            geometry_count: 1,
-            p_geometries: &geometry,
-            scratch_data: vk::DeviceOrHostAddressKHR {
-                device_address: self.micromap.scratch,
-            },
-            ..Default::default()
-        };
-        let range = vk::AccelerationStructureBuildRangeInfoKHR {
-            primitive_count: 2,
-            ..Default::default()
-        };
-        let ranges = [&range as *const vk::AccelerationStructureBuildRangeInfoKHR];
-        let build: vk::PFN_vkCmdBuildAccelerationStructuresKHR =
-            device_fn(chain.device, c"vkCmdBuildAccelerationStructuresKHR");
-        // SAFETY: valid pointers for one info and its one range.
-        unsafe { build(command_buffer, 1, &info, ranges.as_ptr()) };
+        }
+        .record(chain, command_buffer);
     }
 }
 
@@ -226,19 +112,19 @@ impl Scene {
 fn an_index_past_the_micromap_in_mapped_memory_is_reported_at_submission_not_recording() {
     let chain = chain();
     let mut scene = Scene::new(&chain, 1);
-    let command_buffer = allocate_command_buffer(&chain);
-    begin(&chain, command_buffer);
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
     scene.record_micromap_build(&chain, command_buffer, &scene.micromap_build());
     // The application writes its indices after recording: the second
     // triangle's index 5 is past the micromap's two triangles.
     scene.indices[1] = 5;
     scene.record_blas_build(&chain, command_buffer);
-    end(&chain, command_buffer);
+    chain.end(command_buffer);
     let recorded = chain.collector.take();
     assert!(recorded.is_empty(), "reported at recording: {recorded:#?}");
     assert_eq!(calls("vkCmdBuildAccelerationStructuresKHR").len(), 1);
 
-    assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
+    assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
     let submitted = chain.collector.take();
     assert_eq!(ids(&submitted), [INDEX_IN_RANGE], "{submitted:#?}");
     let message = &submitted[0];
@@ -254,7 +140,7 @@ fn an_index_past_the_micromap_in_mapped_memory_is_reported_at_submission_not_rec
 
     // Fixed in memory, the next submission of the same recording is clean.
     scene.indices[1] = 1;
-    assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
+    assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
     let again = chain.collector.take();
     assert!(again.is_empty(), "{again:#?}");
 }
@@ -263,12 +149,12 @@ fn an_index_past_the_micromap_in_mapped_memory_is_reported_at_submission_not_rec
 fn valid_indices_in_mapped_memory_are_not_reported() {
     let chain = chain();
     let scene = Scene::new(&chain, 1);
-    let command_buffer = allocate_command_buffer(&chain);
-    begin(&chain, command_buffer);
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
     scene.record_micromap_build(&chain, command_buffer, &scene.micromap_build());
     scene.record_blas_build(&chain, command_buffer);
-    end(&chain, command_buffer);
-    assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
+    chain.end(command_buffer);
+    assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
     let received = chain.collector.take();
     assert!(received.is_empty(), "{received:#?}");
     assert_eq!(calls("vkQueueSubmit").len(), 1);
@@ -278,15 +164,15 @@ fn valid_indices_in_mapped_memory_are_not_reported() {
 fn a_build_outside_recording_reports_the_recording_vuid() {
     let chain = chain();
     let scene = Scene::new(&chain, 1);
-    let command_buffer = allocate_command_buffer(&chain);
+    let command_buffer = chain.allocate_command_buffer();
     scene.record_micromap_build(&chain, command_buffer, &scene.micromap_build());
     assert_eq!(ids(&chain.collector.take()), [NOT_RECORDING]);
 
-    begin(&chain, command_buffer);
+    chain.begin(command_buffer);
     scene.record_micromap_build(&chain, command_buffer, &scene.micromap_build());
     assert!(chain.collector.take().is_empty());
 
-    end(&chain, command_buffer);
+    chain.end(command_buffer);
     scene.record_micromap_build(&chain, command_buffer, &scene.micromap_build());
     assert_eq!(ids(&chain.collector.take()), [NOT_RECORDING]);
     // The calls went on to the driver: the callback did not ask to skip them.
@@ -297,8 +183,8 @@ fn a_build_outside_recording_reports_the_recording_vuid() {
 fn a_build_inside_a_render_pass_or_between_suspended_instances_is_reported() {
     let chain = chain();
     let scene = Scene::new(&chain, 1);
-    let command_buffer = allocate_command_buffer(&chain);
-    begin(&chain, command_buffer);
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
     let begin_render_pass: vk::PFN_vkCmdBeginRenderPass =
         device_fn(chain.device, c"vkCmdBeginRenderPass");
     let end_render_pass: vk::PFN_vkCmdEndRenderPass =
@@ -345,13 +231,13 @@ fn contents_in_device_local_memory_are_reported_not_checked_once_per_device() {
         &info,
     );
     let scene = Scene::new(&chain, 0);
-    let command_buffer = allocate_command_buffer(&chain);
-    begin(&chain, command_buffer);
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
     scene.record_blas_build(&chain, command_buffer);
     scene.record_blas_build(&chain, command_buffer);
-    end(&chain, command_buffer);
-    assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
-    assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
+    chain.end(command_buffer);
+    assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
+    assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
 
     let received: Vec<Received> = info
         .take()
@@ -390,13 +276,13 @@ fn below_the_content_tier_submission_looks_at_no_build() {
         let mut mapped = Scene::new(&chain, 1);
         mapped.indices[1] = 5;
         let device_local = Scene::new(&chain, 0);
-        let command_buffer = allocate_command_buffer(&chain);
-        begin(&chain, command_buffer);
+        let command_buffer = chain.allocate_command_buffer();
+        chain.begin(command_buffer);
         mapped.record_micromap_build(&chain, command_buffer, &mapped.micromap_build());
         mapped.record_blas_build(&chain, command_buffer);
         device_local.record_blas_build(&chain, command_buffer);
-        end(&chain, command_buffer);
-        assert_eq!(submit(&chain, command_buffer), vk::Result::SUCCESS);
+        chain.end(command_buffer);
+        assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
 
         let received = chain.collector.take();
         assert!(received.is_empty(), "{tier:?}: {received:#?}");
@@ -413,13 +299,13 @@ fn builds_recorded_on_eight_threads_are_each_reported_as_often_as_made() {
     let mut scene = Scene::new(&chain, 1);
     scene.indices[1] = 7;
     let command_buffers: Vec<vk::CommandBuffer> = (0..THREADS)
-        .map(|_| allocate_command_buffer(&chain))
+        .map(|_| chain.allocate_command_buffer())
         .collect();
     std::thread::scope(|threads| {
         for &command_buffer in &command_buffers {
             let (chain, scene) = (&chain, &scene);
             threads.spawn(move || {
-                begin(chain, command_buffer);
+                chain.begin(command_buffer);
                 let pointers = [USAGE.as_ptr()];
                 let faulty = vk::MicromapBuildInfoEXT {
                     pp_usage_counts: pointers.as_ptr(),
@@ -429,8 +315,8 @@ fn builds_recorded_on_eight_threads_are_each_reported_as_often_as_made() {
                     scene.record_micromap_build(chain, command_buffer, &faulty);
                 }
                 scene.record_blas_build(chain, command_buffer);
-                end(chain, command_buffer);
-                assert_eq!(submit(chain, command_buffer), vk::Result::SUCCESS);
+                chain.end(command_buffer);
+                assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
             });
         }
     });
@@ -489,7 +375,7 @@ fn acceleration_structure_and_micromap_copy_commands_are_checked_and_passed_on()
     assert_eq!(calls("vkCreateAccelerationStructureKHR").len(), 2);
 
     let scene = Scene::new(&chain, 1);
-    let command_buffer = allocate_command_buffer(&chain);
+    let command_buffer = chain.allocate_command_buffer();
     let copy: vk::PFN_vkCmdCopyMicromapEXT = device_fn(chain.device, c"vkCmdCopyMicromapEXT");
     let info = vk::CopyMicromapInfoEXT {
         src: scene.micromap.micromap,
@@ -504,7 +390,7 @@ fn acceleration_structure_and_micromap_copy_commands_are_checked_and_passed_on()
         ids(&outside).contains(&"VUID-vkCmdCopyMicromapEXT-commandBuffer-recording"),
         "{outside:#?}"
     );
-    begin(&chain, command_buffer);
+    chain.begin(command_buffer);
     // SAFETY: valid pointers.
     unsafe { copy(command_buffer, &info) };
     let inside = chain.collector.take();
@@ -543,8 +429,8 @@ fn begin_query_on_a_micromap_size_pool_is_reported() {
     };
     let sizes = pool_of(vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT);
     let occlusion = pool_of(vk::QueryType::OCCLUSION);
-    let command_buffer = allocate_command_buffer(&chain);
-    begin(&chain, command_buffer);
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
     let begin_query: vk::PFN_vkCmdBeginQuery = device_fn(chain.device, c"vkCmdBeginQuery");
     // SAFETY: valid arguments.
     unsafe { begin_query(command_buffer, sizes, 0, vk::QueryControlFlags::empty()) };

@@ -17,6 +17,9 @@ use ash::vk;
 use ash::vk::Handle as _;
 use VkLayer_ommcheck as layer;
 
+pub mod app;
+pub mod gpu;
+
 use layer::abi::{
     LayerDeviceCreateInfo, LayerDeviceCreateInfoUnion, LayerDeviceLink, LayerInstanceCreateInfo,
     LayerInstanceCreateInfoUnion, LayerInstanceLink, LAYER_LINK_INFO,
@@ -40,7 +43,8 @@ struct Driver {
     /// out the same one.
     base: u64,
     next_handle: u64,
-    /// What vkMapMemory hands out: test-owned memory.
+    /// What the next vkMapMemory hands out instead of the allocation's own
+    /// bytes: test-owned memory (0: none).
     mapped: usize,
     /// The maxOpacity2StateSubdivisionLevel vkGetPhysicalDeviceProperties2 reports.
     reported_2_state_level: u32,
@@ -99,6 +103,11 @@ pub fn describe_calls(on: bool) {
     DRIVER.with_borrow_mut(|d| d.describe = on);
 }
 
+/// Forgets this thread's calls, keeping its handles counting on.
+pub fn reset_calls() {
+    DRIVER.with_borrow_mut(|d| d.calls.clear());
+}
+
 /// Forgets this thread's calls and starts its handles (and command
 /// buffers) over, so the same calls made again get the same handles back.
 pub fn reset() {
@@ -109,7 +118,9 @@ pub fn reset() {
     });
 }
 
-/// Makes vkMapMemory return `memory`.
+/// Makes this thread's next vkMapMemory return `memory`, test-owned bytes,
+/// instead of a pointer into the allocation (whose bytes the fake GPU's
+/// commands read and write; test-owned bytes they do not see).
 pub fn map_to(memory: *mut u8) {
     DRIVER.with_borrow_mut(|d| d.mapped = memory.expose_provenance());
 }
@@ -239,6 +250,7 @@ unsafe extern "system" fn create_buffer(
             )
         },
     );
+    gpu::create_buffer(handle, unsafe { (*info).size }, unsafe { (*info).usage });
     unsafe { *out = vk::Buffer::from_raw(handle) };
     vk::Result::SUCCESS
 }
@@ -249,6 +261,7 @@ unsafe extern "system" fn destroy_buffer(
     _: *const vk::AllocationCallbacks<'_>,
 ) {
     record("vkDestroyBuffer", vec![b.as_raw()]);
+    gpu::destroy_buffer(b.as_raw());
 }
 
 unsafe extern "system" fn allocate_memory(
@@ -267,8 +280,13 @@ unsafe extern "system" fn allocate_memory(
             unsafe { chain(i.p_next) }
         )
     });
-    unsafe { *out = vk::DeviceMemory::from_raw(handle) };
-    vk::Result::SUCCESS
+    let result = gpu::allocate(handle, unsafe { (*info).allocation_size }, unsafe {
+        (*info).memory_type_index
+    });
+    if result == vk::Result::SUCCESS {
+        unsafe { *out = vk::DeviceMemory::from_raw(handle) };
+    }
+    result
 }
 
 unsafe extern "system" fn free_memory(
@@ -277,6 +295,7 @@ unsafe extern "system" fn free_memory(
     _: *const vk::AllocationCallbacks<'_>,
 ) {
     record("vkFreeMemory", vec![m.as_raw()]);
+    gpu::free(m.as_raw());
 }
 
 unsafe extern "system" fn map_memory(
@@ -287,7 +306,15 @@ unsafe extern "system" fn map_memory(
     flags: vk::MemoryMapFlags,
     out: *mut *mut c_void,
 ) -> vk::Result {
-    let mapped = DRIVER.with_borrow(|d| d.mapped);
+    let test_owned = DRIVER.with_borrow_mut(|d| std::mem::take(&mut d.mapped));
+    let mapped = if test_owned != 0 {
+        test_owned
+    } else {
+        match gpu::mapping(m.as_raw(), offset) {
+            Some(address) => address,
+            None => return vk::Result::ERROR_MEMORY_MAP_FAILED,
+        }
+    };
     record(
         "vkMapMemory",
         vec![
@@ -310,18 +337,10 @@ unsafe extern "system" fn bind_buffer_memory(
     _: vk::Device,
     b: vk::Buffer,
     m: vk::DeviceMemory,
-    _: vk::DeviceSize,
+    offset: vk::DeviceSize,
 ) -> vk::Result {
     record("vkBindBufferMemory", vec![b.as_raw(), m.as_raw()]);
-    vk::Result::SUCCESS
-}
-
-unsafe extern "system" fn bind_buffer_memory2(
-    _: vk::Device,
-    count: u32,
-    _: *const vk::BindBufferMemoryInfo<'_>,
-) -> vk::Result {
-    record("vkBindBufferMemory2", vec![u64::from(count)]);
+    gpu::bind(b.as_raw(), m.as_raw(), offset);
     vk::Result::SUCCESS
 }
 
@@ -500,6 +519,9 @@ unsafe extern "system" fn allocate_command_buffers(
     for (k, &handle) in handles.iter().enumerate() {
         unsafe { *out.add(k) = vk::CommandBuffer::from_raw(handle) };
     }
+    for &handle in &handles {
+        gpu::allocated(handle, i.command_pool.as_raw());
+    }
     record_with("vkAllocateCommandBuffers", handles, || {
         format!(
             "pool={} {:?} count={}",
@@ -515,6 +537,8 @@ unsafe extern "system" fn begin_command_buffer(
     cb: vk::CommandBuffer,
     info: *const vk::CommandBufferBeginInfo<'_>,
 ) -> vk::Result {
+    // Beginning resets what was recorded.
+    gpu::forget(cb.as_raw());
     record_with("vkBeginCommandBuffer", vec![cb.as_raw()], || {
         let i = unsafe { &*info };
         format!(
@@ -579,6 +603,7 @@ unsafe extern "system" fn queue_submit(
             format!("{submits} fence={}", fence.as_raw())
         },
     );
+    unsafe { gpu::execute_submits(count, submits, fence) };
     vk::Result::SUCCESS
 }
 
@@ -709,13 +734,6 @@ unsafe extern "system" fn deferred_operation_join(
 ) -> vk::Result {
     record("vkDeferredOperationJoinKHR", vec![operation.as_raw()]);
     vk::Result::SUCCESS
-}
-
-unsafe extern "system" fn cmd_pipeline_barrier2(
-    cb: vk::CommandBuffer,
-    _: *const vk::DependencyInfo<'_>,
-) {
-    record("vkCmdPipelineBarrier2", vec![cb.as_raw()]);
 }
 
 unsafe extern "system" fn create_descriptor_set_layout(
@@ -1126,6 +1144,9 @@ unsafe extern "system" fn free_command_buffers(
             .iter()
             .map(|c| c.as_raw()),
     );
+    for &command_buffer in &args[1..] {
+        gpu::freed(command_buffer);
+    }
     record("vkFreeCommandBuffers", args);
 }
 
@@ -1135,6 +1156,7 @@ unsafe extern "system" fn destroy_command_pool(
     _: *const vk::AllocationCallbacks<'_>,
 ) {
     record("vkDestroyCommandPool", vec![pool.as_raw()]);
+    gpu::pool_destroyed(pool.as_raw());
 }
 
 /// A command no layer knows, which the fake driver has.
@@ -1159,7 +1181,9 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkMapMemory" => void(map_memory as vk::PFN_vkMapMemory),
         b"vkUnmapMemory" => void(unmap_memory as vk::PFN_vkUnmapMemory),
         b"vkBindBufferMemory" => void(bind_buffer_memory as vk::PFN_vkBindBufferMemory),
-        b"vkBindBufferMemory2" => void(bind_buffer_memory2 as vk::PFN_vkBindBufferMemory2),
+        b"vkBindBufferMemory2" | b"vkBindBufferMemory2KHR" => {
+            void(gpu::bind_buffer_memory2 as vk::PFN_vkBindBufferMemory2)
+        }
         b"vkGetBufferDeviceAddress" => {
             void(get_buffer_device_address as vk::PFN_vkGetBufferDeviceAddress)
         }
@@ -1198,7 +1222,9 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkDeferredOperationJoinKHR" => {
             void(deferred_operation_join as vk::PFN_vkDeferredOperationJoinKHR)
         }
-        b"vkCmdPipelineBarrier2" => void(cmd_pipeline_barrier2 as vk::PFN_vkCmdPipelineBarrier2),
+        b"vkCmdPipelineBarrier2" | b"vkCmdPipelineBarrier2KHR" => {
+            void(gpu::cmd_pipeline_barrier2 as vk::PFN_vkCmdPipelineBarrier2)
+        }
         b"vkCreateDescriptorSetLayout" => {
             void(create_descriptor_set_layout as vk::PFN_vkCreateDescriptorSetLayout)
         }
@@ -1233,6 +1259,55 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         }
         b"vkFreeCommandBuffers" => void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
         b"vkDestroyCommandPool" => void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),
+        _ => gpu_command(name),
+    }
+}
+
+/// The commands of the fake GPU (see `gpu`).
+fn gpu_command(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkResetCommandBuffer" => void(gpu::reset_command_buffer as vk::PFN_vkResetCommandBuffer),
+        b"vkGetBufferMemoryRequirements" => {
+            void(gpu::get_buffer_memory_requirements as vk::PFN_vkGetBufferMemoryRequirements)
+        }
+        b"vkGetBufferMemoryRequirements2" | b"vkGetBufferMemoryRequirements2KHR" => {
+            void(gpu::get_buffer_memory_requirements2 as vk::PFN_vkGetBufferMemoryRequirements2)
+        }
+        b"vkFlushMappedMemoryRanges" | b"vkInvalidateMappedMemoryRanges" => {
+            void(gpu::flush_or_invalidate as vk::PFN_vkFlushMappedMemoryRanges)
+        }
+        b"vkResetCommandPool" => void(gpu::reset_command_pool as vk::PFN_vkResetCommandPool),
+        b"vkCmdCopyBuffer" => void(gpu::cmd_copy_buffer as vk::PFN_vkCmdCopyBuffer),
+        b"vkCmdCopyBuffer2" | b"vkCmdCopyBuffer2KHR" => {
+            void(gpu::cmd_copy_buffer2 as vk::PFN_vkCmdCopyBuffer2)
+        }
+        b"vkCmdUpdateBuffer" => void(gpu::cmd_update_buffer as vk::PFN_vkCmdUpdateBuffer),
+        b"vkCmdFillBuffer" => void(gpu::cmd_fill_buffer as vk::PFN_vkCmdFillBuffer),
+        b"vkCmdPipelineBarrier" => void(gpu::cmd_pipeline_barrier as vk::PFN_vkCmdPipelineBarrier),
+        b"vkCmdExecuteCommands" => void(gpu::cmd_execute_commands as vk::PFN_vkCmdExecuteCommands),
+        b"vkCmdDispatch" => void(gpu::cmd_dispatch as vk::PFN_vkCmdDispatch),
+        b"vkQueueSubmit2" | b"vkQueueSubmit2KHR" => {
+            void(gpu::queue_submit2 as vk::PFN_vkQueueSubmit2)
+        }
+        b"vkQueueWaitIdle" => void(gpu::queue_wait_idle as vk::PFN_vkQueueWaitIdle),
+        b"vkDeviceWaitIdle" => void(gpu::device_wait_idle as vk::PFN_vkDeviceWaitIdle),
+        b"vkGetDeviceQueue" => void(gpu::get_device_queue as vk::PFN_vkGetDeviceQueue),
+        b"vkCreateFence" => void(gpu::create_fence as vk::PFN_vkCreateFence),
+        b"vkDestroyFence" => void(gpu::destroy_fence as vk::PFN_vkDestroyFence),
+        b"vkResetFences" => void(gpu::reset_fences as vk::PFN_vkResetFences),
+        b"vkWaitForFences" => void(gpu::wait_for_fences as vk::PFN_vkWaitForFences),
+        b"vkGetFenceStatus" => void(gpu::get_fence_status as vk::PFN_vkGetFenceStatus),
+        b"vkCreateSemaphore" => void(gpu::create_semaphore as vk::PFN_vkCreateSemaphore),
+        b"vkDestroySemaphore" => void(gpu::destroy_semaphore as vk::PFN_vkDestroySemaphore),
+        b"vkGetSemaphoreCounterValue" | b"vkGetSemaphoreCounterValueKHR" => {
+            void(gpu::get_semaphore_counter_value as vk::PFN_vkGetSemaphoreCounterValue)
+        }
+        b"vkWaitSemaphores" | b"vkWaitSemaphoresKHR" => {
+            void(gpu::wait_semaphores as vk::PFN_vkWaitSemaphores)
+        }
+        b"vkSignalSemaphore" | b"vkSignalSemaphoreKHR" => {
+            void(gpu::signal_semaphore as vk::PFN_vkSignalSemaphore)
+        }
         _ => None,
     }
 }
@@ -1555,24 +1630,11 @@ impl Chain {
         memory
     }
 
-    /// Maps `memory`, which the fake driver places at `host`.
+    /// Maps `memory`, which the fake driver places at `host` (test-owned
+    /// bytes, which the fake GPU's commands do not see).
     pub fn map(&self, memory: vk::DeviceMemory, host: *mut u8) {
         map_to(host);
-        let map: vk::PFN_vkMapMemory = device_fn(self.device, c"vkMapMemory");
-        let mut mapped = std::ptr::null_mut();
-        // SAFETY: valid arguments.
-        let result = unsafe {
-            map(
-                self.device,
-                memory,
-                0,
-                vk::WHOLE_SIZE,
-                vk::MemoryMapFlags::empty(),
-                &mut mapped,
-            )
-        };
-        assert_eq!(result, vk::Result::SUCCESS);
-        assert_eq!(mapped.cast::<u8>(), host);
+        assert_eq!(self.map_backing(memory), host);
     }
 
     pub fn address(&self, buffer: vk::Buffer) -> u64 {
@@ -1606,6 +1668,50 @@ pub const USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
     format: 1,
 }];
 
+/// The two 2-state level-1 triangles of [`USAGE`], their data at bytes 0
+/// and 1 (one byte each).
+pub const TRIANGLES: [vk::MicromapTriangleEXT; 2] = [
+    vk::MicromapTriangleEXT {
+        data_offset: 0,
+        subdivision_level: 1,
+        format: 1,
+    },
+    vk::MicromapTriangleEXT {
+        data_offset: 1,
+        subdivision_level: 1,
+        format: 1,
+    },
+];
+
+/// A device build of `usage` into `micromap`: the triangle array (stride
+/// 8) at `triangles`, the data at `data`, scratch at `scratch`.
+pub fn device_micromap_build(
+    micromap: vk::MicromapEXT,
+    usage: &'static [vk::MicromapUsageEXT],
+    triangles: u64,
+    data: u64,
+    scratch: u64,
+) -> vk::MicromapBuildInfoEXT<'static> {
+    vk::MicromapBuildInfoEXT {
+        ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+        mode: vk::BuildMicromapModeEXT::BUILD,
+        dst_micromap: micromap,
+        usage_counts_count: usage.len() as u32,
+        p_usage_counts: usage.as_ptr(),
+        data: vk::DeviceOrHostAddressConstKHR {
+            device_address: data,
+        },
+        triangle_array: vk::DeviceOrHostAddressConstKHR {
+            device_address: triangles,
+        },
+        triangle_array_stride: 8,
+        scratch_data: vk::DeviceOrHostAddressKHR {
+            device_address: scratch,
+        },
+        ..Default::default()
+    }
+}
+
 /// Everything a device build reads, created through the layer.
 pub struct DeviceBuild {
     pub micromap: vk::MicromapEXT,
@@ -1638,23 +1744,12 @@ impl DeviceBuild {
     /// A valid build info: the triangle array at the start of the input
     /// buffer, the data 256 bytes in.
     pub fn info(&self) -> vk::MicromapBuildInfoEXT<'static> {
-        vk::MicromapBuildInfoEXT {
-            ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
-            mode: vk::BuildMicromapModeEXT::BUILD,
-            dst_micromap: self.micromap,
-            usage_counts_count: 1,
-            p_usage_counts: USAGE.as_ptr(),
-            data: vk::DeviceOrHostAddressConstKHR {
-                device_address: self.input + 256,
-            },
-            triangle_array: vk::DeviceOrHostAddressConstKHR {
-                device_address: self.input,
-            },
-            triangle_array_stride: 8,
-            scratch_data: vk::DeviceOrHostAddressKHR {
-                device_address: self.scratch,
-            },
-            ..Default::default()
-        }
+        device_micromap_build(
+            self.micromap,
+            &USAGE,
+            self.input,
+            self.input + 256,
+            self.scratch,
+        )
     }
 }

@@ -1,0 +1,280 @@
+//! What a test's application does through the layer, shared by the test
+//! binaries: layer settings, command buffers, submission and waiting, and
+//! the bottom-level build that attaches a micromap.
+
+use std::ffi::CStr;
+
+use ash::vk;
+
+use super::{device_fn, Chain};
+
+/// The layer's settings as VK_EXT_layer_settings strings, kept alive while
+/// the instance is created.
+pub fn with_settings<T>(
+    settings: &[(&CStr, &CStr)],
+    create: impl FnOnce(*const std::ffi::c_void) -> T,
+) -> T {
+    let values: Vec<*const std::ffi::c_char> = settings.iter().map(|(_, v)| v.as_ptr()).collect();
+    let settings: Vec<vk::LayerSettingEXT<'_>> = settings
+        .iter()
+        .zip(&values)
+        .map(|((name, _), value)| vk::LayerSettingEXT {
+            p_layer_name: VkLayer_ommcheck::LAYER_NAME_C.as_ptr(),
+            p_setting_name: name.as_ptr(),
+            ty: vk::LayerSettingTypeEXT::STRING,
+            value_count: 1,
+            p_values: (value as *const *const std::ffi::c_char).cast(),
+            ..Default::default()
+        })
+        .collect();
+    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
+    create((&info as *const vk::LayerSettingsCreateInfoEXT<'_>).cast())
+}
+
+impl Chain {
+    /// The chain with `settings` (name, value) given through
+    /// VK_EXT_layer_settings, so tests in one process do not share them
+    /// through the environment.
+    pub fn with_settings(settings: &[(&CStr, &CStr)]) -> Self {
+        with_settings(settings, Self::with_instance_next)
+    }
+
+    /// A command pool of queue family 0 (graphics, compute and transfer).
+    pub fn command_pool(&self) -> vk::CommandPool {
+        let create: vk::PFN_vkCreateCommandPool = device_fn(self.device, c"vkCreateCommandPool");
+        let info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
+        let mut pool = vk::CommandPool::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut pool) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        pool
+    }
+
+    /// A command buffer of `level` from `pool`.
+    pub fn command_buffer_from(
+        &self,
+        pool: vk::CommandPool,
+        level: vk::CommandBufferLevel,
+    ) -> vk::CommandBuffer {
+        let allocate: vk::PFN_vkAllocateCommandBuffers =
+            device_fn(self.device, c"vkAllocateCommandBuffers");
+        let info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(level)
+            .command_buffer_count(1);
+        let mut command_buffer = vk::CommandBuffer::null();
+        // SAFETY: valid arguments, room for one handle.
+        let result = unsafe { allocate(self.device, &info, &mut command_buffer) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        command_buffer
+    }
+
+    /// A primary command buffer from a pool of its own.
+    pub fn allocate_command_buffer(&self) -> vk::CommandBuffer {
+        self.command_buffer_from(self.command_pool(), vk::CommandBufferLevel::PRIMARY)
+    }
+
+    pub fn begin(&self, command_buffer: vk::CommandBuffer) {
+        let begin: vk::PFN_vkBeginCommandBuffer = device_fn(self.device, c"vkBeginCommandBuffer");
+        let info = vk::CommandBufferBeginInfo::default();
+        // SAFETY: valid arguments.
+        assert_eq!(unsafe { begin(command_buffer, &info) }, vk::Result::SUCCESS);
+    }
+
+    pub fn end(&self, command_buffer: vk::CommandBuffer) {
+        let end: vk::PFN_vkEndCommandBuffer = device_fn(self.device, c"vkEndCommandBuffer");
+        // SAFETY: valid arguments.
+        assert_eq!(unsafe { end(command_buffer) }, vk::Result::SUCCESS);
+    }
+
+    /// Queue 0 of family 0, through vkGetDeviceQueue.
+    pub fn queue(&self) -> vk::Queue {
+        let get: vk::PFN_vkGetDeviceQueue = device_fn(self.device, c"vkGetDeviceQueue");
+        let mut queue = vk::Queue::null();
+        // SAFETY: valid arguments.
+        unsafe { get(self.device, 0, 0, &mut queue) };
+        queue
+    }
+
+    /// Submits `command_buffer` with vkQueueSubmit, signaling `fence`.
+    pub fn submit_with(&self, command_buffer: vk::CommandBuffer, fence: vk::Fence) -> vk::Result {
+        let submit: vk::PFN_vkQueueSubmit = device_fn(self.device, c"vkQueueSubmit");
+        let command_buffers = [command_buffer];
+        let info = vk::SubmitInfo::default().command_buffers(&command_buffers);
+        // SAFETY: valid arguments.
+        unsafe { submit(self.queue(), 1, &info, fence) }
+    }
+
+    /// Submits `command_buffer` with vkQueueSubmit and no fence.
+    pub fn submit(&self, command_buffer: vk::CommandBuffer) -> vk::Result {
+        self.submit_with(command_buffer, vk::Fence::null())
+    }
+
+    /// Maps `memory` where the fake driver keeps its bytes: what the
+    /// application writes there, the fake GPU's commands read.
+    pub fn map_backing(&self, memory: vk::DeviceMemory) -> *mut u8 {
+        let map: vk::PFN_vkMapMemory = device_fn(self.device, c"vkMapMemory");
+        let mut mapped = std::ptr::null_mut();
+        // SAFETY: valid arguments.
+        let result = unsafe {
+            map(
+                self.device,
+                memory,
+                0,
+                vk::WHOLE_SIZE,
+                vk::MemoryMapFlags::empty(),
+                &mut mapped,
+            )
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        mapped.cast()
+    }
+
+    pub fn fence(&self) -> vk::Fence {
+        let create: vk::PFN_vkCreateFence = device_fn(self.device, c"vkCreateFence");
+        let mut fence = vk::Fence::null();
+        // SAFETY: valid arguments.
+        let result = unsafe {
+            create(
+                self.device,
+                &vk::FenceCreateInfo::default(),
+                std::ptr::null(),
+                &mut fence,
+            )
+        };
+        assert_eq!(result, vk::Result::SUCCESS);
+        fence
+    }
+
+    /// A timeline semaphore starting at `initial`.
+    pub fn timeline(&self, initial: u64) -> vk::Semaphore {
+        let create: vk::PFN_vkCreateSemaphore = device_fn(self.device, c"vkCreateSemaphore");
+        let mut kind = vk::SemaphoreTypeCreateInfo::default()
+            .semaphore_type(vk::SemaphoreType::TIMELINE)
+            .initial_value(initial);
+        let info = vk::SemaphoreCreateInfo::default().push_next(&mut kind);
+        let mut semaphore = vk::Semaphore::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut semaphore) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        semaphore
+    }
+
+    pub fn wait_for_fence(&self, fence: vk::Fence) -> vk::Result {
+        let wait: vk::PFN_vkWaitForFences = device_fn(self.device, c"vkWaitForFences");
+        // SAFETY: one fence.
+        unsafe { wait(self.device, 1, &fence, vk::TRUE, u64::MAX) }
+    }
+
+    /// Waits until `semaphore` reaches `value`.
+    pub fn wait_semaphore(&self, semaphore: vk::Semaphore, value: u64) -> vk::Result {
+        let wait: vk::PFN_vkWaitSemaphores = device_fn(self.device, c"vkWaitSemaphores");
+        let semaphores = [semaphore];
+        let values = [value];
+        let info = vk::SemaphoreWaitInfo::default()
+            .semaphores(&semaphores)
+            .values(&values);
+        // SAFETY: valid arguments.
+        unsafe { wait(self.device, &info, u64::MAX) }
+    }
+}
+
+/// A bottom-level build of two non-indexed triangles whose geometry
+/// attaches a micromap through `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
+pub struct AttachmentBuild<'a> {
+    pub blas: vk::AccelerationStructureKHR,
+    pub vertices: u64,
+    pub scratch: u64,
+    /// The 32-bit opacity indices' device address.
+    pub indices: u64,
+    pub usage_counts: &'a [vk::MicromapUsageEXT],
+    /// VK_NULL_HANDLE: special indices only.
+    pub micromap: vk::MicromapEXT,
+}
+
+impl AttachmentBuild<'_> {
+    /// A bottom-level acceleration structure for the build, in 64 KiB of
+    /// device-local storage.
+    pub fn structure(chain: &Chain) -> vk::AccelerationStructureKHR {
+        let storage = chain.buffer(
+            1 << 16,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            0,
+        );
+        let create: vk::PFN_vkCreateAccelerationStructureKHR =
+            device_fn(chain.device, c"vkCreateAccelerationStructureKHR");
+        let info = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(storage)
+            .size(1 << 16)
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
+        let mut blas = vk::AccelerationStructureKHR::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(chain.device, &info, std::ptr::null(), &mut blas) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        blas
+    }
+
+    /// Records the build with vkCmdBuildAccelerationStructuresKHR.
+    pub fn record(&self, chain: &Chain, command_buffer: vk::CommandBuffer) {
+        let attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT {
+            index_type: vk::IndexType::UINT32,
+            index_buffer: vk::DeviceOrHostAddressConstKHR {
+                device_address: self.indices,
+            },
+            index_stride: 4,
+            usage_counts_count: self.usage_counts.len() as u32,
+            p_usage_counts: self.usage_counts.as_ptr(),
+            micromap: self.micromap,
+            ..Default::default()
+        };
+        let mut triangles = vk::AccelerationStructureGeometryTrianglesDataKHR {
+            vertex_format: vk::Format::R32G32B32_SFLOAT,
+            vertex_data: vk::DeviceOrHostAddressConstKHR {
+                device_address: self.vertices,
+            },
+            vertex_stride: 12,
+            max_vertex: 5,
+            index_type: vk::IndexType::NONE_KHR,
+            ..Default::default()
+        };
+        triangles.p_next =
+            (&attachment as *const vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>).cast();
+        let geometry = vk::AccelerationStructureGeometryKHR {
+            geometry_type: vk::GeometryTypeKHR::TRIANGLES,
+            geometry: vk::AccelerationStructureGeometryDataKHR { triangles },
+            ..Default::default()
+        };
+        let info = vk::AccelerationStructureBuildGeometryInfoKHR {
+            ty: vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            mode: vk::BuildAccelerationStructureModeKHR::BUILD,
+            dst_acceleration_structure: self.blas,
+            geometry_count: 1,
+            p_geometries: &geometry,
+            scratch_data: vk::DeviceOrHostAddressKHR {
+                device_address: self.scratch,
+            },
+            ..Default::default()
+        };
+        let range = vk::AccelerationStructureBuildRangeInfoKHR {
+            primitive_count: 2,
+            ..Default::default()
+        };
+        let ranges = [&range as *const vk::AccelerationStructureBuildRangeInfoKHR];
+        let build: vk::PFN_vkCmdBuildAccelerationStructuresKHR =
+            device_fn(chain.device, c"vkCmdBuildAccelerationStructuresKHR");
+        // SAFETY: valid pointers for one info and its one range.
+        unsafe { build(command_buffer, 1, &info, ranges.as_ptr()) };
+    }
+}
+
+/// Records `info` with vkCmdBuildMicromapsEXT.
+pub fn record_micromap_build(
+    chain: &Chain,
+    command_buffer: vk::CommandBuffer,
+    info: &vk::MicromapBuildInfoEXT<'_>,
+) {
+    let build: vk::PFN_vkCmdBuildMicromapsEXT = device_fn(chain.device, c"vkCmdBuildMicromapsEXT");
+    // SAFETY: valid pointers for one info.
+    unsafe { build(command_buffer, 1, info) };
+}
