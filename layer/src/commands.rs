@@ -154,8 +154,8 @@ pub struct KeptBuild {
     /// the build is then checked once its submission completes.
     pub readback: Option<Arc<Readback>>,
     /// Why its inputs, which the host could not read at recording, were
-    /// not read back.
-    pub not_read_back: Option<String>,
+    /// not read back: a key naming the cause, and the sentence.
+    pub not_read_back: Option<(&'static str, String)>,
 }
 
 /// What a submission of a command buffer runs that the content checks
@@ -279,7 +279,7 @@ pub fn keep_build(
     });
     let (readback, not_read_back) = match plan {
         Some(Plan::ReadBack(readback)) => (Some(readback), None),
-        Some(Plan::NotReadBack(reason)) => (None, Some(reason)),
+        Some(Plan::NotReadBack(key, reason)) => (None, Some((key, reason))),
         Some(Plan::AtSubmission) | None => (None, None),
     };
     let kept = KeptBuild {

@@ -110,9 +110,10 @@ pub enum Plan {
     AtSubmission,
     /// At completion, from the copies recorded before the build.
     ReadBack(Arc<Readback>),
-    /// At submission if transfers make them known; the reason no readback
-    /// was recorded otherwise.
-    NotReadBack(String),
+    /// At submission if transfers make them known; why no readback was
+    /// recorded otherwise: a short key (reported once per device) and the
+    /// sentence.
+    NotReadBack(&'static str, String),
 }
 
 /// The windows `build` reads, by buffer (one hull per buffer), as far as
@@ -173,7 +174,7 @@ pub fn plan(
 ) -> Plan {
     let mut windows = match windows(state, build) {
         Ok(windows) => windows,
-        Err(reason) => return Plan::NotReadBack(reason),
+        Err(reason) => return Plan::NotReadBack("unknown-address", reason),
     };
     for w in &windows {
         state.shadows.watch(w.buffer, w.offset, w.offset + w.len);
@@ -186,7 +187,7 @@ pub fn plan(
     }
     let settings = data.instance.reporter.settings();
     if !settings.gpu_readback {
-        return Plan::NotReadBack(format!(
+        return Plan::NotReadBack("readback-off", format!(
             "they lie in memory the host cannot read and GPU readback is off (setting gpu_readback, {GPU_READBACK})"
         ));
     }
@@ -197,7 +198,7 @@ pub fn plan(
             .get(&w.buffer)
             .is_some_and(|b| b.usage & TRANSFER_SRC == 0)
     }) {
-        return Plan::NotReadBack(format!(
+        return Plan::NotReadBack("no-transfer-source", format!(
             "VkBuffer {:#x} holding them lacks VK_BUFFER_USAGE_TRANSFER_SRC_BIT, which the layer adds only where the usage is given in VkBufferCreateInfo::usage, so it cannot be copied for GPU readback",
             w.buffer
         ));
@@ -211,7 +212,7 @@ pub fn plan(
     let limit = settings.gpu_readback_max_bytes;
     let now = held.load(Ordering::Relaxed);
     if now.saturating_add(size) > limit {
-        return Plan::NotReadBack(format!(
+        return Plan::NotReadBack("readback-memory", format!(
             "their GPU readback needs {size} bytes of layer memory and {now} of the {limit} allowed are held (raise gpu_readback_max_bytes, {GPU_READBACK_MAX_BYTES})"
         ));
     }
@@ -222,9 +223,10 @@ pub fn plan(
             unsafe { record_copies(data, command_buffer, &readback) };
             Plan::ReadBack(Arc::new(readback))
         }
-        Err(reason) => {
-            Plan::NotReadBack(format!("the layer could not set up GPU readback: {reason}"))
-        }
+        Err(reason) => Plan::NotReadBack(
+            "readback-setup",
+            format!("the layer could not set up GPU readback: {reason}"),
+        ),
     }
 }
 

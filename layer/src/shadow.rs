@@ -75,6 +75,24 @@ impl Shadows {
         *window = (window.0.min(start), window.1.max(end));
     }
 
+    /// Watches the windows of copy sources that feed watched windows, so a
+    /// chain of copies through buffers no build reads (staging to an
+    /// intermediate, intermediate to the input) is followed. `transfers`
+    /// come last first, as a submission would run them backwards.
+    pub fn watch_copy_sources<'a>(&mut self, transfers: impl Iterator<Item = &'a Transfer>) {
+        for transfer in transfers {
+            let Transfer::Copy { src, dst, regions } = transfer else {
+                continue;
+            };
+            for &(src_offset, dst_offset, size) in regions {
+                if let Some((start, end)) = self.clip(*dst, dst_offset, size) {
+                    let from = src_offset.saturating_add(start - dst_offset);
+                    self.watch(*src, from, from.saturating_add(end - start));
+                }
+            }
+        }
+    }
+
     /// Forgets a destroyed buffer.
     pub fn forget_buffer(&mut self, buffer: u64) {
         self.watched.remove(&buffer);
@@ -285,6 +303,32 @@ mod tests {
         assert_eq!(shadows.read(20, 0, 8), None);
         assert_eq!(shadows.read(20, 0, 2), Some(vec![4, 5]));
         assert_eq!(shadows.read(20, 4, 4), Some(vec![8, 9, 10, 11]));
+    }
+
+    #[test]
+    fn chains_of_copies_through_unread_buffers_are_followed() {
+        let mut shadows = Shadows::new(1 << 20);
+        shadows.watch(30, 0, 4);
+        let hops = [
+            Transfer::Copy {
+                src: 5,
+                dst: 20,
+                regions: vec![(8, 100, 4)],
+            },
+            Transfer::Copy {
+                src: 20,
+                dst: 30,
+                regions: vec![(100, 0, 4)],
+            },
+        ];
+        shadows.watch_copy_sources(hops.iter().rev());
+        let staging = |buffer: u64, offset: u64, len: u64| {
+            (buffer == 5).then(|| (offset..offset + len).map(|b| b as u8).collect())
+        };
+        for hop in &hops {
+            shadows.apply(hop, staging);
+        }
+        assert_eq!(shadows.read(30, 0, 4), Some(vec![8, 9, 10, 11]));
     }
 
     #[test]

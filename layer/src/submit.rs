@@ -33,8 +33,8 @@ pub struct MemoryLayout {
     bound: HashMap<u64, (u64, u64)>,
     /// Memory → offset of its mapping (the host range is in `DeviceState::mappings`).
     mapped_at: HashMap<u64, u64>,
-    /// The reasons [`CONTENTS_NOT_CHECKED`] was reported for on this device.
-    reported_unreadable: HashSet<String>,
+    /// The causes [`CONTENTS_NOT_CHECKED`] was reported for on this device.
+    reported_unreadable: HashSet<&'static str>,
 }
 
 impl MemoryLayout {
@@ -191,15 +191,14 @@ fn check_kept(
             .map(|finding| Message::from_finding(finding, object))
             .collect();
         if let Some(reason) = unreadable {
-            let why_not_read_back = kept
-                .not_read_back
-                .as_deref()
-                .unwrap_or("GPU readback was not set up when the build was recorded");
-            if state
-                .memory_layout
-                .reported_unreadable
-                .insert(why_not_read_back.to_string())
-            {
+            let (key, why_not_read_back) = kept.not_read_back.as_ref().map_or(
+                (
+                    "not-planned",
+                    "GPU readback was not set up when the build was recorded",
+                ),
+                |(key, why)| (*key, why.as_str()),
+            );
+            if state.memory_layout.reported_unreadable.insert(key) {
                 let text = format!(
                     "the inputs of a build recorded in VkCommandBuffer {command_buffer:#x} could not be read at {submit_function} ({reason}), nor read back on the GPU: {why_not_read_back}; the build's content rules are not checked. This is reported once per device and reason."
                 );
@@ -257,6 +256,11 @@ fn check_submission(
         for buffer in mapped {
             state.shadows.forget_contents(buffer);
         }
+        let transfers = run.iter().rev().filter_map(|(_, r)| match r {
+            Recorded::Transfer(transfer) => Some(transfer.as_ref()),
+            _ => None,
+        });
+        state.shadows.watch_copy_sources(transfers);
         let reads_back = run
             .iter()
             .any(|(_, r)| matches!(r, Recorded::Build(k) if k.readback.is_some()));
