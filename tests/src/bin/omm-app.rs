@@ -189,6 +189,12 @@ impl Drop for Vulkan {
     }
 }
 
+/// The memory of buffers the app writes through a mapping.
+const HOST_MAPPABLE: vk::MemoryPropertyFlags = vk::MemoryPropertyFlags::from_raw(
+    vk::MemoryPropertyFlags::HOST_VISIBLE.as_raw()
+        | vk::MemoryPropertyFlags::HOST_COHERENT.as_raw(),
+);
+
 /// A device with one queue of family 0 (the Mock ICD and lavapipe both
 /// have one family with graphics, compute and transfer).
 struct Gpu<'a> {
@@ -244,6 +250,18 @@ impl<'a> Gpu<'a> {
         })
     }
 
+    /// The first memory type in `bits` with `flags`.
+    fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Result<u32, String> {
+        (0..self.memory.memory_type_count)
+            .find(|&i| {
+                bits & (1 << i) != 0
+                    && self.memory.memory_types[i as usize]
+                        .property_flags
+                        .contains(flags)
+            })
+            .ok_or_else(|| format!("no memory type with {flags:?} in {bits:#x}"))
+    }
+
     /// Memory of `size` bytes of the first type in `bits` with `flags`.
     fn allocate(
         &self,
@@ -252,14 +270,7 @@ impl<'a> Gpu<'a> {
         flags: vk::MemoryPropertyFlags,
         device_address: bool,
     ) -> Result<vk::DeviceMemory, String> {
-        let index = (0..self.memory.memory_type_count)
-            .find(|&i| {
-                bits & (1 << i) != 0
-                    && self.memory.memory_types[i as usize]
-                        .property_flags
-                        .contains(flags)
-            })
-            .ok_or_else(|| format!("no memory type with {flags:?} in {bits:#x}"))?;
+        let index = self.memory_type(bits, flags)?;
         let mut address_flags =
             vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
         let mut info = vk::MemoryAllocateInfo::default()
@@ -285,13 +296,14 @@ impl<'a> Gpu<'a> {
         .map_err(|e| format!("vkMapMemory: {e}"))
     }
 
-    /// A buffer of `size` bytes bound to host-visible memory of its own,
-    /// mapped; returns the buffer and the mapping.
-    fn mapped_buffer(
+    /// A buffer of `size` bytes bound to memory of its own of the first
+    /// type with `flags`: the buffer and its memory.
+    fn bound_buffer(
         &self,
         size: u64,
         usage: vk::BufferUsageFlags,
-    ) -> Result<(vk::Buffer, *mut u8), String> {
+        flags: vk::MemoryPropertyFlags,
+    ) -> Result<(vk::Buffer, vk::DeviceMemory), String> {
         let info = vk::BufferCreateInfo::default().size(size).usage(usage);
         // SAFETY: valid arguments.
         let buffer = unsafe { self.device.create_buffer(&info, None) }
@@ -301,12 +313,23 @@ impl<'a> Gpu<'a> {
         let memory = self.allocate(
             requirements.size.max(size),
             requirements.memory_type_bits,
-            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            flags,
             usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
         )?;
         // SAFETY: fresh memory large enough for the buffer.
         unsafe { self.device.bind_buffer_memory(buffer, memory, 0) }
             .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
+        Ok((buffer, memory))
+    }
+
+    /// A buffer of `size` bytes bound to host-visible memory of its own,
+    /// mapped; returns the buffer and the mapping.
+    fn mapped_buffer(
+        &self,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<(vk::Buffer, *mut u8), String> {
+        let (buffer, memory) = self.bound_buffer(size, usage, HOST_MAPPABLE)?;
         Ok((buffer, self.map(memory)?))
     }
 
@@ -584,6 +607,304 @@ fn device_command_is_null(gpu: &Gpu<'_>, name: &CStr) -> bool {
     .is_none()
 }
 
+/// Buffers a scenario creates, each bound to memory of its own, and
+/// destroys with [`Buffers::destroy`] when its work is done, so that a
+/// stacked Khronos layer has no leaked object of the app's to report.
+#[derive(Default)]
+struct Buffers(Vec<(vk::Buffer, vk::DeviceMemory)>);
+
+impl Buffers {
+    /// A buffer in host-visible memory, mapped: the buffer and the mapping.
+    fn mapped(
+        &mut self,
+        gpu: &Gpu<'_>,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<(vk::Buffer, *mut u8), String> {
+        let buffer = self.unmapped(gpu, size, usage, HOST_MAPPABLE)?;
+        let memory = self.0.last().expect("the buffer just made").1;
+        Ok((buffer, gpu.map(memory)?))
+    }
+
+    /// A buffer in memory of the first type with `flags`, never mapped.
+    fn unmapped(
+        &mut self,
+        gpu: &Gpu<'_>,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        flags: vk::MemoryPropertyFlags,
+    ) -> Result<vk::Buffer, String> {
+        let (buffer, memory) = gpu.bound_buffer(size, usage, flags)?;
+        self.0.push((buffer, memory));
+        Ok(buffer)
+    }
+
+    /// Destroys every buffer and frees its memory.
+    fn destroy(self, gpu: &Gpu<'_>) {
+        for (buffer, memory) in self.0 {
+            // SAFETY: the queue is idle and nothing alive uses the buffer.
+            unsafe {
+                gpu.device.destroy_buffer(buffer, None);
+                gpu.device.free_memory(memory, None);
+            }
+        }
+    }
+}
+
+/// The scratch offset alignment of `physical`'s acceleration structures.
+fn scratch_alignment(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> u64 {
+    let mut structure_properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+    let mut properties =
+        vk::PhysicalDeviceProperties2::default().push_next(&mut structure_properties);
+    // SAFETY: a physical device of this instance; a valid chain.
+    unsafe {
+        vulkan
+            .instance
+            .get_physical_device_properties2(physical, &mut properties)
+    };
+    u64::from(
+        structure_properties
+            .min_acceleration_structure_scratch_offset_alignment
+            .max(1),
+    )
+}
+
+/// A device of `physical` with VK_KHR_acceleration_structure and its
+/// feature `accelerationStructure`.
+fn structure_device(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> Result<Gpu<'_>, String> {
+    let mut structure_features =
+        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+    Gpu::new(
+        vulkan,
+        physical,
+        &[
+            ash::khr::acceleration_structure::NAME,
+            ash::khr::deferred_host_operations::NAME,
+        ],
+        &mut structure_features,
+    )
+}
+
+/// A scratch buffer of `size` bytes and its device address aligned to
+/// `alignment`.
+fn scratch(gpu: &Gpu<'_>, buffers: &mut Buffers, size: u64, alignment: u64) -> Result<u64, String> {
+    let (scratch, _) = buffers.mapped(
+        gpu,
+        size + alignment,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+    )?;
+    Ok(gpu.address(scratch).next_multiple_of(alignment))
+}
+
+/// A structure of `ty` and `size` bytes on a storage buffer of its own.
+fn create_structure(
+    gpu: &Gpu<'_>,
+    accel: &ash::khr::acceleration_structure::Device,
+    buffers: &mut Buffers,
+    ty: vk::AccelerationStructureTypeKHR,
+    size: u64,
+) -> Result<vk::AccelerationStructureKHR, String> {
+    let (storage, _) = buffers.mapped(
+        gpu,
+        size,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+    )?;
+    let create = vk::AccelerationStructureCreateInfoKHR::default()
+        .buffer(storage)
+        .size(size)
+        .ty(ty);
+    // SAFETY: a storage buffer of the size the driver asked for.
+    unsafe { accel.create_acceleration_structure(&create, None) }
+        .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))
+}
+
+/// A bottom-level structure of three separate triangles in the z = 0
+/// plane, indexed 0..9, whose vertices, indices, storage and scratch lie
+/// in mapped memory; created with the size the driver asks for, built
+/// with ALLOW_COMPACTION by [`TriangleBlas::record_build`].
+struct TriangleBlas {
+    structure: vk::AccelerationStructureKHR,
+    geometries: [vk::AccelerationStructureGeometryKHR<'static>; 1],
+    /// The structure's size and its build scratch size.
+    sizes: [u64; 2],
+    scratch_address: u64,
+}
+
+impl TriangleBlas {
+    const TRIANGLES: u32 = 3;
+
+    fn new(
+        gpu: &Gpu<'_>,
+        accel: &ash::khr::acceleration_structure::Device,
+        buffers: &mut Buffers,
+        scratch_alignment: u64,
+    ) -> Result<Self, String> {
+        let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+        let vertices: Vec<f32> = (0..Self::TRIANGLES)
+            .flat_map(|t| {
+                let x = t as f32 * 2.0;
+                [x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
+            })
+            .collect();
+        let indices: Vec<u32> = (0..3 * Self::TRIANGLES).collect();
+        let (vertex_buffer, vertex_map) =
+            buffers.mapped(gpu, 4 * vertices.len() as u64, input_usage)?;
+        let (index_buffer, index_map) =
+            buffers.mapped(gpu, 4 * indices.len() as u64, input_usage)?;
+        // SAFETY: each mapping holds its buffer's size: exactly these bytes.
+        unsafe {
+            vertex_map.copy_from_nonoverlapping(vertices.as_ptr().cast(), 4 * vertices.len());
+            index_map.copy_from_nonoverlapping(indices.as_ptr().cast(), 4 * indices.len());
+        }
+        let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+            .vertex_format(vk::Format::R32G32B32_SFLOAT)
+            .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                device_address: gpu.address(vertex_buffer),
+            })
+            .vertex_stride(12)
+            .max_vertex(3 * Self::TRIANGLES - 1)
+            .index_type(vk::IndexType::UINT32)
+            .index_data(vk::DeviceOrHostAddressConstKHR {
+                device_address: gpu.address(index_buffer),
+            });
+        let geometries = [vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+            .flags(vk::GeometryFlagsKHR::OPAQUE)];
+        let mut blas = Self {
+            structure: vk::AccelerationStructureKHR::null(),
+            geometries,
+            sizes: [0; 2],
+            scratch_address: 0,
+        };
+        blas.sizes = build_sizes(accel, &blas.build_info(), Self::TRIANGLES);
+        blas.structure = create_structure(
+            gpu,
+            accel,
+            buffers,
+            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            blas.sizes[0],
+        )?;
+        blas.scratch_address = scratch(gpu, buffers, blas.sizes[1], scratch_alignment)?;
+        Ok(blas)
+    }
+
+    fn build_info(&self) -> vk::AccelerationStructureBuildGeometryInfoKHR<'_> {
+        vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+            .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
+            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+            .geometries(&self.geometries)
+            .dst_acceleration_structure(self.structure)
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                device_address: self.scratch_address,
+            })
+    }
+
+    /// Records the build into `command_buffer`.
+    fn record_build(
+        &self,
+        accel: &ash::khr::acceleration_structure::Device,
+        command_buffer: vk::CommandBuffer,
+    ) {
+        let ranges =
+            [vk::AccelerationStructureBuildRangeInfoKHR::default()
+                .primitive_count(Self::TRIANGLES)];
+        // SAFETY: a recording command buffer; the build's buffers and
+        // structure are alive and sized as the driver asked.
+        unsafe {
+            accel.cmd_build_acceleration_structures(
+                command_buffer,
+                &[self.build_info()],
+                &[&ranges],
+            )
+        };
+    }
+}
+
+/// The structure size and build scratch size the driver gives a device
+/// build of `info` with `primitives` primitives in its one geometry.
+fn build_sizes(
+    accel: &ash::khr::acceleration_structure::Device,
+    info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    primitives: u32,
+) -> [u64; 2] {
+    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    // SAFETY: a valid build info with one geometry.
+    unsafe {
+        accel.get_acceleration_structure_build_sizes(
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            info,
+            &[primitives],
+            &mut sizes,
+        )
+    };
+    [sizes.acceleration_structure_size, sizes.build_scratch_size]
+}
+
+/// A query pool of one query of `ty`.
+fn query_pool(gpu: &Gpu<'_>, ty: vk::QueryType) -> Result<vk::QueryPool, String> {
+    let info = vk::QueryPoolCreateInfo::default()
+        .query_type(ty)
+        .query_count(1);
+    // SAFETY: valid arguments.
+    unsafe { gpu.device.create_query_pool(&info, None) }
+        .map_err(|e| format!("vkCreateQueryPool: {e}"))
+}
+
+/// The one 64-bit result of `pool`, waiting for it.
+fn query_result(gpu: &Gpu<'_>, pool: vk::QueryPool) -> Result<u64, String> {
+    let mut value = [0u64];
+    // SAFETY: one 64-bit result of a query a submission writes.
+    unsafe {
+        gpu.device.get_query_pool_results(
+            pool,
+            0,
+            &mut value,
+            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+        )
+    }
+    .map_err(|e| format!("vkGetQueryPoolResults: {e}"))?;
+    Ok(value[0])
+}
+
+/// A barrier on all memory between `src` and `dst` in `command_buffer`.
+fn memory_barrier(
+    gpu: &Gpu<'_>,
+    command_buffer: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(src.1)
+        .dst_access_mask(dst.1)];
+    // SAFETY: a recording command buffer.
+    unsafe {
+        gpu.device.cmd_pipeline_barrier(
+            command_buffer,
+            src.0,
+            dst.0,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
+
+/// A structure's build writes, as a barrier's source or destination.
+const STRUCTURE_WRITE: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+    vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+);
+/// Reads of a built structure by a later build or property query.
+const STRUCTURE_READ: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+    vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR,
+);
+
 /// A bottom-level acceleration structure of three triangles built on the
 /// device (lavapipe), then its compacted and serialization sizes read
 /// through query pools. Results: those sizes, the build sizes, and whether
@@ -602,32 +923,8 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
         .iter()
         .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::opacity_micromap::NAME));
     results.insert("has_opacity_micromap".into(), json!(has_micromaps));
-    let mut structure_properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
-    let mut properties =
-        vk::PhysicalDeviceProperties2::default().push_next(&mut structure_properties);
-    // SAFETY: a physical device of this instance; a valid chain.
-    unsafe {
-        vulkan
-            .instance
-            .get_physical_device_properties2(physical, &mut properties)
-    };
-    let scratch_alignment = u64::from(
-        structure_properties
-            .min_acceleration_structure_scratch_offset_alignment
-            .max(1),
-    );
-
-    let mut structure_features =
-        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
-    let gpu = Gpu::new(
-        vulkan,
-        physical,
-        &[
-            ash::khr::acceleration_structure::NAME,
-            ash::khr::deferred_host_operations::NAME,
-        ],
-        &mut structure_features,
-    )?;
+    let scratch_alignment = scratch_alignment(vulkan, physical);
+    let gpu = structure_device(vulkan, physical)?;
     results.insert(
         "null_micromap_commands".into(),
         json!([
@@ -637,158 +934,60 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
         ]),
     );
     let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
-
-    // Three separate triangles in the z = 0 plane, indexed 0..9.
-    let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-    let vertices: Vec<f32> = (0..3)
-        .flat_map(|t| {
-            let x = t as f32 * 2.0;
-            [x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
-        })
-        .collect();
-    let indices: Vec<u32> = (0..9).collect();
-    let (vertex_buffer, vertex_map) = gpu.mapped_buffer(4 * vertices.len() as u64, input_usage)?;
-    let (index_buffer, index_map) = gpu.mapped_buffer(4 * indices.len() as u64, input_usage)?;
-    // SAFETY: each mapping holds its buffer's size: exactly these bytes.
-    unsafe {
-        vertex_map.copy_from_nonoverlapping(vertices.as_ptr().cast(), 4 * vertices.len());
-        index_map.copy_from_nonoverlapping(indices.as_ptr().cast(), 4 * indices.len());
-    }
-    let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-        .vertex_format(vk::Format::R32G32B32_SFLOAT)
-        .vertex_data(vk::DeviceOrHostAddressConstKHR {
-            device_address: gpu.address(vertex_buffer),
-        })
-        .vertex_stride(12)
-        .max_vertex(8)
-        .index_type(vk::IndexType::UINT32)
-        .index_data(vk::DeviceOrHostAddressConstKHR {
-            device_address: gpu.address(index_buffer),
-        });
-    let geometries = [vk::AccelerationStructureGeometryKHR::default()
-        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-        .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
-        .flags(vk::GeometryFlagsKHR::OPAQUE)];
-    let mut build = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-        .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
-        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-        .geometries(&geometries);
-    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
-    // SAFETY: a valid build info with one geometry of three triangles.
-    unsafe {
-        accel.get_acceleration_structure_build_sizes(
-            vk::AccelerationStructureBuildTypeKHR::DEVICE,
-            &build,
-            &[3],
-            &mut sizes,
-        )
-    };
-    results.insert(
-        "build_sizes".into(),
-        json!([sizes.acceleration_structure_size, sizes.build_scratch_size]),
-    );
-
-    let (storage, _) = gpu.mapped_buffer(
-        sizes.acceleration_structure_size,
-        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
-            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-    )?;
-    let create = vk::AccelerationStructureCreateInfoKHR::default()
-        .buffer(storage)
-        .size(sizes.acceleration_structure_size)
-        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
-    // SAFETY: a storage buffer of the size the driver asked for.
-    let structure = unsafe { accel.create_acceleration_structure(&create, None) }
-        .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))?;
-    let (scratch, _) = gpu.mapped_buffer(
-        sizes.build_scratch_size + scratch_alignment,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-    )?;
-    let scratch_address = gpu.address(scratch).next_multiple_of(scratch_alignment);
-    build = build
-        .dst_acceleration_structure(structure)
-        .scratch_data(vk::DeviceOrHostAddressKHR {
-            device_address: scratch_address,
-        });
-    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(3)];
+    let mut buffers = Buffers::default();
+    let blas = TriangleBlas::new(&gpu, &accel, &mut buffers, scratch_alignment)?;
+    results.insert("build_sizes".into(), json!(blas.sizes));
 
     let query_types = [
         vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
         vk::QueryType::ACCELERATION_STRUCTURE_SERIALIZATION_SIZE_KHR,
     ];
-    let mut pools = Vec::new();
-    for ty in query_types {
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(ty)
-            .query_count(1);
-        // SAFETY: valid arguments.
-        pools.push(
-            unsafe { gpu.device.create_query_pool(&info, None) }
-                .map_err(|e| format!("vkCreateQueryPool: {e}"))?,
-        );
-    }
+    let pools = query_types
+        .iter()
+        .map(|&ty| query_pool(&gpu, ty))
+        .collect::<Result<Vec<_>, _>>()?;
 
     let command_buffer = gpu.begin()?;
     vulkan.phase("record");
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
-        .dst_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR)];
-    // SAFETY: a recording command buffer; the build's buffers, structure
-    // and query pools are alive and sized as the driver asked.
-    unsafe {
-        for (&pool, _) in pools.iter().zip(query_types) {
-            gpu.device.cmd_reset_query_pool(command_buffer, pool, 0, 1);
-        }
-        accel.cmd_build_acceleration_structures(command_buffer, &[build], &[&ranges]);
-        gpu.device.cmd_pipeline_barrier(
-            command_buffer,
-            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        );
-        for (&pool, ty) in pools.iter().zip(query_types) {
+    for &pool in &pools {
+        // SAFETY: a recording command buffer; a pool of one query.
+        unsafe { gpu.device.cmd_reset_query_pool(command_buffer, pool, 0, 1) };
+    }
+    blas.record_build(&accel, command_buffer);
+    memory_barrier(&gpu, command_buffer, STRUCTURE_WRITE, STRUCTURE_READ);
+    for (&pool, ty) in pools.iter().zip(query_types) {
+        // SAFETY: a recording command buffer; the structure is built above.
+        unsafe {
             accel.cmd_write_acceleration_structures_properties(
                 command_buffer,
-                &[structure],
+                &[blas.structure],
                 ty,
                 pool,
                 0,
-            );
-        }
-        gpu.device.end_command_buffer(command_buffer)
+            )
+        };
     }
-    .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+    // SAFETY: the command buffer is recording.
+    unsafe { gpu.device.end_command_buffer(command_buffer) }
+        .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
     vulkan.phase("submit");
     results.insert("submit".into(), json!(gpu.submit(command_buffer)?));
-    let mut query_results = Vec::new();
-    for &pool in &pools {
-        let mut value = [0u64];
-        // SAFETY: one 64-bit result of a query the submission wrote.
-        unsafe {
-            gpu.device.get_query_pool_results(
-                pool,
-                0,
-                &mut value,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-            )
-        }
-        .map_err(|e| format!("vkGetQueryPoolResults: {e}"))?;
-        query_results.push(value[0]);
-    }
-    results.insert("compacted_size".into(), json!(query_results[0]));
-    results.insert("serialization_size".into(), json!(query_results[1]));
+    results.insert(
+        "compacted_size".into(),
+        json!(query_result(&gpu, pools[0])?),
+    );
+    results.insert(
+        "serialization_size".into(),
+        json!(query_result(&gpu, pools[1])?),
+    );
     // SAFETY: the queue is idle; the structure and pools are unused now.
     unsafe {
-        accel.destroy_acceleration_structure(structure, None);
+        accel.destroy_acceleration_structure(blas.structure, None);
         for pool in pools {
             gpu.device.destroy_query_pool(pool, None);
         }
     }
+    buffers.destroy(&gpu);
     Ok(())
 }
 
@@ -1041,21 +1240,7 @@ fn owned_mapped_buffer(
     size: u64,
     usage: vk::BufferUsageFlags,
 ) -> Result<(vk::Buffer, vk::DeviceMemory, *mut u8), String> {
-    let info = vk::BufferCreateInfo::default().size(size).usage(usage);
-    // SAFETY: valid arguments.
-    let buffer = unsafe { gpu.device.create_buffer(&info, None) }
-        .map_err(|e| format!("vkCreateBuffer: {e}"))?;
-    // SAFETY: a buffer of this device.
-    let requirements = unsafe { gpu.device.get_buffer_memory_requirements(buffer) };
-    let memory = gpu.allocate(
-        requirements.size.max(size),
-        requirements.memory_type_bits,
-        vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
-        usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
-    )?;
-    // SAFETY: fresh memory large enough for the buffer.
-    unsafe { gpu.device.bind_buffer_memory(buffer, memory, 0) }
-        .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
+    let (buffer, memory) = gpu.bound_buffer(size, usage, HOST_MAPPABLE)?;
     Ok((buffer, memory, gpu.map(memory)?))
 }
 
