@@ -7,14 +7,16 @@
 //!
 //! ```text
 //! omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N]
+//!         [--way copy|update|fill|compute|mapped] [--valid] [--sync-fault]
 //! {"scenario": ..., "messages": [{"id", "severity", "phase", "text"}],
 //!  "device_layers": [...], "results": {...}}
 //! ```
 //!
 //! The layers are enabled in `ppEnabledLayerNames` in the order given. Each
 //! message carries the phase it arrived in (`setup`, `build`, `record`,
-//! `submit`, `teardown`); `device_layers` are the layers the loader reports
-//! (as information) inserting into the device call chain. `--core-fault` creates a buffer of size 0 at the
+//! `submit`, `wait` (vkWaitForFences), `teardown`); `device_layers` are the
+//! layers the loader reports (as information) inserting into the device
+//! call chain, in its order: from the driver up. `--core-fault` creates a buffer of size 0 at the
 //! end (VUID-VkBufferCreateInfo-size-00912, which the Khronos validation
 //! layer checks and ommcheck does not), to show a stacked layer is active.
 //!
@@ -25,6 +27,14 @@
 //! `threads` (Mock ICD): eight threads creating, building and destroying
 //! at once, with known faults.
 //! Over lavapipe (acceleration structures that really build): `blas`.
+//! `tlas --way W [--valid] [--sync-fault]` (on the first physical device
+//! with VK_KHR_acceleration_structure, lavapipe or a GPU): a top-level build
+//! of one instance whose flags break
+//! VUID-VkAccelerationStructureInstanceKHR-micromap-11580 (or are 0 with
+//! `--valid`), the instance written into memory the app never maps by
+//! vkCmdCopyBuffer, vkCmdUpdateBuffer, vkCmdFillBuffer or a compute shader,
+//! or into memory it keeps mapped; `--sync-fault` plants a hazard for the
+//! Khronos layer's synchronization validation.
 //! `overhead` (Mock ICD) times `--iterations` valid calls (default 10000) of
 //! three build commands and reports nanoseconds per call; `cargo xtask
 //! bench` runs it with and without layers.
@@ -163,6 +173,25 @@ impl Vulkan {
 
     fn messages(&self) -> Vec<Value> {
         self.collector.messages.lock().unwrap().clone()
+    }
+
+    /// The first physical device with the device extension `extension`.
+    fn physical_device_with(&self, extension: &CStr) -> Result<vk::PhysicalDevice, String> {
+        // SAFETY: a live instance.
+        let devices = unsafe { self.instance.enumerate_physical_devices() }
+            .map_err(|e| format!("vkEnumeratePhysicalDevices: {e}"))?;
+        devices
+            .into_iter()
+            .find(|&device| {
+                // SAFETY: a physical device of this instance.
+                unsafe { self.instance.enumerate_device_extension_properties(device) }.is_ok_and(
+                    |all| {
+                        all.iter()
+                            .any(|e| e.extension_name_as_c_str() == Ok(extension))
+                    },
+                )
+            })
+            .ok_or_else(|| format!("no physical device with {extension:?}"))
     }
 
     /// The first physical device.
@@ -669,19 +698,29 @@ fn scratch_alignment(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> u64 {
     )
 }
 
-/// A device of `physical` with VK_KHR_acceleration_structure and its
-/// feature `accelerationStructure`.
+/// A device of `physical` with VK_KHR_acceleration_structure and
+/// VK_KHR_ray_query and their features `accelerationStructure` and
+/// `rayQuery`. Ray queries are never used: the Khronos layer (1.3.239)
+/// requires them or ray-tracing pipelines for
+/// vkGetAccelerationStructureBuildSizesKHR (its 03617, since dropped from
+/// the specification), and stacked under ommcheck it must report nothing of
+/// the app's.
 fn structure_device(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> Result<Gpu<'_>, String> {
     let mut structure_features =
         vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+    let mut ray_query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+    let mut features = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut structure_features)
+        .push_next(&mut ray_query);
     Gpu::new(
         vulkan,
         physical,
         &[
             ash::khr::acceleration_structure::NAME,
             ash::khr::deferred_host_operations::NAME,
+            ash::khr::ray_query::NAME,
         ],
-        &mut structure_features,
+        &mut features,
     )
 }
 
@@ -989,6 +1028,508 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
     }
     buffers.destroy(&gpu);
     Ok(())
+}
+
+/// How `tlas` puts the one instance where the top-level build reads it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum InstanceWay {
+    /// vkCmdCopyBuffer from a mapped staging buffer to an unmapped one.
+    Copy,
+    /// vkCmdUpdateBuffer of the whole instance into an unmapped buffer.
+    Update,
+    /// vkCmdUpdateBuffer of the instance without its flags, then
+    /// vkCmdFillBuffer of the word that holds them.
+    Fill,
+    /// The `copy_words` compute shader, from a mapped storage buffer to an
+    /// unmapped one.
+    Compute,
+    /// Written by the host into a buffer the app keeps mapped.
+    Mapped,
+}
+
+impl InstanceWay {
+    const NAMES: [(&'static str, Self); 5] = [
+        ("copy", Self::Copy),
+        ("update", Self::Update),
+        ("fill", Self::Fill),
+        ("compute", Self::Compute),
+        ("mapped", Self::Mapped),
+    ];
+
+    fn parse(name: &str) -> Result<Self, String> {
+        Self::NAMES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, way)| way)
+            .ok_or_else(|| format!("--way {name:?}: one of copy, update, fill, compute, mapped"))
+    }
+}
+
+/// The `tlas` scenario's arguments.
+struct TlasOptions {
+    way: Option<InstanceWay>,
+    /// The instance's flags are 0 instead of FORCE_OPACITY_MICROMAP_2_STATE.
+    valid: bool,
+    /// Two fills of one buffer with no barrier between: a write-after-write
+    /// hazard, which the Khronos layer's synchronization validation reports
+    /// and ommcheck does not, to show the former is on.
+    sync_fault: bool,
+}
+
+/// The bytes of a VkAccelerationStructureInstanceKHR.
+const INSTANCE_SIZE: u64 = std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u64;
+/// The offset of the 32-bit word whose high byte holds an instance's flags.
+const INSTANCE_FLAGS_OFFSET: u64 = std::mem::offset_of!(
+    vk::AccelerationStructureInstanceKHR,
+    instance_shader_binding_table_record_offset_and_flags
+) as u64;
+
+/// An instance of the structure at device address `reference` with the
+/// identity transform, mask 0xFF and `flags`, as 32-bit words.
+fn instance_words(reference: u64, flags: vk::GeometryInstanceFlagsKHR) -> [u32; 16] {
+    let instance = vk::AccelerationStructureInstanceKHR {
+        transform: vk::TransformMatrixKHR {
+            matrix: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        },
+        instance_custom_index_and_mask: vk::Packed24_8::new(0, 0xFF),
+        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
+            0,
+            flags.as_raw() as u8,
+        ),
+        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+            device_handle: reference,
+        },
+    };
+    let mut words = [0u32; 16];
+    // SAFETY: the instance is 64 plain bytes (16 words), all initialised.
+    unsafe {
+        std::ptr::copy_nonoverlapping(
+            (&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u32>(),
+            words.as_mut_ptr(),
+            words.len(),
+        )
+    };
+    words
+}
+
+/// The bytes of `words`, as vkCmdUpdateBuffer and the mappings take them.
+fn word_bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_ne_bytes()).collect()
+}
+
+/// A compute pipeline of `copy_words` (tests/shaders.rs) with its
+/// descriptor set bound to `source` (binding 0) and `destination`
+/// (binding 1), both storage buffers.
+struct CopyWords {
+    module: vk::ShaderModule,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+}
+
+impl CopyWords {
+    /// Invocations of one workgroup (the shader's LocalSize).
+    const WORDS: u64 = 16;
+
+    fn new(gpu: &Gpu<'_>, source: vk::Buffer, destination: vk::Buffer) -> Result<Self, String> {
+        let device = &gpu.device;
+        let code = ommcheck_tests::shaders::COPY_WORDS;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
+        // SAFETY: valid SPIR-V (spirv-val) for Vulkan 1.1.
+        let module = unsafe { device.create_shader_module(&module_info, None) }
+            .map_err(|e| format!("vkCreateShaderModule: {e}"))?;
+        let bindings = [0, 1].map(|binding| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        });
+        let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid arguments.
+        let set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
+            .map_err(|e| format!("vkCreateDescriptorSetLayout: {e}"))?;
+        let set_layouts = [set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        // SAFETY: valid arguments.
+        let layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .map_err(|e| format!("vkCreatePipelineLayout: {e}"))?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let pipeline_info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
+        // SAFETY: valid arguments; the layout matches the shader's bindings.
+        let pipeline = unsafe {
+            device.create_compute_pipelines(vk::PipelineCache::null(), &pipeline_info, None)
+        }
+        .map_err(|(_, e)| format!("vkCreateComputePipelines: {e}"))?[0];
+        let sizes = [vk::DescriptorPoolSize::default()
+            .ty(vk::DescriptorType::STORAGE_BUFFER)
+            .descriptor_count(2)];
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // SAFETY: valid arguments.
+        let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .map_err(|e| format!("vkCreateDescriptorPool: {e}"))?;
+        let allocate = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&set_layouts);
+        // SAFETY: a pool with room for this one set.
+        let set = unsafe { device.allocate_descriptor_sets(&allocate) }
+            .map_err(|e| format!("vkAllocateDescriptorSets: {e}"))?[0];
+        let infos = [source, destination].map(|buffer| {
+            [vk::DescriptorBufferInfo::default()
+                .buffer(buffer)
+                .range(4 * Self::WORDS)]
+        });
+        let writes = [0, 1].map(|binding| {
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(binding)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .buffer_info(&infos[binding as usize])
+        });
+        // SAFETY: both buffers have STORAGE_BUFFER usage and 64 bytes.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        Ok(Self {
+            module,
+            set_layout,
+            layout,
+            pipeline,
+            pool,
+            set,
+        })
+    }
+
+    /// Records the dispatch of one workgroup into `command_buffer`.
+    fn record(&self, gpu: &Gpu<'_>, command_buffer: vk::CommandBuffer) {
+        // SAFETY: a recording command buffer; the pipeline and set are live.
+        unsafe {
+            gpu.device.cmd_bind_pipeline(
+                command_buffer,
+                vk::PipelineBindPoint::COMPUTE,
+                self.pipeline,
+            );
+            gpu.device.cmd_bind_descriptor_sets(
+                command_buffer,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[self.set],
+                &[],
+            );
+            gpu.device.cmd_dispatch(command_buffer, 1, 1, 1);
+        }
+    }
+
+    fn destroy(self, gpu: &Gpu<'_>) {
+        // SAFETY: the queue is idle; nothing uses these objects any more.
+        unsafe {
+            gpu.device.destroy_pipeline(self.pipeline, None);
+            gpu.device.destroy_pipeline_layout(self.layout, None);
+            gpu.device.destroy_descriptor_pool(self.pool, None);
+            gpu.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+            gpu.device.destroy_shader_module(self.module, None);
+        }
+    }
+}
+
+/// Writes into the instance buffer by transfers, compute and host, as a
+/// barrier's source.
+const INSTANCE_WRITES: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::from_raw(
+        vk::PipelineStageFlags::TRANSFER.as_raw()
+            | vk::PipelineStageFlags::COMPUTE_SHADER.as_raw()
+            | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR.as_raw(),
+    ),
+    vk::AccessFlags::from_raw(
+        vk::AccessFlags::TRANSFER_WRITE.as_raw()
+            | vk::AccessFlags::SHADER_WRITE.as_raw()
+            | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR.as_raw(),
+    ),
+);
+/// What reads the instances and the bottom-level structure after they are
+/// written: the top-level build (its inputs are shader reads, the
+/// structure it references a structure read) and the copy back.
+const INSTANCE_READS: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::from_raw(
+        vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR.as_raw()
+            | vk::PipelineStageFlags::TRANSFER.as_raw(),
+    ),
+    vk::AccessFlags::from_raw(
+        vk::AccessFlags::SHADER_READ.as_raw()
+            | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR.as_raw()
+            | vk::AccessFlags::TRANSFER_READ.as_raw(),
+    ),
+);
+const TRANSFER_WRITE: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::TRANSFER,
+    vk::AccessFlags::TRANSFER_WRITE,
+);
+
+/// `tlas`: a bottom-level structure of three triangles ([`TriangleBlas`]),
+/// then a top-level structure of one instance of it, built in the same
+/// command buffer on the first physical device with
+/// VK_KHR_acceleration_structure. The instance's flags hold
+/// FORCE_OPACITY_MICROMAP_2_STATE (VUID-VkAccelerationStructureInstanceKHR-
+/// micromap-11580: no micromap feature is enabled, nor could be on a
+/// device without VK_EXT_opacity_micromap), or 0 with `--valid`. `--way`
+/// chooses how the instance reaches the buffer the build reads
+/// ([`InstanceWay`]); except for `mapped`, that buffer's memory is
+/// DEVICE_LOCAL and never mapped. One submission with a fence, then
+/// vkWaitForFences (phases `record`, `submit`, `wait`). Results: the
+/// device, whether the instance memory is host-visible, the build sizes,
+/// the submission's and the wait's results, the instance as copied back
+/// into a mapped buffer after the build, and the top-level structure's
+/// compacted size.
+fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result<(), String> {
+    let way = options
+        .way
+        .ok_or("tlas needs --way copy|update|fill|compute|mapped")?;
+    let physical = vulkan.physical_device_with(ash::khr::acceleration_structure::NAME)?;
+    // SAFETY: a physical device of this instance.
+    let properties = unsafe { vulkan.instance.get_physical_device_properties(physical) };
+    let name = properties
+        .device_name_as_c_str()
+        .map_or_else(|_| "?".into(), |n| n.to_string_lossy().into_owned());
+    results.insert("device".into(), json!(name));
+    let scratch_alignment = scratch_alignment(vulkan, physical);
+    let gpu = structure_device(vulkan, physical)?;
+    let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
+    let mut buffers = Buffers::default();
+    let blas = TriangleBlas::new(&gpu, &accel, &mut buffers, scratch_alignment)?;
+    let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default()
+        .acceleration_structure(blas.structure);
+    // SAFETY: a structure of this device.
+    let blas_address = unsafe { accel.get_acceleration_structure_device_address(&address_info) };
+
+    let flags = if options.valid {
+        vk::GeometryInstanceFlagsKHR::empty()
+    } else {
+        vk::GeometryInstanceFlagsKHR::FORCE_OPACITY_MICROMAP_2_STATE_EXT
+    };
+    let instance = instance_words(blas_address, flags);
+    let without_flags = instance_words(blas_address, vk::GeometryInstanceFlagsKHR::empty());
+    let instance_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+        | vk::BufferUsageFlags::TRANSFER_SRC
+        | vk::BufferUsageFlags::TRANSFER_DST
+        | vk::BufferUsageFlags::STORAGE_BUFFER;
+    let write = |map: *mut u8, words: &[u32; 16]| {
+        // SAFETY: every mapping here is at least INSTANCE_SIZE (64) bytes.
+        unsafe { map.copy_from_nonoverlapping(word_bytes(words).as_ptr(), words.len() * 4) }
+    };
+    // The buffer the build reads.
+    let memory_flags = if way == InstanceWay::Mapped {
+        HOST_MAPPABLE
+    } else {
+        vk::MemoryPropertyFlags::DEVICE_LOCAL
+    };
+    let instances = buffers.unmapped(&gpu, INSTANCE_SIZE, instance_usage, memory_flags)?;
+    // SAFETY: a buffer of this device.
+    let requirements = unsafe { gpu.device.get_buffer_memory_requirements(instances) };
+    let memory_type = gpu.memory_type(requirements.memory_type_bits, memory_flags)?;
+    let host_visible = gpu.memory.memory_types[memory_type as usize]
+        .property_flags
+        .contains(vk::MemoryPropertyFlags::HOST_VISIBLE);
+    results.insert("instance_memory_host_visible".into(), json!(host_visible));
+    if way == InstanceWay::Mapped {
+        let memory = buffers.0.last().expect("the instance buffer").1;
+        write(gpu.map(memory)?, &instance);
+    }
+    // For the copy and the shader, a mapped buffer holding the instance.
+    let source = match way {
+        InstanceWay::Copy | InstanceWay::Compute => {
+            let usage = vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::STORAGE_BUFFER;
+            let (source, map) = buffers.mapped(&gpu, INSTANCE_SIZE, usage)?;
+            write(map, &instance);
+            source
+        }
+        _ => vk::Buffer::null(),
+    };
+    let copy_words = match way {
+        InstanceWay::Compute => Some(CopyWords::new(&gpu, source, instances)?),
+        _ => None,
+    };
+    let (readback, readback_map) =
+        buffers.mapped(&gpu, INSTANCE_SIZE, vk::BufferUsageFlags::TRANSFER_DST)?;
+    let hazard = buffers.unmapped(
+        &gpu,
+        256,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        vk::MemoryPropertyFlags::DEVICE_LOCAL,
+    )?;
+
+    let instances_data = vk::AccelerationStructureGeometryInstancesDataKHR::default().data(
+        vk::DeviceOrHostAddressConstKHR {
+            device_address: gpu.address(instances),
+        },
+    );
+    let geometries = [vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR {
+            instances: instances_data,
+        })];
+    let mut tlas_info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+        .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
+        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+        .geometries(&geometries);
+    let tlas_sizes = build_sizes(&accel, &tlas_info, 1);
+    results.insert("build_sizes".into(), json!([blas.sizes, tlas_sizes]));
+    let tlas = create_structure(
+        &gpu,
+        &accel,
+        &mut buffers,
+        vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+        tlas_sizes[0],
+    )?;
+    let tlas_scratch = scratch(&gpu, &mut buffers, tlas_sizes[1], scratch_alignment)?;
+    tlas_info =
+        tlas_info
+            .dst_acceleration_structure(tlas)
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                device_address: tlas_scratch,
+            });
+    let compacted = query_pool(
+        &gpu,
+        vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+    )?;
+
+    let command_buffer = gpu.begin()?;
+    vulkan.phase("record");
+    let device = &gpu.device;
+    // SAFETY (each command below): a recording command buffer; every
+    // buffer, structure and pool is alive and large enough for its range.
+    unsafe { device.cmd_reset_query_pool(command_buffer, compacted, 0, 1) };
+    if options.sync_fault {
+        for value in [0, 1] {
+            // SAFETY: as above.
+            unsafe { device.cmd_fill_buffer(command_buffer, hazard, 0, vk::WHOLE_SIZE, value) };
+        }
+    }
+    match way {
+        InstanceWay::Copy => {
+            let region = [vk::BufferCopy::default().size(INSTANCE_SIZE)];
+            // SAFETY: as above.
+            unsafe { device.cmd_copy_buffer(command_buffer, source, instances, &region) };
+        }
+        InstanceWay::Update => {
+            // SAFETY: as above.
+            unsafe {
+                device.cmd_update_buffer(command_buffer, instances, 0, &word_bytes(&instance))
+            };
+        }
+        InstanceWay::Fill => {
+            let flags_word = instance[INSTANCE_FLAGS_OFFSET as usize / 4];
+            // SAFETY: as above.
+            unsafe {
+                device.cmd_update_buffer(command_buffer, instances, 0, &word_bytes(&without_flags))
+            };
+            memory_barrier(&gpu, command_buffer, TRANSFER_WRITE, TRANSFER_WRITE);
+            // SAFETY: as above.
+            unsafe {
+                device.cmd_fill_buffer(
+                    command_buffer,
+                    instances,
+                    INSTANCE_FLAGS_OFFSET,
+                    4,
+                    flags_word,
+                )
+            };
+        }
+        InstanceWay::Compute => copy_words
+            .as_ref()
+            .expect("made for the compute way")
+            .record(&gpu, command_buffer),
+        InstanceWay::Mapped => {}
+    }
+    blas.record_build(&accel, command_buffer);
+    memory_barrier(&gpu, command_buffer, INSTANCE_WRITES, INSTANCE_READS);
+    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
+    // SAFETY: as above.
+    unsafe { accel.cmd_build_acceleration_structures(command_buffer, &[tlas_info], &[&ranges]) };
+    memory_barrier(&gpu, command_buffer, STRUCTURE_WRITE, STRUCTURE_READ);
+    // SAFETY: as above.
+    unsafe {
+        accel.cmd_write_acceleration_structures_properties(
+            command_buffer,
+            &[tlas],
+            vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+            compacted,
+            0,
+        );
+        let region = [vk::BufferCopy::default().size(INSTANCE_SIZE)];
+        device.cmd_copy_buffer(command_buffer, instances, readback, &region);
+    }
+    memory_barrier(
+        &gpu,
+        command_buffer,
+        TRANSFER_WRITE,
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
+    // SAFETY: the command buffer is recording.
+    unsafe { device.end_command_buffer(command_buffer) }
+        .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+
+    vulkan.phase("submit");
+    // SAFETY: valid arguments.
+    let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+        .map_err(|e| format!("vkCreateFence: {e}"))?;
+    let command_buffers = [command_buffer];
+    let submit = [vk::SubmitInfo::default().command_buffers(&command_buffers)];
+    // SAFETY: an executable command buffer of this device's queue family;
+    // an unsignalled fence.
+    let submitted = unsafe { device.queue_submit(gpu.queue, &submit, fence) };
+    results.insert("submit".into(), json!(vk_result(submitted)));
+    vulkan.phase("wait");
+    // SAFETY: the fence is this device's.
+    let waited = unsafe { device.wait_for_fences(&[fence], true, u64::MAX) };
+    results.insert("wait".into(), json!(vk_result(waited)));
+    submitted
+        .and(waited)
+        .map_err(|e| format!("the submission: {e}"))?;
+    let mut read_back = [0u32; 16];
+    // SAFETY: the readback mapping is 64 bytes, written by the finished
+    // submission and made visible to the host by its last barrier.
+    unsafe {
+        readback_map.copy_to_nonoverlapping(read_back.as_mut_ptr().cast(), read_back.len() * 4)
+    };
+    // The words before the structure's device address, which differs from
+    // run to run on lavapipe (a host pointer); the whole instance is
+    // compared here.
+    results.insert("instance_read_back".into(), json!(read_back[..14]));
+    results.insert("instance_written".into(), json!(read_back == instance));
+    results.insert(
+        "compacted_size".into(),
+        json!(query_result(&gpu, compacted)?),
+    );
+
+    vulkan.phase("teardown");
+    // SAFETY: the queue is idle; nothing uses these objects any more.
+    unsafe {
+        device.destroy_fence(fence, None);
+        device.destroy_query_pool(compacted, None);
+        accel.destroy_acceleration_structure(tlas, None);
+        accel.destroy_acceleration_structure(blas.structure, None);
+    }
+    if let Some(copy_words) = copy_words {
+        copy_words.destroy(&gpu);
+    }
+    buffers.destroy(&gpu);
+    Ok(())
+}
+
+/// The raw VkResult of a call that returns nothing else.
+fn vk_result(result: Result<(), vk::Result>) -> i32 {
+    result.err().unwrap_or(vk::Result::SUCCESS).as_raw()
 }
 
 /// Calls timed per command in the `overhead` scenario, after as many as a
@@ -1564,11 +2105,17 @@ fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
 
 fn run(args: &[String]) -> Result<Value, String> {
     let usage =
-        "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)]";
+        "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)] \
+         [--way copy|update|fill|compute|mapped (tlas)] [--valid (tlas)] [--sync-fault (tlas)]";
     let (scenario, rest) = args.split_first().ok_or(usage)?;
     let mut layers = Vec::new();
     let mut with_core_fault = false;
     let mut iterations = 10_000u32;
+    let mut tlas_options = TlasOptions {
+        way: None,
+        valid: false,
+        sync_fault: false,
+    };
     let mut rest = rest.iter();
     while let Some(arg) = rest.next() {
         match arg.as_str() {
@@ -1585,6 +2132,9 @@ fn run(args: &[String]) -> Result<Value, String> {
                     .ok_or_else(|| format!("--iterations {n:?}: a positive integer"))?;
             }
             "--core-fault" => with_core_fault = true,
+            "--way" => tlas_options.way = Some(InstanceWay::parse(rest.next().ok_or(usage)?)?),
+            "--valid" => tlas_options.valid = true,
+            "--sync-fault" => tlas_options.sync_fault = true,
             _ => return Err(format!("unexpected argument {arg:?}; {usage}")),
         }
     }
@@ -1596,6 +2146,7 @@ fn run(args: &[String]) -> Result<Value, String> {
             device_build(&vulkan, build.trim_start_matches("build-"), &mut results)?
         }
         ("blas", "") => blas(&vulkan, &mut results)?,
+        ("tlas", "") => tlas(&vulkan, &tlas_options, &mut results)?,
         ("overhead", "") => overhead(&vulkan, iterations, &mut results)?,
         ("threads", "") => threads(&vulkan, &mut results)?,
         _ => return Err(format!("unknown scenario {scenario:?}")),
