@@ -1117,23 +1117,23 @@ fn word_bytes(words: &[u32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_ne_bytes()).collect()
 }
 
-/// A compute pipeline of `copy_words` (tests/shaders.rs) with its
-/// descriptor set bound to `source` (binding 0) and `destination`
-/// (binding 1), both storage buffers.
+/// A compute pipeline of `copy_words` (tests/shaders.rs) and one
+/// descriptor set per pair of storage buffers it copies between: the
+/// source at binding 0, the destination at binding 1.
 struct CopyWords {
     module: vk::ShaderModule,
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
     pool: vk::DescriptorPool,
-    set: vk::DescriptorSet,
+    sets: Vec<vk::DescriptorSet>,
 }
 
 impl CopyWords {
     /// Invocations of one workgroup (the shader's LocalSize).
     const WORDS: u64 = 16;
 
-    fn new(gpu: &Gpu<'_>, source: vk::Buffer, destination: vk::Buffer) -> Result<Self, String> {
+    fn new(gpu: &Gpu<'_>, pairs: &[(vk::Buffer, vk::Buffer)]) -> Result<Self, String> {
         let device = &gpu.device;
         let code = ommcheck_tests::shaders::COPY_WORDS;
         let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
@@ -1168,47 +1168,52 @@ impl CopyWords {
             device.create_compute_pipelines(vk::PipelineCache::null(), &pipeline_info, None)
         }
         .map_err(|(_, e)| format!("vkCreateComputePipelines: {e}"))?[0];
+        let count = pairs.len() as u32;
         let sizes = [vk::DescriptorPoolSize::default()
             .ty(vk::DescriptorType::STORAGE_BUFFER)
-            .descriptor_count(2)];
+            .descriptor_count(2 * count)];
         let pool_info = vk::DescriptorPoolCreateInfo::default()
-            .max_sets(1)
+            .max_sets(count)
             .pool_sizes(&sizes);
         // SAFETY: valid arguments.
         let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
             .map_err(|e| format!("vkCreateDescriptorPool: {e}"))?;
+        let layouts = vec![set_layout; pairs.len()];
         let allocate = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(pool)
-            .set_layouts(&set_layouts);
-        // SAFETY: a pool with room for this one set.
-        let set = unsafe { device.allocate_descriptor_sets(&allocate) }
-            .map_err(|e| format!("vkAllocateDescriptorSets: {e}"))?[0];
-        let infos = [source, destination].map(|buffer| {
-            [vk::DescriptorBufferInfo::default()
-                .buffer(buffer)
-                .range(4 * Self::WORDS)]
-        });
-        let writes = [0, 1].map(|binding| {
-            vk::WriteDescriptorSet::default()
-                .dst_set(set)
-                .dst_binding(binding)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .buffer_info(&infos[binding as usize])
-        });
-        // SAFETY: both buffers have STORAGE_BUFFER usage and 64 bytes.
-        unsafe { device.update_descriptor_sets(&writes, &[]) };
+            .set_layouts(&layouts);
+        // SAFETY: a pool with room for these sets.
+        let sets = unsafe { device.allocate_descriptor_sets(&allocate) }
+            .map_err(|e| format!("vkAllocateDescriptorSets: {e}"))?;
+        for (&set, &(source, destination)) in sets.iter().zip(pairs) {
+            let infos = [source, destination].map(|buffer| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(buffer)
+                    .range(4 * Self::WORDS)]
+            });
+            let writes = [0, 1].map(|binding| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&infos[binding as usize])
+            });
+            // SAFETY: both buffers have STORAGE_BUFFER usage and 64 bytes.
+            unsafe { device.update_descriptor_sets(&writes, &[]) };
+        }
         Ok(Self {
             module,
             set_layout,
             layout,
             pipeline,
             pool,
-            set,
+            sets,
         })
     }
 
-    /// Records the dispatch of one workgroup into `command_buffer`.
-    fn record(&self, gpu: &Gpu<'_>, command_buffer: vk::CommandBuffer) {
+    /// Records the dispatch of one workgroup copying between the pair
+    /// `pair` of those given to [`CopyWords::new`] into `command_buffer`.
+    fn record(&self, gpu: &Gpu<'_>, command_buffer: vk::CommandBuffer, pair: usize) {
         // SAFETY: a recording command buffer; the pipeline and set are live.
         unsafe {
             gpu.device.cmd_bind_pipeline(
@@ -1221,7 +1226,7 @@ impl CopyWords {
                 vk::PipelineBindPoint::COMPUTE,
                 self.layout,
                 0,
-                &[self.set],
+                &[self.sets[pair]],
                 &[],
             );
             gpu.device.cmd_dispatch(command_buffer, 1, 1, 1);
@@ -1257,16 +1262,16 @@ const INSTANCE_WRITES: (vk::PipelineStageFlags, vk::AccessFlags) = (
 );
 /// What reads the instances and the bottom-level structure after they are
 /// written: the top-level build (its inputs are shader reads, the
-/// structure it references a structure read) and the copy back.
+/// structure it references a structure read) and the shader copying the
+/// instance back.
 const INSTANCE_READS: (vk::PipelineStageFlags, vk::AccessFlags) = (
     vk::PipelineStageFlags::from_raw(
         vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR.as_raw()
-            | vk::PipelineStageFlags::TRANSFER.as_raw(),
+            | vk::PipelineStageFlags::COMPUTE_SHADER.as_raw(),
     ),
     vk::AccessFlags::from_raw(
         vk::AccessFlags::SHADER_READ.as_raw()
-            | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR.as_raw()
-            | vk::AccessFlags::TRANSFER_READ.as_raw(),
+            | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR.as_raw(),
     ),
 );
 const TRANSFER_WRITE: (vk::PipelineStageFlags, vk::AccessFlags) = (
@@ -1283,12 +1288,13 @@ const TRANSFER_WRITE: (vk::PipelineStageFlags, vk::AccessFlags) = (
 /// device without VK_EXT_opacity_micromap), or 0 with `--valid`. `--way`
 /// chooses how the instance reaches the buffer the build reads
 /// ([`InstanceWay`]); except for `mapped`, that buffer's memory is
-/// DEVICE_LOCAL and never mapped. One submission with a fence, then
+/// DEVICE_LOCAL and never mapped, and it never has TRANSFER_SRC usage.
+/// After the build, in the same command buffer, `copy_words` copies the
+/// instance into a mapped buffer. One submission with a fence, then
 /// vkWaitForFences (phases `record`, `submit`, `wait`). Results: the
 /// device, whether the instance memory is host-visible, the build sizes,
-/// the submission's and the wait's results, the instance as copied back
-/// into a mapped buffer after the build, and the top-level structure's
-/// compacted size.
+/// the submission's and the wait's results, the instance copied back, and
+/// the top-level structure's compacted size.
 fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result<(), String> {
     let way = options
         .way
@@ -1317,9 +1323,10 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
     };
     let instance = instance_words(blas_address, flags);
     let without_flags = instance_words(blas_address, vk::GeometryInstanceFlagsKHR::empty());
+    // No TRANSFER_SRC, as in most applications: a layer that copies the
+    // instances must add that usage itself.
     let instance_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
         | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
-        | vk::BufferUsageFlags::TRANSFER_SRC
         | vk::BufferUsageFlags::TRANSFER_DST
         | vk::BufferUsageFlags::STORAGE_BUFFER;
     let write = |map: *mut u8, words: &[u32; 16]| {
@@ -1354,12 +1361,15 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
         }
         _ => vk::Buffer::null(),
     };
-    let copy_words = match way {
-        InstanceWay::Compute => Some(CopyWords::new(&gpu, source, instances)?),
-        _ => None,
-    };
     let (readback, readback_map) =
-        buffers.mapped(&gpu, INSTANCE_SIZE, vk::BufferUsageFlags::TRANSFER_DST)?;
+        buffers.mapped(&gpu, INSTANCE_SIZE, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+    // The shader copies the instance back after the build for every way
+    // and, for `compute`, writes it before.
+    let mut pairs = vec![(instances, readback)];
+    if way == InstanceWay::Compute {
+        pairs.push((source, instances));
+    }
+    let copy_words = CopyWords::new(&gpu, &pairs)?;
     let hazard = buffers.unmapped(
         &gpu,
         256,
@@ -1445,10 +1455,7 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
                 )
             };
         }
-        InstanceWay::Compute => copy_words
-            .as_ref()
-            .expect("made for the compute way")
-            .record(&gpu, command_buffer),
+        InstanceWay::Compute => copy_words.record(&gpu, command_buffer, 1),
         InstanceWay::Mapped => {}
     }
     blas.record_build(&accel, command_buffer);
@@ -1465,14 +1472,16 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
             vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
             compacted,
             0,
-        );
-        let region = [vk::BufferCopy::default().size(INSTANCE_SIZE)];
-        device.cmd_copy_buffer(command_buffer, instances, readback, &region);
-    }
+        )
+    };
+    copy_words.record(&gpu, command_buffer, 0);
     memory_barrier(
         &gpu,
         command_buffer,
-        TRANSFER_WRITE,
+        (
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::AccessFlags::SHADER_WRITE,
+        ),
         (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
     );
     // SAFETY: the command buffer is recording.
@@ -1520,9 +1529,7 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
         accel.destroy_acceleration_structure(tlas, None);
         accel.destroy_acceleration_structure(blas.structure, None);
     }
-    if let Some(copy_words) = copy_words {
-        copy_words.destroy(&gpu);
-    }
+    copy_words.destroy(&gpu);
     buffers.destroy(&gpu);
     Ok(())
 }
