@@ -182,16 +182,21 @@ impl Vulkan {
             .map_err(|e| format!("vkEnumeratePhysicalDevices: {e}"))?;
         devices
             .into_iter()
-            .find(|&device| {
-                // SAFETY: a physical device of this instance.
-                unsafe { self.instance.enumerate_device_extension_properties(device) }.is_ok_and(
-                    |all| {
-                        all.iter()
-                            .any(|e| e.extension_name_as_c_str() == Ok(extension))
-                    },
-                )
-            })
+            .find(|&device| self.has_device_extension(device, extension))
             .ok_or_else(|| format!("no physical device with {extension:?}"))
+    }
+
+    /// Whether `physical` offers the device extension `extension`.
+    fn has_device_extension(&self, physical: vk::PhysicalDevice, extension: &CStr) -> bool {
+        // SAFETY: a physical device of this instance.
+        unsafe {
+            self.instance
+                .enumerate_device_extension_properties(physical)
+        }
+        .is_ok_and(|all| {
+            all.iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(extension))
+        })
     }
 
     /// The first physical device.
@@ -698,30 +703,33 @@ fn scratch_alignment(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> u64 {
     )
 }
 
-/// A device of `physical` with VK_KHR_acceleration_structure and
-/// VK_KHR_ray_query and their features `accelerationStructure` and
-/// `rayQuery`. Ray queries are never used: the Khronos layer (1.3.239)
-/// requires them or ray-tracing pipelines for
+/// A device of `physical` with VK_KHR_acceleration_structure and its
+/// feature `accelerationStructure`, and with VK_KHR_ray_query and its
+/// feature `rayQuery` where offered (lavapipe), else VK_KHR_ray_tracing_pipeline
+/// and `rayTracingPipeline` where offered. Neither is used: the Khronos
+/// layer (1.3.239) requires one of them for
 /// vkGetAccelerationStructureBuildSizesKHR (its 03617, since dropped from
-/// the specification), and stacked under ommcheck it must report nothing of
-/// the app's.
+/// the specification), and stacked under ommcheck it must report nothing
+/// of the app's.
 fn structure_device(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> Result<Gpu<'_>, String> {
     let mut structure_features =
         vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
     let mut ray_query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
-    let mut features = vk::PhysicalDeviceFeatures2::default()
-        .push_next(&mut structure_features)
-        .push_next(&mut ray_query);
-    Gpu::new(
-        vulkan,
-        physical,
-        &[
-            ash::khr::acceleration_structure::NAME,
-            ash::khr::deferred_host_operations::NAME,
-            ash::khr::ray_query::NAME,
-        ],
-        &mut features,
-    )
+    let mut pipeline =
+        vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
+    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut structure_features);
+    let mut extensions = vec![
+        ash::khr::acceleration_structure::NAME,
+        ash::khr::deferred_host_operations::NAME,
+    ];
+    if vulkan.has_device_extension(physical, ash::khr::ray_query::NAME) {
+        extensions.push(ash::khr::ray_query::NAME);
+        features = features.push_next(&mut ray_query);
+    } else if vulkan.has_device_extension(physical, ash::khr::ray_tracing_pipeline::NAME) {
+        extensions.push(ash::khr::ray_tracing_pipeline::NAME);
+        features = features.push_next(&mut pipeline);
+    }
+    Gpu::new(vulkan, physical, &extensions, &mut features)
 }
 
 /// A scratch buffer of `size` bytes and its device address aligned to
@@ -951,16 +959,7 @@ const STRUCTURE_READ: (vk::PipelineStageFlags, vk::AccessFlags) = (
 /// VK_EXT_opacity_micromap).
 fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
     let physical = vulkan.physical_device()?;
-    // SAFETY: a physical device of this instance.
-    let extensions = unsafe {
-        vulkan
-            .instance
-            .enumerate_device_extension_properties(physical)
-    }
-    .map_err(|e| format!("vkEnumerateDeviceExtensionProperties: {e}"))?;
-    let has_micromaps = extensions
-        .iter()
-        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::opacity_micromap::NAME));
+    let has_micromaps = vulkan.has_device_extension(physical, ash::ext::opacity_micromap::NAME);
     results.insert("has_opacity_micromap".into(), json!(has_micromaps));
     let scratch_alignment = scratch_alignment(vulkan, physical);
     let gpu = structure_device(vulkan, physical)?;
