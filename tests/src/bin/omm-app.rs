@@ -34,7 +34,11 @@
 //! `--valid`), the instance written into memory the app never maps by
 //! vkCmdCopyBuffer, vkCmdUpdateBuffer, vkCmdFillBuffer or a compute shader,
 //! or into memory it keeps mapped; `--sync-fault` plants a hazard for the
-//! Khronos layer's synchronization validation.
+//! Khronos layer's synchronization validation. On a machine with a GPU,
+//! after `cargo xtask layer` (which writes target/layer/VkLayer_ommcheck.json)
+//! and `cargo build -p ommcheck-tests --bin omm-app`:
+//! `VK_ADD_LAYER_PATH=target/layer target/debug/omm-app tlas --way compute
+//! --layer VK_LAYER_OMMCHECK_validation`.
 //! `overhead` (Mock ICD) times `--iterations` valid calls (default 10000) of
 //! three build commands and reports nanoseconds per call; `cargo xtask
 //! bench` runs it with and without layers.
