@@ -17,6 +17,13 @@
 //! tell which buffer a device address lies in, and says so once per device
 //! (`OMMCHECK-layer-contents-not-checked`). Content checks at submission
 //! are covered by the in-process chain tests (layer/tests/submit.rs).
+//!
+//! Over lavapipe, device builds really run and buffer device addresses are
+//! real, so contents are decidable: a top-level build's instance flags
+//! (omm-app's `tlas`) are checked whether the instance lies in memory the
+//! app maps or, in memory it never maps, was written there by transfers
+//! (known from the recorded commands at submission) or by a compute shader
+//! (known only by reading it back from the device after execution).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -84,6 +91,7 @@ struct Received {
     id: String,
     severity: String,
     phase: String,
+    text: String,
 }
 
 /// What omm-app printed for one scenario.
@@ -91,6 +99,9 @@ struct Received {
 struct Run {
     messages: Vec<Received>,
     device_layers: BTreeSet<String>,
+    /// The device layers in the order the loader inserted them: from the
+    /// one nearest the driver up to the one nearest the application.
+    inserted_from_driver: Vec<String>,
     results: Value,
 }
 
@@ -116,6 +127,8 @@ struct Scenario<'a> {
     layer_dirs: &'a [&'a Path],
     settings: &'a [(&'a str, &'a str)],
     core_fault: bool,
+    /// The scenario's own arguments, after its name.
+    args: &'a [&'a str],
 }
 
 impl<'a> Scenario<'a> {
@@ -127,12 +140,13 @@ impl<'a> Scenario<'a> {
             layer_dirs: &[],
             settings: &[],
             core_fault: false,
+            args: &[],
         }
     }
 
     fn run(&self) -> Run {
         let mut command = loader_command(env!("CARGO_BIN_EXE_omm-app"));
-        command.arg(self.name);
+        command.arg(self.name).args(self.args);
         for layer in self.layers {
             command.args(["--layer", layer]);
         }
@@ -174,9 +188,10 @@ impl<'a> Scenario<'a> {
                 id: text(m, "id"),
                 severity: text(m, "severity"),
                 phase: text(m, "phase"),
+                text: text(m, "text"),
             })
             .collect();
-        let device_layers = line["device_layers"]
+        let inserted_from_driver: Vec<String> = line["device_layers"]
             .as_array()
             .expect("device_layers")
             .iter()
@@ -184,7 +199,8 @@ impl<'a> Scenario<'a> {
             .collect();
         Run {
             messages,
-            device_layers,
+            device_layers: inserted_from_driver.iter().cloned().collect(),
+            inserted_from_driver,
             results: line["results"].clone(),
         }
     }
@@ -411,4 +427,246 @@ fn eight_threads_over_the_mock_icd_report_exactly_their_faults() {
     ]);
     assert_eq!(counts, expected, "{run:#?}");
     assert!(run.messages.iter().all(|m| m.phase == "threads"));
+}
+
+const INSTANCE_FLAGS: &str = "VUID-VkAccelerationStructureInstanceKHR-micromap-11580";
+/// Where the one instance of omm-app's `tlas` build keeps its flags.
+const INSTANCE_FLAGS_LOCATION: &str = "pInfos[0].pGeometries[0].geometry.instances.data[0].flags";
+/// The ways `tlas` puts its instance where the build reads it (`--way`).
+const INSTANCE_WAYS: [&str; 5] = ["copy", "update", "fill", "compute", "mapped"];
+/// FORCE_OPACITY_MICROMAP_2_STATE in the high byte of the instance's
+/// eighth word (its flags), as `tlas` without `--valid` writes it.
+const FORCED_FLAGS_WORD: u64 = 0x10 << 24;
+const SYNC_HAZARD: &str = "SYNC-HAZARD-WRITE-AFTER-WRITE";
+/// The Khronos layer's synchronization validation, also between
+/// submissions (its list separator is ':'), and no shader validation cache
+/// (it would say, once per machine, that it found none to read).
+const KHRONOS_SYNC_SETTINGS: [(&str, &str); 2] = [
+    (
+        "VK_LAYER_ENABLES",
+        "VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT:\
+         VALIDATION_CHECK_ENABLE_SYNCHRONIZATION_VALIDATION_QUEUE_SUBMIT",
+    ),
+    (
+        "VK_LAYER_DISABLES",
+        "VK_VALIDATION_FEATURE_DISABLE_SHADER_VALIDATION_CACHE_EXT",
+    ),
+];
+
+/// omm-app's `tlas` arguments for `way`, valid or not.
+fn tlas_args(way: &str, valid: bool) -> Vec<&str> {
+    let mut args = vec!["--way", way];
+    if valid {
+        args.push("--valid");
+    }
+    args
+}
+
+/// Asserts what every `tlas` run returns, with or without layers: the
+/// submission and the wait succeeded and the instance the build read is the
+/// one the app meant, flags included.
+fn assert_tlas_ran(run: &Run, valid: bool, what: &str) {
+    let results = &run.results;
+    assert_eq!(
+        (&results["submit"], &results["wait"]),
+        (&0.into(), &0.into()),
+        "{what}"
+    );
+    assert_eq!(results["instance_written"], true, "{what}");
+    let flags = if valid { 0 } else { FORCED_FLAGS_WORD };
+    assert_eq!(results["instance_read_back"][13], flags, "{what}");
+    assert!(results["compacted_size"].as_u64() > Some(0), "{what}");
+}
+
+/// Asserts `run` received exactly one finding of `id` about the instance's
+/// flags, in `phase`, and nothing else.
+fn assert_one_instance_finding(run: &Run, phase: &str, what: &str) {
+    assert_eq!(run.ids(), [INSTANCE_FLAGS], "{what}");
+    let message = &run.messages[0];
+    assert_eq!(
+        (message.severity.as_str(), message.phase.as_str()),
+        ("error", phase),
+        "{what}"
+    );
+    assert!(
+        message.text.contains(INSTANCE_FLAGS_LOCATION),
+        "{what}: the text names no {INSTANCE_FLAGS_LOCATION}"
+    );
+}
+
+/// The top-level build reads its one instance from a buffer the app wrote
+/// in one of five ways (omm-app's `tlas --way`); the instance's flags hold
+/// FORCE_OPACITY_MICROMAP_2_STATE on a device without any micromap feature.
+/// With the layer's defaults (GPU readback on), ommcheck reports it exactly
+/// once. From memory the app keeps mapped it is known at vkQueueSubmit.
+/// Written by transfers or a shader into memory the app never maps, the
+/// layer copies the instances back before the build and checks them once
+/// the submission completes (vkWaitForFences). The valid twin (flags 0) is
+/// silent, at every severity, and the app reads back the same results with
+/// the layer as without.
+#[test]
+fn a_top_level_builds_instance_flags_are_reported_once_however_the_instance_was_written() {
+    let Some(icd) = prepared("OMMCHECK_TEST_LAVAPIPE_ICD") else {
+        return;
+    };
+    for way in INSTANCE_WAYS {
+        for valid in [false, true] {
+            let args = tlas_args(way, valid);
+            let without = Scenario {
+                layers: &[],
+                args: &args,
+                ..Scenario::new("tlas", &icd)
+            }
+            .run();
+            let with = Scenario {
+                settings: &[("OMMCHECK_REPORT", ALL_SEVERITIES)],
+                args: &args,
+                ..Scenario::new("tlas", &icd)
+            }
+            .run();
+            let what = format!("tlas {args:?}: {with:#?}");
+            assert_layer_inserted(&with);
+            assert_tlas_ran(&without, valid, &what);
+            assert_eq!(with.results, without.results, "{what}");
+            assert!(without.messages.is_empty(), "{without:#?}");
+            if valid {
+                assert!(with.messages.is_empty(), "{what}");
+            } else {
+                let phase = if way == "mapped" { "submit" } else { "wait" };
+                assert_one_instance_finding(&with, phase, &what);
+            }
+        }
+    }
+}
+
+/// With GPU readback off (OMMCHECK_GPU_READBACK=false) only what the host
+/// can know is checked. Instances uploaded by vkCmdCopyBuffer from mapped
+/// memory, or written by vkCmdUpdateBuffer and vkCmdFillBuffer, are known
+/// from the recorded transfers and reported at vkQueueSubmit, as are
+/// instances in mapped memory. Those a compute shader wrote cannot be known
+/// from the host: the layer says once, at submission, that it did not check
+/// the build's contents and names the setting that would, whether the
+/// flags are valid or not.
+#[test]
+fn without_gpu_readback_instances_written_by_transfers_are_still_reported_at_submission() {
+    let Some(icd) = prepared("OMMCHECK_TEST_LAVAPIPE_ICD") else {
+        return;
+    };
+    for way in INSTANCE_WAYS {
+        for valid in [false, true] {
+            let args = tlas_args(way, valid);
+            let run = Scenario {
+                settings: &[
+                    ("OMMCHECK_REPORT", ALL_SEVERITIES),
+                    ("OMMCHECK_GPU_READBACK", "false"),
+                ],
+                args: &args,
+                ..Scenario::new("tlas", &icd)
+            }
+            .run();
+            let what = format!("tlas {args:?} without readback: {run:#?}");
+            assert_layer_inserted(&run);
+            assert_tlas_ran(&run, valid, &what);
+            if way == "compute" {
+                assert_eq!(run.ids(), [CONTENTS_NOT_CHECKED], "{what}");
+                let message = &run.messages[0];
+                assert_eq!(
+                    (message.severity.as_str(), message.phase.as_str()),
+                    ("info", "submit"),
+                    "{what}"
+                );
+                assert!(
+                    message.text.to_ascii_lowercase().contains("gpu_readback"),
+                    "{what}: the text names no setting gpu_readback"
+                );
+            } else if valid {
+                assert!(run.messages.is_empty(), "{what}");
+            } else {
+                assert_one_instance_finding(&run, "submit", &what);
+            }
+        }
+    }
+}
+
+/// `a` less each element of `b`, as often as it is in `b` (both sorted).
+fn without_each(a: &[String], b: &[String]) -> Vec<String> {
+    let mut rest = a.to_vec();
+    for item in b {
+        if let Some(at) = rest.iter().position(|x| x == item) {
+            rest.remove(at);
+        }
+    }
+    rest
+}
+
+/// The Khronos validation layer between ommcheck and the driver, with
+/// synchronization validation on, sees every command ommcheck adds to the
+/// app's command buffers (the readback's barriers and copies) and the
+/// buffers and memory ommcheck creates. It reports exactly what it reports
+/// without ommcheck: the one hazard the app plants (`--sync-fault`, which
+/// shows synchronization validation is on) and nothing else. Its
+/// synchronization validation (1.3.239) does not follow what builds read,
+/// but it does follow transfers and dispatches: without omm-app's barrier
+/// before the build it reports the shader that copies the instance back
+/// (SYNC-HAZARD-READ-AFTER-WRITE), so a readback copy of the instances
+/// without a barrier after their writer would be reported too. The
+/// instance buffer lacks TRANSFER_SRC usage, which ommcheck's copy needs.
+/// ommcheck still reports the instance's flags, and the app reads back the
+/// same results.
+#[test]
+fn khronos_synchronization_validation_below_ommcheck_finds_nothing_in_what_ommcheck_adds() {
+    let (Some(icd), Some(khronos)) = (
+        prepared("OMMCHECK_TEST_LAVAPIPE_ICD"),
+        prepared("OMMCHECK_TEST_KHRONOS_LAYER"),
+    ) else {
+        return;
+    };
+    let logs = Path::new(env!("CARGO_TARGET_TMPDIR")).join("layer-e2e");
+    std::fs::create_dir_all(&logs).expect("creating the log directory");
+    for way in INSTANCE_WAYS {
+        let mut args = tlas_args(way, false);
+        args.push("--sync-fault");
+        let khronos_alone = Scenario {
+            layers: &[KHRONOS_VALIDATION],
+            layer_dirs: &[&khronos],
+            settings: &KHRONOS_SYNC_SETTINGS,
+            args: &args,
+            ..Scenario::new("tlas", &icd)
+        }
+        .run();
+        let log = logs.join(format!("tlas-{way}-{}.log", std::process::id()));
+        let _ = std::fs::remove_file(&log);
+        let mut settings = KHRONOS_SYNC_SETTINGS.to_vec();
+        settings.push(("OMMCHECK_LOG_FILE", log.to_str().expect("a UTF-8 path")));
+        // ppEnabledLayerNames lists layers from the application down: the
+        // Khronos layer comes second, between ommcheck and the driver.
+        let stacked = Scenario {
+            layers: &[LAYER_NAME, KHRONOS_VALIDATION],
+            layer_dirs: &[&khronos],
+            settings: &settings,
+            args: &args,
+            ..Scenario::new("tlas", &icd)
+        }
+        .run();
+        let what = format!("tlas {args:?}: alone {khronos_alone:#?}, stacked {stacked:#?}");
+        // The loader builds the chain from the driver up.
+        assert_eq!(
+            stacked.inserted_from_driver,
+            [KHRONOS_VALIDATION, LAYER_NAME],
+            "{what}"
+        );
+        let ommcheck_ids = logged_ids(&log);
+        let _ = std::fs::remove_file(&log);
+        let owned =
+            |run: &Run| -> Vec<String> { run.ids().into_iter().map(String::from).collect() };
+        assert_eq!(owned(&khronos_alone), [SYNC_HAZARD], "{what}");
+        assert_eq!(
+            without_each(&owned(&stacked), &ommcheck_ids),
+            owned(&khronos_alone),
+            "{what}"
+        );
+        assert_eq!(ommcheck_ids, [INSTANCE_FLAGS], "{what}");
+        assert_tlas_ran(&khronos_alone, false, &what);
+        assert_eq!(stacked.results, khronos_alone.results, "{what}");
+    }
 }

@@ -7,14 +7,16 @@
 //!
 //! ```text
 //! omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N]
+//!         [--way copy|update|fill|compute|mapped] [--valid] [--sync-fault]
 //! {"scenario": ..., "messages": [{"id", "severity", "phase", "text"}],
 //!  "device_layers": [...], "results": {...}}
 //! ```
 //!
 //! The layers are enabled in `ppEnabledLayerNames` in the order given. Each
 //! message carries the phase it arrived in (`setup`, `build`, `record`,
-//! `submit`, `teardown`); `device_layers` are the layers the loader reports
-//! (as information) inserting into the device call chain. `--core-fault` creates a buffer of size 0 at the
+//! `submit`, `wait` (vkWaitForFences), `teardown`); `device_layers` are the
+//! layers the loader reports (as information) inserting into the device
+//! call chain, in its order: from the driver up. `--core-fault` creates a buffer of size 0 at the
 //! end (VUID-VkBufferCreateInfo-size-00912, which the Khronos validation
 //! layer checks and ommcheck does not), to show a stacked layer is active.
 //!
@@ -25,6 +27,18 @@
 //! `threads` (Mock ICD): eight threads creating, building and destroying
 //! at once, with known faults.
 //! Over lavapipe (acceleration structures that really build): `blas`.
+//! `tlas --way W [--valid] [--sync-fault]` (on the first physical device
+//! with VK_KHR_acceleration_structure, lavapipe or a GPU): a top-level build
+//! of one instance whose flags break
+//! VUID-VkAccelerationStructureInstanceKHR-micromap-11580 (or are 0 with
+//! `--valid`), the instance written into memory the app never maps by
+//! vkCmdCopyBuffer, vkCmdUpdateBuffer, vkCmdFillBuffer or a compute shader,
+//! or into memory it keeps mapped; `--sync-fault` plants a hazard for the
+//! Khronos layer's synchronization validation. On a machine with a GPU,
+//! after `cargo xtask layer` (which writes target/layer/VkLayer_ommcheck.json)
+//! and `cargo build -p ommcheck-tests --bin omm-app`:
+//! `VK_ADD_LAYER_PATH=target/layer target/debug/omm-app tlas --way compute
+//! --layer VK_LAYER_OMMCHECK_validation`.
 //! `overhead` (Mock ICD) times `--iterations` valid calls (default 10000) of
 //! three build commands and reports nanoseconds per call; `cargo xtask
 //! bench` runs it with and without layers.
@@ -165,6 +179,30 @@ impl Vulkan {
         self.collector.messages.lock().unwrap().clone()
     }
 
+    /// The first physical device with the device extension `extension`.
+    fn physical_device_with(&self, extension: &CStr) -> Result<vk::PhysicalDevice, String> {
+        // SAFETY: a live instance.
+        let devices = unsafe { self.instance.enumerate_physical_devices() }
+            .map_err(|e| format!("vkEnumeratePhysicalDevices: {e}"))?;
+        devices
+            .into_iter()
+            .find(|&device| self.has_device_extension(device, extension))
+            .ok_or_else(|| format!("no physical device with {extension:?}"))
+    }
+
+    /// Whether `physical` offers the device extension `extension`.
+    fn has_device_extension(&self, physical: vk::PhysicalDevice, extension: &CStr) -> bool {
+        // SAFETY: a physical device of this instance.
+        unsafe {
+            self.instance
+                .enumerate_device_extension_properties(physical)
+        }
+        .is_ok_and(|all| {
+            all.iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(extension))
+        })
+    }
+
     /// The first physical device.
     fn physical_device(&self) -> Result<vk::PhysicalDevice, String> {
         // SAFETY: a live instance.
@@ -188,6 +226,12 @@ impl Drop for Vulkan {
         }
     }
 }
+
+/// The memory of buffers the app writes through a mapping.
+const HOST_MAPPABLE: vk::MemoryPropertyFlags = vk::MemoryPropertyFlags::from_raw(
+    vk::MemoryPropertyFlags::HOST_VISIBLE.as_raw()
+        | vk::MemoryPropertyFlags::HOST_COHERENT.as_raw(),
+);
 
 /// A device with one queue of family 0 (the Mock ICD and lavapipe both
 /// have one family with graphics, compute and transfer).
@@ -244,6 +288,18 @@ impl<'a> Gpu<'a> {
         })
     }
 
+    /// The first memory type in `bits` with `flags`.
+    fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Result<u32, String> {
+        (0..self.memory.memory_type_count)
+            .find(|&i| {
+                bits & (1 << i) != 0
+                    && self.memory.memory_types[i as usize]
+                        .property_flags
+                        .contains(flags)
+            })
+            .ok_or_else(|| format!("no memory type with {flags:?} in {bits:#x}"))
+    }
+
     /// Memory of `size` bytes of the first type in `bits` with `flags`.
     fn allocate(
         &self,
@@ -252,14 +308,7 @@ impl<'a> Gpu<'a> {
         flags: vk::MemoryPropertyFlags,
         device_address: bool,
     ) -> Result<vk::DeviceMemory, String> {
-        let index = (0..self.memory.memory_type_count)
-            .find(|&i| {
-                bits & (1 << i) != 0
-                    && self.memory.memory_types[i as usize]
-                        .property_flags
-                        .contains(flags)
-            })
-            .ok_or_else(|| format!("no memory type with {flags:?} in {bits:#x}"))?;
+        let index = self.memory_type(bits, flags)?;
         let mut address_flags =
             vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
         let mut info = vk::MemoryAllocateInfo::default()
@@ -285,13 +334,14 @@ impl<'a> Gpu<'a> {
         .map_err(|e| format!("vkMapMemory: {e}"))
     }
 
-    /// A buffer of `size` bytes bound to host-visible memory of its own,
-    /// mapped; returns the buffer and the mapping.
-    fn mapped_buffer(
+    /// A buffer of `size` bytes bound to memory of its own of the first
+    /// type with `flags`: the buffer and its memory.
+    fn bound_buffer(
         &self,
         size: u64,
         usage: vk::BufferUsageFlags,
-    ) -> Result<(vk::Buffer, *mut u8), String> {
+        flags: vk::MemoryPropertyFlags,
+    ) -> Result<(vk::Buffer, vk::DeviceMemory), String> {
         let info = vk::BufferCreateInfo::default().size(size).usage(usage);
         // SAFETY: valid arguments.
         let buffer = unsafe { self.device.create_buffer(&info, None) }
@@ -301,12 +351,23 @@ impl<'a> Gpu<'a> {
         let memory = self.allocate(
             requirements.size.max(size),
             requirements.memory_type_bits,
-            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
+            flags,
             usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
         )?;
         // SAFETY: fresh memory large enough for the buffer.
         unsafe { self.device.bind_buffer_memory(buffer, memory, 0) }
             .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
+        Ok((buffer, memory))
+    }
+
+    /// A buffer of `size` bytes bound to host-visible memory of its own,
+    /// mapped; returns the buffer and the mapping.
+    fn mapped_buffer(
+        &self,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<(vk::Buffer, *mut u8), String> {
+        let (buffer, memory) = self.bound_buffer(size, usage, HOST_MAPPABLE)?;
         Ok((buffer, self.map(memory)?))
     }
 
@@ -584,24 +645,52 @@ fn device_command_is_null(gpu: &Gpu<'_>, name: &CStr) -> bool {
     .is_none()
 }
 
-/// A bottom-level acceleration structure of three triangles built on the
-/// device (lavapipe), then its compacted and serialization sizes read
-/// through query pools. Results: those sizes, the build sizes, and whether
-/// the micromap commands resolve (they must not: lavapipe lacks
-/// VK_EXT_opacity_micromap).
-fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
-    let physical = vulkan.physical_device()?;
-    // SAFETY: a physical device of this instance.
-    let extensions = unsafe {
-        vulkan
-            .instance
-            .enumerate_device_extension_properties(physical)
+/// Buffers a scenario creates, each bound to memory of its own, and
+/// destroys with [`Buffers::destroy`] when its work is done, so that a
+/// stacked Khronos layer has no leaked object of the app's to report.
+#[derive(Default)]
+struct Buffers(Vec<(vk::Buffer, vk::DeviceMemory)>);
+
+impl Buffers {
+    /// A buffer in host-visible memory, mapped: the buffer and the mapping.
+    fn mapped(
+        &mut self,
+        gpu: &Gpu<'_>,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<(vk::Buffer, *mut u8), String> {
+        let buffer = self.unmapped(gpu, size, usage, HOST_MAPPABLE)?;
+        let memory = self.0.last().expect("the buffer just made").1;
+        Ok((buffer, gpu.map(memory)?))
     }
-    .map_err(|e| format!("vkEnumerateDeviceExtensionProperties: {e}"))?;
-    let has_micromaps = extensions
-        .iter()
-        .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::opacity_micromap::NAME));
-    results.insert("has_opacity_micromap".into(), json!(has_micromaps));
+
+    /// A buffer in memory of the first type with `flags`, never mapped.
+    fn unmapped(
+        &mut self,
+        gpu: &Gpu<'_>,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        flags: vk::MemoryPropertyFlags,
+    ) -> Result<vk::Buffer, String> {
+        let (buffer, memory) = gpu.bound_buffer(size, usage, flags)?;
+        self.0.push((buffer, memory));
+        Ok(buffer)
+    }
+
+    /// Destroys every buffer and frees its memory.
+    fn destroy(self, gpu: &Gpu<'_>) {
+        for (buffer, memory) in self.0 {
+            // SAFETY: the queue is idle and nothing alive uses the buffer.
+            unsafe {
+                gpu.device.destroy_buffer(buffer, None);
+                gpu.device.free_memory(memory, None);
+            }
+        }
+    }
+}
+
+/// The scratch offset alignment of `physical`'s acceleration structures.
+fn scratch_alignment(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> u64 {
     let mut structure_properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
     let mut properties =
         vk::PhysicalDeviceProperties2::default().push_next(&mut structure_properties);
@@ -611,23 +700,273 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
             .instance
             .get_physical_device_properties2(physical, &mut properties)
     };
-    let scratch_alignment = u64::from(
+    u64::from(
         structure_properties
             .min_acceleration_structure_scratch_offset_alignment
             .max(1),
-    );
+    )
+}
 
+/// A device of `physical` with VK_KHR_acceleration_structure and its
+/// feature `accelerationStructure`, and with VK_KHR_ray_query and its
+/// feature `rayQuery` where offered (lavapipe), else VK_KHR_ray_tracing_pipeline
+/// and `rayTracingPipeline` where offered. Neither is used: the Khronos
+/// layer (1.3.239) requires one of them for
+/// vkGetAccelerationStructureBuildSizesKHR (its 03617, since dropped from
+/// the specification), and stacked under ommcheck it must report nothing
+/// of the app's.
+fn structure_device(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> Result<Gpu<'_>, String> {
     let mut structure_features =
         vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
-    let gpu = Gpu::new(
-        vulkan,
-        physical,
-        &[
-            ash::khr::acceleration_structure::NAME,
-            ash::khr::deferred_host_operations::NAME,
-        ],
-        &mut structure_features,
+    let mut ray_query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+    let mut pipeline =
+        vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
+    let mut features = vk::PhysicalDeviceFeatures2::default().push_next(&mut structure_features);
+    let mut extensions = vec![
+        ash::khr::acceleration_structure::NAME,
+        ash::khr::deferred_host_operations::NAME,
+    ];
+    if vulkan.has_device_extension(physical, ash::khr::ray_query::NAME) {
+        extensions.push(ash::khr::ray_query::NAME);
+        features = features.push_next(&mut ray_query);
+    } else if vulkan.has_device_extension(physical, ash::khr::ray_tracing_pipeline::NAME) {
+        extensions.push(ash::khr::ray_tracing_pipeline::NAME);
+        features = features.push_next(&mut pipeline);
+    }
+    Gpu::new(vulkan, physical, &extensions, &mut features)
+}
+
+/// A scratch buffer of `size` bytes and its device address aligned to
+/// `alignment`.
+fn scratch(gpu: &Gpu<'_>, buffers: &mut Buffers, size: u64, alignment: u64) -> Result<u64, String> {
+    let (scratch, _) = buffers.mapped(
+        gpu,
+        size + alignment,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
     )?;
+    Ok(gpu.address(scratch).next_multiple_of(alignment))
+}
+
+/// A structure of `ty` and `size` bytes on a storage buffer of its own.
+fn create_structure(
+    gpu: &Gpu<'_>,
+    accel: &ash::khr::acceleration_structure::Device,
+    buffers: &mut Buffers,
+    ty: vk::AccelerationStructureTypeKHR,
+    size: u64,
+) -> Result<vk::AccelerationStructureKHR, String> {
+    let (storage, _) = buffers.mapped(
+        gpu,
+        size,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+    )?;
+    let create = vk::AccelerationStructureCreateInfoKHR::default()
+        .buffer(storage)
+        .size(size)
+        .ty(ty);
+    // SAFETY: a storage buffer of the size the driver asked for.
+    unsafe { accel.create_acceleration_structure(&create, None) }
+        .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))
+}
+
+/// A bottom-level structure of three separate triangles in the z = 0
+/// plane, indexed 0..9, whose vertices, indices, storage and scratch lie
+/// in mapped memory; created with the size the driver asks for, built
+/// with ALLOW_COMPACTION by [`TriangleBlas::record_build`].
+struct TriangleBlas {
+    structure: vk::AccelerationStructureKHR,
+    geometries: [vk::AccelerationStructureGeometryKHR<'static>; 1],
+    /// The structure's size and its build scratch size.
+    sizes: [u64; 2],
+    scratch_address: u64,
+}
+
+impl TriangleBlas {
+    const TRIANGLES: u32 = 3;
+
+    fn new(
+        gpu: &Gpu<'_>,
+        accel: &ash::khr::acceleration_structure::Device,
+        buffers: &mut Buffers,
+        scratch_alignment: u64,
+    ) -> Result<Self, String> {
+        let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+        let vertices: Vec<f32> = (0..Self::TRIANGLES)
+            .flat_map(|t| {
+                let x = t as f32 * 2.0;
+                [x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
+            })
+            .collect();
+        let indices: Vec<u32> = (0..3 * Self::TRIANGLES).collect();
+        let (vertex_buffer, vertex_map) =
+            buffers.mapped(gpu, 4 * vertices.len() as u64, input_usage)?;
+        let (index_buffer, index_map) =
+            buffers.mapped(gpu, 4 * indices.len() as u64, input_usage)?;
+        // SAFETY: each mapping holds its buffer's size: exactly these bytes.
+        unsafe {
+            vertex_map.copy_from_nonoverlapping(vertices.as_ptr().cast(), 4 * vertices.len());
+            index_map.copy_from_nonoverlapping(indices.as_ptr().cast(), 4 * indices.len());
+        }
+        let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+            .vertex_format(vk::Format::R32G32B32_SFLOAT)
+            .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                device_address: gpu.address(vertex_buffer),
+            })
+            .vertex_stride(12)
+            .max_vertex(3 * Self::TRIANGLES - 1)
+            .index_type(vk::IndexType::UINT32)
+            .index_data(vk::DeviceOrHostAddressConstKHR {
+                device_address: gpu.address(index_buffer),
+            });
+        let geometries = [vk::AccelerationStructureGeometryKHR::default()
+            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+            .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+            .flags(vk::GeometryFlagsKHR::OPAQUE)];
+        let mut blas = Self {
+            structure: vk::AccelerationStructureKHR::null(),
+            geometries,
+            sizes: [0; 2],
+            scratch_address: 0,
+        };
+        blas.sizes = build_sizes(accel, &blas.build_info(), Self::TRIANGLES);
+        blas.structure = create_structure(
+            gpu,
+            accel,
+            buffers,
+            vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+            blas.sizes[0],
+        )?;
+        blas.scratch_address = scratch(gpu, buffers, blas.sizes[1], scratch_alignment)?;
+        Ok(blas)
+    }
+
+    fn build_info(&self) -> vk::AccelerationStructureBuildGeometryInfoKHR<'_> {
+        vk::AccelerationStructureBuildGeometryInfoKHR::default()
+            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
+            .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
+            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+            .geometries(&self.geometries)
+            .dst_acceleration_structure(self.structure)
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                device_address: self.scratch_address,
+            })
+    }
+
+    /// Records the build into `command_buffer`.
+    fn record_build(
+        &self,
+        accel: &ash::khr::acceleration_structure::Device,
+        command_buffer: vk::CommandBuffer,
+    ) {
+        let ranges =
+            [vk::AccelerationStructureBuildRangeInfoKHR::default()
+                .primitive_count(Self::TRIANGLES)];
+        // SAFETY: a recording command buffer; the build's buffers and
+        // structure are alive and sized as the driver asked.
+        unsafe {
+            accel.cmd_build_acceleration_structures(
+                command_buffer,
+                &[self.build_info()],
+                &[&ranges],
+            )
+        };
+    }
+}
+
+/// The structure size and build scratch size the driver gives a device
+/// build of `info` with `primitives` primitives in its one geometry.
+fn build_sizes(
+    accel: &ash::khr::acceleration_structure::Device,
+    info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    primitives: u32,
+) -> [u64; 2] {
+    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    // SAFETY: a valid build info with one geometry.
+    unsafe {
+        accel.get_acceleration_structure_build_sizes(
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            info,
+            &[primitives],
+            &mut sizes,
+        )
+    };
+    [sizes.acceleration_structure_size, sizes.build_scratch_size]
+}
+
+/// A query pool of one query of `ty`.
+fn query_pool(gpu: &Gpu<'_>, ty: vk::QueryType) -> Result<vk::QueryPool, String> {
+    let info = vk::QueryPoolCreateInfo::default()
+        .query_type(ty)
+        .query_count(1);
+    // SAFETY: valid arguments.
+    unsafe { gpu.device.create_query_pool(&info, None) }
+        .map_err(|e| format!("vkCreateQueryPool: {e}"))
+}
+
+/// The one 64-bit result of `pool`, waiting for it.
+fn query_result(gpu: &Gpu<'_>, pool: vk::QueryPool) -> Result<u64, String> {
+    let mut value = [0u64];
+    // SAFETY: one 64-bit result of a query a submission writes.
+    unsafe {
+        gpu.device.get_query_pool_results(
+            pool,
+            0,
+            &mut value,
+            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+        )
+    }
+    .map_err(|e| format!("vkGetQueryPoolResults: {e}"))?;
+    Ok(value[0])
+}
+
+/// A barrier on all memory between `src` and `dst` in `command_buffer`.
+fn memory_barrier(
+    gpu: &Gpu<'_>,
+    command_buffer: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(src.1)
+        .dst_access_mask(dst.1)];
+    // SAFETY: a recording command buffer.
+    unsafe {
+        gpu.device.cmd_pipeline_barrier(
+            command_buffer,
+            src.0,
+            dst.0,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
+
+/// A structure's build writes, as a barrier's source or destination.
+const STRUCTURE_WRITE: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+    vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+);
+/// Reads of a built structure by a later build or property query.
+const STRUCTURE_READ: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+    vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR,
+);
+
+/// A bottom-level acceleration structure of three triangles built on the
+/// device (lavapipe), then its compacted and serialization sizes read
+/// through query pools. Results: those sizes, the build sizes, and whether
+/// the micromap commands resolve (they must not: lavapipe lacks
+/// VK_EXT_opacity_micromap).
+fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
+    let physical = vulkan.physical_device()?;
+    let has_micromaps = vulkan.has_device_extension(physical, ash::ext::opacity_micromap::NAME);
+    results.insert("has_opacity_micromap".into(), json!(has_micromaps));
+    let scratch_alignment = scratch_alignment(vulkan, physical);
+    let gpu = structure_device(vulkan, physical)?;
     results.insert(
         "null_micromap_commands".into(),
         json!([
@@ -637,159 +976,570 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
         ]),
     );
     let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
-
-    // Three separate triangles in the z = 0 plane, indexed 0..9.
-    let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-    let vertices: Vec<f32> = (0..3)
-        .flat_map(|t| {
-            let x = t as f32 * 2.0;
-            [x, 0.0, 0.0, x + 1.0, 0.0, 0.0, x, 1.0, 0.0]
-        })
-        .collect();
-    let indices: Vec<u32> = (0..9).collect();
-    let (vertex_buffer, vertex_map) = gpu.mapped_buffer(4 * vertices.len() as u64, input_usage)?;
-    let (index_buffer, index_map) = gpu.mapped_buffer(4 * indices.len() as u64, input_usage)?;
-    // SAFETY: each mapping holds its buffer's size: exactly these bytes.
-    unsafe {
-        vertex_map.copy_from_nonoverlapping(vertices.as_ptr().cast(), 4 * vertices.len());
-        index_map.copy_from_nonoverlapping(indices.as_ptr().cast(), 4 * indices.len());
-    }
-    let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-        .vertex_format(vk::Format::R32G32B32_SFLOAT)
-        .vertex_data(vk::DeviceOrHostAddressConstKHR {
-            device_address: gpu.address(vertex_buffer),
-        })
-        .vertex_stride(12)
-        .max_vertex(8)
-        .index_type(vk::IndexType::UINT32)
-        .index_data(vk::DeviceOrHostAddressConstKHR {
-            device_address: gpu.address(index_buffer),
-        });
-    let geometries = [vk::AccelerationStructureGeometryKHR::default()
-        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-        .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
-        .flags(vk::GeometryFlagsKHR::OPAQUE)];
-    let mut build = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-        .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
-        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-        .geometries(&geometries);
-    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
-    // SAFETY: a valid build info with one geometry of three triangles.
-    unsafe {
-        accel.get_acceleration_structure_build_sizes(
-            vk::AccelerationStructureBuildTypeKHR::DEVICE,
-            &build,
-            &[3],
-            &mut sizes,
-        )
-    };
-    results.insert(
-        "build_sizes".into(),
-        json!([sizes.acceleration_structure_size, sizes.build_scratch_size]),
-    );
-
-    let (storage, _) = gpu.mapped_buffer(
-        sizes.acceleration_structure_size,
-        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
-            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-    )?;
-    let create = vk::AccelerationStructureCreateInfoKHR::default()
-        .buffer(storage)
-        .size(sizes.acceleration_structure_size)
-        .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
-    // SAFETY: a storage buffer of the size the driver asked for.
-    let structure = unsafe { accel.create_acceleration_structure(&create, None) }
-        .map_err(|e| format!("vkCreateAccelerationStructureKHR: {e}"))?;
-    let (scratch, _) = gpu.mapped_buffer(
-        sizes.build_scratch_size + scratch_alignment,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-    )?;
-    let scratch_address = gpu.address(scratch).next_multiple_of(scratch_alignment);
-    build = build
-        .dst_acceleration_structure(structure)
-        .scratch_data(vk::DeviceOrHostAddressKHR {
-            device_address: scratch_address,
-        });
-    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(3)];
+    let mut buffers = Buffers::default();
+    let blas = TriangleBlas::new(&gpu, &accel, &mut buffers, scratch_alignment)?;
+    results.insert("build_sizes".into(), json!(blas.sizes));
 
     let query_types = [
         vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
         vk::QueryType::ACCELERATION_STRUCTURE_SERIALIZATION_SIZE_KHR,
     ];
-    let mut pools = Vec::new();
-    for ty in query_types {
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(ty)
-            .query_count(1);
-        // SAFETY: valid arguments.
-        pools.push(
-            unsafe { gpu.device.create_query_pool(&info, None) }
-                .map_err(|e| format!("vkCreateQueryPool: {e}"))?,
-        );
-    }
+    let pools = query_types
+        .iter()
+        .map(|&ty| query_pool(&gpu, ty))
+        .collect::<Result<Vec<_>, _>>()?;
 
     let command_buffer = gpu.begin()?;
     vulkan.phase("record");
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
-        .dst_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR)];
-    // SAFETY: a recording command buffer; the build's buffers, structure
-    // and query pools are alive and sized as the driver asked.
-    unsafe {
-        for (&pool, _) in pools.iter().zip(query_types) {
-            gpu.device.cmd_reset_query_pool(command_buffer, pool, 0, 1);
-        }
-        accel.cmd_build_acceleration_structures(command_buffer, &[build], &[&ranges]);
-        gpu.device.cmd_pipeline_barrier(
-            command_buffer,
-            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        );
-        for (&pool, ty) in pools.iter().zip(query_types) {
+    for &pool in &pools {
+        // SAFETY: a recording command buffer; a pool of one query.
+        unsafe { gpu.device.cmd_reset_query_pool(command_buffer, pool, 0, 1) };
+    }
+    blas.record_build(&accel, command_buffer);
+    memory_barrier(&gpu, command_buffer, STRUCTURE_WRITE, STRUCTURE_READ);
+    for (&pool, ty) in pools.iter().zip(query_types) {
+        // SAFETY: a recording command buffer; the structure is built above.
+        unsafe {
             accel.cmd_write_acceleration_structures_properties(
                 command_buffer,
-                &[structure],
+                &[blas.structure],
                 ty,
                 pool,
                 0,
-            );
-        }
-        gpu.device.end_command_buffer(command_buffer)
+            )
+        };
     }
-    .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+    // SAFETY: the command buffer is recording.
+    unsafe { gpu.device.end_command_buffer(command_buffer) }
+        .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
     vulkan.phase("submit");
     results.insert("submit".into(), json!(gpu.submit(command_buffer)?));
-    let mut query_results = Vec::new();
-    for &pool in &pools {
-        let mut value = [0u64];
-        // SAFETY: one 64-bit result of a query the submission wrote.
-        unsafe {
-            gpu.device.get_query_pool_results(
-                pool,
-                0,
-                &mut value,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-            )
-        }
-        .map_err(|e| format!("vkGetQueryPoolResults: {e}"))?;
-        query_results.push(value[0]);
-    }
-    results.insert("compacted_size".into(), json!(query_results[0]));
-    results.insert("serialization_size".into(), json!(query_results[1]));
+    results.insert(
+        "compacted_size".into(),
+        json!(query_result(&gpu, pools[0])?),
+    );
+    results.insert(
+        "serialization_size".into(),
+        json!(query_result(&gpu, pools[1])?),
+    );
     // SAFETY: the queue is idle; the structure and pools are unused now.
     unsafe {
-        accel.destroy_acceleration_structure(structure, None);
+        accel.destroy_acceleration_structure(blas.structure, None);
         for pool in pools {
             gpu.device.destroy_query_pool(pool, None);
         }
     }
+    buffers.destroy(&gpu);
     Ok(())
+}
+
+/// How `tlas` puts the one instance where the top-level build reads it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum InstanceWay {
+    /// vkCmdCopyBuffer from a mapped staging buffer to an unmapped one.
+    Copy,
+    /// vkCmdUpdateBuffer of the whole instance into an unmapped buffer.
+    Update,
+    /// vkCmdUpdateBuffer of the instance without its flags, then
+    /// vkCmdFillBuffer of the word that holds them.
+    Fill,
+    /// The `copy_words` compute shader, from a mapped storage buffer to an
+    /// unmapped one.
+    Compute,
+    /// Written by the host into a buffer the app keeps mapped.
+    Mapped,
+}
+
+impl InstanceWay {
+    const NAMES: [(&'static str, Self); 5] = [
+        ("copy", Self::Copy),
+        ("update", Self::Update),
+        ("fill", Self::Fill),
+        ("compute", Self::Compute),
+        ("mapped", Self::Mapped),
+    ];
+
+    fn parse(name: &str) -> Result<Self, String> {
+        Self::NAMES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, way)| way)
+            .ok_or_else(|| format!("--way {name:?}: one of copy, update, fill, compute, mapped"))
+    }
+}
+
+/// The `tlas` scenario's arguments.
+struct TlasOptions {
+    way: Option<InstanceWay>,
+    /// The instance's flags are 0 instead of FORCE_OPACITY_MICROMAP_2_STATE.
+    valid: bool,
+    /// Two fills of one buffer with no barrier between: a write-after-write
+    /// hazard, which the Khronos layer's synchronization validation reports
+    /// and ommcheck does not, to show the former is on.
+    sync_fault: bool,
+}
+
+/// The bytes of a VkAccelerationStructureInstanceKHR.
+const INSTANCE_SIZE: u64 = std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u64;
+/// The offset of the 32-bit word whose high byte holds an instance's flags.
+const INSTANCE_FLAGS_OFFSET: u64 = std::mem::offset_of!(
+    vk::AccelerationStructureInstanceKHR,
+    instance_shader_binding_table_record_offset_and_flags
+) as u64;
+
+/// An instance of the structure at device address `reference` with the
+/// identity transform, mask 0xFF and `flags`, as 32-bit words.
+fn instance_words(reference: u64, flags: vk::GeometryInstanceFlagsKHR) -> [u32; 16] {
+    let instance = vk::AccelerationStructureInstanceKHR {
+        transform: vk::TransformMatrixKHR {
+            matrix: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        },
+        instance_custom_index_and_mask: vk::Packed24_8::new(0, 0xFF),
+        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
+            0,
+            flags.as_raw() as u8,
+        ),
+        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+            device_handle: reference,
+        },
+    };
+    let mut words = [0u32; 16];
+    // SAFETY: the instance is 64 plain bytes (16 words), all initialised.
+    unsafe {
+        std::ptr::copy_nonoverlapping(
+            (&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u32>(),
+            words.as_mut_ptr(),
+            words.len(),
+        )
+    };
+    words
+}
+
+/// The bytes of `words`, as vkCmdUpdateBuffer and the mappings take them.
+fn word_bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_ne_bytes()).collect()
+}
+
+/// A compute pipeline of `copy_words` (tests/shaders.rs) and one
+/// descriptor set per pair of storage buffers it copies between: the
+/// source at binding 0, the destination at binding 1.
+struct CopyWords {
+    module: vk::ShaderModule,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    pool: vk::DescriptorPool,
+    sets: Vec<vk::DescriptorSet>,
+}
+
+impl CopyWords {
+    /// Invocations of one workgroup (the shader's LocalSize).
+    const WORDS: u64 = 16;
+
+    fn new(gpu: &Gpu<'_>, pairs: &[(vk::Buffer, vk::Buffer)]) -> Result<Self, String> {
+        let device = &gpu.device;
+        let code = ommcheck_tests::shaders::COPY_WORDS;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
+        // SAFETY: valid SPIR-V (spirv-val) for Vulkan 1.1.
+        let module = unsafe { device.create_shader_module(&module_info, None) }
+            .map_err(|e| format!("vkCreateShaderModule: {e}"))?;
+        let bindings = [0, 1].map(|binding| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(binding)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        });
+        let set_layout_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid arguments.
+        let set_layout = unsafe { device.create_descriptor_set_layout(&set_layout_info, None) }
+            .map_err(|e| format!("vkCreateDescriptorSetLayout: {e}"))?;
+        let set_layouts = [set_layout];
+        let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        // SAFETY: valid arguments.
+        let layout = unsafe { device.create_pipeline_layout(&layout_info, None) }
+            .map_err(|e| format!("vkCreatePipelineLayout: {e}"))?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let pipeline_info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
+        // SAFETY: valid arguments; the layout matches the shader's bindings.
+        let pipeline = unsafe {
+            device.create_compute_pipelines(vk::PipelineCache::null(), &pipeline_info, None)
+        }
+        .map_err(|(_, e)| format!("vkCreateComputePipelines: {e}"))?[0];
+        let count = pairs.len() as u32;
+        let sizes = [vk::DescriptorPoolSize::default()
+            .ty(vk::DescriptorType::STORAGE_BUFFER)
+            .descriptor_count(2 * count)];
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(count)
+            .pool_sizes(&sizes);
+        // SAFETY: valid arguments.
+        let pool = unsafe { device.create_descriptor_pool(&pool_info, None) }
+            .map_err(|e| format!("vkCreateDescriptorPool: {e}"))?;
+        let layouts = vec![set_layout; pairs.len()];
+        let allocate = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&layouts);
+        // SAFETY: a pool with room for these sets.
+        let sets = unsafe { device.allocate_descriptor_sets(&allocate) }
+            .map_err(|e| format!("vkAllocateDescriptorSets: {e}"))?;
+        for (&set, &(source, destination)) in sets.iter().zip(pairs) {
+            let infos = [source, destination].map(|buffer| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(buffer)
+                    .range(4 * Self::WORDS)]
+            });
+            let writes = [0, 1].map(|binding| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&infos[binding as usize])
+            });
+            // SAFETY: both buffers have STORAGE_BUFFER usage and 64 bytes.
+            unsafe { device.update_descriptor_sets(&writes, &[]) };
+        }
+        Ok(Self {
+            module,
+            set_layout,
+            layout,
+            pipeline,
+            pool,
+            sets,
+        })
+    }
+
+    /// Records the dispatch of one workgroup copying between the pair
+    /// `pair` of those given to [`CopyWords::new`] into `command_buffer`.
+    fn record(&self, gpu: &Gpu<'_>, command_buffer: vk::CommandBuffer, pair: usize) {
+        // SAFETY: a recording command buffer; the pipeline and set are live.
+        unsafe {
+            gpu.device.cmd_bind_pipeline(
+                command_buffer,
+                vk::PipelineBindPoint::COMPUTE,
+                self.pipeline,
+            );
+            gpu.device.cmd_bind_descriptor_sets(
+                command_buffer,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[self.sets[pair]],
+                &[],
+            );
+            gpu.device.cmd_dispatch(command_buffer, 1, 1, 1);
+        }
+    }
+
+    fn destroy(self, gpu: &Gpu<'_>) {
+        // SAFETY: the queue is idle; nothing uses these objects any more.
+        unsafe {
+            gpu.device.destroy_pipeline(self.pipeline, None);
+            gpu.device.destroy_pipeline_layout(self.layout, None);
+            gpu.device.destroy_descriptor_pool(self.pool, None);
+            gpu.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+            gpu.device.destroy_shader_module(self.module, None);
+        }
+    }
+}
+
+/// Writes into the instance buffer by transfers, compute and host, as a
+/// barrier's source.
+const INSTANCE_WRITES: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::from_raw(
+        vk::PipelineStageFlags::TRANSFER.as_raw()
+            | vk::PipelineStageFlags::COMPUTE_SHADER.as_raw()
+            | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR.as_raw(),
+    ),
+    vk::AccessFlags::from_raw(
+        vk::AccessFlags::TRANSFER_WRITE.as_raw()
+            | vk::AccessFlags::SHADER_WRITE.as_raw()
+            | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR.as_raw(),
+    ),
+);
+/// What reads the instances and the bottom-level structure after they are
+/// written: the top-level build (its inputs are shader reads, the
+/// structure it references a structure read) and the shader copying the
+/// instance back.
+const INSTANCE_READS: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::from_raw(
+        vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR.as_raw()
+            | vk::PipelineStageFlags::COMPUTE_SHADER.as_raw(),
+    ),
+    vk::AccessFlags::from_raw(
+        vk::AccessFlags::SHADER_READ.as_raw()
+            | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR.as_raw(),
+    ),
+);
+const TRANSFER_WRITE: (vk::PipelineStageFlags, vk::AccessFlags) = (
+    vk::PipelineStageFlags::TRANSFER,
+    vk::AccessFlags::TRANSFER_WRITE,
+);
+
+/// `tlas`: a bottom-level structure of three triangles ([`TriangleBlas`]),
+/// then a top-level structure of one instance of it, built in the same
+/// command buffer on the first physical device with
+/// VK_KHR_acceleration_structure. The instance's flags hold
+/// FORCE_OPACITY_MICROMAP_2_STATE (VUID-VkAccelerationStructureInstanceKHR-
+/// micromap-11580: no micromap feature is enabled, nor could be on a
+/// device without VK_EXT_opacity_micromap), or 0 with `--valid`. `--way`
+/// chooses how the instance reaches the buffer the build reads
+/// ([`InstanceWay`]); except for `mapped`, that buffer's memory is
+/// DEVICE_LOCAL and never mapped, and it never has TRANSFER_SRC usage.
+/// After the build, in the same command buffer, `copy_words` copies the
+/// instance into a mapped buffer. One submission with a fence, then
+/// vkWaitForFences (phases `record`, `submit`, `wait`). Results: the
+/// device, whether the instance memory is host-visible, the build sizes,
+/// the submission's and the wait's results, the instance copied back, and
+/// the top-level structure's compacted size.
+fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result<(), String> {
+    let way = options
+        .way
+        .ok_or("tlas needs --way copy|update|fill|compute|mapped")?;
+    let physical = vulkan.physical_device_with(ash::khr::acceleration_structure::NAME)?;
+    // SAFETY: a physical device of this instance.
+    let properties = unsafe { vulkan.instance.get_physical_device_properties(physical) };
+    let name = properties
+        .device_name_as_c_str()
+        .map_or_else(|_| "?".into(), |n| n.to_string_lossy().into_owned());
+    results.insert("device".into(), json!(name));
+    let scratch_alignment = scratch_alignment(vulkan, physical);
+    let gpu = structure_device(vulkan, physical)?;
+    let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
+    let mut buffers = Buffers::default();
+    let blas = TriangleBlas::new(&gpu, &accel, &mut buffers, scratch_alignment)?;
+    let address_info = vk::AccelerationStructureDeviceAddressInfoKHR::default()
+        .acceleration_structure(blas.structure);
+    // SAFETY: a structure of this device.
+    let blas_address = unsafe { accel.get_acceleration_structure_device_address(&address_info) };
+
+    let flags = if options.valid {
+        vk::GeometryInstanceFlagsKHR::empty()
+    } else {
+        vk::GeometryInstanceFlagsKHR::FORCE_OPACITY_MICROMAP_2_STATE_EXT
+    };
+    let instance = instance_words(blas_address, flags);
+    let without_flags = instance_words(blas_address, vk::GeometryInstanceFlagsKHR::empty());
+    // No TRANSFER_SRC, as in most applications: a layer that copies the
+    // instances must add that usage itself.
+    let instance_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+        | vk::BufferUsageFlags::TRANSFER_DST
+        | vk::BufferUsageFlags::STORAGE_BUFFER;
+    let write = |map: *mut u8, words: &[u32; 16]| {
+        // SAFETY: every mapping here is at least INSTANCE_SIZE (64) bytes.
+        unsafe { map.copy_from_nonoverlapping(word_bytes(words).as_ptr(), words.len() * 4) }
+    };
+    // The buffer the build reads.
+    let memory_flags = if way == InstanceWay::Mapped {
+        HOST_MAPPABLE
+    } else {
+        vk::MemoryPropertyFlags::DEVICE_LOCAL
+    };
+    let instances = buffers.unmapped(&gpu, INSTANCE_SIZE, instance_usage, memory_flags)?;
+    // SAFETY: a buffer of this device.
+    let requirements = unsafe { gpu.device.get_buffer_memory_requirements(instances) };
+    let memory_type = gpu.memory_type(requirements.memory_type_bits, memory_flags)?;
+    let host_visible = gpu.memory.memory_types[memory_type as usize]
+        .property_flags
+        .contains(vk::MemoryPropertyFlags::HOST_VISIBLE);
+    results.insert("instance_memory_host_visible".into(), json!(host_visible));
+    if way == InstanceWay::Mapped {
+        let memory = buffers.0.last().expect("the instance buffer").1;
+        write(gpu.map(memory)?, &instance);
+    }
+    // For the copy and the shader, a mapped buffer holding the instance.
+    let source = match way {
+        InstanceWay::Copy | InstanceWay::Compute => {
+            let usage = vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::STORAGE_BUFFER;
+            let (source, map) = buffers.mapped(&gpu, INSTANCE_SIZE, usage)?;
+            write(map, &instance);
+            source
+        }
+        _ => vk::Buffer::null(),
+    };
+    let (readback, readback_map) =
+        buffers.mapped(&gpu, INSTANCE_SIZE, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+    // The shader copies the instance back after the build for every way
+    // and, for `compute`, writes it before.
+    let mut pairs = vec![(instances, readback)];
+    if way == InstanceWay::Compute {
+        pairs.push((source, instances));
+    }
+    let copy_words = CopyWords::new(&gpu, &pairs)?;
+    let hazard = buffers.unmapped(
+        &gpu,
+        256,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        vk::MemoryPropertyFlags::DEVICE_LOCAL,
+    )?;
+
+    let instances_data = vk::AccelerationStructureGeometryInstancesDataKHR::default().data(
+        vk::DeviceOrHostAddressConstKHR {
+            device_address: gpu.address(instances),
+        },
+    );
+    let geometries = [vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR {
+            instances: instances_data,
+        })];
+    let mut tlas_info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
+        .flags(vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION)
+        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+        .geometries(&geometries);
+    let tlas_sizes = build_sizes(&accel, &tlas_info, 1);
+    results.insert("build_sizes".into(), json!([blas.sizes, tlas_sizes]));
+    let tlas = create_structure(
+        &gpu,
+        &accel,
+        &mut buffers,
+        vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+        tlas_sizes[0],
+    )?;
+    let tlas_scratch = scratch(&gpu, &mut buffers, tlas_sizes[1], scratch_alignment)?;
+    tlas_info =
+        tlas_info
+            .dst_acceleration_structure(tlas)
+            .scratch_data(vk::DeviceOrHostAddressKHR {
+                device_address: tlas_scratch,
+            });
+    let compacted = query_pool(
+        &gpu,
+        vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+    )?;
+
+    let command_buffer = gpu.begin()?;
+    vulkan.phase("record");
+    let device = &gpu.device;
+    // SAFETY (each command below): a recording command buffer; every
+    // buffer, structure and pool is alive and large enough for its range.
+    unsafe { device.cmd_reset_query_pool(command_buffer, compacted, 0, 1) };
+    if options.sync_fault {
+        for value in [0, 1] {
+            // SAFETY: as above.
+            unsafe { device.cmd_fill_buffer(command_buffer, hazard, 0, vk::WHOLE_SIZE, value) };
+        }
+    }
+    match way {
+        InstanceWay::Copy => {
+            let region = [vk::BufferCopy::default().size(INSTANCE_SIZE)];
+            // SAFETY: as above.
+            unsafe { device.cmd_copy_buffer(command_buffer, source, instances, &region) };
+        }
+        InstanceWay::Update => {
+            // SAFETY: as above.
+            unsafe {
+                device.cmd_update_buffer(command_buffer, instances, 0, &word_bytes(&instance))
+            };
+        }
+        InstanceWay::Fill => {
+            let flags_word = instance[INSTANCE_FLAGS_OFFSET as usize / 4];
+            // SAFETY: as above.
+            unsafe {
+                device.cmd_update_buffer(command_buffer, instances, 0, &word_bytes(&without_flags))
+            };
+            memory_barrier(&gpu, command_buffer, TRANSFER_WRITE, TRANSFER_WRITE);
+            // SAFETY: as above.
+            unsafe {
+                device.cmd_fill_buffer(
+                    command_buffer,
+                    instances,
+                    INSTANCE_FLAGS_OFFSET,
+                    4,
+                    flags_word,
+                )
+            };
+        }
+        InstanceWay::Compute => copy_words.record(&gpu, command_buffer, 1),
+        InstanceWay::Mapped => {}
+    }
+    blas.record_build(&accel, command_buffer);
+    memory_barrier(&gpu, command_buffer, INSTANCE_WRITES, INSTANCE_READS);
+    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
+    // SAFETY: as above.
+    unsafe { accel.cmd_build_acceleration_structures(command_buffer, &[tlas_info], &[&ranges]) };
+    memory_barrier(&gpu, command_buffer, STRUCTURE_WRITE, STRUCTURE_READ);
+    // SAFETY: as above.
+    unsafe {
+        accel.cmd_write_acceleration_structures_properties(
+            command_buffer,
+            &[tlas],
+            vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
+            compacted,
+            0,
+        )
+    };
+    copy_words.record(&gpu, command_buffer, 0);
+    memory_barrier(
+        &gpu,
+        command_buffer,
+        (
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::AccessFlags::SHADER_WRITE,
+        ),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
+    // SAFETY: the command buffer is recording.
+    unsafe { device.end_command_buffer(command_buffer) }
+        .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
+
+    vulkan.phase("submit");
+    // SAFETY: valid arguments.
+    let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None) }
+        .map_err(|e| format!("vkCreateFence: {e}"))?;
+    let command_buffers = [command_buffer];
+    let submit = [vk::SubmitInfo::default().command_buffers(&command_buffers)];
+    // SAFETY: an executable command buffer of this device's queue family;
+    // an unsignalled fence.
+    let submitted = unsafe { device.queue_submit(gpu.queue, &submit, fence) };
+    results.insert("submit".into(), json!(vk_result(submitted)));
+    vulkan.phase("wait");
+    // SAFETY: the fence is this device's.
+    let waited = unsafe { device.wait_for_fences(&[fence], true, u64::MAX) };
+    results.insert("wait".into(), json!(vk_result(waited)));
+    submitted
+        .and(waited)
+        .map_err(|e| format!("the submission: {e}"))?;
+    let mut read_back = [0u32; 16];
+    // SAFETY: the readback mapping is 64 bytes, written by the finished
+    // submission and made visible to the host by its last barrier.
+    unsafe {
+        readback_map.copy_to_nonoverlapping(read_back.as_mut_ptr().cast(), read_back.len() * 4)
+    };
+    // The words before the structure's device address, which differs from
+    // run to run on lavapipe (a host pointer); the whole instance is
+    // compared here.
+    results.insert("instance_read_back".into(), json!(read_back[..14]));
+    results.insert("instance_written".into(), json!(read_back == instance));
+    results.insert(
+        "compacted_size".into(),
+        json!(query_result(&gpu, compacted)?),
+    );
+
+    vulkan.phase("teardown");
+    // SAFETY: the queue is idle; nothing uses these objects any more.
+    unsafe {
+        device.destroy_fence(fence, None);
+        device.destroy_query_pool(compacted, None);
+        accel.destroy_acceleration_structure(tlas, None);
+        accel.destroy_acceleration_structure(blas.structure, None);
+    }
+    copy_words.destroy(&gpu);
+    buffers.destroy(&gpu);
+    Ok(())
+}
+
+/// The raw VkResult of a call that returns nothing else.
+fn vk_result(result: Result<(), vk::Result>) -> i32 {
+    result.err().unwrap_or(vk::Result::SUCCESS).as_raw()
 }
 
 /// Calls timed per command in the `overhead` scenario, after as many as a
@@ -1041,21 +1791,7 @@ fn owned_mapped_buffer(
     size: u64,
     usage: vk::BufferUsageFlags,
 ) -> Result<(vk::Buffer, vk::DeviceMemory, *mut u8), String> {
-    let info = vk::BufferCreateInfo::default().size(size).usage(usage);
-    // SAFETY: valid arguments.
-    let buffer = unsafe { gpu.device.create_buffer(&info, None) }
-        .map_err(|e| format!("vkCreateBuffer: {e}"))?;
-    // SAFETY: a buffer of this device.
-    let requirements = unsafe { gpu.device.get_buffer_memory_requirements(buffer) };
-    let memory = gpu.allocate(
-        requirements.size.max(size),
-        requirements.memory_type_bits,
-        vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT,
-        usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
-    )?;
-    // SAFETY: fresh memory large enough for the buffer.
-    unsafe { gpu.device.bind_buffer_memory(buffer, memory, 0) }
-        .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
+    let (buffer, memory) = gpu.bound_buffer(size, usage, HOST_MAPPABLE)?;
     Ok((buffer, memory, gpu.map(memory)?))
 }
 
@@ -1379,11 +2115,17 @@ fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
 
 fn run(args: &[String]) -> Result<Value, String> {
     let usage =
-        "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)]";
+        "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)] \
+         [--way copy|update|fill|compute|mapped (tlas)] [--valid (tlas)] [--sync-fault (tlas)]";
     let (scenario, rest) = args.split_first().ok_or(usage)?;
     let mut layers = Vec::new();
     let mut with_core_fault = false;
     let mut iterations = 10_000u32;
+    let mut tlas_options = TlasOptions {
+        way: None,
+        valid: false,
+        sync_fault: false,
+    };
     let mut rest = rest.iter();
     while let Some(arg) = rest.next() {
         match arg.as_str() {
@@ -1400,6 +2142,9 @@ fn run(args: &[String]) -> Result<Value, String> {
                     .ok_or_else(|| format!("--iterations {n:?}: a positive integer"))?;
             }
             "--core-fault" => with_core_fault = true,
+            "--way" => tlas_options.way = Some(InstanceWay::parse(rest.next().ok_or(usage)?)?),
+            "--valid" => tlas_options.valid = true,
+            "--sync-fault" => tlas_options.sync_fault = true,
             _ => return Err(format!("unexpected argument {arg:?}; {usage}")),
         }
     }
@@ -1411,6 +2156,7 @@ fn run(args: &[String]) -> Result<Value, String> {
             device_build(&vulkan, build.trim_start_matches("build-"), &mut results)?
         }
         ("blas", "") => blas(&vulkan, &mut results)?,
+        ("tlas", "") => tlas(&vulkan, &tlas_options, &mut results)?,
         ("overhead", "") => overhead(&vulkan, iterations, &mut results)?,
         ("threads", "") => threads(&vulkan, &mut results)?,
         _ => return Err(format!("unknown scenario {scenario:?}")),
