@@ -247,9 +247,9 @@ pub unsafe extern "system" fn create_device(
                     memory_layout: Default::default(),
                     pipe: Default::default(),
                     shadows: Shadows::new(settings.gpu_readback_max_bytes),
-                    readback_held: Default::default(),
                     submissions: Default::default(),
                 }),
+                readback_arena: Default::default(),
             });
             let messages: Vec<Message> = findings
                 .iter()
@@ -284,6 +284,10 @@ unsafe extern "system" fn destroy_device(
         // The layer's readback memory goes before the device does.
         commands::forget_device(device);
         data.state().submissions = Default::default();
+        data.readback_arena
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .give_back_all();
         if let Some(destroy) = data.fns.destroy_device {
             // SAFETY: the next layer's function, with the application's arguments.
             unsafe { destroy(device, allocator) };

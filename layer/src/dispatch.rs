@@ -256,8 +256,6 @@ pub struct DeviceState {
     pub pipe: crate::work::PipeState,
     /// What transfers wrote into the windows builds read (route 1).
     pub shadows: crate::shadow::Shadows,
-    /// Bytes of layer memory the device's GPU readbacks hold (route 2).
-    pub readback_held: Arc<std::sync::atomic::AtomicU64>,
     /// Submitted builds whose read-back inputs are checked at completion.
     pub submissions: crate::completion::Submissions,
 }
@@ -279,6 +277,10 @@ pub struct DeviceData {
     /// could not say).
     pub queue_family_flags: Vec<vk::QueueFlags>,
     pub state: Mutex<DeviceState>,
+    /// The layer's own memory GPU readbacks copy into (route 2), behind a
+    /// lock of its own: a readback gives its range back wherever it is
+    /// dropped, also while `state` is held.
+    pub readback_arena: Arc<Mutex<crate::readback::Arena>>,
 }
 
 impl DeviceState {

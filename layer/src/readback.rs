@@ -20,8 +20,7 @@
 
 #![allow(unsafe_code)]
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 use ash::vk;
 use ash::vk::Handle as _;
@@ -42,40 +41,31 @@ pub struct Window {
     /// The window's start in that buffer.
     pub offset: u64,
     pub len: u64,
-    /// The window's start in the readback buffer.
+    /// The window's start in its readback's range.
     pub at: u64,
 }
 
-/// The layer's host-visible copy of the windows one recorded build reads.
-/// Dropping it destroys the layer's buffer and frees its memory, which the
-/// command buffer's reset, free or pool destruction allows (the command
-/// buffer is then not pending).
+/// The layer's host-visible copy of the windows one recorded build reads:
+/// a range of a block of the device's [`Arena`]. Dropping it returns the
+/// range, which the command buffer's reset, free or pool destruction
+/// allows (the command buffer is then not pending).
 #[derive(Debug)]
 pub struct Readback {
-    device: vk::Device,
-    destroy_buffer: vk::PFN_vkDestroyBuffer,
-    free_memory: vk::PFN_vkFreeMemory,
-    buffer: vk::Buffer,
-    memory: vk::DeviceMemory,
-    /// Where `vkMapMemory` mapped `memory` (all of it).
-    mapped: usize,
-    /// Bytes counted against the device's `gpu_readback_max_bytes`.
+    arena: Arc<Mutex<Arena>>,
+    block: u64,
+    /// The range's start in its block's buffer, and its length.
+    offset: u64,
     size: u64,
-    held: Arc<AtomicU64>,
+    /// The block's buffer, which the copies write.
+    buffer: vk::Buffer,
+    /// Where the range starts in host memory (the block is mapped whole).
+    mapped: usize,
     pub windows: Vec<Window>,
 }
 
 impl Drop for Readback {
     fn drop(&mut self) {
-        // SAFETY: the layer created both with the next layer's functions of
-        // this device, which is alive (its command buffers are dropped
-        // before vkDestroyDevice is passed on), and no submission that
-        // copies into them is pending (see the type's comment).
-        unsafe {
-            (self.destroy_buffer)(self.device, self.buffer, std::ptr::null());
-            (self.free_memory)(self.device, self.memory, std::ptr::null());
-        }
-        self.held.fetch_sub(self.size, Ordering::Relaxed);
+        lock(&self.arena).release(self.block, self.offset, self.size);
     }
 }
 
@@ -88,9 +78,10 @@ impl Readback {
             .filter_map(|window| {
                 let address = self.mapped.checked_add(usize::try_from(window.at).ok()?)?;
                 let len = usize::try_from(window.len).ok()?;
-                // SAFETY: `[at, at + len)` lies inside the readback buffer,
-                // which lies inside the mapped allocation (it was sized to
-                // hold every window), and the memory is host-coherent.
+                // SAFETY: `[at, at + len)` lies inside this readback's range
+                // of its block (sized to hold every window), which stays
+                // mapped while the range is taken, and the memory is
+                // host-coherent.
                 let bytes = unsafe { read::mapped_bytes(address, len) };
                 Some(KnownBytes {
                     buffer: window.buffer,
@@ -208,36 +199,184 @@ pub fn plan(
         w.at = size;
         size = size.saturating_add(w.len.next_multiple_of(WINDOW_ALIGNMENT));
     }
-    let held = &state.readback_held;
+    let size = size.max(WINDOW_ALIGNMENT);
     let limit = settings.gpu_readback_max_bytes;
-    let now = held.load(Ordering::Relaxed);
-    if now.saturating_add(size) > limit {
-        return Plan::NotReadBack("readback-memory", format!(
-            "their GPU readback needs {size} bytes of layer memory and {now} of the {limit} allowed are held (raise gpu_readback_max_bytes, {GPU_READBACK_MAX_BYTES})"
-        ));
-    }
-    match allocate(data, size, Arc::clone(held), windows) {
-        Ok(readback) => {
+    let taken = lock(&data.readback_arena).take(data, size, limit);
+    match taken {
+        Ok((block, offset, buffer, mapped)) => {
+            let readback = Readback {
+                arena: Arc::clone(&data.readback_arena),
+                block,
+                offset,
+                size,
+                buffer,
+                mapped,
+                windows,
+            };
             // SAFETY: the application's command buffer, recording (the
             // build command being recorded requires it).
             unsafe { record_copies(data, command_buffer, &readback) };
             Plan::ReadBack(Arc::new(readback))
         }
-        Err(reason) => Plan::NotReadBack(
+        Err(Refused::OverLimit { held }) => Plan::NotReadBack(
+            "readback-memory",
+            format!(
+                "their GPU readback needs {size} bytes of layer memory and {held} of the {limit} allowed are held (raise gpu_readback_max_bytes, {GPU_READBACK_MAX_BYTES})"
+            ),
+        ),
+        Err(Refused::Setup(reason)) => Plan::NotReadBack(
             "readback-setup",
             format!("the layer could not set up GPU readback: {reason}"),
         ),
     }
 }
 
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    // The arena is plain bookkeeping updated in single steps.
+    mutex.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Why the arena gave no range.
+enum Refused {
+    OverLimit { held: u64 },
+    Setup(String),
+}
+
+/// Blocks of a device's readback memory are at least this large, so most
+/// recorded builds take a range of an existing block rather than a new
+/// allocation from the driver.
+const BLOCK_BYTES: u64 = 4 << 20;
+
+/// One host-visible, host-coherent buffer of the layer's, bound to its own
+/// memory and mapped whole, with the ranges not taken.
+#[derive(Debug)]
+struct Block {
+    id: u64,
+    buffer: vk::Buffer,
+    memory: vk::DeviceMemory,
+    mapped: usize,
+    size: u64,
+    /// Free ranges `(offset, len)`, sorted and not touching.
+    free: Vec<(u64, u64)>,
+}
+
+/// A device's readback memory: blocks sub-allocated first fit. A block
+/// left wholly free is given back to the driver unless it is the only one.
+#[derive(Debug, Default)]
+pub struct Arena {
+    blocks: Vec<Block>,
+    next_id: u64,
+    /// Bytes of the ranges taken (what `gpu_readback_max_bytes` bounds).
+    held: u64,
+    /// The next layer's functions to give blocks back with, and the device.
+    release_with: Option<(vk::Device, vk::PFN_vkDestroyBuffer, vk::PFN_vkFreeMemory)>,
+}
+
+impl Arena {
+    /// A range of `size` bytes: (block, offset, the block's buffer, the
+    /// range's host address).
+    fn take(
+        &mut self,
+        data: &DeviceData,
+        size: u64,
+        limit: u64,
+    ) -> Result<(u64, u64, vk::Buffer, usize), Refused> {
+        if self.held.saturating_add(size) > limit {
+            return Err(Refused::OverLimit { held: self.held });
+        }
+        let taken = match self.fit(size) {
+            Some(taken) => taken,
+            None => {
+                let block_size = size.max(BLOCK_BYTES.min(limit));
+                let mut block = allocate(data, block_size).map_err(Refused::Setup)?;
+                self.next_id += 1;
+                block.id = self.next_id;
+                if block_size > size {
+                    block.free.push((size, block_size - size));
+                }
+                let taken = (block.id, 0, block.buffer, block.mapped);
+                if let (Some(destroy_buffer), Some(free_memory)) =
+                    (data.fns.destroy_buffer, data.fns.free_memory)
+                {
+                    self.release_with = Some((data.handle, destroy_buffer, free_memory));
+                }
+                self.blocks.push(block);
+                taken
+            }
+        };
+        self.held += size;
+        Ok(taken)
+    }
+
+    /// A range of `size` bytes from a block that has room, first fit.
+    fn fit(&mut self, size: u64) -> Option<(u64, u64, vk::Buffer, usize)> {
+        self.blocks.iter_mut().find_map(|block| {
+            let k = block.free.iter().position(|&(_, len)| len >= size)?;
+            let (offset, len) = block.free[k];
+            if len == size {
+                block.free.remove(k);
+            } else {
+                block.free[k] = (offset + size, len - size);
+            }
+            Some((
+                block.id,
+                offset,
+                block.buffer,
+                block.mapped + offset as usize,
+            ))
+        })
+    }
+
+    /// Returns a range taken from `block`.
+    fn release(&mut self, block: u64, offset: u64, size: u64) {
+        let Some(k) = self.blocks.iter().position(|b| b.id == block) else {
+            return; // The device's blocks were given back already.
+        };
+        self.held = self.held.saturating_sub(size);
+        let b = &mut self.blocks[k];
+        let at = b.free.partition_point(|&(o, _)| o < offset);
+        b.free.insert(at, (offset, size));
+        // Merge with the neighbours it touches.
+        if at + 1 < b.free.len() && b.free[at].0 + b.free[at].1 == b.free[at + 1].0 {
+            b.free[at].1 += b.free[at + 1].1;
+            b.free.remove(at + 1);
+        }
+        if at > 0 && b.free[at - 1].0 + b.free[at - 1].1 == b.free[at].0 {
+            b.free[at - 1].1 += b.free[at].1;
+            b.free.remove(at);
+        }
+        let wholly_free = b.free == [(0, b.size)];
+        if wholly_free && self.blocks.len() > 1 {
+            let block = self.blocks.remove(k);
+            self.give_back(block);
+        }
+    }
+
+    /// Gives every block back to the driver (before the device is destroyed).
+    pub fn give_back_all(&mut self) {
+        for block in std::mem::take(&mut self.blocks) {
+            self.give_back(block);
+        }
+        self.held = 0;
+    }
+
+    fn give_back(&self, block: Block) {
+        if let Some((device, destroy_buffer, free_memory)) = self.release_with {
+            // SAFETY: the layer created both with the next layer's
+            // functions of this device, which is alive (blocks go before
+            // vkDestroyDevice is passed on), and no pending submission
+            // copies into them (every range was returned).
+            unsafe {
+                destroy_buffer(device, block.buffer, std::ptr::null());
+                free_memory(device, block.memory, std::ptr::null());
+            }
+        }
+    }
+}
+
 /// Creates, binds and maps a host-visible, host-coherent buffer of `size`
 /// bytes through the next layer.
-fn allocate(
-    data: &DeviceData,
-    size: u64,
-    held: Arc<AtomicU64>,
-    windows: Vec<Window>,
-) -> Result<Readback, String> {
+fn allocate(data: &DeviceData, size: u64) -> Result<Block, String> {
     let f = &data.fns;
     let device = data.handle;
     let (
@@ -261,7 +400,7 @@ fn allocate(
         return Err("the next layer lacks a buffer or memory function".into());
     };
     let info = vk::BufferCreateInfo::default()
-        .size(size.max(WINDOW_ALIGNMENT))
+        .size(size)
         .usage(vk::BufferUsageFlags::TRANSFER_DST)
         .sharing_mode(vk::SharingMode::EXCLUSIVE);
     let mut buffer = vk::Buffer::null();
@@ -332,17 +471,13 @@ fn allocate(
             "binding or mapping the readback memory returned {result:?}"
         ));
     }
-    held.fetch_add(size, Ordering::Relaxed);
-    Ok(Readback {
-        device,
-        destroy_buffer,
-        free_memory,
+    Ok(Block {
+        id: 0,
         buffer,
         memory,
         mapped: mapped as usize,
         size,
-        held,
-        windows,
+        free: Vec::new(),
     })
 }
 
@@ -384,7 +519,7 @@ unsafe fn record_copies(data: &DeviceData, command_buffer: vk::CommandBuffer, re
         for w in &readback.windows {
             let region = vk::BufferCopy {
                 src_offset: w.offset,
-                dst_offset: w.at,
+                dst_offset: readback.offset + w.at,
                 size: w.len,
             };
             copy(
@@ -440,6 +575,41 @@ pub fn with_transfer_source<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn block(id: u64, size: u64) -> Block {
+        Block {
+            id,
+            buffer: vk::Buffer::null(),
+            memory: vk::DeviceMemory::null(),
+            mapped: 0x1000,
+            size,
+            free: vec![(0, size)],
+        }
+    }
+
+    #[test]
+    fn ranges_are_taken_first_fit_and_merged_back_when_returned() {
+        let mut arena = Arena {
+            blocks: vec![block(1, 64), block(2, 64)],
+            ..Arena::default()
+        };
+        let a = arena.fit(16).expect("room");
+        let b = arena.fit(32).expect("room");
+        let c = arena.fit(32).expect("room in the second block");
+        assert_eq!((a.0, a.1, a.3), (1, 0, 0x1000));
+        assert_eq!((b.0, b.1, b.3), (1, 16, 0x1010));
+        assert_eq!((c.0, c.1), (2, 0));
+        assert!(arena.fit(48).is_none());
+        arena.held = 80;
+        arena.release(1, 0, 16);
+        arena.release(1, 16, 32);
+        assert_eq!(arena.blocks.len(), 1, "a wholly free block goes back");
+        assert_eq!(arena.blocks[0].id, 2);
+        arena.release(2, 0, 32);
+        assert_eq!(arena.blocks.len(), 1, "the last block stays");
+        assert_eq!(arena.blocks[0].free, [(0, 64)]);
+        assert_eq!(arena.held, 0);
+    }
 
     #[test]
     fn build_inputs_gain_the_transfer_source_usage() {
