@@ -54,10 +54,13 @@ pub static NULL_MICROMAP_SPECIAL_ONLY: OwnRule = OwnRule {
     link: ACCELERATION_STRUCTURES,
 };
 
-/// EXT attachments: a non-special index selects one of the micromap's triangles.
+/// A non-special index plus baseTriangle selects one of the micromap's
+/// triangles: every EXT index, and the KHR cases 11575/11576 do not state
+/// (one past the last triangle; index 0 at or past the end). See
+/// docs/choices.md.
 pub static INDEX_IN_RANGE: OwnRule = OwnRule {
     id: "OMMCHECK-attach-index-in-range",
-    statement: "For each triangle in the geometry, the acceleration structure build fetches an index from indexBuffer using indexType and indexStride; if that value is not one of the special indices, that triangle uses the opacity micromap information from micromap at that index plus baseTriangle (which must therefore be less than the number of triangles micromap was built with)",
+    statement: "EXT: \"Otherwise that triangle uses the opacity micromap information from micromap at that index plus baseTriangle.\" KHR: \"For each triangle in the geometry, a triangle in the micromap is fetched at index reinterpret_cast<indexType>(indexBuffer + indexStride * geomTriangleIndex) + baseTriangle.\" Both: \"Each element contains a count which is the number of micromap triangles of that format and subdivisionLevel contained in the micromap.\" (A micromap built from counts summing to numTriangles contains triangles 0 to numTriangles - 1, so index plus baseTriangle must be less than numTriangles for the fetch to find a triangle; KHR's 11575 and 11576 state \"less than or equal to numTriangles\", and 11575 only for indices greater than zero.)",
     link: ACCELERATION_STRUCTURES,
 };
 

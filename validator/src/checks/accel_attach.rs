@@ -948,31 +948,19 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         }
     };
     let base = u64::from(a.base_triangle);
-    // The VUIDs say "less than or equal" (and 11575 "greater than zero"); the
-    // micromap has triangles 0..numTriangles, so what hardware reads needs
-    // index + baseTriangle < numTriangles, index 0 included.
-    let out_of_range = |index: u64| triangles.is_some_and(|n| index.saturating_add(base) >= n);
-    let in_range_rule: RuleId = match a.kind {
-        Kind::Khr => cmd::indexBuffer_11575.into(),
-        _ => (&rules::INDEX_IN_RANGE).into(),
-    };
+    let array = a.member("indexBuffer");
     let Some(size) = index_size(a.index_type) else {
-        if a.index_type == INDEX_TYPE_NONE && triangles.is_some() {
-            // Triangle j uses micromap triangle j + baseTriangle; the last is the largest.
-            let last = count - 1;
-            let rule: RuleId = match a.kind {
-                Kind::Khr => khr::geometry_11576.into(),
-                _ => (&rules::INDEX_IN_RANGE).into(),
-            };
-            if out_of_range(last) {
-                ctx.error(
-                    rule,
-                    a.member("baseTriangle"),
-                    format!(
-                        "triangle {last} + baseTriangle {base} is not below the micromap's {} triangles",
-                        triangles.unwrap_or(0)
-                    ),
-                );
+        if a.index_type == INDEX_TYPE_NONE {
+            if let Some(n) = triangles {
+                // Triangle j uses micromap triangle j + baseTriangle; the last is the largest.
+                let last = count - 1;
+                if let Some((rule, message)) = index_past_end(a.kind, last, base, n, true) {
+                    ctx.error(
+                        rule,
+                        a.member("baseTriangle"),
+                        format!("triangle {message}"),
+                    );
+                }
             }
         }
         return;
@@ -991,7 +979,6 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         (Kind::Khr, BuildCommand::Cmd) => cmd::indexBuffer_11578.into(),
         _ => (&rules::NULL_MICROMAP_SPECIAL_ONLY).into(),
     };
-    let array = a.member("indexBuffer");
     let mut tally = Tally::new();
     for (j, index) in read_indices(bytes, size, a.index_stride, count) {
         if is_special_index(index, size) {
@@ -1017,17 +1004,61 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
                 || format!("micromap is VK_NULL_HANDLE, but index {index:#x} is no VkOpacityMicromapSpecialIndexKHR value"),
                 &array,
             ),
-            Some(n) if out_of_range(u64::from(index)) => tally.error(
-                ctx,
-                in_range_rule,
-                location(),
-                || format!("index {index} + baseTriangle {base} is not below the micromap's {n} triangles"),
-                &array,
-            ),
-            Some(_) => {}
+            Some(n) => {
+                if let Some((rule, message)) =
+                    index_past_end(a.kind, u64::from(index), base, n, false)
+                {
+                    tally.error(ctx, rule, location(), || format!("index {message}"), &array);
+                }
+            }
         }
     }
     tally.finish(ctx);
+}
+
+/// Whether micromap triangle `index + base` lies past the end of a micromap
+/// of `n` triangles, and if so under which rule, with the message's tail.
+/// The micromap holds triangles 0 to n - 1, so `index + base >= n` reads
+/// past it. KHR's VUIDs state only "less than or equal to numTriangles"
+/// (11575 moreover only for an index greater than zero; 11576, with no
+/// index buffer, for every triangle index): they are reported where their
+/// words apply, and the rest (one past the last triangle, an index 0 at
+/// or past the end) under our rule, as are all EXT indices, which have no
+/// VUID. `no_index_buffer` selects 11576 over 11575.
+fn index_past_end(
+    kind: Kind,
+    index: u64,
+    base: u64,
+    n: u64,
+    no_index_buffer: bool,
+) -> Option<(RuleId, String)> {
+    let target = index.checked_add(base);
+    if target.is_some_and(|target| target < n) {
+        return None;
+    }
+    let beyond_le = target.is_none_or(|target| target > n);
+    let vuid: Option<RuleId> = match kind {
+        Kind::Khr if no_index_buffer && beyond_le => Some(khr::geometry_11576.into()),
+        Kind::Khr if !no_index_buffer && beyond_le && index > 0 => {
+            Some(cmd::indexBuffer_11575.into())
+        }
+        _ => None,
+    };
+    let sum = index.saturating_add(base);
+    let message = match (vuid, n) {
+        (Some(_), _) => {
+            format!("{index} + baseTriangle {base} = {sum} is greater than numTriangles {n}")
+        }
+        (None, 0) => format!(
+            "{index} + baseTriangle {base} = {sum}, but the micromap was built with no triangles"
+        ),
+        (None, _) => format!(
+            "{index} + baseTriangle {base} = {sum} is not below numTriangles {n}: the micromap holds triangles 0 to {}",
+            n - 1
+        ),
+    };
+    let rule = vuid.unwrap_or_else(|| (&rules::INDEX_IN_RANGE).into());
+    Some((rule, message))
 }
 
 /// EXT and NV attachments: per (format, subdivision level), the usage
@@ -1531,6 +1562,32 @@ fn cluster_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn index_past_end_follows_the_vuid_wording() {
+        let rule = |kind, index, base, n, none| {
+            index_past_end(kind, index, base, n, none).map(|(rule, _)| rule.as_str())
+        };
+        let own = rules::INDEX_IN_RANGE.id;
+        assert_eq!(rule(Kind::Khr, 1, 0, 2, false), None);
+        assert_eq!(rule(Kind::Khr, 2, 0, 2, false), Some(own));
+        assert_eq!(
+            rule(Kind::Khr, 3, 0, 2, false),
+            Some(cmd::indexBuffer_11575.id())
+        );
+        // Index 0 is outside 11575's "greater than zero", however far past.
+        assert_eq!(rule(Kind::Khr, 0, 5, 2, false), Some(own));
+        // A micromap with no triangles: index 0 + 0 is "less than or equal to" 0.
+        assert_eq!(rule(Kind::Khr, 0, 0, 0, true), Some(own));
+        assert_eq!(
+            rule(Kind::Khr, 0, 1, 0, true),
+            Some(khr::geometry_11576.id())
+        );
+        assert_eq!(rule(Kind::Ext, 0, 0, 0, false), Some(own));
+        assert_eq!(rule(Kind::Ext, 9, 0, 2, false), Some(own));
+        let (_, message) = index_past_end(Kind::Khr, 0, 0, 0, false).unwrap();
+        assert!(message.contains("no triangles"), "{message}");
+    }
 
     #[test]
     fn special_indices_by_width() {

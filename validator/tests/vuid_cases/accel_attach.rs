@@ -53,10 +53,12 @@ const INDICES_OFFSET: u64 = 0x2000;
 const BAD_INDICES_OFFSET: u64 = 0x2100;
 const SPECIAL_INDICES_OFFSET: u64 = 0x2200;
 const CLUSTER_SKIP_INDICES_OFFSET: u64 = 0x2300;
+const BEYOND_INDICES_OFFSET: u64 = 0x2400;
 const INDICES: u64 = INPUT_ADDRESS + INDICES_OFFSET;
 const BAD_INDICES: u64 = INPUT_ADDRESS + BAD_INDICES_OFFSET;
 const SPECIAL_INDICES: u64 = INPUT_ADDRESS + SPECIAL_INDICES_OFFSET;
 const CLUSTER_SKIP_INDICES: u64 = INPUT_ADDRESS + CLUSTER_SKIP_INDICES_OFFSET;
+const BEYOND_INDICES: u64 = INPUT_ADDRESS + BEYOND_INDICES_OFFSET;
 const INSTANCES: u64 = INPUT_ADDRESS + 0x3000;
 const INDIRECT: u64 = INPUT_ADDRESS + 0x3800;
 /// Host copies of the index regions.
@@ -67,7 +69,11 @@ const HOST_VERTICES: u64 = 0x7300_0000;
 const NOWHERE: u64 = 0xdead_0000;
 
 const GOOD: [u32; 4] = [0, 1, 2, 3];
+/// Index 3 is one past the micromap's last triangle: "less than or equal to
+/// numTriangles" as 11575 words it, but past the end.
 const PAST_THE_END: [u32; 4] = [0, 1, 2, TRIANGLES];
+/// Index 3 is beyond numTriangles itself: 11575 as written.
+const BEYOND_THE_END: [u32; 4] = [0, 1, 2, TRIANGLES + 1];
 const SPECIAL: [u32; 4] = [u32::MAX, u32::MAX - 1, u32::MAX - 2, u32::MAX - 3];
 /// Index 2 is -5, the cluster-only special index.
 const CLUSTER_SKIP: [u32; 4] = [0, 1, u32::MAX - 4, 3];
@@ -119,6 +125,7 @@ fn world() -> Validator {
         (BAD_INDICES_OFFSET, PAST_THE_END),
         (SPECIAL_INDICES_OFFSET, SPECIAL),
         (CLUSTER_SKIP_INDICES_OFFSET, CLUSTER_SKIP),
+        (BEYOND_INDICES_OFFSET, BEYOND_THE_END),
     ] {
         let at = offset as usize;
         contents[at..at + 16].copy_from_slice(&le_bytes(&indices));
@@ -986,7 +993,7 @@ fn khr_cases() -> Vec<Case> {
                 cmd_khr(TrianglesOpacityMicromapKhr {
                     index_type: INDEX_TYPE_NONE,
                     index_buffer: 0,
-                    base_triangle: 1,
+                    base_triangle: 2,
                     ..khr_ok()
                 })
             },
@@ -1002,7 +1009,7 @@ fn khr_cases() -> Vec<Case> {
             cmd::indexBuffer_11575,
             || {
                 cmd_khr(TrianglesOpacityMicromapKhr {
-                    index_buffer: BAD_INDICES,
+                    index_buffer: BEYOND_INDICES,
                     ..khr_ok()
                 })
             },
@@ -1487,4 +1494,53 @@ fn usage_count_findings_name_the_key_and_the_counts() {
         "{}",
         finding.message
     );
+}
+
+/// 11575 and 11576 as written ("less than or equal to numTriangles", 11575
+/// for indices greater than zero); what lies past the micromap's last
+/// triangle otherwise is our rule's.
+#[test]
+fn khr_index_rules_follow_the_vuid_wording() {
+    let own = &rules::INDEX_IN_RANGE;
+    let ids = |report: &Report| -> Vec<&str> {
+        report.findings.iter().map(|f| f.rule.as_str()).collect()
+    };
+    // Index 4 + 0 == numTriangles 4: one past the end, not 11575's "greater than".
+    let one_past = cmd_khr(TrianglesOpacityMicromapKhr {
+        index_buffer: BAD_INDICES,
+        ..khr_ok()
+    });
+    assert_eq!(ids(&one_past), [own.id], "{one_past:#?}");
+    // Index 0 + baseTriangle 4 == 4 and index 3 + 4 > 4: index 0 is never 11575's.
+    let based = cmd_khr(TrianglesOpacityMicromapKhr {
+        base_triangle: TRIANGLES,
+        ..khr_ok()
+    });
+    let based_ids = ids(&based);
+    assert!(based_ids.contains(&own.id), "{based:#?}");
+    assert!(
+        based_ids.contains(&cmd::indexBuffer_11575.id()),
+        "{based:#?}"
+    );
+    let index_zero = based
+        .findings
+        .iter()
+        .find(|f| f.location.ends_with("indexBuffer[0]"))
+        .expect("index 0 reported");
+    assert_eq!(index_zero.rule.as_str(), own.id);
+    // No index buffer: triangle 3 + baseTriangle 1 == 4 is ours, + 2 is 11576's.
+    let none = |base_triangle| {
+        cmd_khr(TrianglesOpacityMicromapKhr {
+            index_type: INDEX_TYPE_NONE,
+            index_buffer: 0,
+            base_triangle,
+            ..khr_ok()
+        })
+    };
+    assert_eq!(ids(&none(1)), [own.id]);
+    assert_eq!(ids(&none(2)), [khr::geometry_11576.id()]);
+    // Every finding quotes its rule's statement.
+    for finding in one_past.findings.iter().chain(&none(1).findings) {
+        assert!(finding.rule.statement().contains("fetched at index"));
+    }
 }
