@@ -21,7 +21,7 @@ use std::fmt::{self, Display};
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
-use crate::checks::common::{self, Tally, TriangleHistogram};
+use crate::checks::common::{self, FormatNames, Tally, TriangleHistogram};
 use crate::checks::Coverage;
 use crate::model::accel::*;
 use crate::model::micromap::UsageCounts;
@@ -1067,7 +1067,9 @@ fn index_past_end(
 /// reference counted; special indices, which EXT alone has, not counted).
 /// Decided only when the micromap's content and every index are known and
 /// every index selects a triangle the checker read (an index past the end
-/// is the index rules' finding).
+/// is the index rules' finding). A NULL micromap has no triangles: every
+/// index must be special (11578 or our rule says so otherwise), so every
+/// count must be zero.
 fn usage_counts_match_indices(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
@@ -1077,22 +1079,28 @@ fn usage_counts_match_indices(
     let Some(state) = ctx.contents() else {
         return; // Below the content tier neither indices nor micromap data are read.
     };
-    let (Some(counts), Some(content)) = (
-        a.usage_counts,
-        state
-            .micromaps
-            .get(&a.micromap)
-            .and_then(|m| m.built.as_ref())
-            .and_then(|b| b.content.as_ref()),
-    ) else {
+    let Some(counts) = a.usage_counts else {
         return;
     };
     if a.kind == Kind::Khr || count == 0 {
         return;
     }
-    let triangles = &content.triangles;
+    let content = if a.micromap == 0 {
+        None
+    } else {
+        let built = state
+            .micromaps
+            .get(&a.micromap)
+            .and_then(|m| m.built.as_ref())
+            .and_then(|b| b.content.as_ref());
+        match built {
+            Some(content) => Some(content),
+            None => return, // The micromap's triangles are unknown.
+        }
+    };
+    let triangles_read = content.map_or(0, |c| c.triangles.len() as u64);
     let key = |m: u64| {
-        let t = triangles.get(usize::try_from(m).ok()?)?;
+        let t = content?.triangles.get(usize::try_from(m).ok()?)?;
         Some((u32::from(t.format), u32::from(t.subdivision_level)))
     };
     let base = u64::from(a.base_triangle);
@@ -1104,7 +1112,7 @@ fn usage_counts_match_indices(
             let Some(last) = (count - 1).checked_add(base) else {
                 return;
             };
-            if last >= triangles.len() as u64 {
+            if last >= triangles_read {
                 return;
             }
             for t in 0..count {
@@ -1157,6 +1165,10 @@ fn usage_counts_match_indices(
     let keys: std::collections::BTreeSet<(u32, u32)> =
         declared.keys().chain(found.keys()).copied().collect();
     let array = a.member(member);
+    let names = match a.kind {
+        Kind::Nv => FormatNames::DisplacementNv,
+        _ => FormatNames::OpacityExt,
+    };
     let mut tally = Tally::new();
     for (format, level) in keys {
         let (said, first) = declared.get(&(format, level)).copied().unwrap_or((0, None));
@@ -1169,7 +1181,7 @@ fn usage_counts_match_indices(
             ctx,
             &rules::ATTACH_USAGE_COUNTS,
             location,
-            || format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but the {count} geometry triangles reference micromap triangles of that format and level {has} times"),
+            || format!("{}: the usage counts say {said}, the {count} geometry triangles reference micromap triangles of that format and level {has} times", names.key(format, level)),
             &array,
         );
     }

@@ -10,7 +10,6 @@
 //! them, so the `vkCmd*` entry points here take the command buffer without
 //! checking it: there is no catalog VUID to cite.
 
-use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::{self, Display};
 use std::sync::Arc;
 
@@ -32,7 +31,8 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{
-    self, decode_entries, readable_entries, CleanRun, Tally, TriangleEntry, TriangleHistogram,
+    self, decode_entries, entry_past_end, readable_entries, usage_counts_match_triangles, CleanRun,
+    FormatNames, Tally, TriangleEntry, TriangleHistogram,
 };
 use crate::checks::{accel_attach, hygiene, Coverage};
 use crate::device::Limits;
@@ -1297,7 +1297,13 @@ impl TriangleArrayCheck {
                     ctx.error(
                         &rules::TRIANGLE_ARRAY_RANGE,
                         self.entry(m),
-                        format!("entry {m} of {total} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
+                        entry_past_end(
+                            m,
+                            stride,
+                            array.len() as u64,
+                            &data.usage_counts,
+                            FormatNames::OpacityKhr,
+                        ),
                     );
                 }
                 break;
@@ -1337,7 +1343,13 @@ impl TriangleArrayCheck {
             }
         }
         if read == total {
-            usage_counts_match(ctx, self.at, &data.usage_counts, &histogram.into_map());
+            usage_counts_match_triangles(
+                ctx,
+                &format!("{}.{}", self.at, data.usage_counts.member()),
+                &data.usage_counts,
+                &histogram.into_map(),
+                FormatNames::OpacityKhr,
+            );
         }
     }
 
@@ -1440,36 +1452,6 @@ impl TriangleArrayCheck {
                 location,
                 message,
                 "triangleArray",
-            );
-        }
-    }
-}
-
-/// The usage counts must describe the triangle array: per (format, level),
-/// the sum of the counts equals the number of entries.
-fn usage_counts_match(
-    ctx: &mut Ctx<'_>,
-    at: MicromapAt,
-    counts: &UsageCounts,
-    found: &BTreeMap<(u32, u32), u64>,
-) {
-    let (member, entries) = counts.entries();
-    let mut declared: BTreeMap<(u32, u32), u64> = BTreeMap::new();
-    for (_, usage) in entries {
-        let sum = declared
-            .entry((usage.format, usage.subdivision_level))
-            .or_default();
-        *sum = sum.saturating_add(u64::from(usage.count));
-    }
-    let keys: BTreeSet<(u32, u32)> = declared.keys().chain(found.keys()).copied().collect();
-    for (format, level) in keys {
-        let said = declared.get(&(format, level)).copied().unwrap_or(0);
-        let has = found.get(&(format, level)).copied().unwrap_or(0);
-        if said != has {
-            ctx.error(
-                &rules::HISTOGRAM_MISMATCH,
-                format!("{at}.{member}"),
-                format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {has}"),
             );
         }
     }

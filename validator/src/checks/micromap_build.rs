@@ -1,7 +1,6 @@
 //! `VkMicromapBuildInfoEXT`, `vkCmdBuildMicromapsEXT` and `vkBuildMicromapsEXT`.
 
 use std::collections::hash_map::{Entry, HashMap};
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use ommcheck_vuids::vuid::{
@@ -9,8 +8,8 @@ use ommcheck_vuids::vuid::{
 };
 
 use crate::checks::common::{
-    self, decode_entries, readable_entries, CleanRun, CommandBufferVuids, Tally, TriangleEntry,
-    TriangleHistogram,
+    self, decode_entries, entry_past_end, readable_entries, usage_counts_match_triangles, CleanRun,
+    CommandBufferVuids, FormatNames, Tally, TriangleEntry, TriangleHistogram,
 };
 use crate::checks::hygiene;
 use crate::checks::Coverage;
@@ -724,6 +723,11 @@ fn triangle_array(
     let mut entries = Vec::new();
     let entry_cap = array.len() as u64;
     let stride = info.triangle_array_stride;
+    let names = if opacity {
+        FormatNames::OpacityExt
+    } else {
+        FormatNames::DisplacementNv
+    };
     if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
         ctx.report(
             &rules::EXT_TRIANGLE_ARRAY_STRIDE,
@@ -781,7 +785,7 @@ fn triangle_array(
             ctx.error(
                 &rules::TRIANGLE_ARRAY_RANGE,
                 loc.to_string(),
-                format!("entry {m} of {triangles} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
+                entry_past_end(m, stride, array.len() as u64, &info.usage_counts, names),
             );
             break;
         };
@@ -893,30 +897,9 @@ fn triangle_array(
 
     // The usage counts must describe the array: per (format, level), the sum
     // of the counts equals the number of entries.
-    let mut declared: BTreeMap<(u32, u32), u64> = BTreeMap::new();
-    for (_, usage) in info.usage_counts.entries().1 {
-        *declared
-            .entry((usage.format, usage.subdivision_level))
-            .or_default() += u64::from(usage.count);
-    }
-    declared.retain(|_, count| *count != 0);
-    let read_all = histogram.values().sum::<u64>() == triangles;
-    if read_all && declared != histogram {
-        let keys: std::collections::BTreeSet<_> =
-            declared.keys().chain(histogram.keys()).copied().collect();
-        for (format, level) in keys {
-            let (said, found) = (
-                declared.get(&(format, level)).copied().unwrap_or(0),
-                histogram.get(&(format, level)).copied().unwrap_or(0),
-            );
-            if said != found {
-                ctx.error(
-                    &rules::HISTOGRAM_MISMATCH,
-                    format!("{at}.{}", info.usage_counts.entries().0),
-                    format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {found}"),
-                );
-            }
-        }
+    if histogram.values().sum::<u64>() == triangles {
+        let location = format!("{at}.{}", info.usage_counts.member());
+        usage_counts_match_triangles(ctx, &location, &info.usage_counts, &histogram, names);
     }
     let shared = match side {
         Side::Device => state.device_contents_from(info.data),

@@ -829,9 +829,15 @@ fn ext_cases() -> Vec<Case> {
                 })
             },
             || {
+                // Every index special, so every usage count zero.
                 cmd_ext(TrianglesOpacityMicromapExt {
                     micromap: 0,
                     index_buffer: SPECIAL_INDICES,
+                    usage_counts: UsageCounts::array(vec![usage(
+                        0,
+                        1,
+                        OPACITY_MICROMAP_FORMAT_4_STATE,
+                    )]),
                     ..ext_ok()
                 })
             },
@@ -1460,6 +1466,27 @@ fn usage_counts_count_each_reference_and_skip_what_is_unknown() {
         ..ext_ok()
     });
     assert!(based.contains(&rules::INDEX_IN_RANGE) && !based.contains(rule));
+    // A NULL micromap has no triangles: with every index special, every
+    // count must be zero.
+    let null_micromap = |usage_counts| {
+        usage_findings(TrianglesOpacityMicromapExt {
+            micromap: 0,
+            index_buffer: SPECIAL_INDICES,
+            usage_counts,
+            ..ext_ok()
+        })
+    };
+    let counted = null_micromap(ext_ok().usage_counts);
+    assert!(counted.contains(rule), "{counted:#?}");
+    let zero = UsageCounts::array(vec![usage(0, 1, OPACITY_MICROMAP_FORMAT_4_STATE)]);
+    assert!(!null_micromap(zero).contains(rule));
+    // A non-special index into a NULL micromap is 11578's or our rule's
+    // finding, not a count mismatch.
+    assert!(!usage_findings(TrianglesOpacityMicromapExt {
+        micromap: 0,
+        ..ext_ok()
+    })
+    .contains(rule));
     // A micromap whose content the checker never saw: not decided.
     assert!(!cmd_ext(TrianglesOpacityMicromapExt {
         index_buffer: SPECIAL_INDICES,
@@ -1489,7 +1516,7 @@ fn usage_count_findings_name_the_key_and_the_counts() {
     assert!(
         finding
             .message
-            .contains("4 triangles of format 2 at subdivision level 1")
+            .starts_with("VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 1: the usage counts say 4,")
             && finding.message.contains("0 times"),
         "{}",
         finding.message
