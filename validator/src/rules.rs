@@ -64,6 +64,14 @@ pub static INDEX_IN_RANGE: OwnRule = OwnRule {
     link: ACCELERATION_STRUCTURES,
 };
 
+/// EXT and NV attachments, and KHR ones in host builds (the device command
+/// has 11577): every index the build fetches lies inside the index buffer.
+pub static INDEX_BUFFER_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-index-buffer-in-range",
+    statement: "\"indexBuffer is the address containing the triangle indices\"; \"For each triangle in the geometry, the acceleration structure build fetches an index from indexBuffer using indexType and indexStride.\" (The primitiveCount indices, at indexStride intervals, must therefore lie inside the memory indexBuffer points into; the device command of KHR states it as 11577.)",
+    link: ACCELERATION_STRUCTURES,
+};
+
 /// EXT (and NV displacement) attachments: the usage counts describe the
 /// micromap triangles the index buffer references.
 pub static ATTACH_USAGE_COUNTS: OwnRule = OwnRule {
@@ -129,6 +137,7 @@ pub static ALL: &[&OwnRule] = &[
     &EXT_TRIANGLE_ARRAY_STRIDE,
     &NULL_MICROMAP_SPECIAL_ONLY,
     &INDEX_IN_RANGE,
+    &INDEX_BUFFER_RANGE,
     &ATTACH_USAGE_COUNTS,
     &INDEX_ALIGNMENT,
     &PNEXT_CHAIN,

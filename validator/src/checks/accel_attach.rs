@@ -450,6 +450,7 @@ pub(crate) fn triangles(
             }
         }
         if let Some(count) = primitive_count {
+            index_buffer_holds_every_index(ctx, command, &attachment, count);
             index_contents(ctx, command, &attachment, count);
             usage_counts_match_indices(ctx, command, &attachment, count);
         }
@@ -861,15 +862,60 @@ fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count
     let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
     let inside = len.is_some_and(|len| state.range_in_one_buffer(a.index_buffer, len));
     if !inside {
+        let available = common::bytes_available(state, false, a.index_buffer).unwrap_or(0);
+        let held = common::elements_inside(available, size, a.index_stride);
         ctx.error(
             cmd::indexBuffer_11577,
             a.member("indexBuffer"),
             format!(
-                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer",
-                a.index_stride, a.index_buffer
+                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer, whose {available} bytes from there hold {held} indices ({})",
+                a.index_stride,
+                a.index_buffer,
+                common::last_inside("index", held)
             ),
         );
     }
+}
+
+/// Every one of the `count` indices the build fetches, at `indexStride`
+/// intervals, lies inside the memory `indexBuffer` points into: decided
+/// from the state tier up, where the buffer's (or described host
+/// memory's) size is known. KHR's device command states it as 11577
+/// ([`index_buffer_in_range`]); the rest is our rule.
+fn index_buffer_holds_every_index(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    a: &Attachment<'_>,
+    count: u64,
+) {
+    if a.kind == Kind::Khr && command == BuildCommand::Cmd {
+        return;
+    }
+    let (Some(state), Some(size)) = (ctx.state, index_size(a.index_type)) else {
+        return;
+    };
+    if count == 0 || a.index_buffer == 0 {
+        return;
+    }
+    // An address inside no buffer is the address rules' finding.
+    let host = command == BuildCommand::Host;
+    let Some(available) = common::bytes_available(state, host, a.index_buffer) else {
+        return;
+    };
+    let inside = common::elements_inside(available, size, a.index_stride);
+    let needed = if a.index_stride == 0 { 1 } else { count };
+    if inside >= needed {
+        return;
+    }
+    ctx.error(
+        &rules::INDEX_BUFFER_RANGE,
+        a.member("indexBuffer"),
+        format!(
+            "the {available} bytes from indexBuffer hold {inside} {size}-byte indices at stride {}, but primitiveCount is {count}: index {inside} lies past the end ({})",
+            a.index_stride,
+            common::last_inside("index", inside)
+        ),
+    );
 }
 
 /// The NV attachment's two displacement formats (09501/09502 and their -parameter rules).

@@ -11,7 +11,7 @@ use crate::model::micromap::UsageCounts;
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::report::{RuleId, Severity};
 use crate::rules;
-use crate::state::Handle;
+use crate::state::{Handle, State};
 use crate::validator::Ctx;
 
 /// The implicit command-buffer VUIDs of one `vkCmd*` command.
@@ -276,10 +276,39 @@ pub(crate) fn decode_entries(block: &[u8]) -> impl Iterator<Item = MicromapTrian
 /// inside them too: a bound, from the bytes there are, on what a loop over
 /// an untrusted count can read (1 at stride 0).
 pub(crate) fn readable_entries(len: u64, stride: u64) -> u64 {
-    match (len.checked_sub(8), stride) {
+    elements_inside(len, MicromapTriangle::SIZE, stride)
+}
+
+/// How many bytes from `address` on lie inside the buffer (or described host
+/// memory) holding it, whether or not the checker can read them; known from
+/// the state tier up.
+pub(crate) fn bytes_available(state: &State, host: bool, address: u64) -> Option<u64> {
+    if host {
+        return state.host_bytes_from(address).map(|b| b.len() as u64);
+    }
+    state
+        .buffers_at(address)
+        .filter_map(|(_, b)| b.address_range())
+        .map(|(_, end)| end - address)
+        .max()
+}
+
+/// How many elements of `size` bytes at `stride` fit in `len` bytes: the
+/// elements an array read at that stride holds (a stride of 0 reads one).
+pub(crate) fn elements_inside(len: u64, size: u64, stride: u64) -> u64 {
+    match (len.checked_sub(size), stride) {
         (None, _) => 0,
         (Some(_), 0) => 1,
         (Some(last_start), stride) => last_start / stride + 1,
+    }
+}
+
+/// "the last inside is `<what>` k" or "none lies inside", for a message
+/// about an array that runs past the end of its memory.
+pub(crate) fn last_inside(what: &str, inside: u64) -> String {
+    match inside {
+        0 => format!("no {what} lies inside"),
+        n => format!("the last inside is {what} {}", n - 1),
     }
 }
 
@@ -527,14 +556,47 @@ pub(crate) fn entry_past_end(
     names: FormatNames,
 ) -> String {
     let inside = readable_entries(len, stride);
-    let last_inside = match inside {
-        0 => "no entry lies inside".to_owned(),
-        n => format!("the last inside is entry {}", n - 1),
-    };
     format!(
-        "the {len} bytes from triangleArray hold {inside} entries at stride {stride}, but the usage counts say {}: entry {m} lies past the end ({last_inside})",
-        counts_in_words(counts, names)
+        "the {len} bytes from triangleArray hold {inside} entries at stride {stride}, but the usage counts say {}: entry {m} lies past the end ({})",
+        counts_in_words(counts, names),
+        last_inside("entry", inside)
     )
+}
+
+/// Every entry of a micromap build's triangle array (the usage counts'
+/// sum of them at `stride`, one for a stride of 0) lies inside the memory
+/// `address` points into: decided from the state tier up, where the
+/// buffer's (or described host memory's) size is known, under
+/// `OMMCHECK-build-triangle-array-in-range` (KHR's device command states it
+/// as 11554).
+pub(crate) fn triangle_array_holds_every_entry(
+    ctx: &mut Ctx<'_>,
+    location: impl Display,
+    (address, host): (u64, bool),
+    stride: u64,
+    counts: &UsageCounts,
+    names: FormatNames,
+) {
+    let total = counts.total();
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if total == 0 {
+        return;
+    }
+    // An address inside no buffer is the address rules' finding.
+    let Some(available) = bytes_available(state, host, address) else {
+        return;
+    };
+    let inside = readable_entries(available, stride);
+    let needed = if stride == 0 { 1 } else { total };
+    if inside < needed {
+        ctx.error(
+            &rules::TRIANGLE_ARRAY_RANGE,
+            location.to_string(),
+            entry_past_end(inside, stride, available, counts, names),
+        );
+    }
 }
 
 /// Triangles counted per (format, subdivision level), to hold against the

@@ -8,7 +8,7 @@ use ommcheck_vuids::vuid::{
 };
 
 use crate::checks::common::{
-    self, decode_entries, entry_past_end, readable_entries, usage_counts_match_triangles, CleanRun,
+    self, decode_entries, readable_entries, usage_counts_match_triangles, CleanRun,
     CommandBufferVuids, FormatNames, Tally, TriangleEntry, TriangleHistogram,
 };
 use crate::checks::hygiene;
@@ -686,9 +686,26 @@ pub(crate) fn build_info(
         }
     }
     if (opacity || displacement) && side != Side::SizeQuery {
+        common::triangle_array_holds_every_entry(
+            ctx,
+            format_args!("{at}.triangleArray"),
+            (info.triangle_array, side == Side::Host),
+            info.triangle_array_stride,
+            &info.usage_counts,
+            format_names(opacity),
+        );
         return triangle_array(ctx, at, info, side, opacity);
     }
     None
+}
+
+/// The enum that names the formats of an opacity or displacement micromap.
+fn format_names(opacity: bool) -> FormatNames {
+    if opacity {
+        FormatNames::OpacityExt
+    } else {
+        FormatNames::DisplacementNv
+    }
 }
 
 /// The triangle array's entries, when the checker can read them: each entry's
@@ -723,11 +740,7 @@ fn triangle_array(
     let mut entries = Vec::new();
     let entry_cap = array.len() as u64;
     let stride = info.triangle_array_stride;
-    let names = if opacity {
-        FormatNames::OpacityExt
-    } else {
-        FormatNames::DisplacementNv
-    };
+    let names = format_names(opacity);
     if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
         ctx.report(
             &rules::EXT_TRIANGLE_ARRAY_STRIDE,
@@ -782,11 +795,8 @@ fn triangle_array(
             .and_then(|offset| usize::try_from(offset).ok())
             .and_then(|offset| array.get(offset..offset.checked_add(8)?));
         let Some(bytes) = entry else {
-            ctx.error(
-                &rules::TRIANGLE_ARRAY_RANGE,
-                loc.to_string(),
-                entry_past_end(m, stride, array.len() as u64, &info.usage_counts, names),
-            );
+            // The rest is past the end of the memory (our rule says so from
+            // its size) or was not given to the checker.
             break;
         };
         let triangle = MicromapTriangle::from_bytes(bytes.try_into().expect("8 bytes"));

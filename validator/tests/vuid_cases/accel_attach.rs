@@ -821,6 +821,17 @@ fn ext_cases() -> Vec<Case> {
             },
         ),
         case(
+            &rules::INDEX_BUFFER_RANGE,
+            || {
+                // Two of the four 4-byte indices fit before the buffer's end.
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: INPUT_ADDRESS + INPUT_SIZE - 8,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
             &rules::NULL_MICROMAP_SPECIAL_ONLY,
             || {
                 cmd_ext(TrianglesOpacityMicromapExt {
@@ -1495,17 +1506,22 @@ fn usage_counts_count_each_reference_and_skip_what_is_unknown() {
     .contains(rule));
 }
 
+/// The report's first finding of `rule`, which it must have.
+fn first_finding<'r>(report: &'r Report, rule: &'static rules::OwnRule) -> &'r ommcheck::Finding {
+    report
+        .findings
+        .iter()
+        .find(|f| f.rule == RuleId::from(rule))
+        .unwrap_or_else(|| panic!("no {} finding in {report:#?}", rule.id))
+}
+
 #[test]
 fn usage_count_findings_name_the_key_and_the_counts() {
     let report = usage_findings(TrianglesOpacityMicromapExt {
         index_buffer: SPECIAL_INDICES,
         ..ext_ok()
     });
-    let finding = report
-        .findings
-        .iter()
-        .find(|f| f.rule == RuleId::from(&rules::ATTACH_USAGE_COUNTS))
-        .expect("a usage-count finding");
+    let finding = first_finding(&report, &rules::ATTACH_USAGE_COUNTS);
     assert!(
         finding.location.ends_with(
             ".geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.pUsageCounts[0]"
@@ -1570,4 +1586,24 @@ fn khr_index_rules_follow_the_vuid_wording() {
     for finding in one_past.findings.iter().chain(&none(1).findings) {
         assert!(finding.rule.statement().contains("fetched at index"));
     }
+}
+
+#[test]
+fn an_index_buffer_past_its_end_names_the_last_index_inside() {
+    let report = cmd_ext(TrianglesOpacityMicromapExt {
+        index_buffer: INPUT_ADDRESS + INPUT_SIZE - 8,
+        ..ext_ok()
+    });
+    let finding = first_finding(&report, &rules::INDEX_BUFFER_RANGE);
+    assert_eq!(
+        finding.message,
+        "the 8 bytes from indexBuffer hold 2 4-byte indices at stride 4, but primitiveCount is 4: index 2 lies past the end (the last inside is index 1)"
+    );
+    // A stride of 0 reads one index for every triangle.
+    assert!(!cmd_ext(TrianglesOpacityMicromapExt {
+        index_buffer: INPUT_ADDRESS + INPUT_SIZE - 4,
+        index_stride: 0,
+        ..ext_ok()
+    })
+    .contains(&rules::INDEX_BUFFER_RANGE));
 }
