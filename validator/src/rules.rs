@@ -72,6 +72,14 @@ pub static INDEX_BUFFER_RANGE: OwnRule = OwnRule {
     link: ACCELERATION_STRUCTURES,
 };
 
+/// Top-level builds: the instances (or pointers to them) the build reads
+/// lie inside the memory `data` points into.
+pub static INSTANCES_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-instances-in-range",
+    statement: "\"For geometries of type VK_GEOMETRY_TYPE_INSTANCES_KHR, primitiveCount is the number of acceleration structures. primitiveCount VkAccelerationStructureInstanceKHR or VkAccelerationStructureMotionInstanceNV structures are consumed from VkAccelerationStructureGeometryInstancesDataKHR::data, starting at an offset of primitiveOffset.\" (With arrayOfPointers, data holds primitiveCount addresses instead; either array must lie inside the memory data points into. The instances carry the opacity-micromap flags the build reads.)",
+    link: ACCELERATION_STRUCTURES,
+};
+
 /// EXT (and NV displacement) attachments: the usage counts describe the
 /// micromap triangles the index buffer references.
 pub static ATTACH_USAGE_COUNTS: OwnRule = OwnRule {
@@ -138,6 +146,7 @@ pub static ALL: &[&OwnRule] = &[
     &NULL_MICROMAP_SPECIAL_ONLY,
     &INDEX_IN_RANGE,
     &INDEX_BUFFER_RANGE,
+    &INSTANCES_RANGE,
     &ATTACH_USAGE_COUNTS,
     &INDEX_ALIGNMENT,
     &PNEXT_CHAIN,

@@ -1243,8 +1243,12 @@ pub(crate) fn instances(
     at: GeometryAt,
     info: &BuildGeometryInfo,
     instances: &InstancesData,
+    range: Option<&BuildRangeInfo>,
 ) {
     let _ = info;
+    if let Some(range) = range {
+        instances_in_range(ctx, command, at, instances, range);
+    }
     // Instances are buffer contents: decided from the content tier on.
     let (Some(list), Some(state)) = (&instances.instances, ctx.contents()) else {
         return;
@@ -1291,6 +1295,54 @@ pub(crate) fn instances(
         }
     }
     tally.finish(ctx);
+}
+
+/// The `primitiveCount` instances (or pointers to them) from `data +
+/// primitiveOffset` lie inside the memory holding that address: decided
+/// from the state tier up, where its size is known. An instance is counted
+/// as 64 bytes, the size of VkAccelerationStructureInstanceKHR; motion
+/// instances are larger, so for them the rule errs towards silence.
+fn instances_in_range(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    at: GeometryAt,
+    instances: &InstancesData,
+    range: &BuildRangeInfo,
+) {
+    const INSTANCE_SIZE: u64 = 64;
+    const POINTER_SIZE: u64 = 8;
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let count = u64::from(range.primitive_count);
+    if count == 0 || instances.data == 0 {
+        return;
+    }
+    let offset = u64::from(range.primitive_offset);
+    let Some(start) = instances.data.checked_add(offset) else {
+        return;
+    };
+    // An address inside no buffer is the address rules' finding.
+    let host = command == BuildCommand::Host;
+    let Some(available) = common::bytes_available(state, host, start) else {
+        return;
+    };
+    let (size, what) = if instances.array_of_pointers {
+        (POINTER_SIZE, "pointer")
+    } else {
+        (INSTANCE_SIZE, "instance")
+    };
+    let inside = common::elements_inside(available, size, size);
+    if inside < count {
+        ctx.error(
+            &rules::INSTANCES_RANGE,
+            format!("{at}.geometry.instances.data"),
+            format!(
+                "the {available} bytes from data + primitiveOffset {offset} hold {inside} {size}-byte {what}s, but primitiveCount is {count}: {what} {inside} lies past the end ({})",
+                common::last_inside(what, inside)
+            ),
+        );
+    }
 }
 
 /// The acceleration structure an instance references: a handle in host

@@ -668,7 +668,7 @@ pub(crate) fn builds(
                     accel_attach::triangles(ctx, command, at, info, triangles, range)
                 }
                 GeometryData::Instances(instances) => {
-                    accel_attach::instances(ctx, command, at, info, instances)
+                    accel_attach::instances(ctx, command, at, info, instances, range)
                 }
                 GeometryData::Aabbs(_) | GeometryData::None => {}
             }

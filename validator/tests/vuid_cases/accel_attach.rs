@@ -553,6 +553,26 @@ fn instance_build(
     build(v, &infos)
 }
 
+/// A device top-level build of [`TRIANGLES`] instances (or pointers to
+/// them) read from `data`, whose contents the checker is not given.
+fn instances_from(data: u64, array_of_pointers: bool) -> Report {
+    let geometry = Geometry {
+        geometry_type: GEOMETRY_TYPE_INSTANCES,
+        geometry: GeometryData::Instances(InstancesData {
+            array_of_pointers,
+            data,
+            instances: None,
+        }),
+        ..Default::default()
+    };
+    let info = BuildGeometryInfo {
+        dst_acceleration_structure: TLAS,
+        scratch_data: SCRATCH_ADDRESS,
+        ..BuildGeometryInfo::with_geometries(ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, vec![geometry])
+    };
+    cmd_in(world(), &[info])
+}
+
 fn disable_flag() -> u32 {
     khr_values::GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw()
 }
@@ -1226,6 +1246,12 @@ fn across_info_cases() -> Vec<Case> {
 fn instance_cases() -> Vec<Case> {
     vec![
         case(
+            &rules::INSTANCES_RANGE,
+            // Three of the four 64-byte instances fit before the buffer's end.
+            || instances_from(INPUT_ADDRESS + INPUT_SIZE - 3 * 64, false),
+            || instances_from(INPUT_ADDRESS + INPUT_SIZE - 4 * 64, false),
+        ),
+        case(
             instance_vuid::micromap_11580,
             || instance_build(force_2_state_flag(), 0, false, cmd_in, false),
             || instance_build(force_2_state_flag(), 0, true, cmd_in, false),
@@ -1606,4 +1632,17 @@ fn an_index_buffer_past_its_end_names_the_last_index_inside() {
         ..ext_ok()
     })
     .contains(&rules::INDEX_BUFFER_RANGE));
+}
+
+#[test]
+fn instances_past_their_end_name_the_last_inside() {
+    let report = instances_from(INPUT_ADDRESS + INPUT_SIZE - 3 * 64, false);
+    assert_eq!(
+        first_finding(&report, &rules::INSTANCES_RANGE).message,
+        "the 192 bytes from data + primitiveOffset 0 hold 3 64-byte instances, but primitiveCount is 4: instance 3 lies past the end (the last inside is instance 2)"
+    );
+    // Four 8-byte pointers fit where four instances do not.
+    let pointers = |data| instances_from(data, true).contains(&rules::INSTANCES_RANGE);
+    assert!(!pointers(INPUT_ADDRESS + INPUT_SIZE - 32));
+    assert!(pointers(INPUT_ADDRESS + INPUT_SIZE - 24));
 }
