@@ -686,6 +686,7 @@ pub(crate) fn build_info(
         }
     }
     if (opacity || displacement) && side != Side::SizeQuery {
+        triangle_array_stride(ctx, at, info);
         common::triangle_array_holds_every_entry(
             ctx,
             format_args!("{at}.triangleArray"),
@@ -697,6 +698,21 @@ pub(crate) fn build_info(
         return triangle_array(ctx, at, info, side, opacity);
     }
     None
+}
+
+/// The triangle array's stride against the entries' 8 bytes: decided by the
+/// parameters alone (KHR states it as 11646/11647).
+fn triangle_array_stride(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo) {
+    let triangles = info.usage_counts.total();
+    let stride = info.triangle_array_stride;
+    if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
+        ctx.report(
+            &rules::EXT_TRIANGLE_ARRAY_STRIDE,
+            crate::report::Severity::Warning,
+            format!("{at}.triangleArrayStride"),
+            format!("{stride} is below 8 or not a multiple of 4, so the {triangles} entries overlap or are misaligned"),
+        );
+    }
 }
 
 /// The enum that names the formats of an opacity or displacement micromap.
@@ -741,14 +757,6 @@ fn triangle_array(
     let entry_cap = array.len() as u64;
     let stride = info.triangle_array_stride;
     let names = format_names(opacity);
-    if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
-        ctx.report(
-            &rules::EXT_TRIANGLE_ARRAY_STRIDE,
-            crate::report::Severity::Warning,
-            format!("{at}.triangleArrayStride"),
-            format!("{stride} is below 8 or not a multiple of 4, so the {triangles} entries overlap or are misaligned"),
-        );
-    }
     // The device outlives the context's borrow, so the limits are read in
     // place while findings are reported.
     let device = ctx.device;
