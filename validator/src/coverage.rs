@@ -59,6 +59,145 @@ pub fn corpus_tiers(corpus: &std::path::Path) -> Result<BTreeMap<String, Tier>, 
     Ok(tiers)
 }
 
+/// The rules whose inputs include bytes a call reads (the content tier),
+/// with what they read: a rule id, or for the per-command work rules the
+/// end of their VUIDs. Every other rule is decided by the parameters and
+/// the tracked objects alone, so measuring it at the content tier means a
+/// check waits for bytes it does not need. The simulate tier's rules are
+/// [`rules::SIMULATE_TIER`].
+pub static READS_CONTENTS: &[(&str, &str)] = &[
+    (
+        "OMMCHECK-build-usage-counts-match-triangles",
+        "the triangle array's entries",
+    ),
+    (
+        "OMMCHECK-build-triangle-data-in-range",
+        "each entry's dataOffset, format and level",
+    ),
+    (
+        "OMMCHECK-attach-null-micromap-special-only",
+        "the index buffer",
+    ),
+    ("OMMCHECK-attach-index-in-range", "the index buffer"),
+    (
+        "OMMCHECK-attach-usage-counts-match-indices",
+        "the index buffer and the micromap's entries",
+    ),
+    (
+        "OMMCHECK-attach-cluster-index-outside-cluster",
+        "the index buffer",
+    ),
+    (
+        "VUID-VkAccelerationStructureBuildGeometryInfoKHR-format-11713",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkAccelerationStructureBuildGeometryInfoKHR-subdivisionLevel-11566",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkAccelerationStructureBuildGeometryInfoKHR-subdivisionLevel-11567",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkAccelerationStructureInstanceKHR-flags-11581",
+        "the instances",
+    ),
+    (
+        "VUID-VkAccelerationStructureInstanceKHR-micromap-11580",
+        "the instances",
+    ),
+    (
+        "VUID-VkMicromapBuildInfoEXT-format-11657",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkMicromapBuildInfoEXT-format-11658",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkMicromapBuildInfoEXT-subdivisionLevel-11659",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkMicromapBuildInfoEXT-subdivisionLevel-11660",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-VkMicromapBuildInfoEXT-subdivisionLevel-11661",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresIndirectKHR-pInfos-10607",
+        "the instances",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresKHR-pInfos-10607",
+        "the instances",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresKHR-indexBuffer-11575",
+        "the index buffer",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresKHR-indexBuffer-11578",
+        "the index buffer",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresKHR-micromap-11553",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresKHR-micromap-11555",
+        "the triangle array's entries",
+    ),
+    (
+        "VUID-vkCmdBuildAccelerationStructuresKHR-micromap-11556",
+        "the triangle array's entries",
+    ),
+    (
+        "-micromap-11638",
+        "the index buffers the bound structures were built from (mixed special indices)",
+    ),
+    (
+        "-micromap-11639",
+        "the index buffers the bound structures were built from (mixed special indices)",
+    ),
+];
+
+/// The lowest tier whose information can decide `rule`, as declared:
+/// [`rules::SIMULATE_TIER`], then [`READS_CONTENTS`], else the state tier
+/// (params and state are not told apart here).
+pub fn needed_tier(rule: &str) -> Tier {
+    if rules::SIMULATE_TIER.iter().any(|r| r.id == rule) {
+        return Tier::Simulate;
+    }
+    let reads_contents = READS_CONTENTS.iter().any(|(id, _)| {
+        if id.starts_with('-') {
+            rule.starts_with("VUID-") && rule.ends_with(id)
+        } else {
+            rule == *id
+        }
+    });
+    if reads_contents {
+        Tier::Content
+    } else {
+        Tier::State
+    }
+}
+
+/// The rules whose measured tier is above the one their inputs need, with
+/// both tiers: a check that waits for information it does not use.
+pub fn measured_above_needed(tiers: &BTreeMap<String, Tier>) -> Vec<(&str, Tier, Tier)> {
+    tiers
+        .iter()
+        .filter_map(|(rule, &measured)| {
+            let needed = needed_tier(rule);
+            (measured > needed).then_some((rule.as_str(), measured, needed))
+        })
+        .collect()
+}
+
 /// A VUID's status.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Status {
@@ -191,6 +330,20 @@ pub fn render(tiers: &BTreeMap<String, Tier>) -> String {
         let _ = writeln!(w, "| `{tier}` | {sees} | {first} | {all} |");
     }
     let _ = writeln!(w);
+    let above = measured_above_needed(tiers);
+    let _ = writeln!(
+        w,
+        "Rules measured above the tier their inputs need (declared in `validator/src/coverage.rs`, `READS_CONTENTS`): {}.\n",
+        if above.is_empty() {
+            "none".to_string()
+        } else {
+            above
+                .iter()
+                .map(|(rule, measured, needed)| format!("`{rule}` ({measured}, needs {needed})"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    );
 
     let _ = writeln!(w, "## By extension\n");
     let _ = writeln!(
@@ -335,6 +488,51 @@ mod tests {
                     "{v} is both enforced and not decidable"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn needed_tiers_follow_the_declarations() {
+        assert_eq!(
+            needed_tier("OMMCHECK-build-triangle-array-stride"),
+            Tier::State
+        );
+        assert_eq!(needed_tier("OMMCHECK-attach-index-in-range"), Tier::Content);
+        assert_eq!(needed_tier("VUID-vkCmdDraw-micromap-11638"), Tier::Content);
+        assert_eq!(needed_tier("OMMCHECK-hygiene-unused-bits"), Tier::Simulate);
+        let measured = BTreeMap::from([
+            (
+                "OMMCHECK-build-triangle-array-stride".to_string(),
+                Tier::Content,
+            ),
+            ("OMMCHECK-attach-index-in-range".to_string(), Tier::Content),
+        ]);
+        assert_eq!(
+            measured_above_needed(&measured),
+            [(
+                "OMMCHECK-build-triangle-array-stride",
+                Tier::Content,
+                Tier::State
+            )]
+        );
+    }
+
+    #[test]
+    fn no_rule_is_measured_above_the_tier_its_inputs_need() {
+        let corpus = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(CORPUS);
+        let tiers = corpus_tiers(&corpus).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(measured_above_needed(&tiers), []);
+        // Every declaration names a rule the corpus measures.
+        for (id, _) in READS_CONTENTS {
+            assert!(
+                tiers
+                    .keys()
+                    .any(|rule| needed_tier(rule) == Tier::Content
+                        && (rule == id || rule.ends_with(id))),
+                "{id} is declared but measured nowhere"
+            );
         }
     }
 

@@ -54,10 +54,29 @@ pub static NULL_MICROMAP_SPECIAL_ONLY: OwnRule = OwnRule {
     link: ACCELERATION_STRUCTURES,
 };
 
-/// EXT attachments: a non-special index selects one of the micromap's triangles.
+/// A non-special index plus baseTriangle selects one of the micromap's
+/// triangles: every EXT index, and the KHR cases 11575/11576 do not state
+/// (one past the last triangle; index 0 at or past the end). See
+/// docs/choices.md.
 pub static INDEX_IN_RANGE: OwnRule = OwnRule {
     id: "OMMCHECK-attach-index-in-range",
-    statement: "For each triangle in the geometry, the acceleration structure build fetches an index from indexBuffer using indexType and indexStride; if that value is not one of the special indices, that triangle uses the opacity micromap information from micromap at that index plus baseTriangle (which must therefore be less than the number of triangles micromap was built with)",
+    statement: "EXT: \"Otherwise that triangle uses the opacity micromap information from micromap at that index plus baseTriangle.\" KHR: \"For each triangle in the geometry, a triangle in the micromap is fetched at index reinterpret_cast<indexType>(indexBuffer + indexStride * geomTriangleIndex) + baseTriangle.\" Both: \"Each element contains a count which is the number of micromap triangles of that format and subdivisionLevel contained in the micromap.\" (A micromap built from counts summing to numTriangles contains triangles 0 to numTriangles - 1, so index plus baseTriangle must be less than numTriangles for the fetch to find a triangle; KHR's 11575 and 11576 state \"less than or equal to numTriangles\", and 11575 only for indices greater than zero.)",
+    link: ACCELERATION_STRUCTURES,
+};
+
+/// EXT and NV attachments, and KHR ones in host builds (the device command
+/// has 11577): every index the build fetches lies inside the index buffer.
+pub static INDEX_BUFFER_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-index-buffer-in-range",
+    statement: "\"indexBuffer is the address containing the triangle indices\"; \"For each triangle in the geometry, the acceleration structure build fetches an index from indexBuffer using indexType and indexStride.\" (The primitiveCount indices, at indexStride intervals, must therefore lie inside the memory indexBuffer points into; the device command of KHR states it as 11577.)",
+    link: ACCELERATION_STRUCTURES,
+};
+
+/// Top-level builds: the instances (or pointers to them) the build reads
+/// lie inside the memory `data` points into.
+pub static INSTANCES_RANGE: OwnRule = OwnRule {
+    id: "OMMCHECK-attach-instances-in-range",
+    statement: "\"For geometries of type VK_GEOMETRY_TYPE_INSTANCES_KHR, primitiveCount is the number of acceleration structures. primitiveCount VkAccelerationStructureInstanceKHR or VkAccelerationStructureMotionInstanceNV structures are consumed from VkAccelerationStructureGeometryInstancesDataKHR::data, starting at an offset of primitiveOffset.\" (With arrayOfPointers, data holds primitiveCount addresses instead; either array must lie inside the memory data points into. The instances carry the opacity-micromap flags the build reads.)",
     link: ACCELERATION_STRUCTURES,
 };
 
@@ -126,6 +145,8 @@ pub static ALL: &[&OwnRule] = &[
     &EXT_TRIANGLE_ARRAY_STRIDE,
     &NULL_MICROMAP_SPECIAL_ONLY,
     &INDEX_IN_RANGE,
+    &INDEX_BUFFER_RANGE,
+    &INSTANCES_RANGE,
     &ATTACH_USAGE_COUNTS,
     &INDEX_ALIGNMENT,
     &PNEXT_CHAIN,

@@ -34,6 +34,13 @@ fn index_from_barycentrics() {
         "index", "--level", "2", "--uv", "0.1", "0.1", "--format", "json",
     ]);
     assert_eq!(inside["ambiguous"], serde_json::json!([]));
+    // Exactly on the edge between micro-triangles 4 and 5: with no error
+    // bound both touch the hit, and both are listed.
+    let edge = json(&[
+        "index", "--level", "2", "--uv", "0.25", "0.375", "--delta", "0", "--format", "json",
+    ]);
+    assert_eq!(edge["index"], 5);
+    assert_eq!(edge["ambiguous"], serde_json::json!([4, 5]));
 }
 
 #[test]

@@ -21,7 +21,7 @@ use std::fmt::{self, Display};
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
-use crate::checks::common::{self, Tally, TriangleHistogram};
+use crate::checks::common::{self, FormatNames, Tally, TriangleHistogram};
 use crate::checks::Coverage;
 use crate::model::accel::*;
 use crate::model::micromap::UsageCounts;
@@ -450,6 +450,7 @@ pub(crate) fn triangles(
             }
         }
         if let Some(count) = primitive_count {
+            index_buffer_holds_every_index(ctx, command, &attachment, count);
             index_contents(ctx, command, &attachment, count);
             usage_counts_match_indices(ctx, command, &attachment, count);
         }
@@ -861,15 +862,60 @@ fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count
     let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
     let inside = len.is_some_and(|len| state.range_in_one_buffer(a.index_buffer, len));
     if !inside {
+        let available = common::bytes_available(state, false, a.index_buffer).unwrap_or(0);
+        let held = common::elements_inside(available, size, a.index_stride);
         ctx.error(
             cmd::indexBuffer_11577,
             a.member("indexBuffer"),
             format!(
-                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer",
-                a.index_stride, a.index_buffer
+                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer, whose {available} bytes from there hold {held} indices ({})",
+                a.index_stride,
+                a.index_buffer,
+                common::last_inside("index", held)
             ),
         );
     }
+}
+
+/// Every one of the `count` indices the build fetches, at `indexStride`
+/// intervals, lies inside the memory `indexBuffer` points into: decided
+/// from the state tier up, where the buffer's (or described host
+/// memory's) size is known. KHR's device command states it as 11577
+/// ([`index_buffer_in_range`]); the rest is our rule.
+fn index_buffer_holds_every_index(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    a: &Attachment<'_>,
+    count: u64,
+) {
+    if a.kind == Kind::Khr && command == BuildCommand::Cmd {
+        return;
+    }
+    let (Some(state), Some(size)) = (ctx.state, index_size(a.index_type)) else {
+        return;
+    };
+    if count == 0 || a.index_buffer == 0 {
+        return;
+    }
+    // An address inside no buffer is the address rules' finding.
+    let host = command == BuildCommand::Host;
+    let Some(available) = common::bytes_available(state, host, a.index_buffer) else {
+        return;
+    };
+    let inside = common::elements_inside(available, size, a.index_stride);
+    let needed = if a.index_stride == 0 { 1 } else { count };
+    if inside >= needed {
+        return;
+    }
+    ctx.error(
+        &rules::INDEX_BUFFER_RANGE,
+        a.member("indexBuffer"),
+        format!(
+            "the {available} bytes from indexBuffer hold {inside} {size}-byte indices at stride {}, but primitiveCount is {count}: index {inside} lies past the end ({})",
+            a.index_stride,
+            common::last_inside("index", inside)
+        ),
+    );
 }
 
 /// The NV attachment's two displacement formats (09501/09502 and their -parameter rules).
@@ -948,31 +994,19 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         }
     };
     let base = u64::from(a.base_triangle);
-    // The VUIDs say "less than or equal" (and 11575 "greater than zero"); the
-    // micromap has triangles 0..numTriangles, so what hardware reads needs
-    // index + baseTriangle < numTriangles, index 0 included.
-    let out_of_range = |index: u64| triangles.is_some_and(|n| index.saturating_add(base) >= n);
-    let in_range_rule: RuleId = match a.kind {
-        Kind::Khr => cmd::indexBuffer_11575.into(),
-        _ => (&rules::INDEX_IN_RANGE).into(),
-    };
+    let array = a.member("indexBuffer");
     let Some(size) = index_size(a.index_type) else {
-        if a.index_type == INDEX_TYPE_NONE && triangles.is_some() {
-            // Triangle j uses micromap triangle j + baseTriangle; the last is the largest.
-            let last = count - 1;
-            let rule: RuleId = match a.kind {
-                Kind::Khr => khr::geometry_11576.into(),
-                _ => (&rules::INDEX_IN_RANGE).into(),
-            };
-            if out_of_range(last) {
-                ctx.error(
-                    rule,
-                    a.member("baseTriangle"),
-                    format!(
-                        "triangle {last} + baseTriangle {base} is not below the micromap's {} triangles",
-                        triangles.unwrap_or(0)
-                    ),
-                );
+        if a.index_type == INDEX_TYPE_NONE {
+            if let Some(n) = triangles {
+                // Triangle j uses micromap triangle j + baseTriangle; the last is the largest.
+                let last = count - 1;
+                if let Some((rule, message)) = index_past_end(a.kind, last, base, n, true) {
+                    ctx.error(
+                        rule,
+                        a.member("baseTriangle"),
+                        format!("triangle {message}"),
+                    );
+                }
             }
         }
         return;
@@ -991,7 +1025,6 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         (Kind::Khr, BuildCommand::Cmd) => cmd::indexBuffer_11578.into(),
         _ => (&rules::NULL_MICROMAP_SPECIAL_ONLY).into(),
     };
-    let array = a.member("indexBuffer");
     let mut tally = Tally::new();
     for (j, index) in read_indices(bytes, size, a.index_stride, count) {
         if is_special_index(index, size) {
@@ -1017,17 +1050,61 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
                 || format!("micromap is VK_NULL_HANDLE, but index {index:#x} is no VkOpacityMicromapSpecialIndexKHR value"),
                 &array,
             ),
-            Some(n) if out_of_range(u64::from(index)) => tally.error(
-                ctx,
-                in_range_rule,
-                location(),
-                || format!("index {index} + baseTriangle {base} is not below the micromap's {n} triangles"),
-                &array,
-            ),
-            Some(_) => {}
+            Some(n) => {
+                if let Some((rule, message)) =
+                    index_past_end(a.kind, u64::from(index), base, n, false)
+                {
+                    tally.error(ctx, rule, location(), || format!("index {message}"), &array);
+                }
+            }
         }
     }
     tally.finish(ctx);
+}
+
+/// Whether micromap triangle `index + base` lies past the end of a micromap
+/// of `n` triangles, and if so under which rule, with the message's tail.
+/// The micromap holds triangles 0 to n - 1, so `index + base >= n` reads
+/// past it. KHR's VUIDs state only "less than or equal to numTriangles"
+/// (11575 moreover only for an index greater than zero; 11576, with no
+/// index buffer, for every triangle index): they are reported where their
+/// words apply, and the rest (one past the last triangle, an index 0 at
+/// or past the end) under our rule, as are all EXT indices, which have no
+/// VUID. `no_index_buffer` selects 11576 over 11575.
+fn index_past_end(
+    kind: Kind,
+    index: u64,
+    base: u64,
+    n: u64,
+    no_index_buffer: bool,
+) -> Option<(RuleId, String)> {
+    let target = index.checked_add(base);
+    if target.is_some_and(|target| target < n) {
+        return None;
+    }
+    let beyond_le = target.is_none_or(|target| target > n);
+    let vuid: Option<RuleId> = match kind {
+        Kind::Khr if no_index_buffer && beyond_le => Some(khr::geometry_11576.into()),
+        Kind::Khr if !no_index_buffer && beyond_le && index > 0 => {
+            Some(cmd::indexBuffer_11575.into())
+        }
+        _ => None,
+    };
+    let sum = index.saturating_add(base);
+    let message = match (vuid, n) {
+        (Some(_), _) => {
+            format!("{index} + baseTriangle {base} = {sum} is greater than numTriangles {n}")
+        }
+        (None, 0) => format!(
+            "{index} + baseTriangle {base} = {sum}, but the micromap was built with no triangles"
+        ),
+        (None, _) => format!(
+            "{index} + baseTriangle {base} = {sum} is not below numTriangles {n}: the micromap holds triangles 0 to {}",
+            n - 1
+        ),
+    };
+    let rule = vuid.unwrap_or_else(|| (&rules::INDEX_IN_RANGE).into());
+    Some((rule, message))
 }
 
 /// EXT and NV attachments: per (format, subdivision level), the usage
@@ -1036,7 +1113,9 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
 /// reference counted; special indices, which EXT alone has, not counted).
 /// Decided only when the micromap's content and every index are known and
 /// every index selects a triangle the checker read (an index past the end
-/// is the index rules' finding).
+/// is the index rules' finding). A NULL micromap has no triangles: every
+/// index must be special (11578 or our rule says so otherwise), so every
+/// count must be zero.
 fn usage_counts_match_indices(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
@@ -1046,22 +1125,28 @@ fn usage_counts_match_indices(
     let Some(state) = ctx.contents() else {
         return; // Below the content tier neither indices nor micromap data are read.
     };
-    let (Some(counts), Some(content)) = (
-        a.usage_counts,
-        state
-            .micromaps
-            .get(&a.micromap)
-            .and_then(|m| m.built.as_ref())
-            .and_then(|b| b.content.as_ref()),
-    ) else {
+    let Some(counts) = a.usage_counts else {
         return;
     };
     if a.kind == Kind::Khr || count == 0 {
         return;
     }
-    let triangles = &content.triangles;
+    let content = if a.micromap == 0 {
+        None
+    } else {
+        let built = state
+            .micromaps
+            .get(&a.micromap)
+            .and_then(|m| m.built.as_ref())
+            .and_then(|b| b.content.as_ref());
+        match built {
+            Some(content) => Some(content),
+            None => return, // The micromap's triangles are unknown.
+        }
+    };
+    let triangles_read = content.map_or(0, |c| c.triangles.len() as u64);
     let key = |m: u64| {
-        let t = triangles.get(usize::try_from(m).ok()?)?;
+        let t = content?.triangles.get(usize::try_from(m).ok()?)?;
         Some((u32::from(t.format), u32::from(t.subdivision_level)))
     };
     let base = u64::from(a.base_triangle);
@@ -1073,7 +1158,7 @@ fn usage_counts_match_indices(
             let Some(last) = (count - 1).checked_add(base) else {
                 return;
             };
-            if last >= triangles.len() as u64 {
+            if last >= triangles_read {
                 return;
             }
             for t in 0..count {
@@ -1126,6 +1211,10 @@ fn usage_counts_match_indices(
     let keys: std::collections::BTreeSet<(u32, u32)> =
         declared.keys().chain(found.keys()).copied().collect();
     let array = a.member(member);
+    let names = match a.kind {
+        Kind::Nv => FormatNames::DisplacementNv,
+        _ => FormatNames::OpacityExt,
+    };
     let mut tally = Tally::new();
     for (format, level) in keys {
         let (said, first) = declared.get(&(format, level)).copied().unwrap_or((0, None));
@@ -1138,7 +1227,7 @@ fn usage_counts_match_indices(
             ctx,
             &rules::ATTACH_USAGE_COUNTS,
             location,
-            || format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but the {count} geometry triangles reference micromap triangles of that format and level {has} times"),
+            || format!("{}: the usage counts say {said}, the {count} geometry triangles reference micromap triangles of that format and level {has} times", names.key(format, level)),
             &array,
         );
     }
@@ -1154,8 +1243,12 @@ pub(crate) fn instances(
     at: GeometryAt,
     info: &BuildGeometryInfo,
     instances: &InstancesData,
+    range: Option<&BuildRangeInfo>,
 ) {
     let _ = info;
+    if let Some(range) = range {
+        instances_in_range(ctx, command, at, instances, range);
+    }
     // Instances are buffer contents: decided from the content tier on.
     let (Some(list), Some(state)) = (&instances.instances, ctx.contents()) else {
         return;
@@ -1202,6 +1295,54 @@ pub(crate) fn instances(
         }
     }
     tally.finish(ctx);
+}
+
+/// The `primitiveCount` instances (or pointers to them) from `data +
+/// primitiveOffset` lie inside the memory holding that address: decided
+/// from the state tier up, where its size is known. An instance is counted
+/// as 64 bytes, the size of VkAccelerationStructureInstanceKHR; motion
+/// instances are larger, so for them the rule errs towards silence.
+fn instances_in_range(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    at: GeometryAt,
+    instances: &InstancesData,
+    range: &BuildRangeInfo,
+) {
+    const INSTANCE_SIZE: u64 = 64;
+    const POINTER_SIZE: u64 = 8;
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let count = u64::from(range.primitive_count);
+    if count == 0 || instances.data == 0 {
+        return;
+    }
+    let offset = u64::from(range.primitive_offset);
+    let Some(start) = instances.data.checked_add(offset) else {
+        return;
+    };
+    // An address inside no buffer is the address rules' finding.
+    let host = command == BuildCommand::Host;
+    let Some(available) = common::bytes_available(state, host, start) else {
+        return;
+    };
+    let (size, what) = if instances.array_of_pointers {
+        (POINTER_SIZE, "pointer")
+    } else {
+        (INSTANCE_SIZE, "instance")
+    };
+    let inside = common::elements_inside(available, size, size);
+    if inside < count {
+        ctx.error(
+            &rules::INSTANCES_RANGE,
+            format!("{at}.geometry.instances.data"),
+            format!(
+                "the {available} bytes from data + primitiveOffset {offset} hold {inside} {size}-byte {what}s, but primitiveCount is {count}: {what} {inside} lies past the end ({})",
+                common::last_inside(what, inside)
+            ),
+        );
+    }
 }
 
 /// The acceleration structure an instance references: a handle in host
@@ -1531,6 +1672,32 @@ fn cluster_address(ctx: &mut Ctx<'_>, address: u64, vuid: Vuid, location: &str) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn index_past_end_follows_the_vuid_wording() {
+        let rule = |kind, index, base, n, none| {
+            index_past_end(kind, index, base, n, none).map(|(rule, _)| rule.as_str())
+        };
+        let own = rules::INDEX_IN_RANGE.id;
+        assert_eq!(rule(Kind::Khr, 1, 0, 2, false), None);
+        assert_eq!(rule(Kind::Khr, 2, 0, 2, false), Some(own));
+        assert_eq!(
+            rule(Kind::Khr, 3, 0, 2, false),
+            Some(cmd::indexBuffer_11575.id())
+        );
+        // Index 0 is outside 11575's "greater than zero", however far past.
+        assert_eq!(rule(Kind::Khr, 0, 5, 2, false), Some(own));
+        // A micromap with no triangles: index 0 + 0 is "less than or equal to" 0.
+        assert_eq!(rule(Kind::Khr, 0, 0, 0, true), Some(own));
+        assert_eq!(
+            rule(Kind::Khr, 0, 1, 0, true),
+            Some(khr::geometry_11576.id())
+        );
+        assert_eq!(rule(Kind::Ext, 0, 0, 0, false), Some(own));
+        assert_eq!(rule(Kind::Ext, 9, 0, 2, false), Some(own));
+        let (_, message) = index_past_end(Kind::Khr, 0, 0, 0, false).unwrap();
+        assert!(message.contains("no triangles"), "{message}");
+    }
 
     #[test]
     fn special_indices_by_width() {

@@ -10,7 +10,6 @@
 //! them, so the `vkCmd*` entry points here take the command buffer without
 //! checking it: there is no catalog VUID to cite.
 
-use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::{self, Display};
 use std::sync::Arc;
 
@@ -32,7 +31,8 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{
-    self, decode_entries, readable_entries, CleanRun, Tally, TriangleEntry, TriangleHistogram,
+    self, bytes_available, decode_entries, readable_entries, usage_counts_match_triangles,
+    CleanRun, FormatNames, Tally, TriangleEntry, TriangleHistogram,
 };
 use crate::checks::{accel_attach, hygiene, Coverage};
 use crate::device::Limits;
@@ -668,7 +668,7 @@ pub(crate) fn builds(
                     accel_attach::triangles(ctx, command, at, info, triangles, range)
                 }
                 GeometryData::Instances(instances) => {
-                    accel_attach::instances(ctx, command, at, info, instances)
+                    accel_attach::instances(ctx, command, at, info, instances, range)
                 }
                 GeometryData::Aabbs(_) | GeometryData::None => {}
             }
@@ -1170,6 +1170,15 @@ fn micromap_inputs(
             );
         }
         triangle_array_in_buffer(ctx, at, data);
+    } else {
+        common::triangle_array_holds_every_entry(
+            ctx,
+            format_args!("{at}.triangleArray"),
+            (data.triangle_array, command.reads_host_memory()),
+            data.triangle_array_stride,
+            &data.usage_counts,
+            FormatNames::OpacityKhr,
+        );
     }
     TriangleArrayCheck {
         command,
@@ -1197,7 +1206,15 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
         fits,
         cmd::micromap_11554,
         || format!("{at}.triangleArray"),
-        || format!("{total} entries at stride {} ({len} bytes from {start:#x}) run past the end of the buffer it lies in", data.triangle_array_stride),
+        || {
+            let available = bytes_available(state, false, start).unwrap_or(0);
+            let inside = readable_entries(available, data.triangle_array_stride).min(total);
+            format!(
+                "{total} entries at stride {} ({len} bytes from {start:#x}) run past the end of the buffer it lies in, {available} bytes from there ({inside} whole entries inside: {})",
+                data.triangle_array_stride,
+                common::last_inside("entry", inside)
+            )
+        },
     );
 }
 
@@ -1208,19 +1225,6 @@ fn bytes_from(state: &State, host: bool, address: u64) -> Option<&[u8]> {
     } else {
         state.device_bytes_from(address)
     }
-}
-
-/// How many bytes from `address` on lie inside the buffer (or described host
-/// memory) holding it, whether or not the checker can read them.
-fn bytes_available(state: &State, host: bool, address: u64) -> Option<u64> {
-    if host {
-        return state.host_bytes_from(address).map(|b| b.len() as u64);
-    }
-    state
-        .buffers_at(address)
-        .filter_map(|(_, b)| b.address_range())
-        .map(|(_, end)| end - address)
-        .max()
 }
 
 /// The triangle array's entries of one micromap geometry, read through the
@@ -1292,14 +1296,8 @@ impl TriangleArrayCheck {
                 .and_then(|offset| usize::try_from(offset).ok())
                 .and_then(|offset| array.get(offset..offset.checked_add(8)?));
             let Some(bytes) = entry.and_then(|b| <[u8; 8]>::try_from(b).ok()) else {
-                // For the device command, 11554 decides this from the buffer range.
-                if self.command != BuildCommand::Cmd {
-                    ctx.error(
-                        &rules::TRIANGLE_ARRAY_RANGE,
-                        self.entry(m),
-                        format!("entry {m} of {total} (stride {stride}) lies past the end of the memory triangleArray points into ({} bytes from it)", array.len()),
-                    );
-                }
+                // The rest is past the end of the memory (11554 or our rule
+                // says so from the buffer's size) or was not given to the checker.
                 break;
             };
             read += 1;
@@ -1337,13 +1335,14 @@ impl TriangleArrayCheck {
             }
         }
         if read == total {
-            usage_counts_match(ctx, self.at, &data.usage_counts, &histogram.into_map());
+            usage_counts_match_triangles(
+                ctx,
+                &format!("{}.{}", self.at, data.usage_counts.member()),
+                &data.usage_counts,
+                &histogram.into_map(),
+                FormatNames::OpacityKhr,
+            );
         }
-    }
-
-    /// The location of triangle-array entry `m`.
-    fn entry(&self, m: u64) -> String {
-        format!("{}.triangleArray[{m}]", self.at)
     }
 
     /// One entry's format and subdivision level.
@@ -1440,36 +1439,6 @@ impl TriangleArrayCheck {
                 location,
                 message,
                 "triangleArray",
-            );
-        }
-    }
-}
-
-/// The usage counts must describe the triangle array: per (format, level),
-/// the sum of the counts equals the number of entries.
-fn usage_counts_match(
-    ctx: &mut Ctx<'_>,
-    at: MicromapAt,
-    counts: &UsageCounts,
-    found: &BTreeMap<(u32, u32), u64>,
-) {
-    let (member, entries) = counts.entries();
-    let mut declared: BTreeMap<(u32, u32), u64> = BTreeMap::new();
-    for (_, usage) in entries {
-        let sum = declared
-            .entry((usage.format, usage.subdivision_level))
-            .or_default();
-        *sum = sum.saturating_add(u64::from(usage.count));
-    }
-    let keys: BTreeSet<(u32, u32)> = declared.keys().chain(found.keys()).copied().collect();
-    for (format, level) in keys {
-        let said = declared.get(&(format, level)).copied().unwrap_or(0);
-        let has = found.get(&(format, level)).copied().unwrap_or(0);
-        if said != has {
-            ctx.error(
-                &rules::HISTOGRAM_MISMATCH,
-                format!("{at}.{member}"),
-                format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {has}"),
             );
         }
     }

@@ -1,15 +1,17 @@
 //! Checks many commands share: command-buffer state, device addresses,
 //! buffer usage, alignment, and a cap on repeated content findings.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Display;
 
 use ommcheck_vuids::Vuid;
 
 use crate::model::command::queue;
+use crate::model::micromap::UsageCounts;
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::report::{RuleId, Severity};
-use crate::state::Handle;
+use crate::rules;
+use crate::state::{Handle, State};
 use crate::validator::Ctx;
 
 /// The implicit command-buffer VUIDs of one `vkCmd*` command.
@@ -274,10 +276,39 @@ pub(crate) fn decode_entries(block: &[u8]) -> impl Iterator<Item = MicromapTrian
 /// inside them too: a bound, from the bytes there are, on what a loop over
 /// an untrusted count can read (1 at stride 0).
 pub(crate) fn readable_entries(len: u64, stride: u64) -> u64 {
-    match (len.checked_sub(8), stride) {
+    elements_inside(len, MicromapTriangle::SIZE, stride)
+}
+
+/// How many bytes from `address` on lie inside the buffer (or described host
+/// memory) holding it, whether or not the checker can read them; known from
+/// the state tier up.
+pub(crate) fn bytes_available(state: &State, host: bool, address: u64) -> Option<u64> {
+    if host {
+        return state.host_bytes_from(address).map(|b| b.len() as u64);
+    }
+    state
+        .buffers_at(address)
+        .filter_map(|(_, b)| b.address_range())
+        .map(|(_, end)| end - address)
+        .max()
+}
+
+/// How many elements of `size` bytes at `stride` fit in `len` bytes: the
+/// elements an array read at that stride holds (a stride of 0 reads one).
+pub(crate) fn elements_inside(len: u64, size: u64, stride: u64) -> u64 {
+    match (len.checked_sub(size), stride) {
         (None, _) => 0,
         (Some(_), 0) => 1,
         (Some(last_start), stride) => last_start / stride + 1,
+    }
+}
+
+/// "the last inside is `<what>` k" or "none lies inside", for a message
+/// about an array that runs past the end of its memory.
+pub(crate) fn last_inside(what: &str, inside: u64) -> String {
+    match inside {
+        0 => format!("no {what} lies inside"),
+        n => format!("the last inside is {what} {}", n - 1),
     }
 }
 
@@ -419,6 +450,155 @@ impl Tally {
     }
 }
 
+/// Which enum names a micromap format value in a message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum FormatNames {
+    /// `VkOpacityMicromapFormatEXT`
+    OpacityExt,
+    /// `VkOpacityMicromapFormatKHR`
+    OpacityKhr,
+    /// `VkDisplacementMicromapFormatNV`
+    DisplacementNv,
+}
+
+impl FormatNames {
+    /// The enumerant's name, or the number where the value is none of them.
+    pub fn name(self, format: u32) -> String {
+        let name = match (self, format) {
+            (Self::OpacityExt, 1) => "VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT",
+            (Self::OpacityExt, 2) => "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT",
+            (Self::OpacityKhr, 1) => "VK_OPACITY_MICROMAP_FORMAT_2_STATE_KHR",
+            (Self::OpacityKhr, 2) => "VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR",
+            (Self::DisplacementNv, 1) => "VK_DISPLACEMENT_MICROMAP_FORMAT_64_TRIANGLES_64_BYTES_NV",
+            (Self::DisplacementNv, 2) => {
+                "VK_DISPLACEMENT_MICROMAP_FORMAT_256_TRIANGLES_128_BYTES_NV"
+            }
+            (Self::DisplacementNv, 3) => {
+                "VK_DISPLACEMENT_MICROMAP_FORMAT_1024_TRIANGLES_128_BYTES_NV"
+            }
+            _ => return format!("format {format}"),
+        };
+        name.to_owned()
+    }
+
+    /// "`<format name>` level `<level>`": one usage-count key.
+    pub fn key(self, format: u32, level: u32) -> String {
+        format!("{} level {level}", self.name(format))
+    }
+}
+
+/// The usage counts summed per (format, subdivision level); duplicate keys
+/// add up (the specification allows them) and zero counts are left out.
+pub(crate) fn declared_counts(counts: &UsageCounts) -> BTreeMap<(u32, u32), u64> {
+    let mut declared: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    for (_, usage) in counts.usages_read() {
+        let sum = declared
+            .entry((usage.format, usage.subdivision_level))
+            .or_default();
+        *sum = sum.saturating_add(u64::from(usage.count));
+    }
+    declared.retain(|_, count| *count != 0);
+    declared
+}
+
+/// The usage counts against the triangle array's entries, per (format,
+/// subdivision level): one finding for each key whose counts differ,
+/// naming the format, the level and both counts.
+pub(crate) fn usage_counts_match_triangles(
+    ctx: &mut Ctx<'_>,
+    location: &str,
+    counts: &UsageCounts,
+    found: &BTreeMap<(u32, u32), u64>,
+    names: FormatNames,
+) {
+    let declared = declared_counts(counts);
+    let keys: BTreeSet<(u32, u32)> = declared.keys().chain(found.keys()).copied().collect();
+    for (format, level) in keys {
+        let said = declared.get(&(format, level)).copied().unwrap_or(0);
+        let has = found.get(&(format, level)).copied().unwrap_or(0);
+        if said != has {
+            ctx.error(
+                &rules::HISTOGRAM_MISMATCH,
+                location.to_owned(),
+                format!(
+                    "{}: the usage counts say {said}, the triangle array holds {has}",
+                    names.key(format, level)
+                ),
+            );
+        }
+    }
+}
+
+/// The usage counts in words, at most four keys, for a message about
+/// entries the triangle array lacks: "4 (`<key>`: 3, `<key>`: 1)".
+pub(crate) fn counts_in_words(counts: &UsageCounts, names: FormatNames) -> String {
+    const SHOWN: usize = 4;
+    let declared = declared_counts(counts);
+    let total: u64 = declared.values().fold(0, |sum, c| sum.saturating_add(*c));
+    let mut parts: Vec<String> = declared
+        .iter()
+        .take(SHOWN)
+        .map(|(&(format, level), count)| format!("{}: {count}", names.key(format, level)))
+        .collect();
+    if declared.len() > SHOWN {
+        parts.push(format!("{} more keys", declared.len() - SHOWN));
+    }
+    format!("{total} ({})", parts.join(", "))
+}
+
+/// The message for triangle-array entry `m` lying past the end of the
+/// `len` bytes the array's memory holds from its start.
+pub(crate) fn entry_past_end(
+    m: u64,
+    stride: u64,
+    len: u64,
+    counts: &UsageCounts,
+    names: FormatNames,
+) -> String {
+    let inside = readable_entries(len, stride);
+    format!(
+        "the {len} bytes from triangleArray hold {inside} entries at stride {stride}, but the usage counts say {}: entry {m} lies past the end ({})",
+        counts_in_words(counts, names),
+        last_inside("entry", inside)
+    )
+}
+
+/// Every entry of a micromap build's triangle array (the usage counts'
+/// sum of them at `stride`, one for a stride of 0) lies inside the memory
+/// `address` points into: decided from the state tier up, where the
+/// buffer's (or described host memory's) size is known, under
+/// `OMMCHECK-build-triangle-array-in-range` (KHR's device command states it
+/// as 11554).
+pub(crate) fn triangle_array_holds_every_entry(
+    ctx: &mut Ctx<'_>,
+    location: impl Display,
+    (address, host): (u64, bool),
+    stride: u64,
+    counts: &UsageCounts,
+    names: FormatNames,
+) {
+    let total = counts.total();
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if total == 0 {
+        return;
+    }
+    // An address inside no buffer is the address rules' finding.
+    let Some(available) = bytes_available(state, host, address) else {
+        return;
+    };
+    let inside = readable_entries(available, stride);
+    let needed = if stride == 0 { 1 } else { total };
+    if inside < needed {
+        ctx.error(
+            &rules::TRIANGLE_ARRAY_RANGE,
+            location.to_string(),
+            entry_past_end(inside, stride, available, counts, names),
+        );
+    }
+}
+
 /// Triangles counted per (format, subdivision level), to hold against the
 /// usage counts. Every valid (format, level) of the opacity and
 /// displacement formats has a slot of a flat array, so counting a triangle
@@ -495,6 +675,66 @@ mod tests {
             .collect();
         assert_eq!(histogram.into_map(), expected);
         assert!(TriangleHistogram::new().into_map().is_empty());
+    }
+
+    use crate::model::MicromapUsage;
+
+    fn usage_counts(entries: &[(u32, u32, u32)]) -> UsageCounts {
+        let usages: Vec<_> = entries
+            .iter()
+            .map(|&(count, subdivision_level, format)| MicromapUsage {
+                count,
+                subdivision_level,
+                format,
+            })
+            .collect();
+        UsageCounts {
+            count: usages.len() as u32,
+            array: Some(usages),
+            pointers: None,
+        }
+    }
+
+    #[test]
+    fn formats_are_named_by_their_enum() {
+        assert_eq!(
+            FormatNames::OpacityExt.key(2, 3),
+            "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3"
+        );
+        assert_eq!(
+            FormatNames::OpacityKhr.name(1),
+            "VK_OPACITY_MICROMAP_FORMAT_2_STATE_KHR"
+        );
+        assert_eq!(
+            FormatNames::DisplacementNv.name(3),
+            "VK_DISPLACEMENT_MICROMAP_FORMAT_1024_TRIANGLES_128_BYTES_NV"
+        );
+        assert_eq!(FormatNames::OpacityExt.name(3), "format 3");
+    }
+
+    #[test]
+    fn counts_in_words_sum_duplicate_keys_and_stop_at_four() {
+        let counts = usage_counts(&[(3, 3, 2), (2, 3, 2), (0, 1, 1), (1, 1, 1)]);
+        assert_eq!(
+            counts_in_words(&counts, FormatNames::OpacityExt),
+            "6 (VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT level 1: 1, VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3: 5)"
+        );
+        let many: Vec<_> = (0..6).map(|level| (1, level, 2)).collect();
+        let words = counts_in_words(&usage_counts(&many), FormatNames::OpacityKhr);
+        assert!(words.starts_with("6 ("), "{words}");
+        assert!(words.ends_with(", 2 more keys)"), "{words}");
+    }
+
+    #[test]
+    fn an_entry_past_the_end_names_the_last_inside() {
+        let counts = usage_counts(&[(5, 3, 2)]);
+        let message = entry_past_end(4, 8, 36, &counts, FormatNames::OpacityExt);
+        assert_eq!(
+            message,
+            "the 36 bytes from triangleArray hold 4 entries at stride 8, but the usage counts say 5 (VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3: 5): entry 4 lies past the end (the last inside is entry 3)"
+        );
+        let none = entry_past_end(0, 8, 4, &counts, FormatNames::OpacityExt);
+        assert!(none.ends_with("(no entry lies inside)"), "{none}");
     }
 
     #[test]

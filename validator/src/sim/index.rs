@@ -7,6 +7,7 @@
 //! micro-triangle `U(i, j)` has corners `(i, j), (i+1, j), (i, j+1)`; the
 //! inverted `D(i, j)` has `(i+1, j+1), (i, j+1), (i+1, j)`.
 
+use std::cmp::Ordering;
 use std::collections::BTreeSet;
 
 /// The highest subdivision level any API allows.
@@ -231,9 +232,12 @@ pub fn candidates(u: f32, v: f32, level: u32, delta: f64) -> Result<BTreeSet<u32
             (x, y) = (x.min(n), n - x.min(n));
         }
     }
+    // Cell k touches c when k <= c + eps and k + 1 >= c - eps: the lower
+    // end is ceil(c - eps) - 1, so a point on a grid line also visits the
+    // cells below or to the left of it.
     let range = |c: f64| -> (i64, i64) {
         (
-            ((c - eps).floor() as i64).max(0),
+            ((c - eps).ceil() as i64 - 1).max(0),
             ((c + eps).floor() as i64).min(n as i64 - 1),
         )
     };
@@ -246,10 +250,11 @@ pub fn candidates(u: f32, v: f32, level: u32, delta: f64) -> Result<BTreeSet<u32
                 j: j as u32,
                 upright: true,
             };
+            let diagonal = fi + fj + 1.0;
             if up.exists(level)
                 && x >= fi - eps
                 && y >= fj - eps
-                && x + y <= fi + fj + 1.0 + 2.0 * eps
+                && sum_cmp(x, y, diagonal + 2.0 * eps).is_some_and(Ordering::is_le)
             {
                 out.insert(up.index(level));
             }
@@ -260,13 +265,27 @@ pub fn candidates(u: f32, v: f32, level: u32, delta: f64) -> Result<BTreeSet<u32
             if down.exists(level)
                 && x <= fi + 1.0 + eps
                 && y <= fj + 1.0 + eps
-                && x + y >= fi + fj + 1.0 - 2.0 * eps
+                && sum_cmp(x, y, diagonal - 2.0 * eps).is_some_and(Ordering::is_ge)
             {
                 out.insert(down.index(level));
             }
         }
     }
     Ok(out)
+}
+
+/// `x + y` compared with `bound` exactly, without the rounding of the f64
+/// sum: a point a hair off a diagonal micro-edge must not be read as on it.
+/// Rounding is monotone, so a rounded sum on either side of a representable
+/// bound says the exact sum is on that side; a rounded sum equal to it
+/// leaves the decision to the rounding error, which the two-sum recovers
+/// exactly (Knuth's TwoSum; no overflow at these magnitudes).
+/// `None` when anything is NaN (an infinite hit), which no test accepts.
+fn sum_cmp(x: f64, y: f64, bound: f64) -> Option<Ordering> {
+    let sum = x + y;
+    let y_part = sum - x;
+    let error = (x - (sum - y_part)) + (y - y_part);
+    Some(sum.partial_cmp(&bound)?.then(error.partial_cmp(&0.0)?))
 }
 
 #[cfg(test)]
@@ -404,5 +423,114 @@ mod tests {
         // Slightly outside the triangle still finds the nearest micro-triangles.
         let outside = candidates(-1e-7, 0.5, 2, 1e-6).unwrap();
         assert!(outside.contains(&spec_index(0.0, 0.5, 2).unwrap()));
+    }
+
+    #[test]
+    fn exact_ties_list_every_touching_micro_triangle() {
+        // (1, 1.5) in lattice units lies on the edge shared by D(0, 1) = 4
+        // and U(1, 1) = 5.
+        assert_eq!(candidates(0.25, 0.375, 2, 0.0), Ok(BTreeSet::from([4, 5])));
+        // The level-1 centre vertex (1, 1)/2 = (0.5, 0.5) is on the triangle's
+        // own edge: D(0, 0), U(1, 0) and U(0, 1) touch it.
+        assert_eq!(candidates(0.5, 0.5, 1, 0.0), Ok(BTreeSet::from([1, 2, 3])));
+        // A hair above the diagonal x + y = 1, closer than an f64 sum
+        // resolves: U(0, 0) (index 0) does not contain it.
+        let hair = f32::from_bits(1);
+        assert_eq!(candidates(0.5, hair, 1, 0.0), Ok(BTreeSet::from([1, 2])));
+    }
+
+    /// Where on the triangle a generated point lies.
+    #[derive(Clone, Copy, Debug)]
+    enum Place {
+        Vertex,
+        Horizontal,
+        Vertical,
+        Diagonal,
+        EdgeU0,
+        EdgeV0,
+        Hypotenuse,
+        Anywhere,
+    }
+
+    /// The micro-triangles whose closed regions contain the point
+    /// (x, y) / 2^sub in lattice units, at `level`: integers only.
+    fn containing(x: u64, y: u64, sub: u32, level: u32) -> BTreeSet<u32> {
+        let (n, scale) = (1u64 << level, 1u64 << sub);
+        let mut out = BTreeSet::new();
+        let (ci, cj) = (x / scale, y / scale);
+        for i in ci.saturating_sub(1)..=ci + 1 {
+            for j in cj.saturating_sub(1)..=cj + 1 {
+                let (lo_x, lo_y, diagonal) = (i * scale, j * scale, (i + j + 1) * scale);
+                let anchor = (u32::try_from(i).unwrap(), u32::try_from(j).unwrap());
+                if i + j < n && x >= lo_x && y >= lo_y && x + y <= diagonal {
+                    out.insert(up(anchor.0, anchor.1).index(level));
+                }
+                if i + j + 2 <= n && x <= lo_x + scale && y <= lo_y + scale && x + y >= diagonal {
+                    out.insert(down(anchor.0, anchor.1).index(level));
+                }
+            }
+        }
+        out
+    }
+
+    /// A point at `place`, in units of 2^-sub lattice widths, from two free
+    /// numbers.
+    fn point(place: Place, level: u32, sub: u32, a: u64, b: u64) -> (u64, u64) {
+        let (n, scale) = (1u64 << level, 1u64 << sub);
+        let total = n * scale;
+        let on_grid = |r: u64, max: u64| (r % (max / scale + 1)) * scale;
+        match place {
+            Place::Vertex => {
+                let x = on_grid(a, total);
+                (x, on_grid(b, total - x))
+            }
+            Place::Horizontal => {
+                let y = on_grid(a, total);
+                (b % (total - y + 1), y)
+            }
+            Place::Vertical => {
+                let x = on_grid(a, total);
+                (x, b % (total - x + 1))
+            }
+            Place::Diagonal => {
+                let sum = on_grid(a, total);
+                let x = b % (sum + 1);
+                (x, sum - x)
+            }
+            Place::EdgeU0 => (0, a % (total + 1)),
+            Place::EdgeV0 => (a % (total + 1), 0),
+            Place::Hypotenuse => {
+                let x = a % (total + 1);
+                (x, total - x)
+            }
+            Place::Anywhere => {
+                let x = a % (total + 1);
+                (x, b % (total - x + 1))
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4096))]
+
+        #[test]
+        fn zero_bound_answers_are_the_closed_regions_containing_the_point(
+            level in 0u32..=MAX_LEVEL,
+            sub in 0u32..=8,
+            place in proptest::sample::select(vec![
+                Place::Vertex, Place::Horizontal, Place::Vertical, Place::Diagonal,
+                Place::EdgeU0, Place::EdgeV0, Place::Hypotenuse, Place::Anywhere,
+            ]),
+            a in proptest::prelude::any::<u64>(),
+            b in proptest::prelude::any::<u64>(),
+        ) {
+            let (x, y) = point(place, level, sub, a, b);
+            let expected = containing(x, y, sub, level);
+            proptest::prop_assert!(!expected.is_empty(), "({x}, {y}) is on the triangle");
+            // x and y are below 2^21, so u = x / 2^(level + sub) is exact in f32.
+            let denominator = f64::from(1u32 << (level + sub));
+            let (u, v) = ((x as f64 / denominator) as f32, (y as f64 / denominator) as f32);
+            proptest::prop_assert_eq!(candidates(u, v, level, 0.0), Ok(expected));
+        }
     }
 }

@@ -53,10 +53,12 @@ const INDICES_OFFSET: u64 = 0x2000;
 const BAD_INDICES_OFFSET: u64 = 0x2100;
 const SPECIAL_INDICES_OFFSET: u64 = 0x2200;
 const CLUSTER_SKIP_INDICES_OFFSET: u64 = 0x2300;
+const BEYOND_INDICES_OFFSET: u64 = 0x2400;
 const INDICES: u64 = INPUT_ADDRESS + INDICES_OFFSET;
 const BAD_INDICES: u64 = INPUT_ADDRESS + BAD_INDICES_OFFSET;
 const SPECIAL_INDICES: u64 = INPUT_ADDRESS + SPECIAL_INDICES_OFFSET;
 const CLUSTER_SKIP_INDICES: u64 = INPUT_ADDRESS + CLUSTER_SKIP_INDICES_OFFSET;
+const BEYOND_INDICES: u64 = INPUT_ADDRESS + BEYOND_INDICES_OFFSET;
 const INSTANCES: u64 = INPUT_ADDRESS + 0x3000;
 const INDIRECT: u64 = INPUT_ADDRESS + 0x3800;
 /// Host copies of the index regions.
@@ -67,7 +69,11 @@ const HOST_VERTICES: u64 = 0x7300_0000;
 const NOWHERE: u64 = 0xdead_0000;
 
 const GOOD: [u32; 4] = [0, 1, 2, 3];
+/// Index 3 is one past the micromap's last triangle: "less than or equal to
+/// numTriangles" as 11575 words it, but past the end.
 const PAST_THE_END: [u32; 4] = [0, 1, 2, TRIANGLES];
+/// Index 3 is beyond numTriangles itself: 11575 as written.
+const BEYOND_THE_END: [u32; 4] = [0, 1, 2, TRIANGLES + 1];
 const SPECIAL: [u32; 4] = [u32::MAX, u32::MAX - 1, u32::MAX - 2, u32::MAX - 3];
 /// Index 2 is -5, the cluster-only special index.
 const CLUSTER_SKIP: [u32; 4] = [0, 1, u32::MAX - 4, 3];
@@ -119,6 +125,7 @@ fn world() -> Validator {
         (BAD_INDICES_OFFSET, PAST_THE_END),
         (SPECIAL_INDICES_OFFSET, SPECIAL),
         (CLUSTER_SKIP_INDICES_OFFSET, CLUSTER_SKIP),
+        (BEYOND_INDICES_OFFSET, BEYOND_THE_END),
     ] {
         let at = offset as usize;
         contents[at..at + 16].copy_from_slice(&le_bytes(&indices));
@@ -546,6 +553,26 @@ fn instance_build(
     build(v, &infos)
 }
 
+/// A device top-level build of [`TRIANGLES`] instances (or pointers to
+/// them) read from `data`, whose contents the checker is not given.
+fn instances_from(data: u64, array_of_pointers: bool) -> Report {
+    let geometry = Geometry {
+        geometry_type: GEOMETRY_TYPE_INSTANCES,
+        geometry: GeometryData::Instances(InstancesData {
+            array_of_pointers,
+            data,
+            instances: None,
+        }),
+        ..Default::default()
+    };
+    let info = BuildGeometryInfo {
+        dst_acceleration_structure: TLAS,
+        scratch_data: SCRATCH_ADDRESS,
+        ..BuildGeometryInfo::with_geometries(ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, vec![geometry])
+    };
+    cmd_in(world(), &[info])
+}
+
 fn disable_flag() -> u32 {
     khr_values::GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw()
 }
@@ -814,6 +841,17 @@ fn ext_cases() -> Vec<Case> {
             },
         ),
         case(
+            &rules::INDEX_BUFFER_RANGE,
+            || {
+                // Two of the four 4-byte indices fit before the buffer's end.
+                cmd_ext(TrianglesOpacityMicromapExt {
+                    index_buffer: INPUT_ADDRESS + INPUT_SIZE - 8,
+                    ..ext_ok()
+                })
+            },
+            ok_ext,
+        ),
+        case(
             &rules::NULL_MICROMAP_SPECIAL_ONLY,
             || {
                 cmd_ext(TrianglesOpacityMicromapExt {
@@ -822,9 +860,15 @@ fn ext_cases() -> Vec<Case> {
                 })
             },
             || {
+                // Every index special, so every usage count zero.
                 cmd_ext(TrianglesOpacityMicromapExt {
                     micromap: 0,
                     index_buffer: SPECIAL_INDICES,
+                    usage_counts: UsageCounts::array(vec![usage(
+                        0,
+                        1,
+                        OPACITY_MICROMAP_FORMAT_4_STATE,
+                    )]),
                     ..ext_ok()
                 })
             },
@@ -986,7 +1030,7 @@ fn khr_cases() -> Vec<Case> {
                 cmd_khr(TrianglesOpacityMicromapKhr {
                     index_type: INDEX_TYPE_NONE,
                     index_buffer: 0,
-                    base_triangle: 1,
+                    base_triangle: 2,
                     ..khr_ok()
                 })
             },
@@ -1002,7 +1046,7 @@ fn khr_cases() -> Vec<Case> {
             cmd::indexBuffer_11575,
             || {
                 cmd_khr(TrianglesOpacityMicromapKhr {
-                    index_buffer: BAD_INDICES,
+                    index_buffer: BEYOND_INDICES,
                     ..khr_ok()
                 })
             },
@@ -1201,6 +1245,12 @@ fn across_info_cases() -> Vec<Case> {
 
 fn instance_cases() -> Vec<Case> {
     vec![
+        case(
+            &rules::INSTANCES_RANGE,
+            // Three of the four 64-byte instances fit before the buffer's end.
+            || instances_from(INPUT_ADDRESS + INPUT_SIZE - 3 * 64, false),
+            || instances_from(INPUT_ADDRESS + INPUT_SIZE - 4 * 64, false),
+        ),
         case(
             instance_vuid::micromap_11580,
             || instance_build(force_2_state_flag(), 0, false, cmd_in, false),
@@ -1453,6 +1503,27 @@ fn usage_counts_count_each_reference_and_skip_what_is_unknown() {
         ..ext_ok()
     });
     assert!(based.contains(&rules::INDEX_IN_RANGE) && !based.contains(rule));
+    // A NULL micromap has no triangles: with every index special, every
+    // count must be zero.
+    let null_micromap = |usage_counts| {
+        usage_findings(TrianglesOpacityMicromapExt {
+            micromap: 0,
+            index_buffer: SPECIAL_INDICES,
+            usage_counts,
+            ..ext_ok()
+        })
+    };
+    let counted = null_micromap(ext_ok().usage_counts);
+    assert!(counted.contains(rule), "{counted:#?}");
+    let zero = UsageCounts::array(vec![usage(0, 1, OPACITY_MICROMAP_FORMAT_4_STATE)]);
+    assert!(!null_micromap(zero).contains(rule));
+    // A non-special index into a NULL micromap is 11578's or our rule's
+    // finding, not a count mismatch.
+    assert!(!usage_findings(TrianglesOpacityMicromapExt {
+        micromap: 0,
+        ..ext_ok()
+    })
+    .contains(rule));
     // A micromap whose content the checker never saw: not decided.
     assert!(!cmd_ext(TrianglesOpacityMicromapExt {
         index_buffer: SPECIAL_INDICES,
@@ -1461,17 +1532,22 @@ fn usage_counts_count_each_reference_and_skip_what_is_unknown() {
     .contains(rule));
 }
 
+/// The report's first finding of `rule`, which it must have.
+fn first_finding<'r>(report: &'r Report, rule: &'static rules::OwnRule) -> &'r ommcheck::Finding {
+    report
+        .findings
+        .iter()
+        .find(|f| f.rule == RuleId::from(rule))
+        .unwrap_or_else(|| panic!("no {} finding in {report:#?}", rule.id))
+}
+
 #[test]
 fn usage_count_findings_name_the_key_and_the_counts() {
     let report = usage_findings(TrianglesOpacityMicromapExt {
         index_buffer: SPECIAL_INDICES,
         ..ext_ok()
     });
-    let finding = report
-        .findings
-        .iter()
-        .find(|f| f.rule == RuleId::from(&rules::ATTACH_USAGE_COUNTS))
-        .expect("a usage-count finding");
+    let finding = first_finding(&report, &rules::ATTACH_USAGE_COUNTS);
     assert!(
         finding.location.ends_with(
             ".geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.pUsageCounts[0]"
@@ -1482,9 +1558,91 @@ fn usage_count_findings_name_the_key_and_the_counts() {
     assert!(
         finding
             .message
-            .contains("4 triangles of format 2 at subdivision level 1")
+            .starts_with("VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 1: the usage counts say 4,")
             && finding.message.contains("0 times"),
         "{}",
         finding.message
     );
+}
+
+/// 11575 and 11576 as written ("less than or equal to numTriangles", 11575
+/// for indices greater than zero); what lies past the micromap's last
+/// triangle otherwise is our rule's.
+#[test]
+fn khr_index_rules_follow_the_vuid_wording() {
+    let own = &rules::INDEX_IN_RANGE;
+    let ids = |report: &Report| -> Vec<&str> {
+        report.findings.iter().map(|f| f.rule.as_str()).collect()
+    };
+    // Index 4 + 0 == numTriangles 4: one past the end, not 11575's "greater than".
+    let one_past = cmd_khr(TrianglesOpacityMicromapKhr {
+        index_buffer: BAD_INDICES,
+        ..khr_ok()
+    });
+    assert_eq!(ids(&one_past), [own.id], "{one_past:#?}");
+    // Index 0 + baseTriangle 4 == 4 and index 3 + 4 > 4: index 0 is never 11575's.
+    let based = cmd_khr(TrianglesOpacityMicromapKhr {
+        base_triangle: TRIANGLES,
+        ..khr_ok()
+    });
+    let based_ids = ids(&based);
+    assert!(based_ids.contains(&own.id), "{based:#?}");
+    assert!(
+        based_ids.contains(&cmd::indexBuffer_11575.id()),
+        "{based:#?}"
+    );
+    let index_zero = based
+        .findings
+        .iter()
+        .find(|f| f.location.ends_with("indexBuffer[0]"))
+        .expect("index 0 reported");
+    assert_eq!(index_zero.rule.as_str(), own.id);
+    // No index buffer: triangle 3 + baseTriangle 1 == 4 is ours, + 2 is 11576's.
+    let none = |base_triangle| {
+        cmd_khr(TrianglesOpacityMicromapKhr {
+            index_type: INDEX_TYPE_NONE,
+            index_buffer: 0,
+            base_triangle,
+            ..khr_ok()
+        })
+    };
+    assert_eq!(ids(&none(1)), [own.id]);
+    assert_eq!(ids(&none(2)), [khr::geometry_11576.id()]);
+    // Every finding quotes its rule's statement.
+    for finding in one_past.findings.iter().chain(&none(1).findings) {
+        assert!(finding.rule.statement().contains("fetched at index"));
+    }
+}
+
+#[test]
+fn an_index_buffer_past_its_end_names_the_last_index_inside() {
+    let report = cmd_ext(TrianglesOpacityMicromapExt {
+        index_buffer: INPUT_ADDRESS + INPUT_SIZE - 8,
+        ..ext_ok()
+    });
+    let finding = first_finding(&report, &rules::INDEX_BUFFER_RANGE);
+    assert_eq!(
+        finding.message,
+        "the 8 bytes from indexBuffer hold 2 4-byte indices at stride 4, but primitiveCount is 4: index 2 lies past the end (the last inside is index 1)"
+    );
+    // A stride of 0 reads one index for every triangle.
+    assert!(!cmd_ext(TrianglesOpacityMicromapExt {
+        index_buffer: INPUT_ADDRESS + INPUT_SIZE - 4,
+        index_stride: 0,
+        ..ext_ok()
+    })
+    .contains(&rules::INDEX_BUFFER_RANGE));
+}
+
+#[test]
+fn instances_past_their_end_name_the_last_inside() {
+    let report = instances_from(INPUT_ADDRESS + INPUT_SIZE - 3 * 64, false);
+    assert_eq!(
+        first_finding(&report, &rules::INSTANCES_RANGE).message,
+        "the 192 bytes from data + primitiveOffset 0 hold 3 64-byte instances, but primitiveCount is 4: instance 3 lies past the end (the last inside is instance 2)"
+    );
+    // Four 8-byte pointers fit where four instances do not.
+    let pointers = |data| instances_from(data, true).contains(&rules::INSTANCES_RANGE);
+    assert!(!pointers(INPUT_ADDRESS + INPUT_SIZE - 32));
+    assert!(pointers(INPUT_ADDRESS + INPUT_SIZE - 24));
 }
