@@ -39,6 +39,7 @@ mod pipelines;
 mod properties;
 mod read;
 pub mod report;
+mod setting_docs;
 pub mod settings;
 mod submit;
 mod sync;
@@ -57,8 +58,7 @@ use abi::{NegotiateLayerInterface, LAYER_INTERFACE_VERSION, LAYER_NEGOTIATE_INTE
 use dispatch::{DEVICES, INSTANCES};
 use report::{Message, INTERNAL_ERROR};
 
-/// The layer's name, as in its manifest.
-pub const LAYER_NAME: &str = "VK_LAYER_OMMCHECK_validation";
+pub use setting_docs::LAYER_NAME;
 /// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
 pub const LAYER_NAME_C: &CStr = c"VK_LAYER_OMMCHECK_validation";
 

@@ -33,7 +33,9 @@ pub fn manifest(library_path: &Path) -> Value {
                 setting["flags"] = s
                     .flags
                     .iter()
-                    .map(|f| json!({ "key": f, "label": f }))
+                    .map(|(key, description)| {
+                        json!({ "key": key, "label": key, "description": description })
+                    })
                     .collect();
             }
             setting
