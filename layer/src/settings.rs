@@ -396,13 +396,13 @@ fn boolean(value: &str) -> Result<bool, String> {
 }
 
 /// This layer's settings in the text of a `vk_layer_settings.txt`: lines
-/// `ommcheck_validation.<key> = <value>` (the prefix in any case), with
-/// `#` comments, blank lines and other layers' lines skipped.
+/// `ommcheck_validation.<key> = <value>` (the prefix in any case), where
+/// `#` starts a comment, as in the Khronos layers' reader; blank lines and
+/// other layers' lines are skipped.
 pub fn parse_file(path: &Path, text: &str) -> FileSettings {
     let values = text
         .lines()
-        .map(str::trim)
-        .filter(|line| !line.starts_with('#'))
+        .filter_map(|line| line.split('#').next())
         .filter_map(|line| line.split_once('='))
         .filter_map(|(name, value)| {
             let (prefix, key) = name.trim().split_once('.')?;
@@ -417,10 +417,21 @@ pub fn parse_file(path: &Path, text: &str) -> FileSettings {
     }
 }
 
-/// The settings file that applies: the one `VK_LAYER_SETTINGS_PATH` names
-/// (a file, or a directory holding `vk_layer_settings.txt`), else the one
-/// in the working directory; None when neither exists.
+/// Where vkconfig keeps the settings file it writes on Linux:
+/// `$XDG_DATA_HOME/vulkan/settings.d`, else `~/.local/share/vulkan/settings.d`.
+pub fn vkconfig_dir(xdg_data_home: Option<PathBuf>, home: Option<PathBuf>) -> Option<PathBuf> {
+    let data = xdg_data_home
+        .filter(|dir| !dir.as_os_str().is_empty())
+        .or_else(|| home.map(|home| home.join(".local").join("share")))?;
+    Some(data.join("vulkan").join("settings.d"))
+}
+
+/// The settings file that applies, in the Khronos layers' order: the one
+/// vkconfig wrote into `vkconfig_dir`, else the one `VK_LAYER_SETTINGS_PATH`
+/// names (a file, or a directory holding `vk_layer_settings.txt`), else the
+/// one in the working directory; None when none exists.
 pub fn settings_file_path(
+    vkconfig_dir: Option<PathBuf>,
     settings_path: Option<PathBuf>,
     working_dir: Option<PathBuf>,
 ) -> Option<PathBuf> {
@@ -431,16 +442,22 @@ pub fn settings_file_path(
             path
         }
     });
-    named
+    vkconfig_dir
+        .map(|dir| dir.join(SETTINGS_FILE))
         .into_iter()
+        .chain(named)
         .chain(working_dir.map(|dir| dir.join(SETTINGS_FILE)))
         .find(|path| path.is_file())
 }
 
 /// The settings of an instance: this process's environment, then `api`,
-/// then the settings file.
+/// then the settings file (read at each `vkCreateInstance`).
 pub fn for_instance(api: &ApiSettings) -> (Settings, Vec<String>) {
     let path = settings_file_path(
+        vkconfig_dir(
+            std::env::var_os("XDG_DATA_HOME").map(PathBuf::from),
+            std::env::var_os("HOME").map(PathBuf::from),
+        ),
         std::env::var_os(SETTINGS_PATH_VAR).map(PathBuf::from),
         std::env::current_dir().ok(),
     );
@@ -798,7 +815,7 @@ ommcheck_validation.report_flags = error,warning,info
 ommcheck_validation.debug_action = VK_DBG_LAYER_ACTION_LOG_MSG
 
 ommcheck_validation.message_id_filter = VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516
-ommcheck_validation.duplicate_message_limit = 4
+ommcheck_validation.duplicate_message_limit = 4 # a trailing comment
 ommcheck_validation.log_filename = 
 ommcheck_validation.profile = spec-minimum
 ommcheck_validation.tier = simulate
@@ -844,24 +861,45 @@ khronos_validation.tier = nonsense
     }
 
     #[test]
-    fn the_settings_file_comes_from_the_variable_then_the_working_directory() {
+    fn the_settings_file_comes_from_vkconfig_then_the_variable_then_the_working_directory() {
         let dir = std::env::temp_dir().join(format!("ommcheck-settings-{}", std::process::id()));
+        let vkconfig = dir.join("vkconfig");
         let named = dir.join("named");
         let working = dir.join("working");
-        std::fs::create_dir_all(&named).unwrap();
-        std::fs::create_dir_all(&working).unwrap();
+        for d in [&vkconfig, &named, &working] {
+            std::fs::create_dir_all(d).unwrap();
+        }
         let in_named = named.join(SETTINGS_FILE);
         let in_working = working.join(SETTINGS_FILE);
         std::fs::write(&in_working, "").unwrap();
-        // A directory without the file: the working directory's applies.
-        let found = settings_file_path(Some(named.clone()), Some(working.clone()));
-        assert_eq!(found.as_ref(), Some(&in_working));
+        let find = |vkconfig: &Path, named: &Path| {
+            settings_file_path(
+                Some(vkconfig.to_path_buf()),
+                Some(named.to_path_buf()),
+                Some(working.clone()),
+            )
+        };
+        // Directories without the file: the working directory's applies.
+        assert_eq!(find(&vkconfig, &named), Some(in_working.clone()));
         std::fs::write(&in_named, "").unwrap();
-        let found = settings_file_path(Some(named.clone()), Some(working.clone()));
-        assert_eq!(found.as_ref(), Some(&in_named));
-        let found = settings_file_path(Some(in_named.clone()), None);
-        assert_eq!(found.as_ref(), Some(&in_named));
-        assert_eq!(settings_file_path(None, Some(named.join("no"))), None);
+        assert_eq!(find(&vkconfig, &named), Some(in_named.clone()));
+        assert_eq!(find(&vkconfig, &in_named), Some(in_named.clone()));
+        std::fs::write(vkconfig.join(SETTINGS_FILE), "").unwrap();
+        assert_eq!(find(&vkconfig, &named), Some(vkconfig.join(SETTINGS_FILE)));
+        assert_eq!(settings_file_path(None, None, Some(dir.join("no"))), None);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn vkconfig_writes_under_the_xdg_data_directory() {
+        assert_eq!(
+            vkconfig_dir(Some("/x".into()), Some("/home/u".into())),
+            Some(PathBuf::from("/x/vulkan/settings.d"))
+        );
+        assert_eq!(
+            vkconfig_dir(None, Some("/home/u".into())),
+            Some(PathBuf::from("/home/u/.local/share/vulkan/settings.d"))
+        );
+        assert_eq!(vkconfig_dir(None, None), None);
     }
 }

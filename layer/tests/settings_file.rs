@@ -1,5 +1,6 @@
 //! A `vk_layer_settings.txt` as vkconfig writes it, found through
-//! `VK_LAYER_SETTINGS_PATH`, takes effect at `vkCreateInstance`. Its own
+//! `VK_LAYER_SETTINGS_PATH` or where vkconfig keeps it, takes effect at
+//! `vkCreateInstance`. Its own
 //! test binary: it sets process-wide environment variables.
 
 mod fake;
@@ -58,4 +59,21 @@ fn a_settings_file_vkconfig_writes_takes_effect_below_the_environment() {
     );
     std::env::remove_var("OMMCHECK_MESSAGE_ID_FILTER");
     std::env::remove_var("VK_LAYER_SETTINGS_PATH");
+
+    // Where vkconfig writes it on Linux: $XDG_DATA_HOME/vulkan/settings.d.
+    let data_home = dir.join("data");
+    let settings_d = data_home.join("vulkan").join("settings.d");
+    std::fs::create_dir_all(&settings_d).unwrap();
+    std::fs::rename(
+        dir.join("vk_layer_settings.txt"),
+        settings_d.join("vk_layer_settings.txt"),
+    )
+    .unwrap();
+    std::env::set_var("XDG_DATA_HOME", &data_home);
+    let muted = faulty_build_ids(&Chain::new());
+    assert!(
+        !muted.iter().any(|id| id == BOTH_USAGE_POINTERS),
+        "{muted:?}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }
