@@ -690,6 +690,8 @@ mod tests {
     fn message_id_filter_takes_ids_and_numbers() {
         let vuid = "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516";
         let number = message_id(vuid);
+        // docs/layer.md quotes this MessageID and its signed form.
+        assert_eq!((number, number as i32), (0xe6f7_0ac5, -420_017_467));
         for value in [
             vuid.to_string(),
             vuid.to_uppercase(),
