@@ -586,6 +586,20 @@ mod tests {
         assert_eq!(settings.gpu_readback_max_bytes, 4096);
     }
 
+    /// No documented setting is left unread: a value for each either
+    /// changes the settings or is reported as unusable.
+    #[test]
+    fn every_documented_setting_is_read() {
+        for doc in &DOCUMENTED {
+            let (settings, problems) = parse_with(&[(doc.env, "0xZZ-nonsense")], None);
+            assert!(
+                settings != Settings::default() || problems.iter().any(|p| p.starts_with(doc.env)),
+                "{}: {problems:?}",
+                doc.key
+            );
+        }
+    }
+
     #[test]
     fn values_are_case_insensitive() {
         let (settings, problems) = parse_with(
