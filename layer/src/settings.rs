@@ -1,5 +1,6 @@
 //! The layer's settings, from four sources in this order of precedence
-//! (the Khronos layers' order): the environment (`OMMCHECK_*`), the
+//! (the Khronos layers' order): the environment (`OMMCHECK_*`, then the
+//! Khronos settings library's `VK_OMMCHECK_VALIDATION_<KEY>`), the
 //! application's `VkLayerSettingsCreateInfoEXT` (VK_EXT_layer_settings)
 //! chained in `VkInstanceCreateInfo`, the `vk_layer_settings.txt` file
 //! vkconfig writes (lines `ommcheck_validation.<key> = <value>`), then the
@@ -202,8 +203,10 @@ impl Sources<'_> {
     /// words naming where it came from.
     fn values(&self, doc: &SettingDoc) -> Vec<(String, String)> {
         let mut values = Vec::new();
-        if let Some(value) = (self.variable)(doc.env) {
-            values.push((doc.env.to_string(), value));
+        for name in [doc.env.to_string(), khronos_style_variable(doc.key)] {
+            if let Some(value) = (self.variable)(&name) {
+                values.push((name, value));
+            }
         }
         if let Some((_, given)) = self.api.iter().rev().find(|(name, _)| name == doc.key) {
             let text: Vec<String> = given
@@ -253,6 +256,12 @@ impl Sources<'_> {
         problems.extend(rejected.into_iter().map(|r| format!("{r}; {instead}")));
         chosen.map(|(parsed, _)| parsed)
     }
+}
+
+/// The variable the Khronos layers' settings library would read for `key`
+/// of this layer: `VK_OMMCHECK_VALIDATION_<KEY>`, after `OMMCHECK_<...>`.
+pub fn khronos_style_variable(key: &str) -> String {
+    format!("VK_{FILE_PREFIX}_{key}").to_ascii_uppercase()
 }
 
 fn doc(env: &str) -> &'static SettingDoc {
@@ -598,6 +607,22 @@ mod tests {
                 doc.key
             );
         }
+    }
+
+    #[test]
+    fn khronos_style_variables_rank_after_ours() {
+        assert_eq!(
+            khronos_style_variable("report_flags"),
+            "VK_OMMCHECK_VALIDATION_REPORT_FLAGS"
+        );
+        let (settings, problems) = parse_with(&[("VK_OMMCHECK_VALIDATION_TIER", "params")], None);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings.tier, Tier::Params);
+        let (settings, _) = parse_with(
+            &[(TIER, "state"), ("VK_OMMCHECK_VALIDATION_TIER", "params")],
+            None,
+        );
+        assert_eq!(settings.tier, Tier::State);
     }
 
     #[test]
