@@ -106,9 +106,9 @@ pub const DOCUMENTED: [SettingDoc; 10] = [
         key: "profile",
         env: PROFILE,
         label: "Device Limits",
-        description: "The limits checks use: spec-minimum (what every device with the extension meets), permissive, or the path of a JSON object of limits overriding spec-minimum. Unset, the limits the device reports apply.",
+        description: "The limits checks use: spec-minimum (what every device with the extension meets), permissive, or the path of a JSON object of limits overriding spec-minimum. Empty: the limits the device reports, where they meet spec-minimum.",
         kind: "STRING",
-        default_json: r#""spec-minimum""#,
+        default_json: r#""""#,
         flags: &[],
     },
     SettingDoc {

@@ -251,6 +251,7 @@ impl Sources<'_> {
         }
         let instead = match &chosen {
             Some((_, from)) => format!("using {from}"),
+            None if matches!(doc.default_json, r#""""# | "[]") => "using the default".to_string(),
             None => format!("using the default, {}", doc.default_json),
         };
         problems.extend(rejected.into_iter().map(|r| format!("{r}; {instead}")));
@@ -330,6 +331,10 @@ pub fn parse(
         Ok(Box::new(move |s| s.actions.break_into_debugger |= on))
     });
     get(PROFILE, &|v| {
+        // Empty (what vkconfig writes for the default): the device's limits.
+        if v.trim().is_empty() {
+            return Ok(Box::new(|_| {}));
+        }
         let limits = limits(v.trim(), &read_file)?;
         Ok(Box::new(move |s| {
             s.limits = limits;
@@ -858,7 +863,7 @@ ommcheck_validation.debug_action = VK_DBG_LAYER_ACTION_LOG_MSG
 ommcheck_validation.message_id_filter = VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516
 ommcheck_validation.duplicate_message_limit = 4 # a trailing comment
 ommcheck_validation.log_filename = 
-ommcheck_validation.profile = spec-minimum
+ommcheck_validation.profile =
 ommcheck_validation.tier = simulate
 ommcheck_validation.break_on_error = false
 ommcheck_validation.gpu_readback = true
@@ -885,6 +890,10 @@ khronos_validation.tier = nonsense
         assert_eq!(settings.gpu_readback_max_bytes, 1 << 20);
         assert_eq!(settings.log_file, None);
         assert!(settings.actions.log);
+        assert!(
+            !settings.profile_chosen,
+            "an empty profile keeps the device's limits"
+        );
     }
 
     #[test]
