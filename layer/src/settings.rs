@@ -896,6 +896,28 @@ khronos_validation.tier = nonsense
         );
     }
 
+    /// vkconfig writes every setting, each at its manifest default unless
+    /// the user changed it: such a file changes nothing.
+    #[test]
+    fn a_file_of_the_manifest_defaults_changes_nothing() {
+        let text: String = DOCUMENTED
+            .iter()
+            .map(|doc| {
+                let value: String = doc
+                    .default_json
+                    .chars()
+                    .filter(|c| !matches!(c, '[' | ']' | '"' | ' '))
+                    .collect();
+                format!("{FILE_PREFIX}.{} = {value}\n", doc.key)
+            })
+            .collect();
+        let file = parse_file(Path::new("vk_layer_settings.txt"), &text);
+        assert_eq!(file.values.len(), DOCUMENTED.len());
+        let (settings, problems) = parse_from(&[], &Vec::new(), &file, None);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings, Settings::default());
+    }
+
     #[test]
     fn unknown_file_keys_are_reported() {
         let file = parse_file(
