@@ -670,3 +670,46 @@ fn khronos_synchronization_validation_below_ommcheck_finds_nothing_in_what_ommch
         assert_eq!(stacked.results, khronos_alone.results, "{what}");
     }
 }
+
+/// vulkaninfo (Debian: vulkan-tools), an application that still uses
+/// VK_EXT_debug_report, chains a debug-report callback to its
+/// `VkInstanceCreateInfo`: the layer's warning about a bad setting reaches
+/// it through the real loader, with the MessageID as the message code, and
+/// the bad value does not silence it. Skips where vulkaninfo is missing.
+#[test]
+fn vulkaninfo_debug_report_callback_receives_a_bad_setting_warning() {
+    const SETTINGS_PROBLEM: &str = "OMMCHECK-layer-settings";
+    let Some(icd) = prepared("OMMCHECK_TEST_MOCK_ICD") else {
+        return;
+    };
+    let output = match loader_command("vulkaninfo")
+        .arg("--summary")
+        .env("VK_DRIVER_FILES", &icd)
+        .env("VK_ADD_LAYER_PATH", layer_dir())
+        .env("VK_INSTANCE_LAYERS", LAYER_NAME)
+        .env("OMMCHECK_REPORT", "errors,warnings")
+        .output()
+    {
+        Ok(output) => output,
+        Err(e) => {
+            eprintln!("skipping: vulkaninfo: {e}");
+            return;
+        }
+    };
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let code = ommcheck::report::message_id(SETTINGS_PROBLEM) as i32;
+    let line = stderr
+        .lines()
+        .find(|line| line.starts_with("WARNING: [OMMCHECK] Code"))
+        .unwrap_or_else(|| panic!("no debug-report message:\n{stderr}"));
+    assert!(
+        line.starts_with(&format!(
+            "WARNING: [OMMCHECK] Code {code} : Validation Warning: [ {SETTINGS_PROBLEM} ]"
+        )),
+        "{line}"
+    );
+    assert!(
+        line.contains("`errors` is not error, warning or info"),
+        "{line}"
+    );
+}

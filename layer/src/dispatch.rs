@@ -38,6 +38,8 @@ pub struct InstanceFns {
         Option<vk::PFN_vkGetPhysicalDeviceQueueFamilyProperties>,
     pub create_debug_utils_messenger: Option<vk::PFN_vkCreateDebugUtilsMessengerEXT>,
     pub destroy_debug_utils_messenger: Option<vk::PFN_vkDestroyDebugUtilsMessengerEXT>,
+    pub create_debug_report_callback: Option<vk::PFN_vkCreateDebugReportCallbackEXT>,
+    pub destroy_debug_report_callback: Option<vk::PFN_vkDestroyDebugReportCallbackEXT>,
     pub get_physical_device_properties2: Option<vk::PFN_vkGetPhysicalDeviceProperties2>,
     pub get_physical_device_properties2_khr: Option<vk::PFN_vkGetPhysicalDeviceProperties2>,
 }
@@ -74,6 +76,18 @@ impl InstanceFns {
                 instance,
                 c"vkDestroyDebugUtilsMessengerEXT",
                 vk::PFN_vkDestroyDebugUtilsMessengerEXT
+            ),
+            create_debug_report_callback: next_fn!(
+                gipa,
+                instance,
+                c"vkCreateDebugReportCallbackEXT",
+                vk::PFN_vkCreateDebugReportCallbackEXT
+            ),
+            destroy_debug_report_callback: next_fn!(
+                gipa,
+                instance,
+                c"vkDestroyDebugReportCallbackEXT",
+                vk::PFN_vkDestroyDebugReportCallbackEXT
             ),
             get_physical_device_properties2: next_fn!(
                 gipa,

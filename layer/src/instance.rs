@@ -1,4 +1,5 @@
-//! Instance commands: creation and destruction, and the debug-utils messengers.
+//! Instance commands: creation and destruction, the debug-utils messengers
+//! and the debug-report callbacks.
 
 #![allow(unsafe_code)]
 
@@ -6,10 +7,9 @@ use std::ffi::CStr;
 use std::sync::Arc;
 
 use ash::vk;
-use ommcheck::Severity;
 
 use crate::dispatch::{next_fn, InstanceData, InstanceFns, INSTANCES};
-use crate::report::{Message, Reporter, SETTINGS_PROBLEM};
+use crate::report::Reporter;
 use crate::{abi, device, guarded, read, settings};
 
 /// This layer's function for an instance-level command name.
@@ -29,6 +29,12 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         }
         b"vkDestroyDebugUtilsMessengerEXT" => device::as_void(
             destroy_debug_utils_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT,
+        ),
+        b"vkCreateDebugReportCallbackEXT" => {
+            device::as_void(create_debug_report_callback as vk::PFN_vkCreateDebugReportCallbackEXT)
+        }
+        b"vkDestroyDebugReportCallbackEXT" => device::as_void(
+            destroy_debug_report_callback as vk::PFN_vkDestroyDebugReportCallbackEXT,
         ),
         _ => None,
     }
@@ -62,23 +68,13 @@ unsafe extern "system" fn create_instance(
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
             // SAFETY: the application's chain is well formed, as the API requires.
-            let messengers = unsafe { read::chained_messengers(info.p_next) };
+            let callbacks = unsafe { read::chained_callbacks(info.p_next) };
             // SAFETY: as above.
             let api = unsafe { read::layer_settings(info.p_next, crate::LAYER_NAME_C) };
-            let (settings, problems) = settings::for_instance(&api);
-            let reporter = Reporter::new(messengers, settings);
-            let problems: Vec<Message> = problems
-                .iter()
-                .map(|problem| {
-                    Message::about_layer(
-                        SETTINGS_PROBLEM,
-                        Severity::Warning,
-                        "vkCreateInstance",
-                        problem,
-                    )
-                })
-                .collect();
-            reporter.deliver(&problems, true);
+            let (settings, mut problems) = settings::for_instance(&api);
+            let (reporter, log_problem) = Reporter::new(callbacks, settings);
+            problems.extend(log_problem);
+            reporter.warn_about_settings(&problems, "vkCreateInstance");
             // SAFETY: the next layer's vkCreateInstance, with the application's arguments.
             let result = unsafe { create(create_info, allocator, instance_out) };
             if result != vk::Result::SUCCESS {
@@ -175,6 +171,61 @@ unsafe extern "system" fn destroy_debug_utils_messenger(
         if let Some(destroy) = data.fns.destroy_debug_utils_messenger {
             // SAFETY: the next layer's function, with the application's arguments.
             unsafe { destroy(instance, messenger, allocator) };
+        }
+    })
+}
+
+/// `vkCreateDebugReportCallbackEXT`: creates the callback below, then
+/// reports to it too.
+unsafe extern "system" fn create_debug_report_callback(
+    instance: vk::Instance,
+    create_info: *const vk::DebugReportCallbackCreateInfoEXT<'_>,
+    allocator: *const vk::AllocationCallbacks<'_>,
+    callback_out: *mut vk::DebugReportCallbackEXT,
+) -> vk::Result {
+    guarded(
+        "vkCreateDebugReportCallbackEXT",
+        vk::Result::ERROR_INITIALIZATION_FAILED,
+        || {
+            let Some(data) = INSTANCES.get(instance) else {
+                return vk::Result::ERROR_INITIALIZATION_FAILED;
+            };
+            let Some(create) = data.fns.create_debug_report_callback else {
+                return vk::Result::ERROR_EXTENSION_NOT_PRESENT;
+            };
+            // SAFETY: the next layer's function, with the application's arguments.
+            let result = unsafe { create(instance, create_info, allocator, callback_out) };
+            if result == vk::Result::SUCCESS {
+                // SAFETY: the create info is valid (the API's requirement), and
+                // on success the next layer wrote the handle.
+                let (info, handle) = unsafe { (create_info.as_ref(), read::value(callback_out)) };
+                if let (Some(info), Some(handle)) = (info, handle) {
+                    if let Some(callback) = read::report_callback(info, vk::Handle::as_raw(handle))
+                    {
+                        data.reporter.add_report_callback(callback);
+                    }
+                }
+            }
+            result
+        },
+    )
+}
+
+/// `vkDestroyDebugReportCallbackEXT`.
+unsafe extern "system" fn destroy_debug_report_callback(
+    instance: vk::Instance,
+    callback: vk::DebugReportCallbackEXT,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyDebugReportCallbackEXT", (), || {
+        let Some(data) = INSTANCES.get(instance) else {
+            return;
+        };
+        data.reporter
+            .remove_report_callback(vk::Handle::as_raw(callback));
+        if let Some(destroy) = data.fns.destroy_debug_report_callback {
+            // SAFETY: the next layer's function, with the application's arguments.
+            unsafe { destroy(instance, callback, allocator) };
         }
     })
 }

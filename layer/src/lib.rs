@@ -3,13 +3,13 @@
 //! The layer feeds an [`ommcheck::Validator`] per device with what the
 //! application creates and records, checks each call the micromap rules
 //! concern through the core's raw entry points, and reports findings to the
-//! application's `VK_EXT_debug_utils` messengers in the Khronos validation
-//! layer's format. Every other command passes to the next layer untouched.
+//! application's `VK_EXT_debug_utils` messengers and `VK_EXT_debug_report`
+//! callbacks in the Khronos validation layer's format (docs/layer.md). Every other command passes to the next layer untouched.
 //! All check logic lives in the core; this crate only adapts the loader
 //! interface to it. By module:
 //!
 //! - `instance`, `device`, `dispatch`, `abi`: the loader interface, instance
-//!   and device creation, messengers, buffers, memory, micromap objects and
+//!   and device creation, messengers and debug-report callbacks, buffers, memory, micromap objects and
 //!   micromap builds;
 //! - `accel`: acceleration-structure objects and builds, micromap copies,
 //!   queries, size queries and compatibility;
@@ -22,8 +22,9 @@
 //! - `pipe`, `pipelines`, `sync`, `work`, `properties`: shaders, pipelines,
 //!   synchronization, the commands that run shaders (with descriptor
 //!   tracking) and the feature and property chains;
-//! - `settings`, `report`, `read`: settings, message delivery and the small
-//!   raw reads of the layer's own.
+//! - `settings`, `setting_docs`, `report`, `read`: settings (and their
+//!   table, which xtask writes the manifest from), message delivery and
+//!   the small raw reads of the layer's own.
 //!
 //! Every exported or intercepted function runs its body inside
 //! `std::panic::catch_unwind`: a panic becomes one error message and never
@@ -45,6 +46,7 @@ mod properties;
 mod read;
 mod readback;
 pub mod report;
+mod setting_docs;
 pub mod settings;
 mod shadow;
 mod submit;
@@ -65,8 +67,7 @@ use abi::{NegotiateLayerInterface, LAYER_INTERFACE_VERSION, LAYER_NEGOTIATE_INTE
 use dispatch::{DEVICES, INSTANCES};
 use report::{Message, INTERNAL_ERROR};
 
-/// The layer's name, as in its manifest.
-pub const LAYER_NAME: &str = "VK_LAYER_OMMCHECK_validation";
+pub use setting_docs::LAYER_NAME;
 /// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
 pub const LAYER_NAME_C: &CStr = c"VK_LAYER_OMMCHECK_validation";
 

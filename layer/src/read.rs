@@ -12,7 +12,7 @@ use ash::vk;
 use ash::vk::Handle as _;
 use ommcheck::raw::MAX_ELEMENTS;
 
-use crate::report::Messenger;
+use crate::report::{Callbacks, Messenger, ReportCallback};
 use crate::settings::{ApiSettings, ApiValue};
 
 /// The most structures walked in a pNext chain.
@@ -52,14 +52,29 @@ pub fn messenger(
     })
 }
 
-/// The messengers chained in a `VkInstanceCreateInfo`, walking at most
-/// [`MAX_CHAIN`] structures and never one address twice.
+/// The debug-report callback a `VkDebugReportCallbackCreateInfoEXT`
+/// describes; None without a callback.
+pub fn report_callback(
+    info: &vk::DebugReportCallbackCreateInfoEXT<'_>,
+    handle: u64,
+) -> Option<ReportCallback> {
+    Some(ReportCallback {
+        handle,
+        flags: info.flags,
+        callback: info.pfn_callback?,
+        user_data: info.p_user_data.expose_provenance(),
+    })
+}
+
+/// The messengers and debug-report callbacks chained in a
+/// `VkInstanceCreateInfo`, walking at most [`MAX_CHAIN`] structures and
+/// never one address twice.
 ///
 /// # Safety
 /// The chain at `next` must be well formed: each structure starts with
 /// sType and pNext.
-pub unsafe fn chained_messengers(mut next: *const c_void) -> Vec<Messenger> {
-    let mut messengers = Vec::new();
+pub unsafe fn chained_callbacks(mut next: *const c_void) -> Callbacks {
+    let mut callbacks = Callbacks::default();
     let mut visited = HashSet::new();
     while !next.is_null() && visited.len() < MAX_CHAIN && visited.insert(next as usize) {
         // SAFETY: the caller guarantees a structure starting with sType and pNext.
@@ -67,11 +82,15 @@ pub unsafe fn chained_messengers(mut next: *const c_void) -> Vec<Messenger> {
         if base.s_type == vk::StructureType::DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT {
             // SAFETY: the sType says what the structure is.
             let info = unsafe { &*next.cast::<vk::DebugUtilsMessengerCreateInfoEXT<'_>>() };
-            messengers.extend(messenger(info, 0));
+            callbacks.messengers.extend(messenger(info, 0));
+        } else if base.s_type == vk::StructureType::DEBUG_REPORT_CALLBACK_CREATE_INFO_EXT {
+            // SAFETY: the sType says what the structure is.
+            let info = unsafe { &*next.cast::<vk::DebugReportCallbackCreateInfoEXT<'_>>() };
+            callbacks.report_callbacks.extend(report_callback(info, 0));
         }
         next = base.p_next.cast();
     }
-    messengers
+    callbacks
 }
 
 /// Whether the chain at `next` holds a structure of `s_type`, walking at
@@ -385,6 +404,19 @@ mod tests {
         vk::FALSE
     }
 
+    unsafe extern "system" fn report_callback_fn(
+        _: vk::DebugReportFlagsEXT,
+        _: vk::DebugReportObjectTypeEXT,
+        _: u64,
+        _: usize,
+        _: i32,
+        _: *const c_char,
+        _: *const c_char,
+        _: *mut c_void,
+    ) -> vk::Bool32 {
+        vk::FALSE
+    }
+
     fn as_next<T>(structure: &T) -> *const c_void {
         (structure as *const T).cast()
     }
@@ -406,19 +438,33 @@ mod tests {
     }
 
     #[test]
-    fn messengers_are_found_anywhere_in_the_chain_and_skipped_without_callback() {
+    fn callbacks_are_found_anywhere_in_the_chain_and_skipped_without_callback() {
         let mut without_callback = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING);
         let mut other = vk::ValidationFeaturesEXT::default();
+        let mut report = vk::DebugReportCallbackCreateInfoEXT::default()
+            .flags(vk::DebugReportFlagsEXT::ERROR)
+            .pfn_callback(Some(report_callback_fn));
+        report.p_user_data = ptr::without_provenance_mut(0x5678);
+        let report_without_callback = vk::DebugReportCallbackCreateInfoEXT::default();
+        report.p_next = as_next(&report_without_callback);
         let mut with_callback = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
             .message_type(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION)
             .pfn_user_callback(Some(callback));
         with_callback.p_user_data = ptr::without_provenance_mut(0x1234);
+        with_callback.p_next = as_next(&report);
         other.p_next = as_next(&with_callback);
         without_callback.p_next = as_next(&other);
-        // SAFETY: a well-formed chain of three structures.
-        let found = unsafe { chained_messengers(as_next(&without_callback)) };
+        // SAFETY: a well-formed chain of five structures.
+        let callbacks = unsafe { chained_callbacks(as_next(&without_callback)) };
+        assert_eq!(callbacks.report_callbacks.len(), 1);
+        assert_eq!(
+            callbacks.report_callbacks[0].flags,
+            vk::DebugReportFlagsEXT::ERROR
+        );
+        assert_eq!(callbacks.report_callbacks[0].user_data, 0x5678);
+        let found = callbacks.messengers;
         assert_eq!(found.len(), 1);
         assert_eq!(found[0].handle, 0);
         assert_eq!(
@@ -431,7 +477,8 @@ mod tests {
         );
         assert_eq!(found[0].user_data, 0x1234);
         // SAFETY: an empty chain.
-        assert!(unsafe { chained_messengers(ptr::null()) }.is_empty());
+        let none = unsafe { chained_callbacks(ptr::null()) };
+        assert!(none.messengers.is_empty() && none.report_callbacks.is_empty());
     }
 
     #[test]
@@ -445,7 +492,7 @@ mod tests {
         // pointer stays valid for the read below.
         unsafe { (*first_at).p_next = as_next(&second) };
         // SAFETY: every structure is valid; the chain loops back to the head.
-        let found = unsafe { chained_messengers(first_at.cast_const().cast()) };
+        let found = unsafe { chained_callbacks(first_at.cast_const().cast()) }.messengers;
         assert_eq!(
             found.len(),
             1,
@@ -467,7 +514,7 @@ mod tests {
             unsafe { (*base.add(k)).p_next = base.add(k + 1).cast_const().cast() };
         }
         // SAFETY: a well-formed chain of `nodes.len()` structures.
-        let found = unsafe { chained_messengers(base.cast_const().cast()) };
+        let found = unsafe { chained_callbacks(base.cast_const().cast()) }.messengers;
         assert_eq!(found.len(), MAX_CHAIN);
     }
 

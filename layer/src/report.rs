@@ -2,14 +2,15 @@
 //! messengers the way the Khronos validation layer does: `pMessageIdName`
 //! is the VUID, `messageIdNumber` its MessageID, `pMessage` the Khronos-style
 //! text, the objects in `pObjects`; a duplicate limit per rule; VK_TRUE from
-//! a callback for an error asks for the call to be skipped.
+//! a callback for an error asks for the call to be skipped. Older
+//! applications' `VK_EXT_debug_report` callbacks receive the same messages.
 
 #![allow(unsafe_code)]
 
 use std::collections::HashMap;
-use std::ffi::{c_void, CString};
+use std::ffi::{c_char, c_void, CStr, CString};
 use std::io::Write;
-use std::sync::{Mutex, OnceLock, PoisonError};
+use std::sync::{Mutex, PoisonError};
 
 use ash::vk;
 use ommcheck::report::message_id;
@@ -110,27 +111,88 @@ pub struct Messenger {
     pub user_data: usize,
 }
 
-/// An instance's settings, messengers and duplicate counts.
+/// A `VK_EXT_debug_report` callback the application created or chained
+/// into `VkInstanceCreateInfo`.
+#[derive(Clone, Copy, Debug)]
+pub struct ReportCallback {
+    /// The `VkDebugReportCallbackEXT` (0 for one chained at instance creation).
+    pub handle: u64,
+    pub flags: vk::DebugReportFlagsEXT,
+    pub callback: unsafe extern "system" fn(
+        vk::DebugReportFlagsEXT,
+        vk::DebugReportObjectTypeEXT,
+        u64,
+        usize,
+        i32,
+        *const c_char,
+        *const c_char,
+        *mut c_void,
+    ) -> vk::Bool32,
+    /// `pUserData`, its provenance exposed so it can be handed back.
+    pub user_data: usize,
+}
+
+/// The application's callbacks of both extensions.
+#[derive(Clone, Debug, Default)]
+pub struct Callbacks {
+    pub messengers: Vec<Messenger>,
+    pub report_callbacks: Vec<ReportCallback>,
+}
+
+impl Callbacks {
+    fn is_empty(&self) -> bool {
+        self.messengers.is_empty() && self.report_callbacks.is_empty()
+    }
+
+    fn extend(&mut self, other: &Callbacks) {
+        self.messengers.extend_from_slice(&other.messengers);
+        self.report_callbacks
+            .extend_from_slice(&other.report_callbacks);
+    }
+}
+
+/// An instance's settings, callbacks and duplicate counts.
 #[derive(Debug, Default)]
 pub struct Reporter {
     settings: Settings,
-    /// The log file, opened on the first message that needs it.
-    log_file: OnceLock<Option<Mutex<std::fs::File>>>,
-    messengers: Mutex<Vec<Messenger>>,
+    /// The log file, opened when the instance is created.
+    log_file: Option<Mutex<std::fs::File>>,
+    callbacks: Mutex<Callbacks>,
     /// Chained in `VkInstanceCreateInfo`: as the specification says, these
     /// receive messages only during `vkCreateInstance` and `vkDestroyInstance`.
-    instance_lifecycle: Vec<Messenger>,
+    instance_lifecycle: Callbacks,
     /// Messages reported so far per MessageID.
     counts: Mutex<HashMap<u32, u32>>,
 }
 
 impl Reporter {
-    pub fn new(instance_lifecycle: Vec<Messenger>, settings: Settings) -> Self {
-        Self {
+    /// The reporter of an instance, with the log file opened; the problem
+    /// opening it, if any, is returned to be reported with the settings'.
+    pub fn new(instance_lifecycle: Callbacks, settings: Settings) -> (Self, Option<String>) {
+        let (log_file, problem) = match &settings.log_file {
+            Some(path) => match std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(path)
+            {
+                Ok(file) => (Some(Mutex::new(file)), None),
+                Err(e) => (
+                    None,
+                    Some(format!(
+                        "log_filename {} cannot be opened for writing ({e}); messages go to stderr instead",
+                        path.display()
+                    )),
+                ),
+            },
+            None => (None, None),
+        };
+        let reporter = Self {
             settings,
+            log_file,
             instance_lifecycle,
             ..Self::default()
-        }
+        };
+        (reporter, problem)
     }
 
     /// The settings of the instance this reporter belongs to.
@@ -139,35 +201,67 @@ impl Reporter {
     }
 
     pub fn add(&self, messenger: Messenger) {
-        lock(&self.messengers).push(messenger);
+        lock(&self.callbacks).messengers.push(messenger);
     }
 
     pub fn remove(&self, handle: u64) {
-        lock(&self.messengers).retain(|m| m.handle != handle);
+        lock(&self.callbacks)
+            .messengers
+            .retain(|m| m.handle != handle);
     }
 
-    /// Delivers `messages` to every messenger whose masks match (with the
-    /// messengers chained at instance creation when `instance_lifecycle`),
-    /// to the log file, and to stderr when no messenger exists. Returns
-    /// whether a callback returned VK_TRUE for an error: the call is to be
-    /// skipped. With `break_on_error`, raises SIGTRAP after reporting an
-    /// error.
+    pub fn add_report_callback(&self, callback: ReportCallback) {
+        lock(&self.callbacks).report_callbacks.push(callback);
+    }
+
+    pub fn remove_report_callback(&self, handle: u64) {
+        lock(&self.callbacks)
+            .report_callbacks
+            .retain(|c| c.handle != handle);
+    }
+
+    /// Delivers `messages` to every callback whose masks match (with the
+    /// ones chained at instance creation when `instance_lifecycle`), and
+    /// with the `log` action to the log file, or stderr when no callback
+    /// exists. Returns whether a callback returned VK_TRUE for an error:
+    /// the call is to be skipped. With the `break` action, raises SIGTRAP
+    /// after reporting.
     pub fn deliver(&self, messages: &[Message], instance_lifecycle: bool) -> bool {
+        self.deliver_with(messages, instance_lifecycle, false)
+    }
+
+    /// Warns of settings the layer could not use. These warnings reach the
+    /// user whatever the severity filter says: the callbacks receive them
+    /// and stderr always shows them, since a bad value may be what keeps
+    /// the callbacks from hearing anything.
+    pub fn warn_about_settings(&self, problems: &[String], function: &str) {
+        let messages: Vec<Message> = problems
+            .iter()
+            .map(|problem| {
+                Message::about_layer(SETTINGS_PROBLEM, Severity::Warning, function, problem)
+            })
+            .collect();
+        self.deliver_with(&messages, true, true);
+    }
+
+    fn deliver_with(&self, messages: &[Message], instance_lifecycle: bool, always: bool) -> bool {
         let settings = &self.settings;
-        let mut messengers = lock(&self.messengers).clone();
+        let mut callbacks = lock(&self.callbacks).clone();
         if instance_lifecycle {
-            messengers.extend_from_slice(&self.instance_lifecycle);
+            callbacks.extend(&self.instance_lifecycle);
         }
         let mut skip = false;
-        let mut reported_error = false;
+        let mut reported = false;
         for message in messages {
-            let Some(text) = self.admit(settings, message) else {
+            let Some(text) = self.admit(settings, message, always) else {
                 continue;
             };
-            self.log(&text, messengers.is_empty());
-            reported_error |= message.severity == Severity::Error;
+            reported = true;
+            if settings.actions.log || always {
+                self.log(&text, callbacks.is_empty() || always);
+            }
             let severity = severity_flag(message.severity);
-            for messenger in &messengers {
+            for messenger in &callbacks.messengers {
                 if messenger.severities.contains(severity)
                     && messenger
                         .types
@@ -179,37 +273,44 @@ impl Reporter {
                     skip |= asked && message.severity == Severity::Error;
                 }
             }
+            for callback in &callbacks.report_callbacks {
+                if callback.flags.contains(report_flag(message.severity)) {
+                    // SAFETY: as above, for a debug-report callback.
+                    let asked = unsafe { call_report(callback, message, &text) };
+                    skip |= asked && message.severity == Severity::Error;
+                }
+            }
         }
-        if reported_error && settings.break_on_error {
+        if reported && settings.actions.break_into_debugger {
             break_into_debugger();
         }
         skip
     }
 
-    /// Appends `text` to the log file; writes it to stderr instead when
-    /// there is neither a log file nor a messenger (as the Khronos layer's
-    /// default callback does).
-    fn log(&self, text: &str, no_messenger: bool) {
-        let file = self.log_file.get_or_init(|| {
-            let path = self.settings.log_file.as_ref()?;
-            std::fs::OpenOptions::new()
-                .create(true)
-                .append(true)
-                .open(path)
-                .ok()
-                .map(Mutex::new)
-        });
-        match file {
+    /// Appends `text` to the log file and, when `to_stderr` or the log file
+    /// could not be opened, writes it to stderr (as the Khronos layer's
+    /// default callback does when the application registered none).
+    fn log(&self, text: &str, to_stderr: bool) {
+        let wanted_file = self.settings.log_file.is_some();
+        if let Some(file) = &self.log_file {
             // A failed write cannot be reported anywhere better; drop it.
-            Some(file) => drop(writeln!(lock(file), "{text}\n")),
-            None if no_messenger => eprintln!("{text}\n"),
-            None => {}
+            drop(writeln!(lock(file), "{text}\n"));
+        }
+        if to_stderr || (wanted_file && self.log_file.is_none()) {
+            eprintln!("{text}\n");
         }
     }
 
-    /// The text to report for `message`, or None when its severity is not
-    /// reported or its rule has reached the duplicate limit.
-    fn admit(&self, settings: &Settings, message: &Message) -> Option<String> {
+    /// The text to report for `message`, or None when `message_id_filter`
+    /// mutes it, or (unless `always`) its severity is not reported or its
+    /// rule has reached the duplicate limit.
+    fn admit(&self, settings: &Settings, message: &Message, always: bool) -> Option<String> {
+        if settings.message_filter.mutes(message.id) {
+            return None;
+        }
+        if always {
+            return Some(message.text.clone());
+        }
         if !settings.reports(message.severity) {
             return None;
         }
@@ -240,6 +341,29 @@ fn severity_flag(severity: Severity) -> vk::DebugUtilsMessageSeverityFlagsEXT {
         Severity::Info => vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
     }
 }
+
+fn report_flag(severity: Severity) -> vk::DebugReportFlagsEXT {
+    match severity {
+        Severity::Error => vk::DebugReportFlagsEXT::ERROR,
+        Severity::Warning => vk::DebugReportFlagsEXT::WARNING,
+        Severity::Info => vk::DebugReportFlagsEXT::INFORMATION,
+    }
+}
+
+/// The `VkDebugReportObjectTypeEXT` of an object: the same number as its
+/// `VkObjectType` for the core 1.0 types and acceleration structures;
+/// debug report has none for micromaps and later types.
+fn report_object_type(object_type: vk::ObjectType) -> vk::DebugReportObjectTypeEXT {
+    let raw = object_type.as_raw();
+    if (0..=25).contains(&raw) || object_type == vk::ObjectType::ACCELERATION_STRUCTURE_KHR {
+        vk::DebugReportObjectTypeEXT::from_raw(raw)
+    } else {
+        vk::DebugReportObjectTypeEXT::UNKNOWN
+    }
+}
+
+/// `pLayerPrefix` of debug-report messages.
+const REPORT_LAYER_PREFIX: &CStr = c"OMMCHECK";
 
 /// A C string of `text`, with any NUL turned into a space.
 fn c_string(text: &str) -> CString {
@@ -286,9 +410,39 @@ unsafe fn call(messenger: &Messenger, message: &Message, text: &str) -> bool {
     result == vk::TRUE
 }
 
+/// Calls one debug-report callback with the message's first object (the
+/// call's), its MessageID as the message code; returns what it returned.
+///
+/// # Safety
+/// `callback` must hold a callback and user data the application registered.
+unsafe fn call_report(callback: &ReportCallback, message: &Message, text: &str) -> bool {
+    let text = c_string(text);
+    let (object_type, object) = message
+        .objects
+        .first()
+        .copied()
+        .unwrap_or((vk::ObjectType::UNKNOWN, 0));
+    // SAFETY: the strings live until the callback returns; the callback
+    // and user data are the application's (the caller's guarantee).
+    let result = unsafe {
+        (callback.callback)(
+            report_flag(message.severity),
+            report_object_type(object_type),
+            object,
+            0,
+            // The same bits as debug utils' messageIdNumber.
+            message_id(message.id) as i32,
+            REPORT_LAYER_PREFIX.as_ptr(),
+            text.as_ptr(),
+            std::ptr::with_exposed_provenance_mut(callback.user_data),
+        )
+    };
+    result == vk::TRUE
+}
+
 /// Stops the process in a debugger, as the Khronos layer's break action
 /// does: SIGTRAP, which a debugger catches and which otherwise ends the
-/// process (the user asked for that with `break_on_error`).
+/// process (the user asked for that with the `break` action).
 fn break_into_debugger() {
     // SAFETY: raise() has no memory preconditions; SIGTRAP's disposition is
     // the process's (a debugger's trap, or the default action).
@@ -332,15 +486,162 @@ mod tests {
             ..Settings::default()
         };
         let message = Message::about_layer(INTERNAL_ERROR, Severity::Error, "f", "x");
-        let first = reporter.admit(&settings, &message);
-        let second = reporter.admit(&settings, &message);
-        let third = reporter.admit(&settings, &message);
+        let first = reporter.admit(&settings, &message, false);
+        let second = reporter.admit(&settings, &message, false);
+        let third = reporter.admit(&settings, &message, false);
         assert_eq!(first.as_deref(), Some(message.text.as_str()));
         assert!(second
             .unwrap()
             .starts_with("(Warning - This VUID has now been reported 2 times"));
         assert_eq!(third, None);
         let info = Message::about_layer(INTERNAL_ERROR, Severity::Info, "f", "x");
-        assert_eq!(reporter.admit(&settings, &info), None);
+        assert_eq!(reporter.admit(&settings, &info, false), None);
+    }
+
+    /// What the test callbacks received: (flags or severity bits, object
+    /// type, object, message code or id number, id or prefix, text).
+    type Received = Vec<(u32, i32, u64, i32, String, String)>;
+
+    unsafe extern "system" fn record_report(
+        flags: vk::DebugReportFlagsEXT,
+        object_type: vk::DebugReportObjectTypeEXT,
+        object: u64,
+        _location: usize,
+        code: i32,
+        prefix: *const c_char,
+        text: *const c_char,
+        user_data: *mut c_void,
+    ) -> vk::Bool32 {
+        // SAFETY: the test passes a Mutex<Received> as user data, and the
+        // layer NUL-terminated strings.
+        let (received, prefix, text) = unsafe {
+            (
+                &*user_data.cast::<Mutex<Received>>(),
+                CStr::from_ptr(prefix),
+                CStr::from_ptr(text),
+            )
+        };
+        lock(received).push((
+            flags.as_raw(),
+            object_type.as_raw(),
+            object,
+            code,
+            prefix.to_string_lossy().into(),
+            text.to_string_lossy().into(),
+        ));
+        vk::TRUE
+    }
+
+    fn report_callback(received: &Mutex<Received>, flags: vk::DebugReportFlagsEXT) -> Callbacks {
+        Callbacks {
+            messengers: Vec::new(),
+            report_callbacks: vec![ReportCallback {
+                handle: 7,
+                flags,
+                callback: record_report,
+                user_data: (received as *const Mutex<Received>).expose_provenance(),
+            }],
+        }
+    }
+
+    #[test]
+    fn debug_report_callbacks_receive_flags_object_and_message_code() {
+        let received = Mutex::new(Received::new());
+        let reporter = Reporter::default();
+        reporter.add_report_callback(
+            report_callback(&received, vk::DebugReportFlagsEXT::ERROR).report_callbacks[0],
+        );
+        let mut error = Message::about_layer(INTERNAL_ERROR, Severity::Error, "f", "x");
+        error.objects = vec![(vk::ObjectType::COMMAND_BUFFER, 0xc0ffee)];
+        let warning = Message::about_layer(SETTINGS_PROBLEM, Severity::Warning, "f", "y");
+        let skip = reporter.deliver(&[error.clone(), warning], false);
+        assert!(skip, "VK_TRUE for an error asks for the call to be skipped");
+        let received = received.into_inner().unwrap();
+        assert_eq!(
+            received,
+            [(
+                vk::DebugReportFlagsEXT::ERROR.as_raw(),
+                vk::DebugReportObjectTypeEXT::COMMAND_BUFFER.as_raw(),
+                0xc0ffee,
+                message_id(INTERNAL_ERROR) as i32,
+                "OMMCHECK".to_string(),
+                error.text,
+            )]
+        );
+        assert_eq!(
+            report_object_type(vk::ObjectType::MICROMAP_EXT),
+            vk::DebugReportObjectTypeEXT::UNKNOWN
+        );
+        assert_eq!(
+            report_object_type(vk::ObjectType::ACCELERATION_STRUCTURE_KHR),
+            vk::DebugReportObjectTypeEXT::ACCELERATION_STRUCTURE_KHR
+        );
+        reporter.remove_report_callback(7);
+        assert!(lock(&reporter.callbacks).is_empty());
+    }
+
+    #[test]
+    fn settings_warnings_pass_every_severity_filter_but_message_id_filter_mutes() {
+        let received = Mutex::new(Received::new());
+        let settings = Settings {
+            report: vec![Severity::Error],
+            ..Settings::default()
+        };
+        let (reporter, problem) = Reporter::new(
+            report_callback(&received, vk::DebugReportFlagsEXT::WARNING),
+            settings.clone(),
+        );
+        assert_eq!(problem, None);
+        reporter.warn_about_settings(&["OMMCHECK_REPORT=\"errors\"".into()], "vkCreateInstance");
+        let warning = Message::about_layer(INTERNAL_ERROR, Severity::Warning, "f", "x");
+        reporter.deliver(&[warning], true);
+        let texts: Vec<String> = lock(&received).iter().map(|r| r.5.clone()).collect();
+        assert_eq!(texts.len(), 1, "{texts:?}");
+        assert!(texts[0].contains("OMMCHECK-layer-settings"), "{texts:?}");
+
+        let muted = Settings {
+            message_filter: crate::settings::parse(
+                &crate::settings::Sources {
+                    variable: &|name| {
+                        (name == crate::settings::MESSAGE_ID_FILTER)
+                            .then(|| SETTINGS_PROBLEM.to_uppercase())
+                    },
+                    api: &Vec::new(),
+                    file: &Default::default(),
+                },
+                |_| Err(std::io::ErrorKind::NotFound.into()),
+            )
+            .0
+            .message_filter,
+            ..settings
+        };
+        let received = Mutex::new(Received::new());
+        let (reporter, _) = Reporter::new(
+            report_callback(&received, vk::DebugReportFlagsEXT::WARNING),
+            muted,
+        );
+        reporter.warn_about_settings(&["x".into()], "vkCreateInstance");
+        assert!(lock(&received).is_empty());
+    }
+
+    #[test]
+    fn an_unwritable_log_file_is_a_problem_and_messages_still_arrive() {
+        let received = Mutex::new(Received::new());
+        let path = std::env::temp_dir()
+            .join("ommcheck-no-such-directory")
+            .join("log.txt");
+        let (reporter, problem) = Reporter::new(
+            report_callback(&received, vk::DebugReportFlagsEXT::ERROR),
+            Settings {
+                log_file: Some(path.clone()),
+                ..Settings::default()
+            },
+        );
+        let problem = problem.expect("the open failure is reported");
+        assert!(problem.contains(&path.display().to_string()), "{problem}");
+        assert!(problem.contains("messages go to stderr"), "{problem}");
+        let error = Message::about_layer(INTERNAL_ERROR, Severity::Error, "f", "x");
+        reporter.deliver(&[error], true);
+        assert_eq!(lock(&received).len(), 1);
     }
 }

@@ -299,6 +299,96 @@ fn the_tier_setting_limits_what_is_checked() {
     assert_eq!(run(&Chain::new()), [BOTH_USAGE_POINTERS, UNKNOWN_MICROMAP]);
 }
 
+/// What a debug-report callback received: flags, object type, object,
+/// message code, layer prefix.
+type Reported = std::sync::Mutex<
+    Vec<(
+        vk::DebugReportFlagsEXT,
+        vk::DebugReportObjectTypeEXT,
+        u64,
+        i32,
+        String,
+    )>,
+>;
+
+unsafe extern "system" fn record_report(
+    flags: vk::DebugReportFlagsEXT,
+    object_type: vk::DebugReportObjectTypeEXT,
+    object: u64,
+    _: usize,
+    code: i32,
+    prefix: *const std::ffi::c_char,
+    _: *const std::ffi::c_char,
+    user_data: *mut std::ffi::c_void,
+) -> vk::Bool32 {
+    // SAFETY: the test registers a `Reported` as user data; the layer
+    // passes a NUL-terminated prefix.
+    let (reported, prefix) = unsafe {
+        (
+            &*user_data.cast::<Reported>(),
+            std::ffi::CStr::from_ptr(prefix),
+        )
+    };
+    reported.lock().unwrap().push((
+        flags,
+        object_type,
+        object,
+        code,
+        prefix.to_string_lossy().into(),
+    ));
+    vk::FALSE
+}
+
+#[test]
+fn debug_report_callbacks_receive_messages_until_destroyed() {
+    let chain = Chain::new();
+    let reported = Reported::default();
+    let create: vk::PFN_vkCreateDebugReportCallbackEXT =
+        instance_fn(chain.instance, c"vkCreateDebugReportCallbackEXT");
+    let info = vk::DebugReportCallbackCreateInfoEXT {
+        flags: vk::DebugReportFlagsEXT::ERROR | vk::DebugReportFlagsEXT::WARNING,
+        pfn_callback: Some(record_report),
+        p_user_data: (&reported as *const Reported).cast_mut().cast(),
+        ..Default::default()
+    };
+    let mut callback = vk::DebugReportCallbackEXT::null();
+    // SAFETY: a valid create info; `reported` outlives the callback.
+    let result = unsafe { create(chain.instance, &info, std::ptr::null(), &mut callback) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    let build = DeviceBuild::new(&chain);
+    build.record_with_both_usage_pointers(&chain);
+    assert_eq!(
+        *reported.lock().unwrap(),
+        [(
+            vk::DebugReportFlagsEXT::ERROR,
+            vk::DebugReportObjectTypeEXT::COMMAND_BUFFER,
+            chain.command_buffer.as_raw(),
+            message_id(BOTH_USAGE_POINTERS) as i32,
+            "OMMCHECK".to_string()
+        )]
+    );
+    // The debug-utils messenger received it too.
+    assert_eq!(ids(&chain.collector.take()), [BOTH_USAGE_POINTERS]);
+
+    let destroy: vk::PFN_vkDestroyDebugReportCallbackEXT =
+        instance_fn(chain.instance, c"vkDestroyDebugReportCallbackEXT");
+    // SAFETY: the callback created above.
+    unsafe { destroy(chain.instance, callback, std::ptr::null()) };
+    assert_eq!(
+        calls("vkDestroyDebugReportCallbackEXT")
+            .iter()
+            .filter(|c| c.args == [callback.as_raw()])
+            .count(),
+        1
+    );
+    build.record_with_both_usage_pointers(&chain);
+    assert_eq!(
+        reported.lock().unwrap().len(),
+        1,
+        "no message after destruction"
+    );
+}
+
 /// The chain with `break_on_error` set through VK_EXT_layer_settings to
 /// `value`, after one faulty build: returns only when the layer did not
 /// stop the process.
@@ -392,12 +482,7 @@ fn messengers_get_only_what_their_masks_select_until_destroyed() {
         &warnings,
     );
     let build = DeviceBuild::new(&chain);
-    let pointers = [USAGE.as_ptr()];
-    let faulty = vk::MicromapBuildInfoEXT {
-        pp_usage_counts: pointers.as_ptr(),
-        ..build.info()
-    };
-    cmd_build(&chain, &faulty);
+    build.record_with_both_usage_pointers(&chain);
     assert!(
         warnings.take().is_empty(),
         "an error reached a warnings-only messenger"
@@ -409,7 +494,7 @@ fn messengers_get_only_what_their_masks_select_until_destroyed() {
     // SAFETY: a messenger of this instance.
     unsafe { destroy(chain.instance, chain.messenger, std::ptr::null()) };
     unsafe { destroy(chain.instance, only_warnings, std::ptr::null()) };
-    cmd_build(&chain, &faulty);
+    build.record_with_both_usage_pointers(&chain);
     assert!(
         chain.collector.take().is_empty(),
         "a destroyed messenger was called"

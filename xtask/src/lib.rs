@@ -1,35 +1,66 @@
 //! Project automation behind `cargo xtask`: code generation from the Vulkan
 //! registry and the test driver. A library so that tests can call the
 //! generators directly.
+//!
+//! Everything but `cargo xtask layer` is behind the `driver` feature (on by
+//! default): the `cargo xtask` alias builds without it, so building the
+//! layer does not first compile the test driver's dependencies, and the
+//! binary hands other commands to a build with it (see main.rs).
 
+#[cfg(feature = "driver")]
 pub mod ash_names;
+#[cfg(feature = "driver")]
 pub mod bench;
+#[cfg(feature = "driver")]
 pub mod catalog;
+#[cfg(feature = "driver")]
 mod drivers;
+#[cfg(feature = "driver")]
 pub mod faults;
+#[cfg(feature = "driver")]
 pub mod fuzz;
+#[cfg(feature = "driver")]
 pub mod khr;
 pub mod layer;
+#[cfg(feature = "driver")]
 pub mod registry;
+#[cfg(feature = "driver")]
 pub mod testing;
 
+#[cfg(feature = "driver")]
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+#[cfg(feature = "driver")]
 use std::process::{Command, Stdio};
 
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug)]
 pub enum Error {
-    #[error("registry: {0}")]
     Registry(String),
-    #[error("{0}")]
     Tool(String),
-    #[error("{path}: {source}")]
     Io {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{0}")]
     Stale(String),
+}
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Error::Registry(text) => write!(f, "registry: {text}"),
+            Error::Tool(text) | Error::Stale(text) => f.write_str(text),
+            Error::Io { path, source } => write!(f, "{}: {source}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
 }
 
 pub fn read(path: &Path) -> Result<String, Error> {
@@ -62,12 +93,14 @@ pub fn target_dir(root: &Path) -> PathBuf {
         .unwrap_or_else(|| root.join("target"))
 }
 
+#[cfg(feature = "driver")]
 /// `../shared/vulkan-registry` beside the workspace, where the project keeps
 /// the registry of Vulkan 1.4.360.
 pub fn default_registry() -> PathBuf {
     workspace_root().join("../shared/vulkan-registry")
 }
 
+#[cfg(feature = "driver")]
 /// Formats generated source with the toolchain's rustfmt, so generated files
 /// pass `cargo fmt --check` and regenerate byte for byte.
 pub fn rustfmt(source: &str) -> Result<String, Error> {
@@ -100,6 +133,7 @@ pub fn rustfmt(source: &str) -> Result<String, Error> {
     String::from_utf8(output.stdout).map_err(|e| Error::Tool(format!("rustfmt output: {e}")))
 }
 
+#[cfg(feature = "driver")]
 /// Paths (relative to the workspace root) and contents of every generated file.
 pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, Error> {
     let catalog = catalog::select(registry)?;
@@ -117,6 +151,7 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
     ])
 }
 
+#[cfg(feature = "driver")]
 /// Compares generated files with the committed ones; names each stale file.
 pub fn check_generated(registry: &Path, root: &Path) -> Result<(), Error> {
     let mut stale = Vec::new();

@@ -1,189 +1,259 @@
-use std::path::PathBuf;
-use std::process::ExitCode;
+//! `cargo xtask`. `layer` runs here whatever the features; every other
+//! command needs the `driver` feature, and a build without it (the alias's)
+//! hands the command to `cargo run -p xtask`, which builds with it.
 
-use clap::{Parser, Subcommand};
+use std::ffi::OsString;
+use std::process::ExitCode;
 
 use xtask::layer;
 
-/// Project automation for ommcheck.
-#[derive(Parser)]
-#[command(name = "cargo xtask")]
-struct Cli {
-    #[command(subcommand)]
-    command: Task,
-}
-
-#[derive(Subcommand)]
-enum Task {
-    /// Generate the VUID catalog and the KHR declarations from the Vulkan registry.
-    Vuids {
-        /// Directory with vk.xml and validusage.json (a Vulkan SDK has them in
-        /// $VULKAN_SDK/share/vulkan/registry).
-        #[arg(long, default_value_os_t = xtask::default_registry())]
-        registry: PathBuf,
-        /// Fail if the committed files differ from what the registry generates.
-        #[arg(long)]
-        check: bool,
-    },
-    /// Write VUID-COVERAGE.md (every catalog VUID's status) and README.md's table of our rules.
-    Coverage,
-    /// Build the Vulkan layer in release and write its manifest, VkLayer_ommcheck.json.
-    Layer {
-        /// The directory the manifest is written to (default: target/layer).
-        #[arg(long)]
-        out_dir: Option<PathBuf>,
-    },
-    /// Check the seeded fault corpus at each tier and print the accuracy table.
-    Accuracy {
-        /// The corpus seed.
-        #[arg(long, default_value_t = xtask::faults::SEED)]
-        seed: u64,
-    },
-    /// Run the ommcheck benchmarks; write target/bench/README-table.md and tiers.svg.
-    Bench {
-        /// criterion's short run: 1 s warm-up, 2 s measurement per benchmark.
-        #[arg(long)]
-        quick: bool,
-        /// Skip criterion; run only the layer overhead per call (omm-app over
-        /// the Mock ICD) and replace its section of the table.
-        #[arg(long)]
-        overhead_only: bool,
-    },
-    /// Install what the tests need, then run fmt, clippy and the whole test suite.
-    Test {
-        /// Do not install missing prerequisites; report them.
-        #[arg(long)]
-        no_install: bool,
-        /// Instead of the suite: the loader end-to-end tests (tests/loader.rs,
-        /// tests/layer_e2e.rs) with the test binaries and the layer built
-        /// with AddressSanitizer (nightly).
-        #[arg(long)]
-        sanitize: bool,
-    },
-    /// Fuzz the reader (device and host builds), decoder, simulator and
-    /// scene parser with cargo-fuzz (installing nightly and cargo-fuzz where
-    /// missing).
-    Fuzz {
-        /// 25 s per target, as `cargo xtask test` runs it.
-        #[arg(long, conflicts_with_all = ["long", "seconds"])]
-        smoke: bool,
-        /// 10 minutes per target.
-        #[arg(long, conflicts_with = "seconds")]
-        long: bool,
-        /// Seconds per target (default: the smoke run's).
-        #[arg(long)]
-        seconds: Option<u64>,
-        /// Afterwards, replace fuzz/corpus/<target> with the inputs of it and
-        /// of the run that add coverage.
-        #[arg(long)]
-        minimize: bool,
-        /// Targets to run (default: all).
-        targets: Vec<String>,
-    },
-}
-
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let root = xtask::workspace_root();
-    let result = match cli.command {
-        Task::Vuids { registry, check } => {
-            if check {
-                xtask::check_generated(&registry, &root).map(|()| {
-                    println!("generated files are up to date with {}", registry.display());
-                })
-            } else {
-                xtask::generate(&registry, &root).and_then(|files| {
-                    for (path, content) in files {
-                        let full = root.join(&path);
-                        std::fs::write(&full, content)
-                            .map_err(|source| xtask::Error::Io { path: full, source })?;
-                        println!("wrote {}", path.display());
-                    }
-                    Ok(())
-                })
-            }
-        }
-        Task::Coverage => {
-            let path = root.join("VUID-COVERAGE.md");
-            let readme_path = root.join("README.md");
-            ommcheck::coverage::corpus_tiers(&root.join(ommcheck::coverage::CORPUS))
-                .map_err(xtask::Error::Tool)
-                .and_then(|tiers| {
-                    // Flag a rule whose check waits for more than its inputs need.
-                    for (rule, measured, needed) in
-                        ommcheck::coverage::measured_above_needed(&tiers)
-                    {
-                        eprintln!("xtask coverage: {rule} is measured at the {measured} tier, but its inputs need only {needed}");
-                    }
-                    std::fs::write(&path, ommcheck::coverage::render(&tiers))
-                        .map_err(|source| xtask::Error::Io { path, source })
-                })
-                .and_then(|()| xtask::read(&readme_path))
-                .and_then(|readme| {
-                    let updated = ommcheck::coverage::update_readme(&readme).ok_or_else(|| {
-                        xtask::Error::Tool("README.md lacks the ommcheck-rules markers".into())
-                    })?;
-                    std::fs::write(&readme_path, updated).map_err(|source| xtask::Error::Io {
-                        path: readme_path,
-                        source,
-                    })
-                })
-                .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
-        }
-        Task::Layer { out_dir } => layer::build(&root, out_dir).map(|dir| {
-            println!("{}", dir.display());
-        }),
-        Task::Accuracy { seed } => {
-            let classes = xtask::faults::classes().len();
-            xtask::faults::accuracy(&xtask::faults::corpus(seed))
-                .map_err(xtask::Error::Tool)
-                .map(|table| print!("{}", xtask::faults::render(&table, classes)))
-        }
-        Task::Bench {
-            quick,
-            overhead_only,
-        } => xtask::bench::run(&root, quick, overhead_only),
-        Task::Test {
-            no_install,
-            sanitize: false,
-        } => xtask::testing::run(&root, !no_install),
-        Task::Test {
-            no_install,
-            sanitize: true,
-        } => xtask::testing::sanitize(&root, !no_install),
-        Task::Fuzz {
-            smoke: _,
-            long,
-            seconds,
-            minimize,
-            targets,
-        } => {
-            let seconds = seconds.unwrap_or(if long {
-                xtask::fuzz::LONG_SECONDS
-            } else {
-                xtask::fuzz::SMOKE_SECONDS
-            });
-            let targets = if targets.is_empty() {
-                xtask::fuzz::TARGETS.map(String::from).to_vec()
-            } else {
-                targets
-            };
-            xtask::fuzz::run(
-                &root,
-                &xtask::fuzz::Options {
-                    seconds,
-                    targets,
-                    minimize,
-                },
-            )
-            .map(|_| ())
+    let args: Vec<OsString> = std::env::args_os().skip(1).collect();
+    if args.first().is_some_and(|arg| arg == "layer") {
+        return layer_command(&args[1..]);
+    }
+    driver::main()
+}
+
+/// `cargo xtask layer ARGS`.
+fn layer_command(args: &[OsString]) -> ExitCode {
+    let options = match layer::parse_args(args) {
+        Ok(options) => options,
+        Err(text) => {
+            eprintln!("{text}");
+            return ExitCode::FAILURE;
         }
     };
+    if options.help {
+        println!("{}", layer::USAGE);
+        return ExitCode::SUCCESS;
+    }
+    finish(layer::run(&xtask::workspace_root(), &options).map(|lines| {
+        for line in lines {
+            println!("{line}");
+        }
+    }))
+}
+
+fn finish(result: Result<(), xtask::Error>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Without the `driver` feature: the same command through a build with it.
+#[cfg(not(feature = "driver"))]
+mod driver {
+    use std::process::{Command, ExitCode};
+
+    pub fn main() -> ExitCode {
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let status = Command::new(cargo)
+            .current_dir(xtask::workspace_root())
+            .args(["run", "--quiet", "--package", "xtask", "--"])
+            .args(std::env::args_os().skip(1))
+            .status();
+        match status {
+            Ok(status) => status
+                .code()
+                .and_then(|code| u8::try_from(code).ok())
+                .map_or(ExitCode::FAILURE, ExitCode::from),
+            Err(e) => {
+                eprintln!("error: cannot run cargo: {e}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+}
+
+/// The commands of the test driver.
+#[cfg(feature = "driver")]
+mod driver {
+    use std::ffi::OsString;
+    use std::path::PathBuf;
+    use std::process::ExitCode;
+
+    use clap::{Parser, Subcommand};
+
+    /// Project automation for ommcheck.
+    #[derive(Parser)]
+    #[command(name = "cargo xtask")]
+    struct Cli {
+        #[command(subcommand)]
+        command: Task,
+    }
+
+    #[derive(Subcommand)]
+    enum Task {
+        /// Generate the VUID catalog and the KHR declarations from the Vulkan registry.
+        Vuids {
+            /// Directory with vk.xml and validusage.json (a Vulkan SDK has them in
+            /// $VULKAN_SDK/share/vulkan/registry).
+            #[arg(long, default_value_os_t = xtask::default_registry())]
+            registry: PathBuf,
+            /// Fail if the committed files differ from what the registry generates.
+            #[arg(long)]
+            check: bool,
+        },
+        /// Write VUID-COVERAGE.md (every catalog VUID's status) and README.md's table of our rules.
+        Coverage,
+        /// Build the Vulkan layer in release and write its manifest,
+        /// VkLayer_ommcheck.json; --install, --uninstall (`cargo xtask layer --help`).
+        Layer {
+            #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+            args: Vec<OsString>,
+        },
+        /// Check the seeded fault corpus at each tier and print the accuracy table.
+        Accuracy {
+            /// The corpus seed.
+            #[arg(long, default_value_t = xtask::faults::SEED)]
+            seed: u64,
+        },
+        /// Run the ommcheck benchmarks; write target/bench/README-table.md and tiers.svg.
+        Bench {
+            /// criterion's short run: 1 s warm-up, 2 s measurement per benchmark.
+            #[arg(long)]
+            quick: bool,
+            /// Skip criterion; run only the layer overhead per call (omm-app over
+            /// the Mock ICD) and replace its section of the table.
+            #[arg(long)]
+            overhead_only: bool,
+        },
+        /// Install what the tests need, then run fmt, clippy and the whole test suite.
+        Test {
+            /// Do not install missing prerequisites; report them.
+            #[arg(long)]
+            no_install: bool,
+            /// Instead of the suite: the loader end-to-end tests (tests/loader.rs,
+            /// tests/layer_e2e.rs) with the test binaries and the layer built
+            /// with AddressSanitizer (nightly).
+            #[arg(long)]
+            sanitize: bool,
+        },
+        /// Fuzz the reader (device and host builds), decoder, simulator and
+        /// scene parser with cargo-fuzz (installing nightly and cargo-fuzz where
+        /// missing).
+        Fuzz {
+            /// 25 s per target, as `cargo xtask test` runs it.
+            #[arg(long, conflicts_with_all = ["long", "seconds"])]
+            smoke: bool,
+            /// 10 minutes per target.
+            #[arg(long, conflicts_with = "seconds")]
+            long: bool,
+            /// Seconds per target (default: the smoke run's).
+            #[arg(long)]
+            seconds: Option<u64>,
+            /// Afterwards, replace fuzz/corpus/<target> with the inputs of it and
+            /// of the run that add coverage.
+            #[arg(long)]
+            minimize: bool,
+            /// Targets to run (default: all).
+            targets: Vec<String>,
+        },
+    }
+
+    pub fn main() -> ExitCode {
+        let cli = Cli::parse();
+        let root = xtask::workspace_root();
+        let result = match cli.command {
+            Task::Vuids { registry, check } => {
+                if check {
+                    xtask::check_generated(&registry, &root).map(|()| {
+                        println!("generated files are up to date with {}", registry.display());
+                    })
+                } else {
+                    xtask::generate(&registry, &root).and_then(|files| {
+                        for (path, content) in files {
+                            let full = root.join(&path);
+                            std::fs::write(&full, content)
+                                .map_err(|source| xtask::Error::Io { path: full, source })?;
+                            println!("wrote {}", path.display());
+                        }
+                        Ok(())
+                    })
+                }
+            }
+            Task::Coverage => {
+                let path = root.join("VUID-COVERAGE.md");
+                let readme_path = root.join("README.md");
+                ommcheck::coverage::corpus_tiers(&root.join(ommcheck::coverage::CORPUS))
+                    .map_err(xtask::Error::Tool)
+                    .and_then(|tiers| {
+                        // Flag a rule whose check waits for more than its inputs need.
+                        for (rule, measured, needed) in
+                            ommcheck::coverage::measured_above_needed(&tiers)
+                        {
+                            eprintln!("xtask coverage: {rule} is measured at the {measured} tier, but its inputs need only {needed}");
+                        }
+                        std::fs::write(&path, ommcheck::coverage::render(&tiers))
+                            .map_err(|source| xtask::Error::Io { path, source })
+                    })
+                    .and_then(|()| xtask::read(&readme_path))
+                    .and_then(|readme| {
+                        let updated =
+                            ommcheck::coverage::update_readme(&readme).ok_or_else(|| {
+                                xtask::Error::Tool(
+                                    "README.md lacks the ommcheck-rules markers".into(),
+                                )
+                            })?;
+                        std::fs::write(&readme_path, updated).map_err(|source| xtask::Error::Io {
+                            path: readme_path,
+                            source,
+                        })
+                    })
+                    .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
+            }
+            Task::Layer { args } => return super::layer_command(&args),
+            Task::Accuracy { seed } => {
+                let classes = xtask::faults::classes().len();
+                xtask::faults::accuracy(&xtask::faults::corpus(seed))
+                    .map_err(xtask::Error::Tool)
+                    .map(|table| print!("{}", xtask::faults::render(&table, classes)))
+            }
+            Task::Bench {
+                quick,
+                overhead_only,
+            } => xtask::bench::run(&root, quick, overhead_only),
+            Task::Test {
+                no_install,
+                sanitize: false,
+            } => xtask::testing::run(&root, !no_install),
+            Task::Test {
+                no_install,
+                sanitize: true,
+            } => xtask::testing::sanitize(&root, !no_install),
+            Task::Fuzz {
+                smoke: _,
+                long,
+                seconds,
+                minimize,
+                targets,
+            } => {
+                let seconds = seconds.unwrap_or(if long {
+                    xtask::fuzz::LONG_SECONDS
+                } else {
+                    xtask::fuzz::SMOKE_SECONDS
+                });
+                let targets = if targets.is_empty() {
+                    xtask::fuzz::TARGETS.map(String::from).to_vec()
+                } else {
+                    targets
+                };
+                xtask::fuzz::run(
+                    &root,
+                    &xtask::fuzz::Options {
+                        seconds,
+                        targets,
+                        minimize,
+                    },
+                )
+                .map(|_| ())
+            }
+        };
+        super::finish(result)
     }
 }

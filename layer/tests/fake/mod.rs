@@ -229,6 +229,24 @@ unsafe extern "system" fn destroy_messenger(
     record("vkDestroyDebugUtilsMessengerEXT", vec![m.as_raw()]);
 }
 
+unsafe extern "system" fn create_report_callback(
+    _: vk::Instance,
+    _: *const vk::DebugReportCallbackCreateInfoEXT<'_>,
+    _: *const vk::AllocationCallbacks<'_>,
+    out: *mut vk::DebugReportCallbackEXT,
+) -> vk::Result {
+    unsafe { *out = vk::DebugReportCallbackEXT::from_raw(next_handle()) };
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn destroy_report_callback(
+    _: vk::Instance,
+    c: vk::DebugReportCallbackEXT,
+    _: *const vk::AllocationCallbacks<'_>,
+) {
+    record("vkDestroyDebugReportCallbackEXT", vec![c.as_raw()]);
+}
+
 unsafe extern "system" fn create_buffer(
     _: vk::Device,
     info: *const vk::BufferCreateInfo<'_>,
@@ -1340,6 +1358,12 @@ pub unsafe extern "system" fn fake_gipa(
         b"vkDestroyDebugUtilsMessengerEXT" => {
             void(destroy_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT)
         }
+        b"vkCreateDebugReportCallbackEXT" => {
+            void(create_report_callback as vk::PFN_vkCreateDebugReportCallbackEXT)
+        }
+        b"vkDestroyDebugReportCallbackEXT" => {
+            void(destroy_report_callback as vk::PFN_vkDestroyDebugReportCallbackEXT)
+        }
         b"vkGetDeviceProcAddr" => void(fake_gdpa as vk::PFN_vkGetDeviceProcAddr),
         b"vkGetPhysicalDeviceProperties2" => {
             void(get_properties2 as vk::PFN_vkGetPhysicalDeviceProperties2)
@@ -1739,6 +1763,20 @@ impl DeviceBuild {
             input: chain.address(input),
             scratch: chain.address(scratch),
         }
+    }
+
+    /// Records this build through the layer with both `pUsageCounts` and
+    /// `ppUsageCounts` set (VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516).
+    pub fn record_with_both_usage_pointers(&self, chain: &Chain) {
+        let pointers = [USAGE.as_ptr()];
+        let faulty = vk::MicromapBuildInfoEXT {
+            pp_usage_counts: pointers.as_ptr(),
+            ..self.info()
+        };
+        let cmd: vk::PFN_vkCmdBuildMicromapsEXT =
+            device_fn(chain.device, c"vkCmdBuildMicromapsEXT");
+        // SAFETY: valid pointers for one info.
+        unsafe { cmd(chain.command_buffer, 1, &faulty) };
     }
 
     /// A valid build info: the triangle array at the start of the input
