@@ -182,6 +182,13 @@ pub fn plan(
             "they lie in memory the host cannot read and GPU readback is off (setting gpu_readback, {GPU_READBACK})"
         ));
     }
+    let memory_fns = &data.fns.memory;
+    if memory_fns.cmd_pipeline_barrier.is_none() || memory_fns.cmd_copy_buffer.is_none() {
+        return Plan::NotReadBack(
+            "readback-setup",
+            "the layer could not set up GPU readback: the next layer lacks vkCmdPipelineBarrier or vkCmdCopyBuffer".into(),
+        );
+    }
     let tracked = state.validator.state();
     if let Some(w) = windows.iter().find(|w| {
         tracked
