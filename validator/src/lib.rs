@@ -71,6 +71,7 @@ pub mod checks;
 pub mod coverage;
 pub mod device;
 pub mod model;
+pub mod not_checked;
 pub mod raw;
 pub mod report;
 pub mod rules;
@@ -82,6 +83,7 @@ pub mod tier;
 mod validator;
 
 pub use device::{Device, Features, Limits, Profile};
-pub use report::{Finding, Report, RuleId, Severity};
+pub use not_checked::{Cause, NotChecked, RuleSet};
+pub use report::{Finding, Report, ReportSummary, RuleId, Severity};
 pub use tier::Tier;
 pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};

@@ -8,7 +8,8 @@ use ommcheck_vuids::Vuid;
 
 use crate::model::command::queue;
 use crate::model::{CommandBuffer, MicromapTriangle};
-use crate::report::{RuleId, Severity};
+use crate::not_checked::Cause;
+use crate::report::{ObjectRef, RuleId, Severity};
 use crate::state::Handle;
 use crate::validator::Ctx;
 
@@ -278,6 +279,76 @@ pub(crate) fn readable_entries(len: u64, stride: u64) -> u64 {
         (None, _) => 0,
         (Some(_), 0) => 1,
         (Some(last_start), stride) => last_start / stride + 1,
+    }
+}
+
+/// Reports `rules` not checked because the memory `location` names, at
+/// `address`, could not be read: host memory nobody described, an address
+/// no known buffer holds, or a buffer whose contents were not given (or
+/// that is not bound). Nothing is reported where an address rule already
+/// reports the address (NULL, or outside every buffer or described host
+/// range), nor for device memory an adaptor reads later
+/// ([`Ctx::device_contents_later`]).
+pub(crate) fn unreadable(
+    ctx: &mut Ctx<'_>,
+    host: bool,
+    address: u64,
+    rules: &[RuleId],
+    location: impl Display,
+) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if address == 0 {
+        return;
+    }
+    if host {
+        if state.describes_all_host_memory() && state.host_bytes_from(address).is_none() {
+            return;
+        }
+        ctx.not_checked(
+            Cause::HostMemory,
+            rules,
+            location.to_string(),
+            None,
+            format_args!("the host memory at {location} ({address:#x}) was not described to the checker, so its extent is unknown"),
+        );
+        return;
+    }
+    if ctx.device_contents_later {
+        return;
+    }
+    match state.buffers_at(address).next() {
+        None if state.knows_addresses() => {}
+        None => ctx.not_checked(
+            Cause::UnknownAddress,
+            rules,
+            location.to_string(),
+            None,
+            format_args!(
+                "no buffer whose device address the checker knows holds {location} ({address:#x})"
+            ),
+        ),
+        Some((handle, buffer)) => {
+            let object = Some(ObjectRef {
+                ty: "VkBuffer",
+                handle,
+            });
+            let why = if buffer.memory.is_none() {
+                "is not bound to memory, so it has no contents to read"
+            } else if buffer.contents.is_none() {
+                "has no contents the checker was given"
+            } else {
+                "has contents that end before it"
+            };
+            ctx.not_checked(
+                Cause::Contents,
+                rules,
+                location.to_string(),
+                object,
+                format_args!("VkBuffer {handle:#x}, which holds {location} ({address:#x}), {why}"),
+            );
+        }
     }
 }
 

@@ -113,6 +113,9 @@ impl Validator {
         build: &DeviceBuild,
     ) -> (Report, Vec<Option<MicromapContent>>) {
         let mut ctx = self.ctx(build.function());
+        // Device memory the adaptor could not read is its to report (the
+        // layer's `OMMCHECK-layer-contents-not-checked`).
+        ctx.device_contents_later = true;
         let contents = match build {
             DeviceBuild::Micromaps(infos) => {
                 micromap_build::cmd_build_micromaps_rules(&mut ctx, command_buffer, infos)
@@ -160,6 +163,7 @@ impl Validator {
                 .into_iter()
                 .filter(|finding| !without.findings.contains(finding))
                 .collect(),
+            checked: with.checked,
         }
     }
 

@@ -744,7 +744,7 @@ impl Validator {
                 &mut findings,
             )
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.cmd_build_acceleration_structures(command_buffer, &model, &ranges));
         report
     }
@@ -806,8 +806,12 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let ranges =
             unsafe { read_build_range_infos(infos, model.len(), ranges, CMD_BUILD, &mut findings) };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
+        // The caller reads the build's device memory at submission and
+        // reports there what it cannot read.
+        let later = std::mem::replace(&mut self.device_contents_later, true);
         report.extend(self.cmd_build_acceleration_structures(command_buffer, &model, &ranges));
+        self.device_contents_later = later;
         let build = DeviceBuild::AccelerationStructures {
             infos: model,
             ranges,
@@ -843,7 +847,7 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let mut report = unsafe { self.build_acceleration_structures_ash(infos, ranges) };
         findings.append(&mut report.findings);
-        Report { findings }
+        Report::from(findings)
     }
 
     /// Checks `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer,
@@ -870,7 +874,7 @@ impl Validator {
             .take(MAX_ELEMENTS)
             .map(|counts| Some(counts.iter().take(MAX_ELEMENTS).copied().collect()))
             .collect();
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.cmd_build_acceleration_structures_indirect(
             command_buffer,
             &model,
@@ -930,7 +934,7 @@ impl Validator {
                 unsafe { self.describe_host_range(&read, HOST_BUILD, &mut findings) };
             }
         }
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.build_acceleration_structures(&model, &ranges));
         // Host memory read for this call is forgotten after it.
         self.state.host_memory.truncate(described_before);
@@ -976,7 +980,7 @@ impl Validator {
                 model.geometry_count = model.geometry_count.min(read);
             }
         }
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.get_acceleration_structure_build_sizes(
             build_type.as_raw(),
             &model,
@@ -1014,7 +1018,7 @@ impl Validator {
             ty: info.ty.as_raw(),
             device_address: info.device_address,
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(
             self.create_acceleration_structure(&model, vk::Handle::as_raw(acceleration_structure)),
         );
@@ -1050,7 +1054,7 @@ impl Validator {
             address_flags: info.address_flags.as_raw(),
             ty: info.ty.as_raw(),
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(
             self.create_acceleration_structure2(&model, vk::Handle::as_raw(acceleration_structure)),
         );

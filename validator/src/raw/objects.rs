@@ -287,7 +287,7 @@ impl Validator {
             micromap_requested.then_some(0),
         );
         findings.extend(report.findings);
-        Report { findings }
+        Report::from(findings)
     }
 
     /// Records the micromap `vkCreateMicromapEXT` created, without checking

@@ -23,7 +23,7 @@ use ommcheck::vuids::vuid::{
     VkClusterAccelerationStructureBuildTriangleClusterInfoNV as cluster,
     VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
 };
-use ommcheck::{Report, RuleId, Validator};
+use ommcheck::{Report, RuleId, Severity, Validator};
 
 use crate::fixtures::*;
 use crate::{case, Case};
@@ -1486,5 +1486,69 @@ fn usage_count_findings_name_the_key_and_the_counts() {
             && finding.message.contains("0 times"),
         "{}",
         finding.message
+    );
+}
+
+#[test]
+fn an_attachment_to_a_micromap_whose_build_was_not_seen_says_what_it_skips() {
+    let mut v = world();
+    v.state_mut()
+        .micromaps
+        .get_mut(&MICROMAP)
+        .expect("fixture")
+        .built = None;
+    let report = cmd_in(v, &[device_blas(with_ext(ext_ok()))]);
+    let skipped: Vec<_> = report.not_checked().collect();
+    assert_eq!(skipped.len(), 1, "{report}");
+    let finding = skipped[0];
+    assert_eq!(finding.rule.as_str(), "OMMCHECK-not-checked-build-not-seen");
+    assert_eq!(finding.severity, Severity::Info);
+    assert!(finding.location.ends_with(".micromap"), "{finding}");
+    assert_eq!(finding.objects[0].handle, MICROMAP);
+    assert_eq!(
+        finding.not_checked,
+        [
+            RuleId::from(&rules::INDEX_IN_RANGE),
+            RuleId::from(&rules::ATTACH_USAGE_COUNTS)
+        ]
+    );
+    assert!(finding.message.contains("Validator::cmd_build_micromaps"));
+    assert!(!report.has_errors(), "{report}");
+    // The built twin decides both.
+    let built = ok_ext();
+    assert!(built.not_checked().all(|f| !f
+        .not_checked
+        .contains(&RuleId::from(&rules::INDEX_IN_RANGE))));
+    assert!(built.checked.contains(&rules::INDEX_IN_RANGE));
+}
+
+#[test]
+fn unreadable_index_buffers_and_instances_are_reported_not_checked() {
+    let mut v = world();
+    v.state_mut()
+        .buffers
+        .get_mut(&INPUT)
+        .expect("fixture")
+        .contents = None;
+    let report = cmd_in(v, &[device_blas(with_ext(ext_ok()))]);
+    let finding = report
+        .not_checked()
+        .find(|f| f.location.ends_with(".indexBuffer"))
+        .unwrap_or_else(|| panic!("{report}"));
+    assert_eq!(finding.rule.as_str(), "OMMCHECK-not-checked-contents");
+    assert_eq!(finding.objects[0].handle, INPUT);
+    assert!(finding
+        .not_checked
+        .contains(&RuleId::from(&rules::INDEX_IN_RANGE)));
+    assert!(report.require_fully_checked().is_err());
+    let summary = report.summary();
+    assert!(summary.rules_not_checked >= 1);
+    // With the contents given, the indices are read.
+    let readable = ok_ext();
+    assert!(
+        readable
+            .not_checked()
+            .all(|f| !f.location.ends_with(".indexBuffer")),
+        "{readable}"
     );
 }
