@@ -277,24 +277,7 @@ impl Report {
 
     /// Counts of the findings by severity and of the rules checked.
     pub fn summary(&self) -> ReportSummary {
-        let mut summary = ReportSummary::default();
-        let mut not_checked = RuleSet::new();
-        for finding in &self.findings {
-            summary.findings += 1;
-            match finding.severity {
-                Severity::Error => summary.errors += 1,
-                Severity::Warning => summary.warnings += 1,
-                Severity::Info => summary.info += 1,
-            }
-            for rule in &finding.not_checked {
-                not_checked.insert(*rule);
-            }
-        }
-        let mut checked = self.checked;
-        checked.remove_all(&not_checked);
-        summary.rules_checked = checked.len();
-        summary.rules_not_checked = not_checked.len();
-        summary
+        ReportSummary::of([self])
     }
 
     pub fn is_empty(&self) -> bool {
@@ -360,14 +343,31 @@ pub struct ReportSummary {
 }
 
 impl ReportSummary {
-    /// Adds `other`'s finding counts. Rule counts of separate reports do
-    /// not add up (one rule checked in both counts once): take them from
-    /// the summary of the reports [`Report::extend`]ed into one.
-    pub fn add_findings(&mut self, other: &ReportSummary) {
-        self.findings += other.findings;
-        self.errors += other.errors;
-        self.warnings += other.warnings;
-        self.info += other.info;
+    /// The counts over `reports` together: each finding counted once, and
+    /// each rule once however many reports checked it (a rule one report
+    /// could not check is not checked).
+    pub fn of<'a>(reports: impl IntoIterator<Item = &'a Report>) -> Self {
+        let mut summary = ReportSummary::default();
+        let mut checked = RuleSet::new();
+        let mut not_checked = RuleSet::new();
+        for report in reports {
+            checked.union(&report.checked);
+            for finding in &report.findings {
+                summary.findings += 1;
+                match finding.severity {
+                    Severity::Error => summary.errors += 1,
+                    Severity::Warning => summary.warnings += 1,
+                    Severity::Info => summary.info += 1,
+                }
+                for rule in &finding.not_checked {
+                    not_checked.insert(*rule);
+                }
+            }
+        }
+        checked.remove_all(&not_checked);
+        summary.rules_checked = checked.len();
+        summary.rules_not_checked = not_checked.len();
+        summary
     }
 }
 

@@ -845,9 +845,10 @@ impl Validator {
             )
         };
         // SAFETY: forwarded from the caller.
-        let mut report = unsafe { self.build_acceleration_structures_ash(infos, ranges) };
-        findings.append(&mut report.findings);
-        Report::from(findings)
+        let report = unsafe { self.build_acceleration_structures_ash(infos, ranges) };
+        let mut out = Report::from(findings);
+        out.extend(report);
+        out
     }
 
     /// Checks `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer,

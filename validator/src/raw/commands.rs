@@ -526,9 +526,10 @@ impl Validator {
 }
 
 /// The reader's findings first, then the check's.
-fn with_findings(mut findings: Vec<Finding>, report: Report) -> Report {
-    findings.extend(report.findings);
-    Report::from(findings)
+fn with_findings(findings: Vec<Finding>, report: Report) -> Report {
+    let mut out = Report::from(findings);
+    out.extend(report);
+    out
 }
 
 /// # Safety

@@ -286,8 +286,9 @@ impl Validator {
             callbacks.as_ref(),
             micromap_requested.then_some(0),
         );
-        findings.extend(report.findings);
-        Report::from(findings)
+        let mut out = Report::from(findings);
+        out.extend(report);
+        out
     }
 
     /// Records the micromap `vkCreateMicromapEXT` created, without checking
