@@ -80,10 +80,12 @@ pub mod sim;
 pub mod state;
 pub mod summary;
 pub mod tier;
+pub mod tracked;
 mod validator;
 
 pub use device::{Device, Features, Limits, Profile};
 pub use not_checked::{Cause, NotChecked, RuleSet};
 pub use report::{Finding, Report, ReportSummary, RuleId, Severity};
 pub use tier::Tier;
+pub use tracked::{DescribesDevice, HostBytes};
 pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};

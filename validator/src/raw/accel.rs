@@ -1002,7 +1002,6 @@ impl Validator {
     ) -> Report {
         let mut findings = Vec::new();
         let model = AccelerationStructureCreateInfo {
-            s_type: info.s_type.as_raw(),
             // SAFETY: forwarded from the caller.
             next: unsafe {
                 chain_s_types(
@@ -1012,12 +1011,7 @@ impl Validator {
                     &mut findings,
                 )
             },
-            create_flags: info.create_flags.as_raw(),
-            buffer: vk::Handle::as_raw(info.buffer),
-            offset: info.offset,
-            size: info.size,
-            ty: info.ty.as_raw(),
-            device_address: info.device_address,
+            ..AccelerationStructureCreateInfo::from_members(info)
         };
         let mut report = Report::from(findings);
         report.extend(
