@@ -1073,18 +1073,18 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         } else {
             Cause::Contents
         };
+        let (unread, verb) = if read + 1 == distinct {
+            (format!("index {read}"), "lies")
+        } else {
+            (format!("indices {read} to {}", distinct - 1), "lie")
+        };
         ctx.not_checked(
             cause,
             &index_rules,
             array.clone(),
             None,
             format_args!(
-                "{} of {count} lie past the {} bytes the checker can read from indexBuffer ({:#x}) on",
-                if read + 1 == distinct {
-                    format!("index {read}")
-                } else {
-                    format!("indices {read} to {}", distinct - 1)
-                },
+                "{unread} of {count} {verb} past the {} bytes the checker can read from indexBuffer ({:#x}) on",
                 bytes.len(),
                 a.index_buffer
             ),
