@@ -27,6 +27,7 @@ pub(crate) struct CommandBufferVuids {
 /// Checks the command buffer of a command that needs a compute-capable queue.
 pub(crate) fn command_buffer(ctx: &mut Ctx<'_>, cb: &CommandBuffer, vuids: &CommandBufferVuids) {
     let handle = cb.handle;
+    ctx.checked(&[vuids.recording.into()]);
     ctx.require(
         handle != 0,
         vuids.parameter,
@@ -86,6 +87,7 @@ pub(crate) fn command_buffer(ctx: &mut Ctx<'_>, cb: &CommandBuffer, vuids: &Comm
 /// any non-NULL handle is taken to be it).
 pub(crate) fn device_handle(ctx: &mut Ctx<'_>, device: Handle, vuid: Vuid) {
     let known = ctx.device.handle;
+    ctx.checked(&[vuid.into()]);
     if device == 0 {
         ctx.error(vuid, "device", "device is VK_NULL_HANDLE");
     } else if known != 0 && device != known {
@@ -135,6 +137,10 @@ pub(crate) fn deferred_operation(
     let Some(state) = ctx.state else {
         return;
     };
+    ctx.checked(&[vuids.parameter.into()]);
+    if let Some(complete) = vuids.complete {
+        ctx.checked(&[complete.into()]);
+    }
     if !state.deferred_operations.contains(&handle) {
         ctx.error(
             vuids.parameter,
@@ -360,6 +366,10 @@ pub(crate) fn valid_device_address(
     vuid: Vuid,
     location: impl Display,
 ) {
+    // Decided where the address is 0 or buffer addresses are known.
+    if address == 0 || ctx.state.is_some_and(|state| state.knows_addresses()) {
+        ctx.checked(&[vuid.into()]);
+    }
     if address == 0 {
         ctx.error(vuid, location.to_string(), "the address is 0");
     } else if ctx
@@ -392,6 +402,7 @@ pub(crate) fn device_address_usage(
     let Some((handle, first)) = buffers.next() else {
         return;
     };
+    ctx.checked(&[vuid.into()]);
     if first.usage & usage == 0 && !buffers.any(|(_, b)| b.usage & usage != 0) {
         ctx.error(vuid, location.to_string(), format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
             .objects
@@ -407,6 +418,7 @@ pub(crate) fn aligned(
     vuid: Vuid,
     location: impl Display,
 ) {
+    ctx.checked(&[vuid.into()]);
     if alignment != 0 && value % alignment != 0 {
         ctx.error(
             vuid,
