@@ -1451,12 +1451,6 @@ fn update_matches_original(
     let Some(state) = ctx.state else {
         return;
     };
-    let Some(original) = state
-        .original_attachments
-        .get(&info.src_acceleration_structure)
-    else {
-        return; // The original build is unknown.
-    };
     let (kept_micromap, kept_null, none_added, same_handle) = match command {
         BuildCommand::Indirect => (
             indirect::micromap_11625,
@@ -1471,6 +1465,33 @@ fn update_matches_original(
             cmd::micromap_11629,
         ),
     };
+    let update_rules: [RuleId; 4] = [
+        kept_micromap.into(),
+        kept_null.into(),
+        none_added.into(),
+        same_handle.into(),
+    ];
+    let Some(original) = state
+        .original_attachments
+        .get(&info.src_acceleration_structure)
+    else {
+        // A source the checker tracks, whose original build it did not see.
+        let src = info.src_acceleration_structure;
+        if state.acceleration_structures.contains_key(&src) {
+            ctx.not_checked(
+                Cause::BuildNotSeen,
+                &update_rules,
+                format!("pInfos[{i}].srcAccelerationStructure"),
+                Some(crate::report::ObjectRef {
+                    ty: "VkAccelerationStructureKHR",
+                    handle: src,
+                }),
+                format_args!("the original build of VkAccelerationStructureKHR {src:#x} was not seen, so the opacity micromaps it chained are unknown"),
+            );
+        }
+        return;
+    };
+    ctx.checked(&update_rules);
     let update_bits = khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_UPDATE_BIT_KHR
         .as_raw()
         | khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_BIT_EXT

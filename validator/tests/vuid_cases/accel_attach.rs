@@ -1552,3 +1552,27 @@ fn unreadable_index_buffers_and_instances_are_reported_not_checked() {
         "{readable}"
     );
 }
+
+#[test]
+fn an_update_of_a_structure_whose_original_build_was_not_seen_says_so() {
+    let update_info = BuildGeometryInfo {
+        flags: allow_update(),
+        mode: BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE,
+        src_acceleration_structure: BLAS,
+        ..device_blas(khr_into(KHR_MICROMAP))
+    };
+    let report = cmd_in(world(), &[update_info]);
+    let finding = report
+        .not_checked()
+        .find(|f| f.location == "pInfos[0].srcAccelerationStructure")
+        .unwrap_or_else(|| panic!("{report}"));
+    assert_eq!(finding.rule.as_str(), "OMMCHECK-not-checked-build-not-seen");
+    assert_eq!(finding.objects[0].handle, BLAS);
+    assert!(finding.not_checked.contains(&cmd::micromap_11625.into()));
+    // With the original build recorded, the update rules are decided.
+    let seen = update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP), cmd_in);
+    assert!(seen
+        .not_checked()
+        .all(|f| f.location != "pInfos[0].srcAccelerationStructure"));
+    assert!(seen.checked.contains(cmd::micromap_11625));
+}
