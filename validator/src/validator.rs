@@ -224,7 +224,10 @@ impl<'a> Ctx<'a> {
         object: Option<ObjectRef>,
         what: impl std::fmt::Display,
     ) {
-        if rules.is_empty() {
+        // Past the per-call limit of the cause's id the finding is only
+        // counted: a call with millions of unreadable elements formats no
+        // more messages than it lists.
+        if rules.is_empty() || !self.counted(cause.rule().into()) {
             return;
         }
         let ids: Vec<&str> = rules.iter().map(|r| r.as_str()).collect();
@@ -250,7 +253,7 @@ impl<'a> Ctx<'a> {
         );
         finding.not_checked = rules.to_vec();
         finding.objects.extend(object);
-        self.push(finding);
+        self.report.findings.push(finding);
     }
 
     /// The findings, the last listed one of each rule past the limit saying
@@ -336,6 +339,39 @@ mod tests {
             .findings
             .iter()
             .all(|f| !f.message.contains("not listed")));
+    }
+
+    #[test]
+    fn not_checked_findings_name_their_rules_and_are_listed_up_to_the_limit() {
+        let validator = Validator::new(Device::default());
+        let mut ctx = validator.ctx("vkCmdBuildMicromapsEXT");
+        let skipped = [RuleId::from(&crate::rules::TRIANGLE_DATA_RANGE)];
+        for i in 0..FINDINGS_PER_RULE_PER_CALL + 3 {
+            ctx.not_checked(
+                Cause::Contents,
+                &skipped,
+                format!("pInfos[{i}].data"),
+                None,
+                "the contents were not given",
+            );
+        }
+        // No rules, no finding.
+        ctx.not_checked(Cause::HostMemory, &[], "pInfos[0]", None, "unused");
+        let report = ctx.finish();
+        assert_eq!(report.len(), FINDINGS_PER_RULE_PER_CALL as usize);
+        let first = &report.findings[0];
+        assert_eq!(first.severity, Severity::Info);
+        assert_eq!(first.not_checked, skipped);
+        assert!(first.message.starts_with("the contents were not given; this rule is not checked: OMMCHECK-build-triangle-data-in-range. To check it: "));
+        assert!(report
+            .findings
+            .last()
+            .unwrap()
+            .message
+            .contains("(3 more findings"));
+        // The information is no rule the call was checked against.
+        assert!(report.checked.is_empty());
+        assert_eq!(report.summary().rules_not_checked, 1);
     }
 
     #[test]
