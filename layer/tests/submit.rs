@@ -285,6 +285,9 @@ fn below_the_content_tier_submission_looks_at_no_build() {
         chain.begin(command_buffer);
         mapped.record_micromap_build(&chain, command_buffer, &mapped.micromap_build());
         mapped.record_blas_build(&chain, command_buffer);
+        // Built first, so that the attachment's micromap build is one the
+        // layer saw (else the recording says its indices are not checked).
+        device_local.record_micromap_build(&chain, command_buffer, &device_local.micromap_build());
         device_local.record_blas_build(&chain, command_buffer);
         chain.end(command_buffer);
         assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);

@@ -236,10 +236,7 @@ fn check_command(
                     print!("\n{}", report.report);
                 }
             }
-            println!(
-                "{} scene(s), {} call(s): {} error(s), {} warning(s), {} info",
-                summary.scenes, summary.calls, summary.errors, summary.warnings, summary.info
-            );
+            println!("{summary}");
         }
     }
     let denied_warnings = deny == Some(Deny::Warnings) && summary.warnings > 0;

@@ -5,6 +5,7 @@ use std::fmt;
 use ommcheck_vuids::Vuid;
 use serde::Serialize;
 
+use crate::not_checked::{Cause, NotChecked, RuleSet};
 use crate::rules::OwnRule;
 
 /// How bad a finding is.
@@ -126,6 +127,10 @@ pub struct Finding {
     pub spec_text: &'static str,
     #[serde(rename = "specUrl")]
     pub spec_url: String,
+    /// For a not-checked information (`OMMCHECK-not-checked-*`): the rules
+    /// that could not be decided.
+    #[serde(rename = "notChecked", skip_serializing_if = "Vec::is_empty")]
+    pub not_checked: Vec<RuleId>,
 }
 
 impl Finding {
@@ -147,7 +152,13 @@ impl Finding {
             message_id: rule.message_id(),
             spec_text: rule.statement(),
             spec_url: rule.link(),
+            not_checked: Vec::new(),
         }
+    }
+
+    /// The cause, if this is a not-checked information.
+    pub fn not_checked_cause(&self) -> Option<Cause> {
+        Cause::of(self.rule)
     }
 
     pub fn with_object(mut self, ty: &'static str, handle: u64) -> Self {
@@ -183,10 +194,24 @@ impl fmt::Display for Finding {
     }
 }
 
-/// The findings of one or more checked calls, in the order they were found.
+/// The findings of one or more checked calls, in the order they were found,
+/// and the rules the checks decided.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Report {
     pub findings: Vec<Finding>,
+    /// Every rule the checks of these calls decided, passed or failed
+    /// (see [`Report::summary`]).
+    #[serde(skip)]
+    pub checked: RuleSet,
+}
+
+impl From<Vec<Finding>> for Report {
+    fn from(findings: Vec<Finding>) -> Self {
+        Self {
+            findings,
+            checked: RuleSet::new(),
+        }
+    }
 }
 
 impl Report {
@@ -200,6 +225,59 @@ impl Report {
 
     pub fn extend(&mut self, other: Report) {
         self.findings.extend(other.findings);
+        self.checked.union(&other.checked);
+    }
+
+    /// The not-checked information findings: rules skipped because the
+    /// checker was not told something (see [`crate::not_checked`]).
+    pub fn not_checked(&self) -> impl Iterator<Item = &Finding> {
+        self.findings
+            .iter()
+            .filter(|f| f.not_checked_cause().is_some())
+    }
+
+    /// Ok when every rule the calls reached was decided; otherwise the
+    /// not-checked findings, each naming the rules it skipped and what
+    /// would let them run. The way to write a unit test: a test of a
+    /// valid call that passes by skipping fails here instead.
+    ///
+    /// ```
+    /// use ommcheck::{Device, Validator};
+    /// use ommcheck::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
+    ///
+    /// let mut v = Validator::new(Device::default());
+    /// let build = MicromapBuildInfo {
+    ///     usage_counts: UsageCounts::array(vec![MicromapUsage { count: 1, subdivision_level: 0, format: 2 }]),
+    ///     data: 0x1000,
+    ///     triangle_array: 0x2000,
+    ///     ..Default::default()
+    /// };
+    /// // No buffers were described: the triangle array cannot be read.
+    /// let report = v.cmd_build_micromaps(&CommandBuffer::default(), &[build]);
+    /// let not_checked = report.require_fully_checked().unwrap_err();
+    /// assert!(not_checked.to_string().contains("OMMCHECK-build-triangle-data-in-range"));
+    /// ```
+    pub fn require_fully_checked(&self) -> Result<(), NotChecked> {
+        let findings: Vec<Finding> = self.not_checked().cloned().collect();
+        if findings.is_empty() {
+            Ok(())
+        } else {
+            Err(NotChecked { findings })
+        }
+    }
+
+    /// Panics, listing what was not checked and why, unless every rule the
+    /// calls reached was decided (see [`Report::require_fully_checked`]).
+    #[track_caller]
+    pub fn assert_fully_checked(&self) {
+        if let Err(not_checked) = self.require_fully_checked() {
+            panic!("{not_checked}");
+        }
+    }
+
+    /// Counts of the findings by severity and of the rules checked.
+    pub fn summary(&self) -> ReportSummary {
+        ReportSummary::of([self])
     }
 
     pub fn is_empty(&self) -> bool {
@@ -245,6 +323,71 @@ impl fmt::Display for Report {
             writeln!(f, "{finding}\n")?;
         }
         Ok(())
+    }
+}
+
+/// A report's counts: findings by severity, and rules checked and not.
+///
+/// A rule is checked when the checks decided it for every element they
+/// reached, and not checked when a not-checked information names it (it
+/// was skipped somewhere for want of something the checker was not told).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct ReportSummary {
+    pub findings: usize,
+    pub errors: usize,
+    pub warnings: usize,
+    pub info: usize,
+    pub rules_checked: usize,
+    pub rules_not_checked: usize,
+}
+
+impl ReportSummary {
+    /// The counts over `reports` together: each finding counted once, and
+    /// each rule once however many reports checked it (a rule one report
+    /// could not check is not checked).
+    pub fn of<'a>(reports: impl IntoIterator<Item = &'a Report>) -> Self {
+        let mut summary = ReportSummary::default();
+        let mut checked = RuleSet::new();
+        let mut not_checked = RuleSet::new();
+        for report in reports {
+            checked.union(&report.checked);
+            for finding in &report.findings {
+                summary.findings += 1;
+                match finding.severity {
+                    Severity::Error => summary.errors += 1,
+                    Severity::Warning => summary.warnings += 1,
+                    Severity::Info => summary.info += 1,
+                }
+                for rule in &finding.not_checked {
+                    not_checked.insert(*rule);
+                }
+            }
+        }
+        checked.remove_all(&not_checked);
+        summary.rules_checked = checked.len();
+        summary.rules_not_checked = not_checked.len();
+        summary
+    }
+}
+
+fn plural(count: usize, one: &str, many: &str) -> String {
+    format!("{count} {}", if count == 1 { one } else { many })
+}
+
+impl fmt::Display for ReportSummary {
+    /// `2 findings (1 error, 0 warnings, 1 info); 14 rules checked, 3 not checked`
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} ({}, {}, {} info); {} checked, {} not checked",
+            plural(self.findings, "finding", "findings"),
+            plural(self.errors, "error", "errors"),
+            plural(self.warnings, "warning", "warnings"),
+            self.info,
+            plural(self.rules_checked, "rule", "rules"),
+            self.rules_not_checked,
+        )
     }
 }
 

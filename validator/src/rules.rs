@@ -137,6 +137,41 @@ pub static CLUSTER_INDEX_OUTSIDE_CLUSTER: OwnRule = OwnRule {
     link: "https://docs.vulkan.org/spec/latest/chapters/accelstructures.html",
 };
 
+// The not-checked information ids below are about the checker, not rules a
+// call is checked against (like the layer's own ids), so they are not in
+// `ALL`; `crate::not_checked::Cause` lists them.
+
+const CHECKER: &str =
+    "https://docs.vulkan.org/spec/latest/chapters/fundamentals.html#fundamentals-validusage";
+
+/// Not checked: host memory a host command reads was not described.
+pub static NOT_CHECKED_HOST_MEMORY: OwnRule = OwnRule {
+    id: "OMMCHECK-not-checked-host-memory",
+    statement: "ommcheck decides the rules that read host memory only from host memory it was told of, and says which rules it did not check when a host command reads memory it was not told of (its extent is unknown)",
+    link: CHECKER,
+};
+
+/// Not checked: the bytes of device memory a command reads were not given.
+pub static NOT_CHECKED_CONTENTS: OwnRule = OwnRule {
+    id: "OMMCHECK-not-checked-contents",
+    statement: "ommcheck decides the rules that read device memory only from contents it was given, and says which rules it did not check when a command reads a buffer whose contents it does not have",
+    link: CHECKER,
+};
+
+/// Not checked: no buffer with a known device address holds an address.
+pub static NOT_CHECKED_UNKNOWN_ADDRESS: OwnRule = OwnRule {
+    id: "OMMCHECK-not-checked-unknown-address",
+    statement: "ommcheck resolves a device address through the buffers whose device addresses it knows, and says which rules it did not check when it knows no buffer's address",
+    link: CHECKER,
+};
+
+/// Not checked: the build of a micromap or structure a command uses was not seen.
+pub static NOT_CHECKED_BUILD_NOT_SEEN: OwnRule = OwnRule {
+    id: "OMMCHECK-not-checked-build-not-seen",
+    statement: "ommcheck knows what a micromap or acceleration structure holds from the build it checked, and says which rules it did not check when a command uses one whose build it did not see",
+    link: CHECKER,
+};
+
 /// Every own rule, for the README and the coverage report.
 pub static ALL: &[&OwnRule] = &[
     &HISTOGRAM_MISMATCH,

@@ -2,7 +2,8 @@
 //! call (defined next to their checks in `checks/`).
 
 use crate::device::Device;
-use crate::report::{Finding, Report, RuleId, Severity};
+use crate::not_checked::Cause;
+use crate::report::{Finding, ObjectRef, Report, RuleId, Severity};
 use crate::state::{Handle, State};
 use crate::tier::Tier;
 
@@ -16,6 +17,10 @@ pub struct Validator {
     pub(crate) device: Device,
     pub(crate) state: State,
     pub(crate) tier: Tier,
+    /// Device builds are being recorded by an adaptor that reads their
+    /// device memory later, at submission, and reports what it cannot read
+    /// itself: contents missing now are not reported as not checked.
+    pub(crate) device_contents_later: bool,
 }
 
 impl Validator {
@@ -24,6 +29,7 @@ impl Validator {
             device,
             state: State::default(),
             tier: Tier::default(),
+            device_contents_later: false,
         }
     }
 
@@ -87,6 +93,7 @@ impl Validator {
             report: Report::new(),
             per_rule: Vec::new(),
             unlisted: None,
+            device_contents_later: self.device_contents_later,
         }
     }
 }
@@ -117,6 +124,8 @@ pub(crate) struct Ctx<'a> {
     /// Where a finding past the limit is built and dropped: `report` hands
     /// out a `&mut Finding` whether or not the finding is listed.
     unlisted: Option<Finding>,
+    /// See [`Validator::device_contents_later`].
+    pub device_contents_later: bool,
 }
 
 impl<'a> Ctx<'a> {
@@ -135,6 +144,12 @@ impl<'a> Ctx<'a> {
         message: impl Into<String>,
     ) -> &mut Finding {
         let finding = Finding::new(rule, severity, self.function, location, message);
+        self.report.checked.insert(finding.rule);
+        self.push(finding)
+    }
+
+    /// Lists `finding` within [`FINDINGS_PER_RULE_PER_CALL`] of its rule.
+    fn push(&mut self, finding: Finding) -> &mut Finding {
         if !self.counted(finding.rule) {
             return self.unlisted.insert(finding);
         }
@@ -177,14 +192,68 @@ impl<'a> Ctx<'a> {
         location: impl FnOnce() -> String,
         message: impl FnOnce() -> String,
     ) {
+        let rule = rule.into();
+        self.report.checked.insert(rule);
         if ok {
             return;
         }
-        let rule = rule.into();
         if self.counted(rule) {
             let finding = Finding::new(rule, Severity::Error, self.function, location(), message());
             self.report.findings.push(finding);
         }
+    }
+
+    /// Marks `rules` decided (checks that report through [`Self::require`]
+    /// or [`Self::report`] are marked by those; this marks rules a check
+    /// decided without a finding).
+    pub fn checked(&mut self, rules: &[RuleId]) {
+        for rule in rules {
+            self.report.checked.insert(*rule);
+        }
+    }
+
+    /// Reports that `rules` were not checked at `location` for `cause`:
+    /// `what` says what the checker was not told (the object, the address),
+    /// and the finding adds what would let them run. One finding per cause
+    /// and place, however many rules it skips.
+    pub fn not_checked(
+        &mut self,
+        cause: Cause,
+        rules: &[RuleId],
+        location: impl Into<String>,
+        object: Option<ObjectRef>,
+        what: impl std::fmt::Display,
+    ) {
+        // Past the per-call limit of the cause's id the finding is only
+        // counted: a call with millions of unreadable elements formats no
+        // more messages than it lists.
+        if rules.is_empty() || !self.counted(cause.rule().into()) {
+            return;
+        }
+        let ids: Vec<&str> = rules.iter().map(|r| r.as_str()).collect();
+        let message = format!(
+            "{what}; {} not checked: {}. To check {}: {}",
+            if rules.len() == 1 {
+                "this rule is"
+            } else {
+                "these rules are"
+            },
+            ids.join(", "),
+            if rules.len() == 1 { "it" } else { "them" },
+            cause.remedy()
+        );
+        // The information is no rule the call was checked against: pushed
+        // without marking its id checked.
+        let mut finding = Finding::new(
+            cause.rule(),
+            Severity::Info,
+            self.function,
+            location,
+            message,
+        );
+        finding.not_checked = rules.to_vec();
+        finding.objects.extend(object);
+        self.report.findings.push(finding);
     }
 
     /// The findings, the last listed one of each rule past the limit saying
@@ -270,6 +339,39 @@ mod tests {
             .findings
             .iter()
             .all(|f| !f.message.contains("not listed")));
+    }
+
+    #[test]
+    fn not_checked_findings_name_their_rules_and_are_listed_up_to_the_limit() {
+        let validator = Validator::new(Device::default());
+        let mut ctx = validator.ctx("vkCmdBuildMicromapsEXT");
+        let skipped = [RuleId::from(&crate::rules::TRIANGLE_DATA_RANGE)];
+        for i in 0..FINDINGS_PER_RULE_PER_CALL + 3 {
+            ctx.not_checked(
+                Cause::Contents,
+                &skipped,
+                format!("pInfos[{i}].data"),
+                None,
+                "the contents were not given",
+            );
+        }
+        // No rules, no finding.
+        ctx.not_checked(Cause::HostMemory, &[], "pInfos[0]", None, "unused");
+        let report = ctx.finish();
+        assert_eq!(report.len(), FINDINGS_PER_RULE_PER_CALL as usize);
+        let first = &report.findings[0];
+        assert_eq!(first.severity, Severity::Info);
+        assert_eq!(first.not_checked, skipped);
+        assert!(first.message.starts_with("the contents were not given; this rule is not checked: OMMCHECK-build-triangle-data-in-range. To check it: "));
+        assert!(report
+            .findings
+            .last()
+            .unwrap()
+            .message
+            .contains("(3 more findings"));
+        // The information is no rule the call was checked against.
+        assert!(report.checked.is_empty());
+        assert_eq!(report.summary().rules_not_checked, 1);
     }
 
     #[test]

@@ -272,6 +272,9 @@ fn cli_json_form() {
     assert_eq!(json["summary"]["scenes"], 2);
     assert_eq!(json["summary"]["errors"], 3);
     assert_eq!(json["summary"]["calls"], 8);
+    // Both scenes give everything their calls read.
+    assert_eq!(json["summary"]["rulesNotChecked"], 0);
+    assert!(json["summary"]["rulesChecked"].as_u64().unwrap() > 0);
     let scenes = json["scenes"].as_array().unwrap();
     assert_eq!(scenes[0]["path"], "tests/scenes/ext-quad-valid.json");
     assert_eq!(scenes[0]["findings"], serde_json::json!([]));
@@ -372,4 +375,15 @@ fn documented_examples_check() {
             "docs/scene-format.md has no example of {call}"
         );
     }
+}
+
+#[test]
+fn cli_text_summary_counts_rules_checked_and_not() {
+    let (code, stdout, _) = ommcheck(&["check", "tests/scenes/ext-quad-valid.json"]);
+    assert_eq!(code, 0, "{stdout}");
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("1 scene(s), ") && last.ends_with(" rule(s) checked, 0 not checked"),
+        "{last}"
+    );
 }

@@ -55,6 +55,12 @@ impl Vuid {
         &generated::catalog::CATALOG[usize::from(self.0)]
     }
 
+    /// The entry's position in the catalog (`0..Vuid::all().len()`), for
+    /// sets and tables indexed by VUID.
+    pub fn index(self) -> usize {
+        usize::from(self.0)
+    }
+
     /// The VUID string.
     pub fn id(self) -> &'static str {
         self.info().id

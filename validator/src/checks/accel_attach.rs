@@ -26,6 +26,7 @@ use crate::checks::Coverage;
 use crate::model::accel::*;
 use crate::model::micromap::UsageCounts;
 use crate::model::values::*;
+use crate::not_checked::Cause;
 use crate::report::{Report, RuleId, Severity};
 use crate::rules;
 use crate::state::{AccelerationStructure, Handle, State};
@@ -985,19 +986,44 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
     let Some(state) = ctx.state else {
         return; // Below the state tier neither the micromap nor the buffer is known.
     };
+    // The EXT usage counts are held against the indices too.
+    let usage_counts_rule = (a.kind == Kind::Ext && a.usage_counts.is_some())
+        .then_some(RuleId::from(&rules::ATTACH_USAGE_COUNTS));
     let triangles = if a.micromap == 0 {
         None
     } else {
         match micromap_triangle_count(state, a) {
             Some(triangles) => Some(triangles),
-            None => return, // The micromap's build is unknown: nothing to compare with.
+            None => {
+                // Nothing to compare with; where the micromap exists but its
+                // build was not seen, say so.
+                let mut skipped: Vec<RuleId> = match (a.kind, a.index_type) {
+                    (Kind::Khr, INDEX_TYPE_NONE) => vec![khr::geometry_11576.into()],
+                    (Kind::Khr, _) => vec![cmd::indexBuffer_11575.into()],
+                    _ => vec![(&rules::INDEX_IN_RANGE).into()],
+                };
+                skipped.extend(usage_counts_rule);
+                build_not_seen(ctx, a, &skipped);
+                return;
+            }
         }
     };
     let base = u64::from(a.base_triangle);
     let array = a.member("indexBuffer");
+    // The rules that decide an index past the micromap's end (see
+    // `index_past_end`): KHR's VUID where its words apply, else ours.
+    let in_range_rules = |no_index_buffer: bool| -> Vec<RuleId> {
+        let ours = RuleId::from(&rules::INDEX_IN_RANGE);
+        match a.kind {
+            Kind::Khr if no_index_buffer => vec![khr::geometry_11576.into(), ours],
+            Kind::Khr => vec![cmd::indexBuffer_11575.into(), ours],
+            _ => vec![ours],
+        }
+    };
     let Some(size) = index_size(a.index_type) else {
         if a.index_type == INDEX_TYPE_NONE {
             if let Some(n) = triangles {
+                ctx.checked(&in_range_rules(true));
                 // Triangle j uses micromap triangle j + baseTriangle; the last is the largest.
                 let last = count - 1;
                 if let Some((rule, message)) = index_past_end(a.kind, last, base, n, true) {
@@ -1018,15 +1044,35 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         BuildCommand::Host => state.host_bytes_from(a.index_buffer),
         _ => state.device_bytes_from(a.index_buffer),
     };
-    let Some(bytes) = bytes else {
-        return; // Contents not available to the checker.
-    };
     let not_special_rule: RuleId = match (a.kind, command) {
         (Kind::Khr, BuildCommand::Cmd) => cmd::indexBuffer_11578.into(),
         _ => (&rules::NULL_MICROMAP_SPECIAL_ONLY).into(),
     };
+    let mut index_rules = if triangles.is_some() {
+        in_range_rules(false)
+    } else {
+        vec![not_special_rule]
+    };
+    index_rules.push((&rules::CLUSTER_INDEX_OUTSIDE_CLUSTER).into());
+    index_rules.extend(usage_counts_rule);
+    let host = command == BuildCommand::Host;
+    let Some(bytes) = bytes else {
+        common::unreadable(
+            ctx,
+            host,
+            a.index_buffer,
+            &index_rules,
+            a.member("indexBuffer"),
+        );
+        return;
+    };
+    ctx.checked(&index_rules);
+    // A stride of 0 reads one index for every triangle.
+    let distinct = if a.index_stride == 0 { 1 } else { count };
+    let mut read = 0u64;
     let mut tally = Tally::new();
     for (j, index) in read_indices(bytes, size, a.index_stride, count) {
+        read += 1;
         if is_special_index(index, size) {
             continue;
         }
@@ -1060,6 +1106,70 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
         }
     }
     tally.finish(ctx);
+    if read < distinct {
+        // The indices past the readable bytes are not guessed at.
+        let cause = if host {
+            Cause::HostMemory
+        } else {
+            Cause::Contents
+        };
+        let (unread, verb) = if read + 1 == distinct {
+            (format!("index {read}"), "lies")
+        } else {
+            (format!("indices {read} to {}", distinct - 1), "lie")
+        };
+        ctx.not_checked(
+            cause,
+            &index_rules,
+            array.clone(),
+            None,
+            format_args!(
+                "{unread} of {count} {verb} past the {} bytes the checker can read from indexBuffer ({:#x}) on",
+                bytes.len(),
+                a.index_buffer
+            ),
+        );
+    }
+}
+
+/// Reports `rules` not checked because the build of the attachment's
+/// micromap, which the checker tracks, was not seen.
+fn build_not_seen(ctx: &mut Ctx<'_>, a: &Attachment<'_>, rules: &[RuleId]) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let ty = match a.kind {
+        Kind::Ext
+            if state
+                .micromaps
+                .get(&a.micromap)
+                .is_some_and(|m| m.built.is_none()) =>
+        {
+            "VkMicromapEXT"
+        }
+        Kind::Khr
+            if state
+                .acceleration_structures
+                .get(&a.micromap)
+                .is_some_and(|s| s.built.is_none()) =>
+        {
+            "VkAccelerationStructureKHR"
+        }
+        _ => return,
+    };
+    ctx.not_checked(
+        Cause::BuildNotSeen,
+        rules,
+        a.member("micromap"),
+        Some(crate::report::ObjectRef {
+            ty,
+            handle: a.micromap,
+        }),
+        format_args!(
+            "the build of {ty} {:#x} was not seen, so its triangle count is unknown",
+            a.micromap
+        ),
+    );
 }
 
 /// Whether micromap triangle `index + base` lies past the end of a micromap
@@ -1125,23 +1235,43 @@ fn usage_counts_match_indices(
     let Some(state) = ctx.contents() else {
         return; // Below the content tier neither indices nor micromap data are read.
     };
-    let Some(counts) = a.usage_counts else {
-        return;
-    };
     if a.kind == Kind::Khr || count == 0 {
         return;
     }
+    let Some(counts) = a.usage_counts else {
+        return;
+    };
     let content = if a.micromap == 0 {
         None
     } else {
         let built = state
             .micromaps
             .get(&a.micromap)
-            .and_then(|m| m.built.as_ref())
-            .and_then(|b| b.content.as_ref());
-        match built {
+            .and_then(|m| m.built.as_ref());
+        match built.and_then(|b| b.content.as_ref()) {
             Some(content) => Some(content),
-            None => return, // The micromap's triangles are unknown.
+            None => {
+                // A build not seen at all is index_contents' finding; one
+                // known only by its triangle count (a scene's `built`, or a
+                // build whose triangle array could not be read) leaves the
+                // counts undecided.
+                if built.is_some() && !ctx.device_contents_later {
+                    ctx.not_checked(
+                        Cause::BuildNotSeen,
+                        &[(&rules::ATTACH_USAGE_COUNTS).into()],
+                        a.member("micromap"),
+                        Some(crate::report::ObjectRef {
+                            ty: "VkMicromapEXT",
+                            handle: a.micromap,
+                        }),
+                        format_args!(
+                            "only the triangle count of VkMicromapEXT {:#x} is known, not its triangles (its build was not seen, or its triangle array could not be read then)",
+                            a.micromap
+                        ),
+                    );
+                }
+                return;
+            }
         }
     };
     let triangles_read = content.map_or(0, |c| c.triangles.len() as u64);
@@ -1250,18 +1380,33 @@ pub(crate) fn instances(
         instances_in_range(ctx, command, at, instances, range);
     }
     // Instances are buffer contents: decided from the content tier on.
-    let (Some(list), Some(state)) = (&instances.instances, ctx.contents()) else {
+    let Some(state) = ctx.contents() else {
         return;
     };
-    let force = khr_values::GEOMETRY_INSTANCE_FORCE_OPACITY_MICROMAP_2_STATE_BIT_KHR.as_raw() as u8;
-    let disable = khr_values::GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw() as u8;
-    let allow_disable =
-        khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw();
     let disable_vuid = match command {
         BuildCommand::Cmd => cmd::pInfos_10607,
         BuildCommand::Indirect => indirect::pInfos_10607,
         BuildCommand::Host => instance_vuid::flags_11581,
     };
+    let instance_rules = [instance_vuid::micromap_11580.into(), disable_vuid.into()];
+    let Some(list) = &instances.instances else {
+        // An indirect build's instance count is in device memory too.
+        if command != BuildCommand::Indirect {
+            common::unreadable(
+                ctx,
+                command == BuildCommand::Host,
+                instances.data,
+                &instance_rules,
+                format_args!("{at}.geometry.instances.data"),
+            );
+        }
+        return;
+    };
+    ctx.checked(&instance_rules);
+    let force = khr_values::GEOMETRY_INSTANCE_FORCE_OPACITY_MICROMAP_2_STATE_BIT_KHR.as_raw() as u8;
+    let disable = khr_values::GEOMETRY_INSTANCE_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw() as u8;
+    let allow_disable =
+        khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_DISABLE_OPACITY_MICROMAPS_BIT_KHR.as_raw();
     let features = &ctx.device.features;
     let micromap_feature = features.micromap_ext || features.micromap_khr;
     let array = format!("{at}.geometry.instances.data");
@@ -1457,12 +1602,6 @@ fn update_matches_original(
     let Some(state) = ctx.state else {
         return;
     };
-    let Some(original) = state
-        .original_attachments
-        .get(&info.src_acceleration_structure)
-    else {
-        return; // The original build is unknown.
-    };
     let (kept_micromap, kept_null, none_added, same_handle) = match command {
         BuildCommand::Indirect => (
             indirect::micromap_11625,
@@ -1477,6 +1616,33 @@ fn update_matches_original(
             cmd::micromap_11629,
         ),
     };
+    let update_rules: [RuleId; 4] = [
+        kept_micromap.into(),
+        kept_null.into(),
+        none_added.into(),
+        same_handle.into(),
+    ];
+    let Some(original) = state
+        .original_attachments
+        .get(&info.src_acceleration_structure)
+    else {
+        // A source the checker tracks, whose original build it did not see.
+        let src = info.src_acceleration_structure;
+        if state.acceleration_structures.contains_key(&src) {
+            ctx.not_checked(
+                Cause::BuildNotSeen,
+                &update_rules,
+                format!("pInfos[{i}].srcAccelerationStructure"),
+                Some(crate::report::ObjectRef {
+                    ty: "VkAccelerationStructureKHR",
+                    handle: src,
+                }),
+                format_args!("the original build of VkAccelerationStructureKHR {src:#x} was not seen, so the opacity micromaps it chained are unknown"),
+            );
+        }
+        return;
+    };
+    ctx.checked(&update_rules);
     let update_bits = khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_UPDATE_BIT_KHR
         .as_raw()
         | khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_DATA_UPDATE_BIT_EXT

@@ -43,7 +43,7 @@ use crate::model::values::{
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
 use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
-use crate::report::Report;
+use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::MicromapContent;
 use crate::state::{
@@ -1254,10 +1254,37 @@ impl TriangleArrayCheck {
             return;
         };
         let host = self.command.reads_host_memory();
-        let Some(array) = bytes_from(state, host, data.triangle_array) else {
-            return; // Contents not available to the checker.
-        };
         let data_available = bytes_available(state, host, data.data);
+        let data_rule: RuleId = if self.command == BuildCommand::Cmd {
+            cmd::micromap_11553.into()
+        } else {
+            (&rules::TRIANGLE_DATA_RANGE).into()
+        };
+        let entry_rules = self.entry_rules();
+        let Some(array) = bytes_from(state, host, data.triangle_array) else {
+            let mut skipped = entry_rules;
+            skipped.push(data_rule);
+            common::unreadable(
+                ctx,
+                host,
+                data.triangle_array,
+                &skipped,
+                format_args!("{}.triangleArray", self.at),
+            );
+            return;
+        };
+        ctx.checked(&entry_rules);
+        if data_available.is_some() {
+            ctx.checked(&[data_rule]);
+        } else {
+            common::unreadable(
+                ctx,
+                host,
+                data.data,
+                &[data_rule],
+                format_args!("{}.data", self.at),
+            );
+        }
         let mut tally = Tally::new();
         let mut histogram = TriangleHistogram::new();
         let mut read = 0u64;
@@ -1343,6 +1370,30 @@ impl TriangleArrayCheck {
                 FormatNames::OpacityKhr,
             );
         }
+    }
+
+    /// The rules that read the entries (formats, levels, the array's extent,
+    /// the usage counts against them), as [`Self::triangle_rules`] applies them.
+    fn entry_rules(&self) -> Vec<RuleId> {
+        let mut read: Vec<RuleId> = Vec::new();
+        if self.command == BuildCommand::Cmd {
+            read.extend([
+                RuleId::from(cmd::micromap_11555),
+                cmd::micromap_11556.into(),
+            ]);
+        } else {
+            read.push((&rules::TRIANGLE_ARRAY_RANGE).into());
+        }
+        if self.lossy {
+            read.extend([
+                RuleId::from(info_vuid::format_11713),
+                info_vuid::subdivisionLevel_11567.into(),
+            ]);
+        } else {
+            read.push(info_vuid::subdivisionLevel_11566.into());
+        }
+        read.push((&rules::HISTOGRAM_MISMATCH).into());
+        read
     }
 
     /// One entry's format and subdivision level.

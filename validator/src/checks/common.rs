@@ -9,7 +9,8 @@ use ommcheck_vuids::Vuid;
 use crate::model::command::queue;
 use crate::model::micromap::UsageCounts;
 use crate::model::{CommandBuffer, MicromapTriangle};
-use crate::report::{RuleId, Severity};
+use crate::not_checked::Cause;
+use crate::report::{ObjectRef, RuleId, Severity};
 use crate::rules;
 use crate::state::{Handle, State};
 use crate::validator::Ctx;
@@ -28,6 +29,7 @@ pub(crate) struct CommandBufferVuids {
 /// Checks the command buffer of a command that needs a compute-capable queue.
 pub(crate) fn command_buffer(ctx: &mut Ctx<'_>, cb: &CommandBuffer, vuids: &CommandBufferVuids) {
     let handle = cb.handle;
+    ctx.checked(&[vuids.recording.into()]);
     ctx.require(
         handle != 0,
         vuids.parameter,
@@ -87,6 +89,7 @@ pub(crate) fn command_buffer(ctx: &mut Ctx<'_>, cb: &CommandBuffer, vuids: &Comm
 /// any non-NULL handle is taken to be it).
 pub(crate) fn device_handle(ctx: &mut Ctx<'_>, device: Handle, vuid: Vuid) {
     let known = ctx.device.handle;
+    ctx.checked(&[vuid.into()]);
     if device == 0 {
         ctx.error(vuid, "device", "device is VK_NULL_HANDLE");
     } else if known != 0 && device != known {
@@ -136,6 +139,10 @@ pub(crate) fn deferred_operation(
     let Some(state) = ctx.state else {
         return;
     };
+    ctx.checked(&[vuids.parameter.into()]);
+    if let Some(complete) = vuids.complete {
+        ctx.checked(&[complete.into()]);
+    }
     if !state.deferred_operations.contains(&handle) {
         ctx.error(
             vuids.parameter,
@@ -312,6 +319,76 @@ pub(crate) fn last_inside(what: &str, inside: u64) -> String {
     }
 }
 
+/// Reports `rules` not checked because the memory `location` names, at
+/// `address`, could not be read: host memory nobody described, an address
+/// no known buffer holds, or a buffer whose contents were not given (or
+/// that is not bound). Nothing is reported where an address rule already
+/// reports the address (NULL, or outside every buffer or described host
+/// range), nor for device memory an adaptor reads later
+/// ([`Ctx::device_contents_later`]).
+pub(crate) fn unreadable(
+    ctx: &mut Ctx<'_>,
+    host: bool,
+    address: u64,
+    rules: &[RuleId],
+    location: impl Display,
+) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if address == 0 {
+        return;
+    }
+    if host {
+        if state.describes_all_host_memory() && state.host_bytes_from(address).is_none() {
+            return;
+        }
+        ctx.not_checked(
+            Cause::HostMemory,
+            rules,
+            location.to_string(),
+            None,
+            format_args!("the host memory at {location} ({address:#x}) was not described to the checker, so its extent is unknown"),
+        );
+        return;
+    }
+    if ctx.device_contents_later {
+        return;
+    }
+    match state.buffers_at(address).next() {
+        None if state.knows_addresses() => {}
+        None => ctx.not_checked(
+            Cause::UnknownAddress,
+            rules,
+            location.to_string(),
+            None,
+            format_args!(
+                "no buffer whose device address the checker knows holds {location} ({address:#x})"
+            ),
+        ),
+        Some((handle, buffer)) => {
+            let object = Some(ObjectRef {
+                ty: "VkBuffer",
+                handle,
+            });
+            let why = if buffer.memory.is_none() {
+                "is not bound to memory, so it has no contents to read"
+            } else if buffer.contents.is_none() {
+                "has no contents the checker was given"
+            } else {
+                "has contents that end before it"
+            };
+            ctx.not_checked(
+                Cause::Contents,
+                rules,
+                location.to_string(),
+                object,
+                format_args!("VkBuffer {handle:#x}, which holds {location} ({address:#x}), {why}"),
+            );
+        }
+    }
+}
+
 /// A device address must be a valid `VkDeviceAddress`: non-zero, and inside
 /// a buffer when the checker knows buffer addresses.
 pub(crate) fn valid_device_address(
@@ -320,6 +397,10 @@ pub(crate) fn valid_device_address(
     vuid: Vuid,
     location: impl Display,
 ) {
+    // Decided where the address is 0 or buffer addresses are known.
+    if address == 0 || ctx.state.is_some_and(|state| state.knows_addresses()) {
+        ctx.checked(&[vuid.into()]);
+    }
     if address == 0 {
         ctx.error(vuid, location.to_string(), "the address is 0");
     } else if ctx
@@ -352,6 +433,7 @@ pub(crate) fn device_address_usage(
     let Some((handle, first)) = buffers.next() else {
         return;
     };
+    ctx.checked(&[vuid.into()]);
     if first.usage & usage == 0 && !buffers.any(|(_, b)| b.usage & usage != 0) {
         ctx.error(vuid, location.to_string(), format!("{address:#x} lies in VkBuffer {handle:#x}, which was not created with {usage_name}"))
             .objects
@@ -367,6 +449,7 @@ pub(crate) fn aligned(
     vuid: Vuid,
     location: impl Display,
 ) {
+    ctx.checked(&[vuid.into()]);
     if alignment != 0 && value % alignment != 0 {
         ctx.error(
             vuid,

@@ -311,12 +311,16 @@ impl Validator {
     /// The rules of a recorded device build against the state as it is,
     /// without recording anything; with each micromap info's content as far
     /// as it could be read.
+    /// `name_unread`: device memory still unreadable is reported as not
+    /// checked (else it is the adaptor's to report).
     fn device_build_rules(
         &self,
         command_buffer: &CommandBuffer,
         build: &DeviceBuild,
+        name_unread: bool,
     ) -> (Report, Vec<Option<MicromapContent>>) {
         let mut ctx = self.ctx(build.function());
+        ctx.device_contents_later = !name_unread;
         let contents = match build {
             DeviceBuild::Micromaps(infos) => {
                 micromap_build::cmd_build_micromaps_rules(&mut ctx, command_buffer, infos)
@@ -344,7 +348,31 @@ impl Validator {
         build: &DeviceBuild,
         contents: Vec<KnownBytes>,
     ) -> Report {
-        let (without, _) = self.device_build_rules(command_buffer, build);
+        self.device_build_contents(command_buffer, build, contents, false)
+    }
+
+    /// As [`Validator::check_device_build_contents`], and the memory of
+    /// `build` that `contents` does not cover is reported as not checked
+    /// (`OMMCHECK-not-checked-*`, naming the rules it skips), for an adaptor
+    /// that does not report unread memory itself.
+    pub fn check_device_build_contents_naming_unread(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        build: &DeviceBuild,
+        contents: Vec<KnownBytes>,
+    ) -> Report {
+        self.device_build_contents(command_buffer, build, contents, true)
+    }
+
+    fn device_build_contents(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        build: &DeviceBuild,
+        contents: Vec<KnownBytes>,
+        name_unread: bool,
+    ) -> Report {
+        // The recording's findings: no unread memory is named there.
+        let (without, _) = self.device_build_rules(command_buffer, build, false);
         let mut previous = Vec::new();
         for known in contents {
             if let Some(mut buffer) = self.state.buffers.get_mut(&known.buffer) {
@@ -369,7 +397,7 @@ impl Validator {
             }
             DeviceBuild::Micromaps(_) => build,
         };
-        let (with, micromap_contents) = self.device_build_rules(command_buffer, build);
+        let (with, micromap_contents) = self.device_build_rules(command_buffer, build, name_unread);
         self.record_built_contents(build, micromap_contents);
         // Restored in reverse, so a buffer named twice gets its first value back.
         for (handle, old, old_offset) in previous.into_iter().rev() {
@@ -384,6 +412,7 @@ impl Validator {
                 .into_iter()
                 .filter(|finding| !without.findings.contains(finding))
                 .collect(),
+            checked: with.checked,
         }
     }
 
@@ -668,5 +697,35 @@ mod tests {
         let valid =
             validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 1])));
         assert!(valid.findings.is_empty(), "{valid:#?}");
+    }
+
+    #[test]
+    fn unread_memory_is_named_only_when_asked() {
+        let (mut validator, build) = validator_and_build();
+        let cb = CommandBuffer::default();
+        let silent = validator.check_device_build_contents(&cb, &build, Vec::new());
+        assert!(silent.findings.is_empty(), "{silent:#?}");
+        let named = validator.check_device_build_contents_naming_unread(&cb, &build, Vec::new());
+        let ids: Vec<&str> = named.findings.iter().map(|f| f.rule.as_str()).collect();
+        // The index buffer is unread, and micromap 5 is known only by its
+        // triangle count.
+        assert_eq!(
+            ids,
+            [
+                "OMMCHECK-not-checked-contents",
+                "OMMCHECK-not-checked-build-not-seen"
+            ],
+            "{named:#?}"
+        );
+        assert!(named.findings[0]
+            .not_checked
+            .contains(&(&crate::rules::INDEX_IN_RANGE).into()));
+        let read = validator.check_device_build_contents_naming_unread(
+            &cb,
+            &build,
+            known(7, 0, indices([0, 1])),
+        );
+        let ids: Vec<&str> = read.findings.iter().map(|f| f.rule.as_str()).collect();
+        assert_eq!(ids, ["OMMCHECK-not-checked-build-not-seen"], "{read:#?}");
     }
 }

@@ -16,7 +16,7 @@ use crate::checks::Coverage;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
-use crate::report::Report;
+use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::MicromapContent;
 use crate::state::{BuildRecord, Handle};
@@ -191,6 +191,17 @@ impl Validator {
                 (info.triangle_array, "triangleArray", host::pInfos_07554),
             ] {
                 let needed = info.usage_counts.total() > 0;
+                // Decided where the address is NULL, inside described host
+                // memory, or outside all of it; otherwise the triangle-array
+                // check says it was not checked (from the content tier on).
+                if needed
+                    && ctx.state.is_some_and(|state| {
+                        state.describes_all_host_memory()
+                            || state.host_bytes_from(address).is_some()
+                    })
+                {
+                    ctx.checked(&[vuid.into()]);
+                }
                 if needed && address == 0 {
                     ctx.error(
                         vuid,
@@ -724,6 +735,35 @@ fn format_names(opacity: bool) -> FormatNames {
     }
 }
 
+/// The rules that read a triangle array's entries: formats and levels,
+/// the array's and each triangle's data extent, and the usage counts
+/// against the entries.
+fn entry_rules(opacity: bool) -> Vec<RuleId> {
+    let formats_and_levels = if opacity {
+        [
+            info_vuid::format_11657,
+            info_vuid::subdivisionLevel_11659,
+            info_vuid::subdivisionLevel_11660,
+        ]
+    } else {
+        [
+            info_vuid::format_11658,
+            info_vuid::subdivisionLevel_11661,
+            info_vuid::subdivisionLevel_11661,
+        ]
+    };
+    let mut read: Vec<RuleId> = formats_and_levels.into_iter().map(RuleId::from).collect();
+    read.dedup();
+    read.extend([
+        RuleId::from(&rules::TRIANGLE_ARRAY_RANGE),
+        RuleId::from(&rules::HISTOGRAM_MISMATCH),
+    ]);
+    if opacity {
+        read.push(RuleId::from(&rules::TRIANGLE_DATA_RANGE));
+    }
+    read
+}
+
 /// The triangle array's entries, when the checker can read them: each entry's
 /// format and level (11657-11661), its data inside `data`, and the usage
 /// counts against the entries. Returns the entries read and the data (shared
@@ -747,10 +787,37 @@ fn triangle_array(
         Side::Host => state.host_bytes_from(address),
         Side::SizeQuery => None,
     };
-    let Some(array) = read_from(info.triangle_array) else {
-        return None; // Contents not available to the checker.
-    };
+    let host = side == Side::Host;
     let data = read_from(info.data);
+    // Where a host build's address rules are not decided (the memory was
+    // not described), this finding names them with the content rules.
+    let host_address = |vuid: ommcheck_vuids::Vuid, readable: bool| {
+        (host && !readable && !state.describes_all_host_memory()).then_some(RuleId::from(vuid))
+    };
+    let Some(array) = read_from(info.triangle_array) else {
+        let mut skipped = entry_rules(opacity);
+        skipped.extend(host_address(host::pInfos_07554, false));
+        skipped.extend(host_address(host::pInfos_07553, data.is_some()));
+        common::unreadable(
+            ctx,
+            host,
+            info.triangle_array,
+            &skipped,
+            common::At(at, ".triangleArray"),
+        );
+        return None;
+    };
+    ctx.checked(&entry_rules(opacity));
+    let data_rules: Vec<RuleId> = opacity
+        .then(|| RuleId::from(&rules::TRIANGLE_DATA_RANGE))
+        .into_iter()
+        .chain(host_address(host::pInfos_07553, data.is_some()))
+        .collect();
+    if data.is_none() {
+        common::unreadable(ctx, host, info.data, &data_rules, common::At(at, ".data"));
+    } else {
+        ctx.checked(&data_rules);
+    }
     // The entries kept for the record: at most one per byte of the array
     // (a stride of 0 repeats one entry), so never more than was readable.
     let mut entries = Vec::new();

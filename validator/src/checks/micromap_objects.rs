@@ -1180,6 +1180,13 @@ fn serialized_host_address(
             location,
             format!("{address:#x} is outside the host memory the application described"),
         );
+    } else if ctx
+        .state
+        .is_some_and(|state| state.host_bytes_from(address).is_some())
+    {
+        ctx.checked(&[valid.into()]);
+    } else {
+        common::unreadable(ctx, true, address, &[valid.into()], location);
     }
     common::aligned(ctx, address, SERIALIZED_HOST_ALIGNMENT, aligned, location);
 }
@@ -1286,6 +1293,19 @@ fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride
             format!(
                 "[{data:#x}, +{data_size}) is not inside the host memory the application described"
             ),
+        );
+    } else if ctx
+        .state
+        .is_some_and(|state| state.read_host(data, data_size).is_some())
+    {
+        ctx.checked(&[host_write::pData_parameter.into()]);
+    } else {
+        common::unreadable(
+            ctx,
+            true,
+            data,
+            &[host_write::pData_parameter.into()],
+            "pData",
         );
     }
 }

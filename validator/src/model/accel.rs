@@ -639,6 +639,22 @@ pub struct AccelerationStructureCreateInfo {
     pub device_address: u64,
 }
 
+impl AccelerationStructureCreateInfo {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &vk::AccelerationStructureCreateInfoKHR<'_>) -> Self {
+        Self {
+            s_type: info.s_type.as_raw(),
+            next: Vec::new(),
+            create_flags: info.create_flags.as_raw(),
+            buffer: vk::Handle::as_raw(info.buffer),
+            offset: info.offset,
+            size: info.size,
+            ty: info.ty.as_raw(),
+            device_address: info.device_address,
+        }
+    }
+}
+
 impl Default for AccelerationStructureCreateInfo {
     fn default() -> Self {
         Self {

@@ -702,7 +702,7 @@ impl Validator {
                 &mut findings,
             )
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.cmd_build_acceleration_structures(command_buffer, &model, &ranges));
         report
     }
@@ -764,8 +764,12 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let ranges =
             unsafe { read_build_range_infos(infos, model.len(), ranges, CMD_BUILD, &mut findings) };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
+        // The caller reads the build's device memory at submission and
+        // reports there what it cannot read.
+        let later = std::mem::replace(&mut self.device_contents_later, true);
         report.extend(self.cmd_build_acceleration_structures(command_buffer, &model, &ranges));
+        self.device_contents_later = later;
         let build = DeviceBuild::AccelerationStructures {
             infos: model,
             ranges,
@@ -799,9 +803,10 @@ impl Validator {
             )
         };
         // SAFETY: forwarded from the caller.
-        let mut report = unsafe { self.build_acceleration_structures_ash(infos, ranges) };
-        findings.append(&mut report.findings);
-        Report { findings }
+        let report = unsafe { self.build_acceleration_structures_ash(infos, ranges) };
+        let mut out = Report::from(findings);
+        out.extend(report);
+        out
     }
 
     /// Checks `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer,
@@ -828,7 +833,7 @@ impl Validator {
             .take(MAX_ELEMENTS)
             .map(|counts| Some(counts.iter().take(MAX_ELEMENTS).copied().collect()))
             .collect();
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.cmd_build_acceleration_structures_indirect(
             command_buffer,
             &model,
@@ -888,7 +893,7 @@ impl Validator {
                 unsafe { self.describe_host_range(&read, HOST_BUILD, &mut findings) };
             }
         }
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.build_acceleration_structures(&model, &ranges));
         // Host memory read for this call is forgotten after it.
         self.state.host_memory.truncate(described_before);
@@ -934,7 +939,7 @@ impl Validator {
                 model.geometry_count = model.geometry_count.min(read);
             }
         }
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.get_acceleration_structure_build_sizes(
             build_type.as_raw(),
             &model,
@@ -955,7 +960,6 @@ impl Validator {
     ) -> Report {
         let mut findings = Vec::new();
         let model = AccelerationStructureCreateInfo {
-            s_type: info.s_type.as_raw(),
             // SAFETY: forwarded from the caller.
             next: unsafe {
                 chain_s_types(
@@ -965,14 +969,9 @@ impl Validator {
                     &mut findings,
                 )
             },
-            create_flags: info.create_flags.as_raw(),
-            buffer: vk::Handle::as_raw(info.buffer),
-            offset: info.offset,
-            size: info.size,
-            ty: info.ty.as_raw(),
-            device_address: info.device_address,
+            ..AccelerationStructureCreateInfo::from_members(info)
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(
             self.create_acceleration_structure(&model, vk::Handle::as_raw(acceleration_structure)),
         );
@@ -1008,7 +1007,7 @@ impl Validator {
             address_flags: info.address_flags.as_raw(),
             ty: info.ty.as_raw(),
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(
             self.create_acceleration_structure2(&model, vk::Handle::as_raw(acceleration_structure)),
         );

@@ -372,7 +372,7 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let model = unsafe { optional(info, |i| copy_as_info(i, function, &mut findings)) };
         let Some(model) = model else {
-            return Report { findings };
+            return Report::from(findings);
         };
         with_findings(
             findings,
@@ -393,7 +393,7 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let model = unsafe { optional(info, |i| copy_as_info(i, function, &mut findings)) };
         let Some(model) = model else {
-            return Report { findings };
+            return Report::from(findings);
         };
         with_findings(findings, self.copy_acceleration_structure(&model))
     }
@@ -422,7 +422,7 @@ impl Validator {
             })
         };
         let Some(model) = model else {
-            return Report { findings };
+            return Report::from(findings);
         };
         let report = self.cmd_copy_acceleration_structure_to_memory(command_buffer, &model);
         with_findings(findings, report)
@@ -452,7 +452,7 @@ impl Validator {
             })
         };
         let Some(model) = model else {
-            return Report { findings };
+            return Report::from(findings);
         };
         let report = self.cmd_copy_memory_to_acceleration_structure(command_buffer, &model);
         with_findings(findings, report)
@@ -526,9 +526,10 @@ impl Validator {
 }
 
 /// The reader's findings first, then the check's.
-fn with_findings(mut findings: Vec<Finding>, report: Report) -> Report {
-    findings.extend(report.findings);
-    Report { findings }
+fn with_findings(findings: Vec<Finding>, report: Report) -> Report {
+    let mut out = Report::from(findings);
+    out.extend(report);
+    out
 }
 
 /// # Safety

@@ -409,11 +409,15 @@ impl Validator {
                 vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
             )
         };
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         if infos.is_null() && info_count != 0 {
             return (report, None);
         }
+        // The caller reads the build's device memory at submission and
+        // reports there what it cannot read.
+        let later = std::mem::replace(&mut self.device_contents_later, true);
         report.extend(self.cmd_build_micromaps(command_buffer, &model));
+        self.device_contents_later = later;
         (report, Some(DeviceBuild::Micromaps(model)))
     }
 
@@ -491,7 +495,7 @@ impl Validator {
             )
         };
         if infos.is_null() && info_count != 0 {
-            return Report { findings };
+            return Report::from(findings);
         }
         // Host memory read for this call is forgotten after it: the
         // application may change or free it once the call returns.
@@ -542,7 +546,7 @@ impl Validator {
                 });
             }
         }
-        let mut report = Report { findings };
+        let mut report = Report::from(findings);
         report.extend(self.build_micromaps(
             vk::Handle::as_raw(device),
             vk::Handle::as_raw(deferred_operation),
@@ -774,9 +778,22 @@ mod tests {
                 )
             }
         };
-        // Data outside the ranges the call read is not taken to be invalid.
+        // Data outside the ranges the call read is not taken to be invalid,
+        // and its rules are reported not checked.
         let report = build(&mut v, &[]);
-        assert!(report.is_empty(), "{report}");
+        assert_eq!(
+            report.ids(),
+            [rules::NOT_CHECKED_HOST_MEMORY.id],
+            "{report}"
+        );
+        assert_eq!(
+            report.findings[0].not_checked,
+            [
+                crate::RuleId::from(&rules::TRIANGLE_DATA_RANGE),
+                vuid::vkBuildMicromapsEXT::pInfos_07553.into()
+            ]
+        );
+        assert_eq!(report.findings[0].location, "pInfos[0].data");
         let report = build(&mut v, &[whole]);
         assert!(report.is_empty(), "{report}");
         // With one byte readable, the second triangle's data is past its end.

@@ -242,15 +242,9 @@ pub unsafe fn micromap_create_info(
     findings: &mut Vec<Finding>,
 ) -> MicromapCreateInfo {
     MicromapCreateInfo {
-        s_type: info.s_type.as_raw(),
         // SAFETY: forwarded from the caller.
         next: unsafe { chain_s_types(info.p_next, "vkCreateMicromapEXT", "pCreateInfo", findings) },
-        create_flags: info.create_flags.as_raw(),
-        buffer: vk::Handle::as_raw(info.buffer),
-        offset: info.offset,
-        size: info.size,
-        ty: info.ty.as_raw(),
-        device_address: info.device_address,
+        ..MicromapCreateInfo::from_members(info)
     }
 }
 
@@ -286,8 +280,9 @@ impl Validator {
             callbacks.as_ref(),
             micromap_requested.then_some(0),
         );
-        findings.extend(report.findings);
-        Report { findings }
+        let mut out = Report::from(findings);
+        out.extend(report);
+        out
     }
 
     /// Records the micromap `vkCreateMicromapEXT` created, without checking

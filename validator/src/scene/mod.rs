@@ -35,7 +35,7 @@ pub use resolve::{
 };
 pub use trace::{RayReport, TraceReport, TraceSummary};
 
-use crate::report::{Finding, Report, Severity};
+use crate::report::{Finding, Report, ReportSummary};
 use format::SceneFile;
 
 /// The built-in example scene (`ommcheck check --example`): a micromap
@@ -225,6 +225,7 @@ fn syntax(path: &str, error: &serde_json::Error) -> SceneError {
 
 /// Counts over every checked scene (the JSON output's `summary`).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct Summary {
     pub scenes: usize,
     pub calls: usize,
@@ -232,26 +233,43 @@ pub struct Summary {
     pub errors: usize,
     pub warnings: usize,
     pub info: usize,
+    /// Rules the checks decided in every scene that reached them.
+    pub rules_checked: usize,
+    /// Rules a not-checked information names: skipped for want of what a
+    /// scene did not give (see [`crate::not_checked`]).
+    pub rules_not_checked: usize,
 }
 
 impl Summary {
     pub fn of(reports: &[SceneReport]) -> Summary {
-        let mut summary = Summary {
+        let counts = ReportSummary::of(reports.iter().map(|r| &r.report));
+        Summary {
             scenes: reports.len(),
-            ..Summary::default()
-        };
-        for report in reports {
-            summary.calls += report.calls;
-            for finding in &report.findings {
-                summary.findings += 1;
-                match finding.severity {
-                    Severity::Error => summary.errors += 1,
-                    Severity::Warning => summary.warnings += 1,
-                    Severity::Info => summary.info += 1,
-                }
-            }
+            calls: reports.iter().map(|r| r.calls).sum(),
+            findings: counts.findings,
+            errors: counts.errors,
+            warnings: counts.warnings,
+            info: counts.info,
+            rules_checked: counts.rules_checked,
+            rules_not_checked: counts.rules_not_checked,
         }
-        summary
+    }
+}
+
+impl fmt::Display for Summary {
+    /// The last line of `ommcheck check`'s text output.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} scene(s), {} call(s): {} error(s), {} warning(s), {} info; {} rule(s) checked, {} not checked",
+            self.scenes,
+            self.calls,
+            self.errors,
+            self.warnings,
+            self.info,
+            self.rules_checked,
+            self.rules_not_checked
+        )
     }
 }
 

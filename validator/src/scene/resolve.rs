@@ -230,6 +230,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
     for (i, call) in scene.calls.iter().enumerate() {
         let at = format!("calls[{i}]");
         let call_report = resolver.call(call, &at)?;
+        report.checked.union(&call_report.checked);
         for mut finding in call_report.findings {
             finding.location = if finding.location.is_empty() {
                 at.clone()

@@ -11,7 +11,7 @@ use serde::Serialize;
 use super::names::{self, Kind};
 use super::resolve::{self, NamedObject, ResolvedRay};
 use super::{CheckOptions, Scene, SceneError};
-use crate::report::{Finding, Report, Severity};
+use crate::report::{Finding, Report};
 use crate::sim::decode::{LookupError, WorkCounters};
 use crate::sim::index::BaryError;
 use crate::sim::opacity::{
@@ -167,19 +167,16 @@ impl Scene {
             .map(|(i, ray)| ray_report(&run.validator, objects, i, ray))
             .collect();
         let report = run.checked.report;
+        let counts = report.summary();
         let mut summary = TraceSummary {
             calls: run.checked.calls,
             rays: rays.len(),
+            findings: counts.findings,
+            errors: counts.errors,
+            warnings: counts.warnings,
+            info: counts.info,
             ..TraceSummary::default()
         };
-        for finding in &report.findings {
-            summary.findings += 1;
-            match finding.severity {
-                Severity::Error => summary.errors += 1,
-                Severity::Warning => summary.warnings += 1,
-                Severity::Info => summary.info += 1,
-            }
-        }
         summary.simulated = rays.iter().filter(|r| r.simulated).count();
         summary.not_simulated = rays.len().saturating_sub(summary.simulated);
         Ok(TraceReport {

@@ -23,7 +23,7 @@ use ommcheck::vuids::vuid::{
     VkClusterAccelerationStructureBuildTriangleClusterInfoNV as cluster,
     VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
 };
-use ommcheck::{Report, RuleId, Validator};
+use ommcheck::{Report, RuleId, Severity, Validator};
 
 use crate::fixtures::*;
 use crate::{case, Case};
@@ -1645,4 +1645,92 @@ fn instances_past_their_end_name_the_last_inside() {
     let pointers = |data| instances_from(data, true).contains(&rules::INSTANCES_RANGE);
     assert!(!pointers(INPUT_ADDRESS + INPUT_SIZE - 32));
     assert!(pointers(INPUT_ADDRESS + INPUT_SIZE - 24));
+}
+
+#[test]
+fn an_attachment_to_a_micromap_whose_build_was_not_seen_says_what_it_skips() {
+    let mut v = world();
+    v.state_mut()
+        .micromaps
+        .get_mut(&MICROMAP)
+        .expect("fixture")
+        .built = None;
+    let report = cmd_in(v, &[device_blas(with_ext(ext_ok()))]);
+    let skipped: Vec<_> = report.not_checked().collect();
+    assert_eq!(skipped.len(), 1, "{report}");
+    let finding = skipped[0];
+    assert_eq!(finding.rule.as_str(), "OMMCHECK-not-checked-build-not-seen");
+    assert_eq!(finding.severity, Severity::Info);
+    assert!(finding.location.ends_with(".micromap"), "{finding}");
+    assert_eq!(finding.objects[0].handle, MICROMAP);
+    assert_eq!(
+        finding.not_checked,
+        [
+            RuleId::from(&rules::INDEX_IN_RANGE),
+            RuleId::from(&rules::ATTACH_USAGE_COUNTS)
+        ]
+    );
+    assert!(finding.message.contains("Validator::cmd_build_micromaps"));
+    assert!(!report.has_errors(), "{report}");
+    // The built twin decides both.
+    let built = ok_ext();
+    assert!(built.not_checked().all(|f| !f
+        .not_checked
+        .contains(&RuleId::from(&rules::INDEX_IN_RANGE))));
+    assert!(built.checked.contains(&rules::INDEX_IN_RANGE));
+}
+
+#[test]
+fn unreadable_index_buffers_and_instances_are_reported_not_checked() {
+    let mut v = world();
+    v.state_mut()
+        .buffers
+        .get_mut(&INPUT)
+        .expect("fixture")
+        .contents = None;
+    let report = cmd_in(v, &[device_blas(with_ext(ext_ok()))]);
+    let finding = report
+        .not_checked()
+        .find(|f| f.location.ends_with(".indexBuffer"))
+        .unwrap_or_else(|| panic!("{report}"));
+    assert_eq!(finding.rule.as_str(), "OMMCHECK-not-checked-contents");
+    assert_eq!(finding.objects[0].handle, INPUT);
+    assert!(finding
+        .not_checked
+        .contains(&RuleId::from(&rules::INDEX_IN_RANGE)));
+    assert!(report.require_fully_checked().is_err());
+    let summary = report.summary();
+    assert!(summary.rules_not_checked >= 1);
+    // With the contents given, the indices are read.
+    let readable = ok_ext();
+    assert!(
+        readable
+            .not_checked()
+            .all(|f| !f.location.ends_with(".indexBuffer")),
+        "{readable}"
+    );
+}
+
+#[test]
+fn an_update_of_a_structure_whose_original_build_was_not_seen_says_so() {
+    let update_info = BuildGeometryInfo {
+        flags: allow_update(),
+        mode: BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE,
+        src_acceleration_structure: BLAS,
+        ..device_blas(khr_into(KHR_MICROMAP))
+    };
+    let report = cmd_in(world(), &[update_info]);
+    let finding = report
+        .not_checked()
+        .find(|f| f.location == "pInfos[0].srcAccelerationStructure")
+        .unwrap_or_else(|| panic!("{report}"));
+    assert_eq!(finding.rule.as_str(), "OMMCHECK-not-checked-build-not-seen");
+    assert_eq!(finding.objects[0].handle, BLAS);
+    assert!(finding.not_checked.contains(&cmd::micromap_11625.into()));
+    // With the original build recorded, the update rules are decided.
+    let seen = update(khr_into(KHR_MICROMAP), khr_into(KHR_MICROMAP), cmd_in);
+    assert!(seen
+        .not_checked()
+        .all(|f| f.location != "pInfos[0].srcAccelerationStructure"));
+    assert!(seen.checked.contains(cmd::micromap_11625));
 }

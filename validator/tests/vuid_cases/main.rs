@@ -9,6 +9,7 @@ mod clean_runs;
 mod fixtures;
 mod micromap_build;
 mod micromap_objects;
+mod not_checked;
 mod pipeline_sync;
 mod raw;
 

@@ -752,3 +752,38 @@ pub fn cases() -> Vec<Case> {
     cases.extend(work_cases());
     cases
 }
+
+#[test]
+fn a_traced_structure_whose_build_was_not_seen_is_reported_not_checked_once() {
+    let command = WorkCommand::vkCmdTraceRaysKHR;
+    let mut v = work_world(device(), MicromapGeometry::default(), 0, false, 0);
+    let state = v.state_mut();
+    state.micromap_geometry.remove(&TLAS);
+    state
+        .acceleration_structures
+        .insert(TLAS, ommcheck::state::AccelerationStructure::default());
+    let mut bound = BoundWork {
+        pipeline: PIPELINE,
+        accesses: Vec::new(),
+    };
+    for ray_query in [false, true] {
+        bound.accesses.push(AccelerationStructureAccess {
+            acceleration_structure: TLAS,
+            ray_query,
+            shader: AccessingShader::PipelineStage(RAYGEN),
+        });
+    }
+    let report = v.cmd_run_shaders(command, &command_buffer(), &bound);
+    let skipped: Vec<_> = report.not_checked().collect();
+    assert_eq!(skipped.len(), 1, "{report}");
+    assert_eq!(
+        skipped[0].not_checked_cause(),
+        Some(ommcheck::Cause::BuildNotSeen)
+    );
+    assert_eq!(skipped[0].objects[0].handle, TLAS);
+    assert_eq!(skipped[0].not_checked.len(), 4);
+    // With the build recorded, the rules are decided.
+    let mut built = work_world(device(), MicromapGeometry::default(), 0, false, 0);
+    let report = built.cmd_run_shaders(command, &command_buffer(), &bound);
+    report.assert_fully_checked();
+}

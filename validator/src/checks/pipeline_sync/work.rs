@@ -12,7 +12,8 @@ use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData, Trian
 use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
 use crate::model::pipeline::*;
 use crate::model::CommandBuffer;
-use crate::report::{ObjectRef, Report};
+use crate::not_checked::Cause;
+use crate::report::{ObjectRef, Report, RuleId};
 use crate::state::State;
 use crate::tier::Tier;
 use crate::validator::{Ctx, Validator};
@@ -114,13 +115,42 @@ impl Validator {
         let _ = command_buffer;
         let vuids = command.vuids();
         let mut ctx = self.ctx(vuids.function);
+        // Structures already reported as built unseen, once each.
+        let mut unseen: Vec<u64> = Vec::new();
         for access in &bound.accesses {
             let Some(geometry) = ctx
                 .state
                 .and_then(|state| state.micromap_geometry.get(&access.acceleration_structure))
                 .copied()
             else {
-                continue; // How it was built is unknown.
+                // A structure the checker tracks but whose build it did not
+                // see: what it holds is unknown, and the rules say so.
+                let tracked = ctx.state.is_some_and(|state| {
+                    state
+                        .acceleration_structures
+                        .contains_key(&access.acceleration_structure)
+                });
+                if tracked && !unseen.contains(&access.acceleration_structure) {
+                    unseen.push(access.acceleration_structure);
+                    let mut skipped: Vec<RuleId> = vec![
+                        vuids.ray_query_mode.into(),
+                        vuids.pipeline_mixed.into(),
+                        vuids.shader_mixed.into(),
+                    ];
+                    skipped.extend(vuids.pipeline_opacity.map(RuleId::from));
+                    let handle = access.acceleration_structure;
+                    ctx.not_checked(
+                        Cause::BuildNotSeen,
+                        &skipped,
+                        "",
+                        Some(ObjectRef {
+                            ty: "VkAccelerationStructureKHR",
+                            handle,
+                        }),
+                        format_args!("the build of VkAccelerationStructureKHR {handle:#x}, which the bound shaders access, was not seen, so whether it holds micromap geometry is unknown"),
+                    );
+                }
+                continue;
             };
             ray_query_mode(&mut ctx, &vuids, bound, access, geometry);
             mixed_special_indices(&mut ctx, &vuids, bound, access, geometry);
