@@ -6,7 +6,6 @@ mod progress;
 
 use clap::{Parser, Subcommand};
 use ommcheck::scene::{CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary};
-use ommcheck::vuids::Vuid;
 
 /// A checker for Vulkan opacity-micromap API usage.
 #[derive(Parser)]
@@ -85,9 +84,14 @@ enum Command {
     },
     /// Print the JSON Schema of scene files (docs/scene.schema.json).
     Schema,
-    /// Print a VUID's catalog entry: parent, extensions, statement and link.
+    /// Explain a rule: whether ommcheck enforces it, the tier that decides
+    /// it (or why it cannot be decided), whether the Khronos validation
+    /// layer checks it, its statement and link. Exit status 1 when nothing
+    /// matches (with the closest ids).
     Vuid {
-        /// e.g. VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516
+        /// A VUID (VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516, in any
+        /// case, `VUID-` optional), a bare number (07516: every VUID with
+        /// it), or a rule of ours (OMMCHECK-attach-index-in-range).
         id: String,
     },
 }
@@ -114,39 +118,29 @@ fn main() -> ExitCode {
             print!("{}", ommcheck::scene::schema());
             ExitCode::SUCCESS
         }
-        Command::Vuid { id } => match Vuid::from_id(&id) {
-            Some(v) => {
-                let info = v.info();
-                println!("{}", info.id);
-                println!(
-                    "  parent:     {} ({:?}, {:?})",
-                    info.parent, info.parent_kind, info.kind
-                );
-                println!(
-                    "  extensions: {}",
-                    info.extensions
-                        .extension_names()
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                );
-                if let Some(k) = info.khronos_layer_checks {
-                    println!(
-                        "  checked by the Khronos validation layer: {}",
-                        if k { "yes" } else { "no" }
-                    );
-                }
-                println!("  statement:  {}", info.text);
-                println!("  link:       {}", info.link());
-                ExitCode::SUCCESS
-            }
-            None => {
-                eprintln!(
-                    "ommcheck: {id} is not a micromap VUID of Vulkan {}",
-                    ommcheck::vuids::REGISTRY_VERSION
-                );
-                ExitCode::from(1)
-            }
-        },
+        Command::Vuid { id } => vuid_command(&id),
+    }
+}
+
+/// `ommcheck vuid`: every rule the query names, or the closest ids.
+fn vuid_command(query: &str) -> ExitCode {
+    match ommcheck::explain::lookup(query) {
+        Ok(rules) => {
+            let texts: Vec<String> = rules.into_iter().map(ommcheck::explain::render).collect();
+            print!("{}", texts.join("\n"));
+            ExitCode::SUCCESS
+        }
+        Err(not_found) => {
+            let hint = ommcheck::suggest::sentence(&not_found.suggestions)
+                .map(|s| format!("; {s}"))
+                .unwrap_or_default();
+            eprintln!(
+                "ommcheck: `{}` is neither a micromap VUID of Vulkan {}, nor the number of one, nor a rule of ours (OMMCHECK-...){hint}",
+                not_found.query,
+                ommcheck::vuids::REGISTRY_VERSION
+            );
+            ExitCode::from(1)
+        }
     }
 }
 

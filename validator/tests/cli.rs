@@ -61,7 +61,45 @@ fn vuid_lookup() {
     let (code, stdout, _) = ommcheck(&["vuid", "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516"]);
     assert_eq!(code, 0);
     assert!(stdout.contains("Only one of pUsageCounts or ppUsageCounts"));
+    assert!(stdout.contains("ommcheck:   enforced"), "{stdout}");
+    assert!(stdout.contains("tier:       decided from the"), "{stdout}");
+    assert!(
+        stdout.contains("Khronos validation layer: checks it"),
+        "{stdout}"
+    );
     assert_eq!(ommcheck(&["vuid", "VUID-nope"]).0, 1);
+}
+
+#[test]
+fn vuid_accepts_any_case_bare_numbers_and_our_ids() {
+    let (code, lower, _) = ommcheck(&["vuid", "vuid-vkmicromapbuildinfoext-pusagecounts-07516"]);
+    assert_eq!(code, 0);
+    assert!(lower.starts_with("VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516\n"));
+
+    // 11636 is stated once for every command that runs shaders.
+    let (code, listed, _) = ommcheck(&["vuid", "11636"]);
+    assert_eq!(code, 0);
+    let ids: Vec<&str> = listed.lines().filter(|l| l.starts_with("VUID-")).collect();
+    assert!(ids.len() > 10, "{listed}");
+    assert!(ids.iter().all(|id| id.ends_with("-11636")));
+    assert!(ids.contains(&"VUID-vkCmdTraceRaysKHR-micromap-11636"));
+
+    let (code, own, _) = ommcheck(&["vuid", "ommcheck-build-usage-counts-match-triangles"]);
+    assert_eq!(code, 0);
+    assert!(own.starts_with("OMMCHECK-build-usage-counts-match-triangles\n"));
+    assert!(own.contains("decided from the content tier up"), "{own}");
+}
+
+#[test]
+fn unknown_vuids_get_a_did_you_mean() {
+    let (code, stdout, stderr) =
+        ommcheck(&["vuid", "VUID-VkMicromapBuildInfoEXT-pUsageCount-07516"]);
+    assert_eq!(code, 1);
+    assert!(stdout.is_empty());
+    assert!(
+        stderr.contains("did you mean `VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516`"),
+        "{stderr}"
+    );
 }
 
 #[test]

@@ -109,6 +109,13 @@ fn main() -> ExitCode {
             ommcheck::coverage::corpus_tiers(&root.join(ommcheck::coverage::CORPUS))
                 .map_err(xtask::Error::Tool)
                 .and_then(|tiers| {
+                    let tiers_path = root.join(ommcheck::coverage::TIERS_FILE);
+                    std::fs::write(&tiers_path, ommcheck::coverage::render_tiers(&tiers)).map_err(
+                        |source| xtask::Error::Io {
+                            path: tiers_path,
+                            source,
+                        },
+                    )?;
                     std::fs::write(&path, ommcheck::coverage::render(&tiers))
                         .map_err(|source| xtask::Error::Io { path, source })
                 })
@@ -122,7 +129,12 @@ fn main() -> ExitCode {
                         source,
                     })
                 })
-                .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
+                .map(|()| {
+                    println!(
+                        "wrote VUID-COVERAGE.md, {} and the rules table of README.md",
+                        ommcheck::coverage::TIERS_FILE
+                    )
+                })
         }
         Task::Layer { out_dir } => layer::build(&root, out_dir).map(|dir| {
             println!("{}", dir.display());
