@@ -426,7 +426,7 @@ fn malformed_rays_exit_2_with_a_json_path() {
     for (i, (ray, needle)) in [
         (
             r#"{"accelerationStructure": "b", "triangle": 0, "hit": {"u": 0, "v": 0}, "rayFlags": "OpaqueEXT"}"#,
-            "unknown RayFlags name `OpaqueEXT`; expected one of NoneKHR, OpaqueKHR",
+            "unknown RayFlags name `OpaqueEXT`; did you mean `OpaqueKHR`",
         ),
         (
             r#"{"accelerationStructure": "b", "triangle": 0, "hit": {"u": 0, "v": 0}, "instanceFlags": "FORCE_OPAQUE"}"#,

@@ -557,27 +557,32 @@ impl Resolver<'_> {
         Ok(handle)
     }
 
-    fn names_of(&self, kind: ObjectKind) -> String {
-        let names: Vec<String> = self
+    /// The scene's names of `kind` for a message about the unknown name
+    /// `wanted`, led by the closest if one is close.
+    fn names_of(&self, kind: ObjectKind, wanted: &str) -> String {
+        let names: Vec<&str> = self
             .order
             .iter()
             .filter(|n| self.objects.get(*n).is_some_and(|o| o.kind == kind))
-            .map(|n| format!("`{n}`"))
+            .map(String::as_str)
             .collect();
         if names.is_empty() {
             format!("the scene has no {}", kind.noun())
         } else {
-            format!("the scene's {}s are {}", kind.noun(), names.join(", "))
+            let list = format!("the scene's {}s are {}", kind.noun(), quoted(&names));
+            with_suggestion(wanted, &names, list)
         }
     }
 
-    /// The names of every object declared so far, for messages.
-    fn declared_names(&self) -> String {
+    /// The names of every object declared so far, for a message about the
+    /// unknown name `wanted`.
+    fn declared_names(&self, wanted: &str) -> String {
         if self.order.is_empty() {
             "the scene declares no objects".to_string()
         } else {
-            let names: Vec<String> = self.order.iter().map(|n| format!("`{n}`")).collect();
-            format!("the scene's objects are {}", names.join(", "))
+            let names: Vec<&str> = self.order.iter().map(String::as_str).collect();
+            let list = format!("the scene's objects are {}", quoted(&names));
+            with_suggestion(wanted, &names, list)
         }
     }
 
@@ -595,7 +600,7 @@ impl Resolver<'_> {
                         "unknown {} `{name}`: expected the name of a {} declared or created earlier ({})",
                         kind.noun(),
                         kind.noun(),
-                        self.names_of(kind)
+                        self.names_of(kind, name)
                     ),
                 ),
             },
@@ -617,7 +622,7 @@ impl Resolver<'_> {
                     format!(
                         "`{name}` names a {}; a ray needs a bottom-level acceleration structure ({})",
                         object.kind.noun(),
-                        self.names_of(kind)
+                        self.names_of(kind, name)
                     ),
                 )
             }
@@ -626,7 +631,7 @@ impl Resolver<'_> {
                     as_at,
                     format!(
                         "unknown acceleration structure `{name}`: expected the name of a bottom-level acceleration structure declared or created by a call ({})",
-                        self.names_of(kind)
+                        self.names_of(kind, name)
                     ),
                 )
             }
@@ -715,7 +720,7 @@ impl Resolver<'_> {
                         format!("{at}.buffer"),
                         format!(
                         "unknown buffer `{name}`: expected the name of a buffer in `buffers` ({})",
-                        self.names_of(ObjectKind::Buffer)
+                        self.names_of(ObjectKind::Buffer, name)
                     ),
                     )
                 }
@@ -723,16 +728,12 @@ impl Resolver<'_> {
             AddressArg::Host { name, offset } => match self.host_addresses.get(name) {
                 Some(base) => (*base, *offset),
                 None => {
-                    let known: Vec<String> = self
-                        .host_addresses
-                        .keys()
-                        .map(|n| format!("`{n}`"))
-                        .collect();
+                    let known: Vec<&str> = self.host_addresses.keys().map(String::as_str).collect();
                     return problem(
                         format!("{at}.host"),
                         format!(
                             "unknown host memory `{name}`: expected the name of a block in `hostMemory` ({})",
-                            if known.is_empty() { "the scene has none".to_string() } else { known.join(", ") }
+                            if known.is_empty() { "the scene has none".to_string() } else { with_suggestion(name, &known, quoted(&known)) }
                         ),
                     );
                 }
@@ -762,7 +763,7 @@ impl Resolver<'_> {
                         format!("{at}.commandBuffer"),
                         format!(
                             "unknown command buffer `{name}`: expected a name from `commandBuffers` ({})",
-                            self.names_of(ObjectKind::CommandBuffer)
+                            self.names_of(ObjectKind::CommandBuffer, name)
                         ),
                     )
                 },
@@ -1154,7 +1155,7 @@ impl Resolver<'_> {
                     at,
                     format!(
                         "unknown object `{name}`: expected the name of an object declared before the calls ({})",
-                        self.declared_names()
+                        self.declared_names(name)
                     ),
                 );
             };
@@ -2016,6 +2017,24 @@ fn piece_len_hint(piece: &Piece) -> Option<u64> {
         return len(v.len(), MicromapTriangle::SIZE);
     }
     None
+}
+
+/// `names` as `` `a`, `b` ``, for messages.
+fn quoted(names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `list`, led by "did you mean `x`?" when a name of `names` is close to
+/// `wanted`.
+fn with_suggestion(wanted: &str, names: &[&str], list: String) -> String {
+    match crate::suggest::did_you_mean(wanted, names.iter().copied(), 1) {
+        Some(hint) => format!("{hint} {list}"),
+        None => list,
+    }
 }
 
 #[cfg(test)]
