@@ -32,7 +32,8 @@ enum Command {
     /// errors were found, 1 when some were (or warnings, with --deny
     /// warnings), 2 when a scene could not be read.
     Check {
-        /// Check the built-in example scene (embedded in the binary).
+        /// Check the built-in example scene (embedded in the binary;
+        /// `ommcheck example` prints it).
         #[arg(long)]
         example: bool,
         /// Scene files to check (JSON; see docs/scene-format.md).
@@ -84,6 +85,9 @@ enum Command {
     },
     /// Print the JSON Schema of scene files (docs/scene.schema.json).
     Schema,
+    /// Print the built-in example scene (the one `check --example` checks)
+    /// as a starting point: `ommcheck example > scene.json`.
+    Example,
     /// Explain a rule: whether ommcheck enforces it, the tier that decides
     /// it (or why it cannot be decided), whether the Khronos validation
     /// layer checks it, its statement and link. Exit status 1 when nothing
@@ -116,6 +120,10 @@ fn main() -> ExitCode {
         } => index_command(level, uv.as_deref(), index, delta, format),
         Command::Schema => {
             print!("{}", ommcheck::scene::schema());
+            ExitCode::SUCCESS
+        }
+        Command::Example => {
+            print!("{}", ommcheck::scene::EXAMPLE);
             ExitCode::SUCCESS
         }
         Command::Vuid { id } => vuid_command(&id),

@@ -112,3 +112,21 @@ fn example_runs() {
     assert!(stdout.contains("[ OMMCHECK-attach-index-in-range ]"));
     assert!(stdout.contains("vkCmdBuildMicromapsEXT(): calls[1]: pInfos[0]"));
 }
+
+#[test]
+fn example_prints_the_scene_check_example_checks() {
+    let (code, scene, stderr) = ommcheck(&["example"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(scene, ommcheck::scene::EXAMPLE);
+    let path = std::env::temp_dir().join(format!("ommcheck-example-{}.json", std::process::id()));
+    std::fs::write(&path, &scene).unwrap();
+    let (code, from_file, _) = ommcheck(&["check", path.to_str().unwrap()]);
+    std::fs::remove_file(&path).ok();
+    let (_, built_in, _) = ommcheck(&["check", "--example"]);
+    assert_eq!(code, 1, "the example has errors on purpose");
+    // The same findings; only the scene's name differs.
+    assert_eq!(
+        from_file.replace(path.to_str().unwrap(), ommcheck::scene::EXAMPLE_PATH),
+        built_in
+    );
+}
