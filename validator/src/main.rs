@@ -5,7 +5,9 @@ use std::process::ExitCode;
 mod progress;
 
 use clap::{Parser, Subcommand};
-use ommcheck::scene::{CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary};
+use ommcheck::scene::{
+    CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary, TraceReport, TraceSummary,
+};
 
 /// A checker for Vulkan opacity-micromap API usage.
 #[derive(Parser)]
@@ -55,14 +57,16 @@ enum Command {
         #[arg(long, default_value_t = ommcheck::Tier::Content)]
         tier: ommcheck::Tier,
     },
-    /// Check a scene's calls, then simulate each of its `rays`: the outcome
-    /// set, the micromap slot, the micro-triangles and their states, and the
-    /// rule that decided it. Exit status: 0 when every ray was simulated and
-    /// the calls had no errors, 1 when they had errors or a ray could not be
-    /// simulated, 2 when the scene could not be read.
+    /// Check each scene's calls, then simulate each of its `rays`: the
+    /// outcome set, the micromap slot, the micro-triangles and their states,
+    /// and the rule that decided it. The JSON form is `check`'s (scenes,
+    /// findings, summary) with the rays added. Exit status: 0 when every ray
+    /// was simulated and the calls had no errors, 1 when they had errors or
+    /// a ray could not be simulated, 2 when a scene could not be read.
     Trace {
-        /// The scene file (JSON; see docs/scene-format.md).
-        scene: std::path::PathBuf,
+        /// Scene files (JSON; see docs/scene-format.md).
+        #[arg(required = true)]
+        scenes: Vec<std::path::PathBuf>,
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
@@ -110,7 +114,7 @@ fn main() -> ExitCode {
             deny,
             tier,
         } => check_command(example, &scenes, format, profile.as_deref(), deny, tier),
-        Command::Trace { scene, format } => trace_command(&scene, format),
+        Command::Trace { scenes, format } => trace_command(&scenes, format),
         Command::Index {
             level,
             uv,
@@ -215,34 +219,14 @@ fn check_command(
     }
     progress.finish_and_clear();
     let summary = Summary::of(&reports);
-    match format {
-        Format::Json => {
-            let output = Output {
-                scenes: &reports,
-                summary: summary.clone(),
-            };
-            match serde_json::to_string_pretty(&output) {
-                Ok(text) => println!("{text}"),
-                Err(error) => {
-                    eprintln!("ommcheck: cannot write the report: {error}");
-                    return ExitCode::from(2);
-                }
-            }
-        }
-        Format::Text => {
-            for report in &reports {
-                println!("== {} ({} calls)", report.path, report.calls);
-                if report.findings.is_empty() {
-                    println!("no findings\n");
-                } else {
-                    print!("\n{}", report.report);
-                }
-            }
-            println!(
-                "{} scene(s), {} call(s): {} error(s), {} warning(s), {} info",
-                summary.scenes, summary.calls, summary.errors, summary.warnings, summary.info
-            );
-        }
+    if let Err(status) = print_reports(
+        format,
+        &reports,
+        &summary,
+        SceneReport::text,
+        summary.line(),
+    ) {
+        return status;
     }
     let denied_warnings = deny == Some(Deny::Warnings) && summary.warnings > 0;
     if summary.errors > 0 || denied_warnings {
@@ -252,41 +236,83 @@ fn check_command(
     }
 }
 
-/// `ommcheck trace`: the calls' findings, then each ray's answer.
-fn trace_command(path: &std::path::Path, format: Format) -> ExitCode {
-    let traced = Scene::load(path).and_then(|scene| {
-        scene.trace(&CheckOptions {
-            tier: ommcheck::Tier::Simulate,
-            ..CheckOptions::default()
-        })
-    });
-    let report = match traced {
-        Ok(report) => report,
-        Err(error) => {
-            eprintln!("ommcheck: {error}");
-            return ExitCode::from(2);
-        }
+/// `ommcheck trace`: reads every scene first (status 2 before anything runs
+/// when one cannot be read or resolved), then for each the calls' findings
+/// and each ray's answer.
+fn trace_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
+    let options = CheckOptions {
+        tier: ommcheck::Tier::Simulate,
+        ..CheckOptions::default()
     };
-    match format {
-        Format::Json => match serde_json::to_string_pretty(&report) {
-            Ok(text) => println!("{text}"),
+    let mut reports = Vec::with_capacity(paths.len());
+    for path in paths {
+        match Scene::load(path).and_then(|scene| scene.trace(&options)) {
+            Ok(report) => reports.push(report),
             Err(error) => {
-                eprintln!("ommcheck: cannot write the report: {error}");
+                eprintln!("ommcheck: {error}");
                 return ExitCode::from(2);
             }
-        },
-        Format::Text => print!("{}", report.text()),
-    }
-    for ray in &report.rays {
-        if let Some(error) = &ray.error {
-            eprintln!("ommcheck: rays[{}] not simulated: {error}", ray.ray);
         }
     }
-    if report.success() {
+    let summary = TraceSummary::of(&reports);
+    if let Err(status) = print_reports(
+        format,
+        &reports,
+        &summary,
+        TraceReport::text,
+        summary.line(),
+    ) {
+        return status;
+    }
+    for report in &reports {
+        for ray in &report.rays {
+            if let Some(error) = &ray.error {
+                eprintln!(
+                    "ommcheck: {}: rays[{}] not simulated: {error}",
+                    report.path, ray.ray
+                );
+            }
+        }
+    }
+    if summary.success() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
     }
+}
+
+/// Prints the scenes' reports: in JSON, `scenes` and `summary` (one layout
+/// for `check` and `trace`); as text, each scene's `text` and then the
+/// summary `line`. Status 2 when the JSON cannot be written.
+fn print_reports<R: serde::Serialize, S: serde::Serialize>(
+    format: Format,
+    reports: &[R],
+    summary: &S,
+    text: impl Fn(&R) -> String,
+    line: String,
+) -> Result<(), ExitCode> {
+    match format {
+        Format::Json => {
+            let output = Output {
+                scenes: reports,
+                summary,
+            };
+            match serde_json::to_string_pretty(&output) {
+                Ok(json) => println!("{json}"),
+                Err(error) => {
+                    eprintln!("ommcheck: cannot write the report: {error}");
+                    return Err(ExitCode::from(2));
+                }
+            }
+        }
+        Format::Text => {
+            for report in reports {
+                print!("{}", text(report));
+            }
+            println!("{line}");
+        }
+    }
+    Ok(())
 }
 
 /// `ommcheck index`: one mapping, as text or JSON.

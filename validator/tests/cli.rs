@@ -111,6 +111,11 @@ fn example_runs() {
     assert!(stdout.contains("[ OMMCHECK-build-usage-counts-match-triangles ]"));
     assert!(stdout.contains("[ OMMCHECK-attach-index-in-range ]"));
     assert!(stdout.contains("vkCmdBuildMicromapsEXT(): calls[1]: pInfos[0]"));
+    // Counts agree with their nouns.
+    assert!(
+        stdout.ends_with("\n1 scene, 4 calls: 4 errors, 0 warnings, 0 info\n"),
+        "{stdout}"
+    );
 }
 
 #[test]

@@ -207,6 +207,23 @@ impl Scene {
     }
 }
 
+impl SceneReport {
+    /// The text form `ommcheck check` prints for the scene: a header, then
+    /// the findings in the Khronos layer's style or `no findings`.
+    pub fn text(&self) -> String {
+        let header = format!(
+            "== {} ({})\n",
+            self.path,
+            count(self.calls, "call", "calls")
+        );
+        if self.findings.is_empty() {
+            header + "no findings\n\n"
+        } else {
+            format!("{header}\n{}", self.report)
+        }
+    }
+}
+
 fn syntax(path: &str, error: &serde_json::Error) -> SceneError {
     let (line, column) = (error.line(), error.column());
     let text = error.to_string();
@@ -236,30 +253,52 @@ pub struct Summary {
 
 impl Summary {
     pub fn of(reports: &[SceneReport]) -> Summary {
-        let mut summary = Summary {
-            scenes: reports.len(),
-            ..Summary::default()
-        };
+        let mut summary = Summary::default();
         for report in reports {
-            summary.calls += report.calls;
-            for finding in &report.findings {
-                summary.findings += 1;
-                match finding.severity {
-                    Severity::Error => summary.errors += 1,
-                    Severity::Warning => summary.warnings += 1,
-                    Severity::Info => summary.info += 1,
-                }
-            }
+            summary.add_scene(report.calls, &report.findings);
         }
         summary
     }
+
+    /// Counts one more scene, its calls and its findings.
+    pub fn add_scene(&mut self, calls: usize, findings: &[Finding]) {
+        self.scenes += 1;
+        self.calls += calls;
+        for finding in findings {
+            self.findings += 1;
+            match finding.severity {
+                Severity::Error => self.errors += 1,
+                Severity::Warning => self.warnings += 1,
+                Severity::Info => self.info += 1,
+            }
+        }
+    }
+
+    /// The text form's last line: `2 scenes, 5 calls: 1 error, 0 warnings, 0 info`.
+    pub fn line(&self) -> String {
+        format!(
+            "{}, {}: {}, {}, {} info",
+            count(self.scenes, "scene", "scenes"),
+            count(self.calls, "call", "calls"),
+            count(self.errors, "error", "errors"),
+            count(self.warnings, "warning", "warnings"),
+            self.info
+        )
+    }
 }
 
-/// The JSON output of `ommcheck check --format json`.
+/// `n` and the noun in the number that agrees with it: `1 call`, `2 calls`.
+pub fn count(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// The JSON output of `ommcheck check --format json` (`Output<SceneReport,
+/// Summary>`) and `ommcheck trace --format json` (`Output<TraceReport,
+/// TraceSummary>`): one layout, the scenes and then the counts over them.
 #[derive(Clone, Debug, Serialize)]
-pub struct Output<'a> {
-    pub scenes: &'a [SceneReport],
-    pub summary: Summary,
+pub struct Output<'a, R = SceneReport, S = Summary> {
+    pub scenes: &'a [R],
+    pub summary: &'a S,
 }
 
 /// The JSON Schema of scene files, generated from the serde types
@@ -280,6 +319,24 @@ mod tests {
         let scene = Scene::parse(EXAMPLE, EXAMPLE_PATH, Path::new(".")).unwrap();
         let report = scene.check(&CheckOptions::default()).unwrap();
         assert!(report.report.has_errors());
+    }
+
+    #[test]
+    fn counts_agree_with_their_nouns() {
+        assert_eq!(count(1, "call", "calls"), "1 call");
+        assert_eq!(count(0, "call", "calls"), "0 calls");
+        let summary = Summary {
+            scenes: 2,
+            calls: 1,
+            findings: 1,
+            errors: 1,
+            warnings: 0,
+            info: 0,
+        };
+        assert_eq!(
+            summary.line(),
+            "2 scenes, 1 call: 1 error, 0 warnings, 0 info"
+        );
     }
 
     #[test]
