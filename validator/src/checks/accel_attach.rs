@@ -213,6 +213,15 @@ enum Kind {
 }
 
 impl Kind {
+    /// The enum the attachment's usage-count formats belong to.
+    fn format_kind(self) -> FormatKind {
+        match self {
+            Kind::Ext => FormatKind::OpacityExt,
+            Kind::Khr => FormatKind::OpacityKhr,
+            Kind::Nv => FormatKind::DisplacementNv,
+        }
+    }
+
     fn struct_name(self) -> &'static str {
         match self {
             Kind::Ext => "VkAccelerationStructureTrianglesOpacityMicromapEXT",
@@ -1138,7 +1147,7 @@ fn usage_counts_match_indices(
             ctx,
             &rules::ATTACH_USAGE_COUNTS,
             location,
-            || format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but the {count} geometry triangles reference micromap triangles of that format and level {has} times"),
+            || format!("the usage counts give {said} triangles of {} at subdivision level {level}, but the {count} geometry triangles reference micromap triangles of that format and level {has} times", format_name(a.kind.format_kind(), format)),
             &array,
         );
     }

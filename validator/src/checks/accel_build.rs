@@ -39,7 +39,7 @@ use crate::device::Limits;
 use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::{
-    BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
+    format_name, FormatKind, BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
 use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
@@ -1469,7 +1469,7 @@ fn usage_counts_match(
             ctx.error(
                 &rules::HISTOGRAM_MISMATCH,
                 format!("{at}.{member}"),
-                format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {has}"),
+                format!("the usage counts give {said} triangles of {} at subdivision level {level}, but triangleArray has {has}", format_name(FormatKind::OpacityKhr, format)),
             );
         }
     }

@@ -913,7 +913,7 @@ fn triangle_array(
                 ctx.error(
                     &rules::HISTOGRAM_MISMATCH,
                     format!("{at}.{}", info.usage_counts.entries().0),
-                    format!("the usage counts give {said} triangles of format {format} at subdivision level {level}, but triangleArray has {found}"),
+                    format!("the usage counts give {said} triangles of {} at subdivision level {level}, but triangleArray has {found}", format_name(FormatKind::of_micromap_type(info.ty), format)),
                 );
             }
         }

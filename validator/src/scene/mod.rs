@@ -208,6 +208,12 @@ impl Scene {
 }
 
 impl SceneReport {
+    /// The findings' text with the scene's objects named.
+    pub fn named_findings(&self) -> String {
+        self.report
+            .text_naming(&|object| resolve::scene_name(&self.objects, object))
+    }
+
     /// The text form `ommcheck check` prints for the scene: a header, then
     /// the findings in the Khronos layer's style or `no findings`.
     pub fn text(&self) -> String {
@@ -219,7 +225,7 @@ impl SceneReport {
         if self.findings.is_empty() {
             header + "no findings\n\n"
         } else {
-            format!("{header}\n{}", self.report)
+            format!("{header}\n{}", self.named_findings())
         }
     }
 }

@@ -24,7 +24,7 @@ use crate::model::micromap_objects::{
     AllocationCallbacks, CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo,
     MicromapBuildSizesInfo, MicromapCreateInfo, MicromapList, MicromapVersionInfo,
 };
-use crate::report::Report;
+use crate::report::{ObjectRef, Report};
 use crate::sim::intersect::Ray;
 use crate::sim::simulate::{HitInput, HitQuery};
 use crate::state::{
@@ -147,6 +147,37 @@ pub struct NamedObject {
     pub handle: Handle,
 }
 
+/// The scene name of the object `object` refers to, if the scene named it.
+pub fn scene_name(objects: &[NamedObject], object: &ObjectRef) -> Option<String> {
+    objects
+        .iter()
+        .find(|o| o.kind == object.ty && o.handle == object.handle)
+        .map(|o| o.name.clone())
+}
+
+/// `message` with each `VkBuffer 0xb00001` the checks wrote for a named
+/// object written as `VkBuffer 'omm-input'`.
+pub fn name_objects(message: &str, objects: &[NamedObject]) -> String {
+    let mut out = message.to_string();
+    for object in objects {
+        let handle = format!("{} {:#x}", object.kind, object.handle);
+        let named = format!("{} '{}'", object.kind, object.name);
+        let mut from = 0;
+        while let Some(found) = out[from..].find(&handle) {
+            let start = from + found;
+            let end = start + handle.len();
+            // 0xb00001 must not be the start of 0xb000010.
+            if out[end..].starts_with(|c: char| c.is_ascii_hexdigit()) {
+                from = end;
+                continue;
+            }
+            out.replace_range(start..end, &named);
+            from = start + named.len();
+        }
+    }
+    out
+}
+
 /// The findings of one scene, each location prefixed with its call.
 #[derive(Clone, Debug, Default)]
 pub struct Checked {
@@ -249,7 +280,11 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
                 handle: object.handle,
             })
         })
-        .collect();
+        .collect::<Vec<_>>();
+    for finding in &mut report.findings {
+        finding.location = name_objects(&finding.location, &objects);
+        finding.message = name_objects(&finding.message, &objects);
+    }
     let rays = scene
         .rays
         .iter()
@@ -2040,6 +2075,44 @@ fn with_suggestion(wanted: &str, names: &[&str], list: String) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn messages_name_the_scene_objects_they_mention() {
+        let objects = [
+            NamedObject {
+                name: "omm-input".into(),
+                kind: "VkBuffer",
+                handle: 0xb0_0001,
+            },
+            NamedObject {
+                name: "blas".into(),
+                kind: "VkAccelerationStructureKHR",
+                handle: 0xa5_0002,
+            },
+        ];
+        assert_eq!(
+            name_objects(
+                "VkBuffer 0xb00001 and VkBuffer 0xb00001 feed VkAccelerationStructureKHR 0xa50002",
+                &objects
+            ),
+            "VkBuffer 'omm-input' and VkBuffer 'omm-input' feed VkAccelerationStructureKHR 'blas'"
+        );
+        // A longer handle that starts alike, or another type, stays as it is.
+        assert_eq!(
+            name_objects("VkBuffer 0xb000012, VkMicromapEXT 0xb00001", &objects),
+            "VkBuffer 0xb000012, VkMicromapEXT 0xb00001"
+        );
+        let object = crate::report::ObjectRef {
+            ty: "VkBuffer",
+            handle: 0xb0_0001,
+        };
+        assert_eq!(scene_name(&objects, &object).as_deref(), Some("omm-input"));
+        let other = crate::report::ObjectRef {
+            ty: "VkMicromapEXT",
+            handle: 0xb0_0001,
+        };
+        assert_eq!(scene_name(&objects, &other), None);
+    }
 
     #[test]
     fn placement_keeps_clear_of_fixed_ranges_and_never_overflows() {

@@ -227,7 +227,10 @@ impl TraceReport {
         if self.findings.is_empty() {
             out.push_str("no findings\n\n");
         } else {
-            let _ = write!(out, "\n{}", self.report);
+            let named = self
+                .report
+                .text_naming(&|object| resolve::scene_name(&self.objects, object));
+            let _ = write!(out, "\n{named}");
         }
         for ray in &self.rays {
             ray.write_text(&mut out);

@@ -1480,10 +1480,9 @@ fn usage_count_findings_name_the_key_and_the_counts() {
         finding.location
     );
     assert!(
-        finding
-            .message
-            .contains("4 triangles of format 2 at subdivision level 1")
-            && finding.message.contains("0 times"),
+        finding.message.contains(
+            "4 triangles of VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT at subdivision level 1"
+        ) && finding.message.contains("0 times"),
         "{}",
         finding.message
     );
