@@ -4,7 +4,7 @@
 //! error and no report.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use base64::Engine as _;
@@ -196,6 +196,23 @@ pub enum LimitsOverride {
 struct Object {
     kind: ObjectKind,
     handle: Handle,
+}
+
+/// The bytes of one contents piece.
+enum PieceBytes {
+    /// Written in the scene (hex, base64, numbers, triangles), decoded.
+    Decoded(Vec<u8>),
+    /// A binary file of this many bytes, read once, into place.
+    File(PathBuf, u64),
+}
+
+impl PieceBytes {
+    fn len(&self) -> u64 {
+        match self {
+            PieceBytes::Decoded(bytes) => bytes.len() as u64,
+            PieceBytes::File(_, len) => *len,
+        }
+    }
 }
 
 struct Resolver<'a> {
@@ -834,7 +851,12 @@ impl Resolver<'_> {
         }
         self.contents_total = total;
         let len = usize::try_from(size).or_else(|_| problem(at, "too large for this machine"))?;
-        let mut bytes = vec![0u8; len];
+        // The one allocation the bytes live in: filled in place (a file piece
+        // is read straight into it), then shared as it is, never copied.
+        let mut shared: Arc<[u8]> = std::iter::repeat_n(0u8, len).collect();
+        let Some(bytes) = Arc::get_mut(&mut shared) else {
+            return problem(at, "internal: fresh contents are shared");
+        };
         let pieces = contents.pieces();
         for (k, piece) in pieces.iter().enumerate() {
             let piece_at = match contents {
@@ -842,32 +864,45 @@ impl Resolver<'_> {
                 Contents::Many(_) => format!("{at}[{k}]"),
             };
             let data = self.piece(piece, size, &piece_at)?;
-            let end = piece.at.checked_add(data.len() as u64);
-            match end {
-                Some(end) if end <= size => {
-                    // Both bounds are at most `size`, which fits usize.
-                    let from = usize::try_from(piece.at).unwrap_or(len);
-                    let to = usize::try_from(end).unwrap_or(len);
-                    if let Some(target) = bytes.get_mut(from..to) {
-                        target.copy_from_slice(&data);
+            let end = piece.at.checked_add(data.len());
+            let target = match end {
+                // Both bounds are at most `size`, which fits usize.
+                Some(end) if end <= size => usize::try_from(piece.at)
+                    .ok()
+                    .zip(usize::try_from(end).ok())
+                    .and_then(|(from, to)| bytes.get_mut(from..to)),
+                _ => None,
+            };
+            let Some(target) = target else {
+                return problem(
+                    piece_at,
+                    format!(
+                        "{} bytes at {} end past the {size} bytes of the buffer",
+                        data.len(),
+                        piece.at
+                    ),
+                );
+            };
+            match data {
+                PieceBytes::Decoded(decoded) => target.copy_from_slice(&decoded),
+                PieceBytes::File(path, _) => {
+                    let read = std::fs::File::open(&path)
+                        .and_then(|mut file| std::io::Read::read_exact(&mut file, target));
+                    if let Err(e) = read {
+                        return problem(
+                            format!("{piece_at}.file"),
+                            format!("cannot read {}: {e}", path.display()),
+                        );
                     }
-                }
-                _ => {
-                    return problem(
-                        piece_at,
-                        format!(
-                            "{} bytes at {} end past the {size} bytes of the buffer",
-                            data.len(),
-                            piece.at
-                        ),
-                    )
                 }
             }
         }
-        Ok(Arc::from(bytes))
+        Ok(shared)
     }
 
-    fn piece(&self, piece: &Piece, size: u64, at: &str) -> Result<Vec<u8>> {
+    /// A piece's bytes: decoded from the scene, or a file measured here and
+    /// read by [`Self::contents`] straight into place.
+    fn piece(&self, piece: &Piece, size: u64, at: &str) -> Result<PieceBytes> {
         let forms = [
             piece.hex.is_some(),
             piece.base64.is_some(),
@@ -885,12 +920,13 @@ impl Resolver<'_> {
             );
         }
         if let Some(hex) = &piece.hex {
-            return decode_hex(hex, &format!("{at}.hex"));
+            return decode_hex(hex, &format!("{at}.hex")).map(PieceBytes::Decoded);
         }
         if let Some(text) = &piece.base64 {
             let compact: String = text.chars().filter(|c| !c.is_ascii_whitespace()).collect();
             return base64::engine::general_purpose::STANDARD
                 .decode(compact)
+                .map(PieceBytes::Decoded)
                 .or_else(|e| problem(format!("{at}.base64"), format!("not base64: {e}")));
         }
         if let Some(file) = &piece.file {
@@ -908,20 +944,25 @@ impl Resolver<'_> {
                     ),
                 );
             }
-            return std::fs::read(&path)
-                .or_else(|e| problem(file_at, format!("cannot read {}: {e}", path.display())));
+            return Ok(PieceBytes::File(path, file_size));
         }
         if let Some(values) = &piece.u8 {
-            return Ok(values.clone());
+            return Ok(PieceBytes::Decoded(values.clone()));
         }
         if let Some(values) = &piece.u16 {
-            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+            return Ok(PieceBytes::Decoded(
+                values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            ));
         }
         if let Some(values) = &piece.u32 {
-            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+            return Ok(PieceBytes::Decoded(
+                values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            ));
         }
         if let Some(values) = &piece.u64 {
-            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+            return Ok(PieceBytes::Decoded(
+                values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            ));
         }
         let mut out = Vec::new();
         for (k, t) in piece.triangles.iter().flatten().enumerate() {
@@ -938,7 +979,7 @@ impl Resolver<'_> {
             };
             out.extend_from_slice(&triangle.to_bytes());
         }
-        Ok(out)
+        Ok(PieceBytes::Decoded(out))
     }
 
     /// The objects that exist before the first call.
@@ -2112,6 +2153,47 @@ mod tests {
             handle: 0xb0_0001,
         };
         assert_eq!(scene_name(&objects, &other), None);
+    }
+
+    /// A file piece is read into place beside the other pieces, once: the
+    /// buffer's shared contents are the bytes of every piece at its offset.
+    #[test]
+    fn file_pieces_are_read_into_place() {
+        let dir = std::env::temp_dir().join(format!("ommcheck-pieces-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("middle.bin"), [7u8, 8, 9, 10]).unwrap();
+        let text = r#"{ "buffers": [{ "name": "b", "size": 12,
+            "usage": "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
+            "contents": [{ "at": 0, "hex": "0102" }, { "at": 4, "file": "middle.bin" },
+                         { "at": 10, "u8": [5, 6] }] }],
+            "calls": [] }"#;
+        let scene: SceneFile = serde_json::from_str(text).unwrap();
+        let ran = run(&scene, &dir, &super::super::CheckOptions::default());
+        let short = r#"{ "buffers": [{ "name": "b", "size": 6,
+            "usage": "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
+            "contents": { "at": 4, "file": "middle.bin" } }], "calls": [] }"#;
+        let past_end = run(
+            &serde_json::from_str(short).unwrap(),
+            &dir,
+            &super::super::CheckOptions::default(),
+        );
+        std::fs::remove_dir_all(&dir).ok();
+        let ran = ran.unwrap_or_else(|p| panic!("{}: {}", p.path, p.message));
+        let handle = ran.checked.objects[0].handle;
+        let contents = ran.validator.state().buffers[&handle]
+            .contents
+            .clone()
+            .expect("contents given");
+        assert_eq!(&contents[..], [1, 2, 0, 0, 7, 8, 9, 10, 0, 0, 5, 6]);
+        let problem = past_end.err().expect("4 bytes at 4 do not fit 6");
+        assert_eq!(problem.path, "buffers[0].contents");
+        assert!(
+            problem
+                .message
+                .contains("4 bytes at 4 end past the 6 bytes"),
+            "{}",
+            problem.message
+        );
     }
 
     #[test]
