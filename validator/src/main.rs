@@ -30,8 +30,9 @@ enum Deny {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Check scene files and print a VUID report. Exit status: 0 when no
-    /// errors were found, 1 when some were (or warnings, with --deny
+    /// Check scene files and print a VUID report.
+    ///
+    /// Exit status: 0 when no errors were found, 1 when some were (or warnings, with --deny
     /// warnings), 2 when a scene could not be read.
     Check {
         /// Check the built-in example scene (embedded in the binary;
@@ -57,8 +58,9 @@ enum Command {
         #[arg(long, default_value_t = ommcheck::Tier::Content)]
         tier: ommcheck::Tier,
     },
-    /// Check each scene's calls, then simulate each of its `rays`: the
-    /// outcome set, the micromap slot, the micro-triangles and their states,
+    /// Check each scene's calls, then simulate each of its `rays`.
+    ///
+    /// For each ray: the outcome set, the micromap slot, the micro-triangles and their states,
     /// and the rule that decided it. The JSON form is `check`'s (scenes,
     /// findings, summary) with the rays added. Exit status: 0 when every ray
     /// was simulated and the calls had no errors, 1 when they had errors or
@@ -89,13 +91,17 @@ enum Command {
     },
     /// Print the JSON Schema of scene files (docs/scene.schema.json).
     Schema,
-    /// Print the built-in example scene (the one `check --example` checks)
-    /// as a starting point: `ommcheck example > scene.json`.
+    /// Print the built-in example scene: `ommcheck example > scene.json`.
+    ///
+    /// The scene `check --example` checks, a micromap build and a BLAS build
+    /// with realistic mistakes, as a starting point for a scene of your own.
     Example,
-    /// Explain a rule: whether ommcheck enforces it, the tier that decides
-    /// it (or why it cannot be decided), whether the Khronos validation
-    /// layer checks it, its statement and link. Exit status 1 when nothing
-    /// matches (with the closest ids).
+    /// Explain a rule: enforced or not, at which tier, and by the Khronos layer.
+    ///
+    /// Prints whether ommcheck enforces the rule, the tier that decides it
+    /// (or why it cannot be decided), whether the Khronos validation layer
+    /// checks it, its statement and link. Exit status 1 when nothing matches
+    /// (with the closest ids).
     Vuid {
         /// A VUID (VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516, in any
         /// case, `VUID-` optional), a bare number (07516: every VUID with

@@ -135,3 +135,22 @@ fn example_prints_the_scene_check_example_checks() {
         built_in
     );
 }
+
+#[test]
+fn help_lists_each_command_in_one_line() {
+    let (code, stdout, _) = ommcheck(&["--help"]);
+    assert_eq!(code, 0);
+    for line in [
+        "  check    Check scene files and print a VUID report\n",
+        "  trace    Check each scene's calls, then simulate each of its `rays`\n",
+        "  example  Print the built-in example scene: `ommcheck example > scene.json`\n",
+        "  vuid     Explain a rule: enforced or not, at which tier, and by the Khronos layer\n",
+    ] {
+        assert!(stdout.contains(line), "{line:?} missing from\n{stdout}");
+    }
+    let (_, vuid_help, _) = ommcheck(&["help", "vuid"]);
+    assert!(
+        vuid_help.contains("a bare number (07516: every VUID with it)"),
+        "{vuid_help}"
+    );
+}
