@@ -154,3 +154,10 @@ fn help_lists_each_command_in_one_line() {
         "{vuid_help}"
     );
 }
+
+#[test]
+fn a_mistyped_profile_name_gets_a_did_you_mean() {
+    let (code, _, stderr) = ommcheck(&["check", "--example", "--profile", "spec-minimun"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("did you mean `spec-minimum`?"), "{stderr}");
+}

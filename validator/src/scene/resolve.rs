@@ -386,7 +386,17 @@ fn device(
 /// the spec-minimum profile.
 pub fn read_profile_file(path: &Path) -> std::result::Result<Limits, String> {
     let size = std::fs::metadata(path)
-        .map_err(|e| format!("cannot read the profile file {}: {e}", path.display()))?
+        .map_err(|e| {
+            // A missing "file" is most often a mistyped profile name.
+            let name = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or_default();
+            let hint = crate::suggest::did_you_mean(name, Profile::NAMES, 1)
+                .map(|s| format!("; {s}"))
+                .unwrap_or_default();
+            format!("cannot read the profile file {}: {e}{hint}", path.display())
+        })?
         .len();
     if size > 1 << 20 {
         return Err(format!(
