@@ -5,6 +5,7 @@
 //! Everything comes from the catalog, the check modules' coverage
 //! declarations and the tiers measured over the corpus.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use ommcheck_vuids::{Vuid, VuidKind};
@@ -81,16 +82,18 @@ pub fn lookup(query: &str) -> Result<Vec<Rule>, NotFound> {
     }
 }
 
-/// Whether ommcheck enforces the rule, in words.
-fn enforcement(rule: Rule) -> String {
+/// Whether ommcheck enforces the rule, and that in words.
+fn enforcement(rule: Rule) -> (bool, String) {
+    static STATUSES: std::sync::OnceLock<BTreeMap<Vuid, Status>> = std::sync::OnceLock::new();
     match rule {
-        Rule::Own(_) => "enforced (a rule of ours)".to_string(),
-        Rule::Vuid(v) => match coverage::statuses().remove(&v) {
-            Some(Status::Enforced(module)) => format!("enforced (checks::{module})"),
-            Some(Status::NotDecidable(reason)) => {
-                format!("not enforced: not decidable at the API boundary: {reason}")
-            }
-            Some(Status::NotYet) | None => "not enforced yet".to_string(),
+        Rule::Own(_) => (true, "enforced (a rule of ours)".to_string()),
+        Rule::Vuid(v) => match STATUSES.get_or_init(coverage::statuses).get(&v) {
+            Some(Status::Enforced(module)) => (true, format!("enforced (checks::{module})")),
+            Some(Status::NotDecidable(reason)) => (
+                false,
+                format!("not enforced: not decidable at the API boundary: {reason}"),
+            ),
+            Some(Status::NotYet) | None => (false, "not enforced yet".to_string()),
         },
     }
 }
@@ -110,8 +113,7 @@ fn tier_line(rule: Rule, enforced: bool) -> String {
 pub fn render(rule: Rule) -> String {
     let mut out = String::new();
     let w = &mut out;
-    let enforcement = enforcement(rule);
-    let enforced = enforcement.starts_with("enforced");
+    let (enforced, enforcement) = enforcement(rule);
     let _ = writeln!(w, "{}", rule.id());
     match rule {
         Rule::Vuid(v) => {
