@@ -198,6 +198,34 @@ pub fn measured_above_needed(tiers: &BTreeMap<String, Tier>) -> Vec<(&str, Tier,
         .collect()
 }
 
+/// Where `cargo xtask coverage` writes the tiers [`corpus_tiers`] measured,
+/// relative to the workspace root; the crate embeds the file, so the CLI
+/// (`ommcheck vuid`) can say which tier decides a rule without the corpus.
+pub const TIERS_FILE: &str = "validator/src/coverage_tiers.json";
+
+/// The measured tiers as written to [`TIERS_FILE`]: a JSON object of rule
+/// id to tier name, sorted by id.
+pub fn render_tiers(tiers: &BTreeMap<String, Tier>) -> String {
+    let mut text = serde_json::to_string_pretty(tiers).unwrap_or_default();
+    text.push('\n');
+    text
+}
+
+/// The tier that decides `id` (a VUID or a rule of ours), as measured over
+/// the corpus when [`TIERS_FILE`] was last generated; None for a rule
+/// without a failing corpus scene.
+pub fn measured_tier(id: &str) -> Option<Tier> {
+    static TIERS: std::sync::OnceLock<BTreeMap<String, Tier>> = std::sync::OnceLock::new();
+    TIERS
+        .get_or_init(|| {
+            // A test holds the file to the corpus; an unreadable one would be
+            // a build defect, shown as "not measured" rather than a panic.
+            serde_json::from_str(include_str!("coverage_tiers.json")).unwrap_or_default()
+        })
+        .get(id)
+        .copied()
+}
+
 /// A VUID's status.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Status {
@@ -559,5 +587,17 @@ mod tests {
             "{} is stale: run `cargo xtask coverage`",
             path.display()
         );
+        let tiers_path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(TIERS_FILE);
+        let committed_tiers = std::fs::read_to_string(&tiers_path).unwrap_or_default();
+        assert!(
+            committed_tiers == render_tiers(&tiers),
+            "{} is stale: run `cargo xtask coverage`",
+            tiers_path.display()
+        );
+        for (id, tier) in &tiers {
+            assert_eq!(measured_tier(id), Some(*tier), "{id}");
+        }
     }
 }

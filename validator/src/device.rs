@@ -138,6 +138,9 @@ impl Profile {
         }
     }
 
+    /// The names [`Self::from_name`] accepts.
+    pub const NAMES: [&'static str; 2] = ["spec-minimum", "permissive"];
+
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
             "spec-minimum" => Some(Profile::SpecMinimum),
@@ -258,5 +261,8 @@ mod tests {
             12
         );
         assert_eq!(Profile::from_name("x"), None);
+        for name in Profile::NAMES {
+            assert!(Profile::from_name(name).is_some(), "{name}");
+        }
     }
 }

@@ -5,8 +5,9 @@ use std::process::ExitCode;
 mod progress;
 
 use clap::{Parser, Subcommand};
-use ommcheck::scene::{CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary};
-use ommcheck::vuids::Vuid;
+use ommcheck::scene::{
+    CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary, TraceReport, TraceSummary,
+};
 
 /// A checker for Vulkan opacity-micromap API usage.
 #[derive(Parser)]
@@ -29,11 +30,13 @@ enum Deny {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Check scene files and print a VUID report. Exit status: 0 when no
-    /// errors were found, 1 when some were (or warnings, with --deny
+    /// Check scene files and print a VUID report.
+    ///
+    /// Exit status: 0 when no errors were found, 1 when some were (or warnings, with --deny
     /// warnings), 2 when a scene could not be read.
     Check {
-        /// Check the built-in example scene (embedded in the binary).
+        /// Check the built-in example scene (embedded in the binary;
+        /// `ommcheck example` prints it).
         #[arg(long)]
         example: bool,
         /// Scene files to check (JSON; see docs/scene-format.md).
@@ -55,14 +58,17 @@ enum Command {
         #[arg(long, default_value_t = ommcheck::Tier::Content)]
         tier: ommcheck::Tier,
     },
-    /// Check a scene's calls, then simulate each of its `rays`: the outcome
-    /// set, the micromap slot, the micro-triangles and their states, and the
-    /// rule that decided it. Exit status: 0 when every ray was simulated and
-    /// the calls had no errors, 1 when they had errors or a ray could not be
-    /// simulated, 2 when the scene could not be read.
+    /// Check each scene's calls, then simulate each of its `rays`.
+    ///
+    /// For each ray: the outcome set, the micromap slot, the micro-triangles and their states,
+    /// and the rule that decided it. The JSON form is `check`'s (scenes,
+    /// findings, summary) with the rays added. Exit status: 0 when every ray
+    /// was simulated and the calls had no errors, 1 when they had errors or
+    /// a ray could not be simulated, 2 when a scene could not be read.
     Trace {
-        /// The scene file (JSON; see docs/scene-format.md).
-        scene: std::path::PathBuf,
+        /// Scene files (JSON; see docs/scene-format.md).
+        #[arg(required = true)]
+        scenes: Vec<std::path::PathBuf>,
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
@@ -85,9 +91,21 @@ enum Command {
     },
     /// Print the JSON Schema of scene files (docs/scene.schema.json).
     Schema,
-    /// Print a VUID's catalog entry: parent, extensions, statement and link.
+    /// Print the built-in example scene: `ommcheck example > scene.json`.
+    ///
+    /// The scene `check --example` checks, a micromap build and a BLAS build
+    /// with realistic mistakes, as a starting point for a scene of your own.
+    Example,
+    /// Explain a rule: enforced or not, at which tier, and by the Khronos layer.
+    ///
+    /// Prints whether ommcheck enforces the rule, the tier that decides it
+    /// (or why it cannot be decided), whether the Khronos validation layer
+    /// checks it, its statement and link. Exit status 1 when nothing matches
+    /// (with the closest ids).
     Vuid {
-        /// e.g. VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516
+        /// A VUID (VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516, in any
+        /// case, `VUID-` optional), a bare number (07516: every VUID with
+        /// it), or a rule of ours (OMMCHECK-attach-index-in-range).
         id: String,
     },
 }
@@ -102,7 +120,7 @@ fn main() -> ExitCode {
             deny,
             tier,
         } => check_command(example, &scenes, format, profile.as_deref(), deny, tier),
-        Command::Trace { scene, format } => trace_command(&scene, format),
+        Command::Trace { scenes, format } => trace_command(&scenes, format),
         Command::Index {
             level,
             uv,
@@ -114,39 +132,33 @@ fn main() -> ExitCode {
             print!("{}", ommcheck::scene::schema());
             ExitCode::SUCCESS
         }
-        Command::Vuid { id } => match Vuid::from_id(&id) {
-            Some(v) => {
-                let info = v.info();
-                println!("{}", info.id);
-                println!(
-                    "  parent:     {} ({:?}, {:?})",
-                    info.parent, info.parent_kind, info.kind
-                );
-                println!(
-                    "  extensions: {}",
-                    info.extensions
-                        .extension_names()
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                );
-                if let Some(k) = info.khronos_layer_checks {
-                    println!(
-                        "  checked by the Khronos validation layer: {}",
-                        if k { "yes" } else { "no" }
-                    );
-                }
-                println!("  statement:  {}", info.text);
-                println!("  link:       {}", info.link());
-                ExitCode::SUCCESS
-            }
-            None => {
-                eprintln!(
-                    "ommcheck: {id} is not a micromap VUID of Vulkan {}",
-                    ommcheck::vuids::REGISTRY_VERSION
-                );
-                ExitCode::from(1)
-            }
-        },
+        Command::Example => {
+            print!("{}", ommcheck::scene::EXAMPLE);
+            ExitCode::SUCCESS
+        }
+        Command::Vuid { id } => vuid_command(&id),
+    }
+}
+
+/// `ommcheck vuid`: every rule the query names, or the closest ids.
+fn vuid_command(query: &str) -> ExitCode {
+    match ommcheck::explain::lookup(query) {
+        Ok(rules) => {
+            let texts: Vec<String> = rules.into_iter().map(ommcheck::explain::render).collect();
+            print!("{}", texts.join("\n"));
+            ExitCode::SUCCESS
+        }
+        Err(not_found) => {
+            let hint = ommcheck::suggest::sentence(&not_found.suggestions)
+                .map(|s| format!("; {s}"))
+                .unwrap_or_default();
+            eprintln!(
+                "ommcheck: `{}` is neither a micromap VUID of Vulkan {}, nor the number of one, nor a rule of ours (OMMCHECK-...){hint}",
+                not_found.query,
+                ommcheck::vuids::REGISTRY_VERSION
+            );
+            ExitCode::from(1)
+        }
     }
 }
 
@@ -213,31 +225,14 @@ fn check_command(
     }
     progress.finish_and_clear();
     let summary = Summary::of(&reports);
-    match format {
-        Format::Json => {
-            let output = Output {
-                scenes: &reports,
-                summary: summary.clone(),
-            };
-            match serde_json::to_string_pretty(&output) {
-                Ok(text) => println!("{text}"),
-                Err(error) => {
-                    eprintln!("ommcheck: cannot write the report: {error}");
-                    return ExitCode::from(2);
-                }
-            }
-        }
-        Format::Text => {
-            for report in &reports {
-                println!("== {} ({} calls)", report.path, report.calls);
-                if report.findings.is_empty() {
-                    println!("no findings\n");
-                } else {
-                    print!("\n{}", report.report);
-                }
-            }
-            println!("{summary}");
-        }
+    if let Err(status) = print_reports(
+        format,
+        &reports,
+        &summary,
+        SceneReport::text,
+        summary.line(),
+    ) {
+        return status;
     }
     let denied_warnings = deny == Some(Deny::Warnings) && summary.warnings > 0;
     if summary.errors > 0 || denied_warnings {
@@ -247,41 +242,83 @@ fn check_command(
     }
 }
 
-/// `ommcheck trace`: the calls' findings, then each ray's answer.
-fn trace_command(path: &std::path::Path, format: Format) -> ExitCode {
-    let traced = Scene::load(path).and_then(|scene| {
-        scene.trace(&CheckOptions {
-            tier: ommcheck::Tier::Simulate,
-            ..CheckOptions::default()
-        })
-    });
-    let report = match traced {
-        Ok(report) => report,
-        Err(error) => {
-            eprintln!("ommcheck: {error}");
-            return ExitCode::from(2);
-        }
+/// `ommcheck trace`: reads every scene first (status 2 before anything runs
+/// when one cannot be read or resolved), then for each the calls' findings
+/// and each ray's answer.
+fn trace_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
+    let options = CheckOptions {
+        tier: ommcheck::Tier::Simulate,
+        ..CheckOptions::default()
     };
-    match format {
-        Format::Json => match serde_json::to_string_pretty(&report) {
-            Ok(text) => println!("{text}"),
+    let mut reports = Vec::with_capacity(paths.len());
+    for path in paths {
+        match Scene::load(path).and_then(|scene| scene.trace(&options)) {
+            Ok(report) => reports.push(report),
             Err(error) => {
-                eprintln!("ommcheck: cannot write the report: {error}");
+                eprintln!("ommcheck: {error}");
                 return ExitCode::from(2);
             }
-        },
-        Format::Text => print!("{}", report.text()),
-    }
-    for ray in &report.rays {
-        if let Some(error) = &ray.error {
-            eprintln!("ommcheck: rays[{}] not simulated: {error}", ray.ray);
         }
     }
-    if report.success() {
+    let summary = TraceSummary::of(&reports);
+    if let Err(status) = print_reports(
+        format,
+        &reports,
+        &summary,
+        TraceReport::text,
+        summary.line(),
+    ) {
+        return status;
+    }
+    for report in &reports {
+        for ray in &report.rays {
+            if let Some(error) = &ray.error {
+                eprintln!(
+                    "ommcheck: {}: rays[{}] not simulated: {error}",
+                    report.path, ray.ray
+                );
+            }
+        }
+    }
+    if summary.success() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
     }
+}
+
+/// Prints the scenes' reports: in JSON, `scenes` and `summary` (one layout
+/// for `check` and `trace`); as text, each scene's `text` and then the
+/// summary `line`. Status 2 when the JSON cannot be written.
+fn print_reports<R: serde::Serialize, S: serde::Serialize>(
+    format: Format,
+    reports: &[R],
+    summary: &S,
+    text: impl Fn(&R) -> String,
+    line: String,
+) -> Result<(), ExitCode> {
+    match format {
+        Format::Json => {
+            let output = Output {
+                scenes: reports,
+                summary,
+            };
+            match serde_json::to_string_pretty(&output) {
+                Ok(json) => println!("{json}"),
+                Err(error) => {
+                    eprintln!("ommcheck: cannot write the report: {error}");
+                    return Err(ExitCode::from(2));
+                }
+            }
+        }
+        Format::Text => {
+            for report in reports {
+                print!("{}", text(report));
+            }
+            println!("{line}");
+        }
+    }
+    Ok(())
 }
 
 /// `ommcheck index`: one mapping, as text or JSON.

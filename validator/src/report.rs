@@ -167,9 +167,14 @@ impl Finding {
     }
 }
 
-impl fmt::Display for Finding {
-    /// `Validation Error: [ VUID ] | MessageID = 0x... | vkFn(): location: message. The Vulkan spec states: ... (link)`
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl Finding {
+    /// The text form, with each object the finding involves written as
+    /// `VkBuffer 'omm-input' (0xb00001)` where `name_of` knows its name.
+    fn write_text(
+        &self,
+        f: &mut impl fmt::Write,
+        name_of: &dyn Fn(&ObjectRef) -> Option<String>,
+    ) -> fmt::Result {
         write!(
             f,
             "{}: [ {} ] | MessageID = {:#010x} | {}(): ",
@@ -188,9 +193,23 @@ impl fmt::Display for Finding {
             self.spec_text, self.spec_url
         )?;
         for (i, object) in self.objects.iter().enumerate() {
-            write!(f, "\n    Objects[{i}]: {} {:#x}", object.ty, object.handle)?;
+            match name_of(object) {
+                Some(name) => write!(
+                    f,
+                    "\n    Objects[{i}]: {} '{name}' ({:#x})",
+                    object.ty, object.handle
+                )?,
+                None => write!(f, "\n    Objects[{i}]: {} {:#x}", object.ty, object.handle)?,
+            }
         }
         Ok(())
+    }
+}
+
+impl fmt::Display for Finding {
+    /// `Validation Error: [ VUID ] | MessageID = 0x... | vkFn(): location: message. The Vulkan spec states: ... (link)`
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.write_text(f, &|_| None)
     }
 }
 
@@ -317,12 +336,22 @@ impl Report {
     }
 }
 
+impl Report {
+    /// The text form with the objects findings involve named by `name_of`
+    /// (a scene names its objects; a program may name its handles).
+    pub fn text_naming(&self, name_of: &dyn Fn(&ObjectRef) -> Option<String>) -> String {
+        let mut out = String::new();
+        for finding in &self.findings {
+            let _ = finding.write_text(&mut out, name_of);
+            out.push_str("\n\n");
+        }
+        out
+    }
+}
+
 impl fmt::Display for Report {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for finding in &self.findings {
-            writeln!(f, "{finding}\n")?;
-        }
-        Ok(())
+        f.write_str(&self.text_naming(&|_| None))
     }
 }
 
@@ -429,5 +458,33 @@ mod tests {
         ));
         assert!(text.contains("| vkCmdBuildMicromapsEXT(): pInfos[0]: both pUsageCounts and ppUsageCounts are set. The Vulkan spec states: Only one of pUsageCounts"));
         assert!(text.ends_with("#VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516)"));
+    }
+
+    #[test]
+    fn objects_are_named_where_a_name_is_known() {
+        let mut report = Report::new();
+        report.push(
+            Finding::new(
+                vuid::VkMicromapBuildInfoEXT::pUsageCounts_07516,
+                Severity::Error,
+                "vkCmdBuildMicromapsEXT",
+                "pInfos[0]",
+                "both set",
+            )
+            .with_object("VkBuffer", 0xb00001)
+            .with_object("VkMicromapEXT", 0x330001),
+        );
+        let named = report.text_naming(&|o| (o.handle == 0xb00001).then(|| "omm-input".into()));
+        assert!(
+            named.contains("\n    Objects[0]: VkBuffer 'omm-input' (0xb00001)\n"),
+            "{named}"
+        );
+        assert!(
+            named.contains("\n    Objects[1]: VkMicromapEXT 0x330001\n"),
+            "{named}"
+        );
+        assert!(report
+            .to_string()
+            .contains("Objects[0]: VkBuffer 0xb00001\n"));
     }
 }

@@ -68,7 +68,45 @@ fn vuid_lookup() {
     let (code, stdout, _) = ommcheck(&["vuid", "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516"]);
     assert_eq!(code, 0);
     assert!(stdout.contains("Only one of pUsageCounts or ppUsageCounts"));
+    assert!(stdout.contains("ommcheck:   enforced"), "{stdout}");
+    assert!(stdout.contains("tier:       decided from the"), "{stdout}");
+    assert!(
+        stdout.contains("Khronos validation layer: checks it"),
+        "{stdout}"
+    );
     assert_eq!(ommcheck(&["vuid", "VUID-nope"]).0, 1);
+}
+
+#[test]
+fn vuid_accepts_any_case_bare_numbers_and_our_ids() {
+    let (code, lower, _) = ommcheck(&["vuid", "vuid-vkmicromapbuildinfoext-pusagecounts-07516"]);
+    assert_eq!(code, 0);
+    assert!(lower.starts_with("VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516\n"));
+
+    // 11636 is stated once for every command that runs shaders.
+    let (code, listed, _) = ommcheck(&["vuid", "11636"]);
+    assert_eq!(code, 0);
+    let ids: Vec<&str> = listed.lines().filter(|l| l.starts_with("VUID-")).collect();
+    assert!(ids.len() > 10, "{listed}");
+    assert!(ids.iter().all(|id| id.ends_with("-11636")));
+    assert!(ids.contains(&"VUID-vkCmdTraceRaysKHR-micromap-11636"));
+
+    let (code, own, _) = ommcheck(&["vuid", "ommcheck-build-usage-counts-match-triangles"]);
+    assert_eq!(code, 0);
+    assert!(own.starts_with("OMMCHECK-build-usage-counts-match-triangles\n"));
+    assert!(own.contains("decided from the content tier up"), "{own}");
+}
+
+#[test]
+fn unknown_vuids_get_a_did_you_mean() {
+    let (code, stdout, stderr) =
+        ommcheck(&["vuid", "VUID-VkMicromapBuildInfoEXT-pUsageCount-07516"]);
+    assert_eq!(code, 1);
+    assert!(stdout.is_empty());
+    assert!(
+        stderr.contains("did you mean `VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516`"),
+        "{stderr}"
+    );
 }
 
 #[test]
@@ -80,4 +118,55 @@ fn example_runs() {
     assert!(stdout.contains("[ OMMCHECK-build-usage-counts-match-triangles ]"));
     assert!(stdout.contains("[ OMMCHECK-attach-index-in-range ]"));
     assert!(stdout.contains("vkCmdBuildMicromapsEXT(): calls[1]: pInfos[0]"));
+    // Counts agree with their nouns.
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("1 scene, 4 calls: 4 errors, 0 warnings, 0 info; ")
+            && last.ends_with(" rules checked, 0 not checked"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn example_prints_the_scene_check_example_checks() {
+    let (code, scene, stderr) = ommcheck(&["example"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(scene, ommcheck::scene::EXAMPLE);
+    let path = std::env::temp_dir().join(format!("ommcheck-example-{}.json", std::process::id()));
+    std::fs::write(&path, &scene).unwrap();
+    let (code, from_file, _) = ommcheck(&["check", path.to_str().unwrap()]);
+    std::fs::remove_file(&path).ok();
+    let (_, built_in, _) = ommcheck(&["check", "--example"]);
+    assert_eq!(code, 1, "the example has errors on purpose");
+    // The same findings; only the scene's name differs.
+    assert_eq!(
+        from_file.replace(path.to_str().unwrap(), ommcheck::scene::EXAMPLE_PATH),
+        built_in
+    );
+}
+
+#[test]
+fn help_lists_each_command_in_one_line() {
+    let (code, stdout, _) = ommcheck(&["--help"]);
+    assert_eq!(code, 0);
+    for line in [
+        "  check    Check scene files and print a VUID report\n",
+        "  trace    Check each scene's calls, then simulate each of its `rays`\n",
+        "  example  Print the built-in example scene: `ommcheck example > scene.json`\n",
+        "  vuid     Explain a rule: enforced or not, at which tier, and by the Khronos layer\n",
+    ] {
+        assert!(stdout.contains(line), "{line:?} missing from\n{stdout}");
+    }
+    let (_, vuid_help, _) = ommcheck(&["help", "vuid"]);
+    assert!(
+        vuid_help.contains("a bare number (07516: every VUID with it)"),
+        "{vuid_help}"
+    );
+}
+
+#[test]
+fn a_mistyped_profile_name_gets_a_did_you_mean() {
+    let (code, _, stderr) = ommcheck(&["check", "--example", "--profile", "spec-minimun"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("did you mean `spec-minimum`?"), "{stderr}");
 }

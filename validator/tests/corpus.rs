@@ -284,7 +284,7 @@ fn text_reports_match_their_snapshots() {
                 .replace('/', "__")
                 .trim_end_matches(".json")
                 .to_string();
-            insta::assert_snapshot!(name, report.report.to_string());
+            insta::assert_snapshot!(name, report.named_findings());
         }
     });
 }

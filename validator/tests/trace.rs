@@ -29,10 +29,13 @@ fn ommcheck(args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// `ommcheck trace PATH --format json`: the status, the output (`scenes`
+/// and `summary`, as `check` lays them out) and stderr.
 fn trace_json(path: &str) -> (i32, Value, String) {
     let (code, stdout, stderr) = ommcheck(&["trace", path, "--format", "json"]);
-    let value = serde_json::from_str(&stdout)
+    let value: Value = serde_json::from_str(&stdout)
         .unwrap_or_else(|e| panic!("{e}: not JSON:\n{stdout}\n{stderr}"));
+    assert_eq!(value["scenes"].as_array().map(Vec::len), Some(1), "{value}");
     (code, value, stderr)
 }
 
@@ -101,19 +104,31 @@ type Expected = (
     bool,
 );
 
+/// A summary without the rule counts, whose values follow the checks.
+fn without_rule_counts(summary: &Value) -> Value {
+    let mut summary = summary.clone();
+    if let Some(object) = summary.as_object_mut() {
+        object.remove("rulesChecked");
+        object.remove("rulesNotChecked");
+    }
+    summary
+}
+
 #[test]
 fn quad_rays_have_their_exact_outcomes() {
     let (code, out, stderr) = trace_json(QUAD);
     assert_eq!(code, 0, "{stderr}");
-    assert_eq!(out["path"], QUAD);
-    assert_eq!(out["calls"], 4);
-    assert_eq!(out["findings"], json!([]));
+    assert_eq!(out["scenes"][0]["path"], QUAD);
+    assert_eq!(out["scenes"][0]["calls"], 4);
+    assert_eq!(out["scenes"][0]["findings"], json!([]));
+    assert!(out["summary"]["rulesChecked"].as_u64() > Some(0));
+    assert_eq!(out["summary"]["rulesNotChecked"], 0);
     assert_eq!(
-        out["summary"],
-        json!({"calls": 4, "findings": 0, "errors": 0, "warnings": 0, "info": 0,
+        without_rule_counts(&out["summary"]),
+        json!({"scenes": 1, "calls": 4, "findings": 0, "errors": 0, "warnings": 0, "info": 0,
                "rays": 11, "simulated": 11, "notSimulated": 0})
     );
-    let rays = out["rays"].as_array().unwrap();
+    let rays = out["scenes"][0]["rays"].as_array().unwrap();
     let expected: [Expected; 11] = [
         (
             "transparent",
@@ -230,6 +245,10 @@ fn quad_rays_as_text() {
     let (code, stdout, stderr) = ommcheck(&["trace", QUAD]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.starts_with(&format!("== {QUAD} (4 calls, 11 rays)\nno findings\n")));
+    assert!(
+        stdout.contains("  work:            1 block decoded, "),
+        "{stdout}"
+    );
     let edge = stdout
         .split("\n\n")
         .find(|block| block.starts_with("rays[5] \"micro-edge\""))
@@ -246,9 +265,13 @@ fn quad_rays_as_text() {
     }
     assert!(stdout.contains("  slot:            special index -4 (VK_OPACITY_MICROMAP_SPECIAL_INDEX_FULLY_UNKNOWN_OPAQUE_EXT)"));
     assert!(stdout.contains("  hit:             ray hit at t = 1, (u, v) = (0.3, 0.3)"));
-    assert!(stdout.ends_with(
-        "11 ray(s): 11 simulated, 0 not simulated; 4 call(s): 0 error(s), 0 warning(s), 0 info\n"
-    ));
+    let last = stdout.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with(
+            "11 rays: 11 simulated, 0 not simulated; 1 scene, 4 calls: 0 errors, 0 warnings, 0 info; "
+        ) && last.ends_with(" rules checked, 0 not checked"),
+        "{last}"
+    );
 }
 
 #[test]
@@ -277,7 +300,7 @@ fn flags_by_number_and_flags_not_modelled() {
     );
     let (code, out, stderr) = trace_json(path.path());
     assert_eq!(code, 0, "{stderr}");
-    let rays = out["rays"].as_array().unwrap();
+    let rays = out["scenes"][0]["rays"].as_array().unwrap();
     assert_eq!(strings(&rays[0]["outcomes"]), ["Ignored"]);
     assert_eq!(strings(&rays[0]["notModelled"]), Vec::<&str>::new());
     assert_eq!(strings(&rays[1]["outcomes"]), ["Opaque"]);
@@ -313,7 +336,7 @@ fn rays_that_cannot_be_simulated_exit_1_and_say_why() {
     assert_eq!(code, 1, "{stderr}");
     assert_eq!(out["summary"]["simulated"], 1);
     assert_eq!(out["summary"]["notSimulated"], 4);
-    let rays = out["rays"].as_array().unwrap();
+    let rays = out["scenes"][0]["rays"].as_array().unwrap();
     assert_eq!(rays[0]["simulated"], true);
     let errors: Vec<&str> = rays[1..]
         .iter()
@@ -340,13 +363,13 @@ fn rays_that_cannot_be_simulated_exit_1_and_say_why() {
     );
     assert!(errors[3].contains("not finite"), "{}", errors[3]);
     assert!(
-        stderr.contains("rays[1] not simulated: triangle 2"),
+        stderr.contains(": rays[1] not simulated: triangle 2"),
         "{stderr}"
     );
     let (code, stdout, _) = ommcheck(&["trace", path.path()]);
     assert_eq!(code, 1);
     assert!(stdout.contains("  not simulated:   triangle 2 is not below"));
-    assert!(stdout.contains("5 ray(s): 1 simulated, 4 not simulated"));
+    assert!(stdout.contains("5 rays: 1 simulated, 4 not simulated"));
 }
 
 #[test]
@@ -364,7 +387,7 @@ fn calls_with_errors_exit_1_and_are_reported_first() {
     assert_eq!(code, 1);
     assert!(out["summary"]["errors"].as_u64().unwrap() >= 1);
     assert!(strings(
-        &out["findings"]
+        &out["scenes"][0]["findings"]
             .as_array()
             .unwrap()
             .iter()
@@ -372,7 +395,7 @@ fn calls_with_errors_exit_1_and_are_reported_first() {
             .collect::<Value>()
     )
     .contains(&"OMMCHECK-build-triangle-array-in-range"));
-    assert_eq!(out["rays"][0]["simulated"], true);
+    assert_eq!(out["scenes"][0]["rays"][0]["simulated"], true);
     let (code, stdout, _) = ommcheck(&["trace", path.path()]);
     assert_eq!(code, 1);
     let findings_at = stdout
@@ -426,7 +449,7 @@ fn malformed_rays_exit_2_with_a_json_path() {
     for (i, (ray, needle)) in [
         (
             r#"{"accelerationStructure": "b", "triangle": 0, "hit": {"u": 0, "v": 0}, "rayFlags": "OpaqueEXT"}"#,
-            "unknown RayFlags name `OpaqueEXT`; expected one of NoneKHR, OpaqueKHR",
+            "unknown RayFlags name `OpaqueEXT`; did you mean `OpaqueKHR`",
         ),
         (
             r#"{"accelerationStructure": "b", "triangle": 0, "hit": {"u": 0, "v": 0}, "instanceFlags": "FORCE_OPAQUE"}"#,
@@ -466,8 +489,8 @@ fn documented_example_traces_as_documented() {
     let path = write("doc-example.json", &body);
     let (code, out, stderr) = trace_json(path.path());
     assert_eq!(code, 0, "{stderr}");
-    assert_eq!(out["findings"], json!([]));
-    let rays = out["rays"].as_array().unwrap();
+    assert_eq!(out["scenes"][0]["findings"], json!([]));
+    let rays = out["scenes"][0]["rays"].as_array().unwrap();
     assert_eq!(strings(&rays[0]["outcomes"]), ["NonOpaque"]);
     assert_eq!(strings(&rays[1]["outcomes"]), ["Ignored"]);
     assert_eq!(strings(&rays[2]["outcomes"]), ["Ignored", "Opaque"]);
@@ -477,4 +500,56 @@ fn documented_example_traces_as_documented() {
     assert!(doc.contains(
         r#""microTriangles": [{ "index": 1, "state": "Opaque" }, { "index": 2, "state": "UnknownTransparent" }]"#
     ));
+}
+
+#[test]
+fn several_scenes_share_checks_layout() {
+    let failing = variant(
+        "several-failing.json",
+        json!([{ "accelerationStructure": "leaf-blas", "triangle": 2, "hit": { "u": 0.1, "v": 0.1 } }]),
+        |_| {},
+    );
+    let (code, stdout, stderr) = ommcheck(&["trace", QUAD, failing.path(), "--format", "json"]);
+    assert_eq!(
+        code, 1,
+        "one ray of the second scene is not simulated: {stderr}"
+    );
+    let out: Value = serde_json::from_str(&stdout).unwrap();
+    let scenes = out["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 2);
+    assert_eq!(scenes[0]["path"], QUAD);
+    assert_eq!(scenes[1]["path"], failing.path());
+    assert_eq!(scenes[1]["rays"].as_array().unwrap().len(), 1);
+    assert_eq!(
+        without_rule_counts(&out["summary"]),
+        json!({"scenes": 2, "calls": 8, "findings": 0, "errors": 0, "warnings": 0, "info": 0,
+               "rays": 12, "simulated": 11, "notSimulated": 1})
+    );
+    // `check` has the same members: each scene's path, calls, objects and
+    // findings, and the summary's scene, call and finding counts.
+    let (_, checked, _) = ommcheck(&["check", QUAD, failing.path(), "--format", "json"]);
+    let checked: Value = serde_json::from_str(&checked).unwrap();
+    for member in ["path", "calls", "objects", "findings"] {
+        assert_eq!(scenes[1][member], checked["scenes"][1][member], "{member}");
+    }
+    for (member, count) in checked["summary"].as_object().unwrap() {
+        assert_eq!(&out["summary"][member], count, "{member}");
+    }
+    assert!(
+        stderr.contains(&format!("{}: rays[0] not simulated", failing.path())),
+        "{stderr}"
+    );
+
+    let (_, text, _) = ommcheck(&["trace", QUAD, failing.path()]);
+    assert!(
+        text.contains(&format!("== {} (4 calls, 1 ray)", failing.path())),
+        "{text}"
+    );
+    let last = text.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with(
+            "12 rays: 11 simulated, 1 not simulated; 2 scenes, 8 calls: 0 errors, 0 warnings, 0 info; "
+        ) && last.ends_with(" rules checked, 0 not checked"),
+        "{last}"
+    );
 }

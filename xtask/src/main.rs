@@ -189,6 +189,12 @@ mod driver {
                         {
                             eprintln!("xtask coverage: {rule} is measured at the {measured} tier, but its inputs need only {needed}");
                         }
+                        let tiers_path = root.join(ommcheck::coverage::TIERS_FILE);
+                        std::fs::write(&tiers_path, ommcheck::coverage::render_tiers(&tiers))
+                            .map_err(|source| xtask::Error::Io {
+                                path: tiers_path,
+                                source,
+                            })?;
                         std::fs::write(&path, ommcheck::coverage::render(&tiers))
                             .map_err(|source| xtask::Error::Io { path, source })
                     })
@@ -205,7 +211,12 @@ mod driver {
                             source,
                         })
                     })
-                    .map(|()| println!("wrote VUID-COVERAGE.md and the rules table of README.md"))
+                    .map(|()| {
+                        println!(
+                            "wrote VUID-COVERAGE.md, {} and the rules table of README.md",
+                            ommcheck::coverage::TIERS_FILE
+                        )
+                    })
             }
             Task::Layer { args } => return super::layer_command(&args),
             Task::Accuracy { seed } => {

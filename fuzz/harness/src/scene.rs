@@ -138,7 +138,7 @@ fn check(text: &str, base_dir: &Path) -> String {
         Err(e) => format!("{e}"),
     };
     let traced = match scene.trace(&options) {
-        Ok(report) => report.text(),
+        Ok(report) => format!("{}{}", report.text(), report.summary().line()),
         Err(e) => format!("{e}"),
     };
     format!("{checked}\n{traced}")

@@ -1531,6 +1531,9 @@ pub fn work_call_names() -> impl Iterator<Item = &'static str> {
     WorkCommand::ALL.iter().map(|c| c.function())
 }
 
+/// How many of the closest calls an unknown call name suggests.
+const CALL_SUGGESTIONS: usize = 3;
+
 /// Every call name a scene may use, for messages and docs.
 pub const CALL_NAMES: [&str; 45] = [
     "vkCreateMicromapEXT",
@@ -1675,11 +1678,13 @@ impl Tagged for Call {
                     params: De::deserialize(rest)?,
                 }),
                 None => {
+                    let calls = CALL_NAMES.iter().copied().chain(work_call_names());
+                    let hint = crate::suggest::did_you_mean(other, calls, CALL_SUGGESTIONS)
+                        .map(|s| format!("; {s}"))
+                        .unwrap_or_default();
                     return Err(de::Error::custom(format!(
-                        "unknown call `{other}`; expected one of {}, or a command that runs shaders ({})",
-                        CALL_NAMES.join(", "),
-                        work_call_names().collect::<Vec<_>>().join(", ")
-                    )))
+                        "unknown call `{other}`{hint} (docs/scene-format.md lists the calls ommcheck reads)"
+                    )));
                 }
             },
         })

@@ -207,6 +207,29 @@ impl Scene {
     }
 }
 
+impl SceneReport {
+    /// The findings' text with the scene's objects named.
+    pub fn named_findings(&self) -> String {
+        self.report
+            .text_naming(&|object| resolve::scene_name(&self.objects, object))
+    }
+
+    /// The text form `ommcheck check` prints for the scene: a header, then
+    /// the findings in the Khronos layer's style or `no findings`.
+    pub fn text(&self) -> String {
+        let header = format!(
+            "== {} ({})\n",
+            self.path,
+            count(self.calls, "call", "calls")
+        );
+        if self.findings.is_empty() {
+            header + "no findings\n\n"
+        } else {
+            format!("{header}\n{}", self.named_findings())
+        }
+    }
+}
+
 fn syntax(path: &str, error: &serde_json::Error) -> SceneError {
     let (line, column) = (error.line(), error.column());
     let text = error.to_string();
@@ -242,10 +265,16 @@ pub struct Summary {
 
 impl Summary {
     pub fn of(reports: &[SceneReport]) -> Summary {
-        let counts = ReportSummary::of(reports.iter().map(|r| &r.report));
+        Summary::over(reports.iter().map(|r| (r.calls, &r.report)))
+    }
+
+    /// Counts over scenes given as (calls, report): each finding once, each
+    /// rule once however many scenes checked it (see [`ReportSummary::of`]).
+    pub fn over<'a>(scenes: impl Iterator<Item = (usize, &'a Report)> + Clone) -> Summary {
+        let counts = ReportSummary::of(scenes.clone().map(|(_, report)| report));
         Summary {
-            scenes: reports.len(),
-            calls: reports.iter().map(|r| r.calls).sum(),
+            scenes: scenes.clone().count(),
+            calls: scenes.map(|(calls, _)| calls).sum(),
             findings: counts.findings,
             errors: counts.errors,
             warnings: counts.warnings,
@@ -254,30 +283,42 @@ impl Summary {
             rules_not_checked: counts.rules_not_checked,
         }
     }
-}
 
-impl fmt::Display for Summary {
-    /// The last line of `ommcheck check`'s text output.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} scene(s), {} call(s): {} error(s), {} warning(s), {} info; {} rule(s) checked, {} not checked",
-            self.scenes,
-            self.calls,
-            self.errors,
-            self.warnings,
+    /// The text form's last line: `2 scenes, 5 calls: 1 error, 0 warnings,
+    /// 0 info; 14 rules checked, 3 not checked`.
+    pub fn line(&self) -> String {
+        format!(
+            "{}, {}: {}, {}, {} info; {} checked, {} not checked",
+            count(self.scenes, "scene", "scenes"),
+            count(self.calls, "call", "calls"),
+            count(self.errors, "error", "errors"),
+            count(self.warnings, "warning", "warnings"),
             self.info,
-            self.rules_checked,
+            count(self.rules_checked, "rule", "rules"),
             self.rules_not_checked
         )
     }
 }
 
-/// The JSON output of `ommcheck check --format json`.
+impl fmt::Display for Summary {
+    /// The last line of `ommcheck check`'s text output.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.line())
+    }
+}
+
+/// `n` and the noun in the number that agrees with it: `1 call`, `2 calls`.
+pub fn count(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// The JSON output of `ommcheck check --format json` (`Output<SceneReport,
+/// Summary>`) and `ommcheck trace --format json` (`Output<TraceReport,
+/// TraceSummary>`): one layout, the scenes and then the counts over them.
 #[derive(Clone, Debug, Serialize)]
-pub struct Output<'a> {
-    pub scenes: &'a [SceneReport],
-    pub summary: Summary,
+pub struct Output<'a, R = SceneReport, S = Summary> {
+    pub scenes: &'a [R],
+    pub summary: &'a S,
 }
 
 /// The JSON Schema of scene files, generated from the serde types
@@ -298,6 +339,26 @@ mod tests {
         let scene = Scene::parse(EXAMPLE, EXAMPLE_PATH, Path::new(".")).unwrap();
         let report = scene.check(&CheckOptions::default()).unwrap();
         assert!(report.report.has_errors());
+    }
+
+    #[test]
+    fn counts_agree_with_their_nouns() {
+        assert_eq!(count(1, "call", "calls"), "1 call");
+        assert_eq!(count(0, "call", "calls"), "0 calls");
+        let summary = Summary {
+            scenes: 2,
+            calls: 1,
+            findings: 1,
+            errors: 1,
+            warnings: 0,
+            info: 0,
+            rules_checked: 1,
+            rules_not_checked: 2,
+        };
+        assert_eq!(
+            summary.line(),
+            "2 scenes, 1 call: 1 error, 0 warnings, 0 info; 1 rule checked, 2 not checked"
+        );
     }
 
     #[test]

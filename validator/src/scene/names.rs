@@ -1108,12 +1108,15 @@ fn parse_text<K: Kind>(text: &str) -> Result<i64, String> {
     if let Some(number) = number {
         return checked::<K>(number);
     }
-    let names: Vec<&str> = K::names().iter().map(|(name, _)| *name).collect();
-    Err(format!(
-        "unknown {} name `{text}`; expected one of {}, or a number",
-        K::TYPE_NAME,
-        names.join(", ")
-    ))
+    let names = K::names().iter().map(|(name, _)| *name);
+    match crate::suggest::did_you_mean(text, names.clone(), 3) {
+        Some(hint) => Err(format!("unknown {} name `{text}`; {hint}", K::TYPE_NAME)),
+        None => Err(format!(
+            "unknown {} name `{text}`; expected one of {}, or a number",
+            K::TYPE_NAME,
+            names.collect::<Vec<_>>().join(", ")
+        )),
+    }
 }
 
 fn checked<K: Kind>(number: i128) -> Result<i64, String> {

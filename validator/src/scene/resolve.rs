@@ -4,7 +4,7 @@
 //! error and no report.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use base64::Engine as _;
@@ -25,7 +25,7 @@ use crate::model::micromap_objects::{
     AllocationCallbacks, CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo,
     MicromapBuildSizesInfo, MicromapCreateInfo, MicromapList, MicromapVersionInfo,
 };
-use crate::report::Report;
+use crate::report::{ObjectRef, Report};
 use crate::sim::intersect::Ray;
 use crate::sim::simulate::{HitInput, HitQuery};
 use crate::state::{
@@ -148,6 +148,37 @@ pub struct NamedObject {
     pub handle: Handle,
 }
 
+/// The scene name of the object `object` refers to, if the scene named it.
+pub fn scene_name(objects: &[NamedObject], object: &ObjectRef) -> Option<String> {
+    objects
+        .iter()
+        .find(|o| o.kind == object.ty && o.handle == object.handle)
+        .map(|o| o.name.clone())
+}
+
+/// `message` with each `VkBuffer 0xb00001` the checks wrote for a named
+/// object written as `VkBuffer 'omm-input'`.
+pub fn name_objects(message: &str, objects: &[NamedObject]) -> String {
+    let mut out = message.to_string();
+    for object in objects {
+        let handle = format!("{} {:#x}", object.kind, object.handle);
+        let named = format!("{} '{}'", object.kind, object.name);
+        let mut from = 0;
+        while let Some(found) = out[from..].find(&handle) {
+            let start = from + found;
+            let end = start + handle.len();
+            // 0xb00001 must not be the start of 0xb000010.
+            if out[end..].starts_with(|c: char| c.is_ascii_hexdigit()) {
+                from = end;
+                continue;
+            }
+            out.replace_range(start..end, &named);
+            from = start + named.len();
+        }
+    }
+    out
+}
+
 /// The findings of one scene, each location prefixed with its call.
 #[derive(Clone, Debug, Default)]
 pub struct Checked {
@@ -166,6 +197,23 @@ pub enum LimitsOverride {
 struct Object {
     kind: ObjectKind,
     handle: Handle,
+}
+
+/// The bytes of one contents piece.
+enum PieceBytes {
+    /// Written in the scene (hex, base64, numbers, triangles), decoded.
+    Decoded(Vec<u8>),
+    /// A binary file of this many bytes, read once, into place.
+    File(PathBuf, u64),
+}
+
+impl PieceBytes {
+    fn len(&self) -> u64 {
+        match self {
+            PieceBytes::Decoded(bytes) => bytes.len() as u64,
+            PieceBytes::File(_, len) => *len,
+        }
+    }
 }
 
 struct Resolver<'a> {
@@ -251,7 +299,11 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
                 handle: object.handle,
             })
         })
-        .collect();
+        .collect::<Vec<_>>();
+    for finding in &mut report.findings {
+        finding.location = name_objects(&finding.location, &objects);
+        finding.message = name_objects(&finding.message, &objects);
+    }
     let rays = scene
         .rays
         .iter()
@@ -336,7 +388,17 @@ fn device(
 /// the spec-minimum profile.
 pub fn read_profile_file(path: &Path) -> std::result::Result<Limits, String> {
     let size = std::fs::metadata(path)
-        .map_err(|e| format!("cannot read the profile file {}: {e}", path.display()))?
+        .map_err(|e| {
+            // A missing "file" is most often a mistyped profile name.
+            let name = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or_default();
+            let hint = crate::suggest::did_you_mean(name, Profile::NAMES, 1)
+                .map(|s| format!("; {s}"))
+                .unwrap_or_default();
+            format!("cannot read the profile file {}: {e}{hint}", path.display())
+        })?
         .len();
     if size > 1 << 20 {
         return Err(format!(
@@ -535,27 +597,32 @@ impl Resolver<'_> {
         Ok(handle)
     }
 
-    fn names_of(&self, kind: ObjectKind) -> String {
-        let names: Vec<String> = self
+    /// The scene's names of `kind` for a message about the unknown name
+    /// `wanted`, led by the closest if one is close.
+    fn names_of(&self, kind: ObjectKind, wanted: &str) -> String {
+        let names: Vec<&str> = self
             .order
             .iter()
             .filter(|n| self.objects.get(*n).is_some_and(|o| o.kind == kind))
-            .map(|n| format!("`{n}`"))
+            .map(String::as_str)
             .collect();
         if names.is_empty() {
             format!("the scene has no {}", kind.noun())
         } else {
-            format!("the scene's {}s are {}", kind.noun(), names.join(", "))
+            let list = format!("the scene's {}s are {}", kind.noun(), quoted(&names));
+            with_suggestion(wanted, &names, list)
         }
     }
 
-    /// The names of every object declared so far, for messages.
-    fn declared_names(&self) -> String {
+    /// The names of every object declared so far, for a message about the
+    /// unknown name `wanted`.
+    fn declared_names(&self, wanted: &str) -> String {
         if self.order.is_empty() {
             "the scene declares no objects".to_string()
         } else {
-            let names: Vec<String> = self.order.iter().map(|n| format!("`{n}`")).collect();
-            format!("the scene's objects are {}", names.join(", "))
+            let names: Vec<&str> = self.order.iter().map(String::as_str).collect();
+            let list = format!("the scene's objects are {}", quoted(&names));
+            with_suggestion(wanted, &names, list)
         }
     }
 
@@ -573,7 +640,7 @@ impl Resolver<'_> {
                         "unknown {} `{name}`: expected the name of a {} declared or created earlier ({})",
                         kind.noun(),
                         kind.noun(),
-                        self.names_of(kind)
+                        self.names_of(kind, name)
                     ),
                 ),
             },
@@ -595,7 +662,7 @@ impl Resolver<'_> {
                     format!(
                         "`{name}` names a {}; a ray needs a bottom-level acceleration structure ({})",
                         object.kind.noun(),
-                        self.names_of(kind)
+                        self.names_of(kind, name)
                     ),
                 )
             }
@@ -604,7 +671,7 @@ impl Resolver<'_> {
                     as_at,
                     format!(
                         "unknown acceleration structure `{name}`: expected the name of a bottom-level acceleration structure declared or created by a call ({})",
-                        self.names_of(kind)
+                        self.names_of(kind, name)
                     ),
                 )
             }
@@ -693,7 +760,7 @@ impl Resolver<'_> {
                         format!("{at}.buffer"),
                         format!(
                         "unknown buffer `{name}`: expected the name of a buffer in `buffers` ({})",
-                        self.names_of(ObjectKind::Buffer)
+                        self.names_of(ObjectKind::Buffer, name)
                     ),
                     )
                 }
@@ -701,16 +768,12 @@ impl Resolver<'_> {
             AddressArg::Host { name, offset } => match self.host_addresses.get(name) {
                 Some(base) => (*base, *offset),
                 None => {
-                    let known: Vec<String> = self
-                        .host_addresses
-                        .keys()
-                        .map(|n| format!("`{n}`"))
-                        .collect();
+                    let known: Vec<&str> = self.host_addresses.keys().map(String::as_str).collect();
                     return problem(
                         format!("{at}.host"),
                         format!(
                             "unknown host memory `{name}`: expected the name of a block in `hostMemory` ({})",
-                            if known.is_empty() { "the scene has none".to_string() } else { known.join(", ") }
+                            if known.is_empty() { "the scene has none".to_string() } else { with_suggestion(name, &known, quoted(&known)) }
                         ),
                     );
                 }
@@ -740,7 +803,7 @@ impl Resolver<'_> {
                         format!("{at}.commandBuffer"),
                         format!(
                             "unknown command buffer `{name}`: expected a name from `commandBuffers` ({})",
-                            self.names_of(ObjectKind::CommandBuffer)
+                            self.names_of(ObjectKind::CommandBuffer, name)
                         ),
                     )
                 },
@@ -776,7 +839,12 @@ impl Resolver<'_> {
         }
         self.contents_total = total;
         let len = usize::try_from(size).or_else(|_| problem(at, "too large for this machine"))?;
-        let mut bytes = vec![0u8; len];
+        // The one allocation the bytes live in: filled in place (a file piece
+        // is read straight into it), then shared as it is, never copied.
+        let mut shared: Arc<[u8]> = std::iter::repeat_n(0u8, len).collect();
+        let Some(bytes) = Arc::get_mut(&mut shared) else {
+            return problem(at, "internal: fresh contents are shared");
+        };
         let pieces = contents.pieces();
         for (k, piece) in pieces.iter().enumerate() {
             let piece_at = match contents {
@@ -784,32 +852,45 @@ impl Resolver<'_> {
                 Contents::Many(_) => format!("{at}[{k}]"),
             };
             let data = self.piece(piece, size, &piece_at)?;
-            let end = piece.at.checked_add(data.len() as u64);
-            match end {
-                Some(end) if end <= size => {
-                    // Both bounds are at most `size`, which fits usize.
-                    let from = usize::try_from(piece.at).unwrap_or(len);
-                    let to = usize::try_from(end).unwrap_or(len);
-                    if let Some(target) = bytes.get_mut(from..to) {
-                        target.copy_from_slice(&data);
+            let end = piece.at.checked_add(data.len());
+            let target = match end {
+                // Both bounds are at most `size`, which fits usize.
+                Some(end) if end <= size => usize::try_from(piece.at)
+                    .ok()
+                    .zip(usize::try_from(end).ok())
+                    .and_then(|(from, to)| bytes.get_mut(from..to)),
+                _ => None,
+            };
+            let Some(target) = target else {
+                return problem(
+                    piece_at,
+                    format!(
+                        "{} bytes at {} end past the {size} bytes of the buffer",
+                        data.len(),
+                        piece.at
+                    ),
+                );
+            };
+            match data {
+                PieceBytes::Decoded(decoded) => target.copy_from_slice(&decoded),
+                PieceBytes::File(path, _) => {
+                    let read = std::fs::File::open(&path)
+                        .and_then(|mut file| std::io::Read::read_exact(&mut file, target));
+                    if let Err(e) = read {
+                        return problem(
+                            format!("{piece_at}.file"),
+                            format!("cannot read {}: {e}", path.display()),
+                        );
                     }
-                }
-                _ => {
-                    return problem(
-                        piece_at,
-                        format!(
-                            "{} bytes at {} end past the {size} bytes of the buffer",
-                            data.len(),
-                            piece.at
-                        ),
-                    )
                 }
             }
         }
-        Ok(Arc::from(bytes))
+        Ok(shared)
     }
 
-    fn piece(&self, piece: &Piece, size: u64, at: &str) -> Result<Vec<u8>> {
+    /// A piece's bytes: decoded from the scene, or a file measured here and
+    /// read by [`Self::contents`] straight into place.
+    fn piece(&self, piece: &Piece, size: u64, at: &str) -> Result<PieceBytes> {
         let forms = [
             piece.hex.is_some(),
             piece.base64.is_some(),
@@ -827,12 +908,13 @@ impl Resolver<'_> {
             );
         }
         if let Some(hex) = &piece.hex {
-            return decode_hex(hex, &format!("{at}.hex"));
+            return decode_hex(hex, &format!("{at}.hex")).map(PieceBytes::Decoded);
         }
         if let Some(text) = &piece.base64 {
             let compact: String = text.chars().filter(|c| !c.is_ascii_whitespace()).collect();
             return base64::engine::general_purpose::STANDARD
                 .decode(compact)
+                .map(PieceBytes::Decoded)
                 .or_else(|e| problem(format!("{at}.base64"), format!("not base64: {e}")));
         }
         if let Some(file) = &piece.file {
@@ -850,20 +932,25 @@ impl Resolver<'_> {
                     ),
                 );
             }
-            return std::fs::read(&path)
-                .or_else(|e| problem(file_at, format!("cannot read {}: {e}", path.display())));
+            return Ok(PieceBytes::File(path, file_size));
         }
         if let Some(values) = &piece.u8 {
-            return Ok(values.clone());
+            return Ok(PieceBytes::Decoded(values.clone()));
         }
         if let Some(values) = &piece.u16 {
-            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+            return Ok(PieceBytes::Decoded(
+                values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            ));
         }
         if let Some(values) = &piece.u32 {
-            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+            return Ok(PieceBytes::Decoded(
+                values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            ));
         }
         if let Some(values) = &piece.u64 {
-            return Ok(values.iter().flat_map(|v| v.to_le_bytes()).collect());
+            return Ok(PieceBytes::Decoded(
+                values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+            ));
         }
         let mut out = Vec::new();
         for (k, t) in piece.triangles.iter().flatten().enumerate() {
@@ -880,7 +967,7 @@ impl Resolver<'_> {
             };
             out.extend_from_slice(&triangle.to_bytes());
         }
-        Ok(out)
+        Ok(PieceBytes::Decoded(out))
     }
 
     /// The objects that exist before the first call.
@@ -1133,7 +1220,7 @@ impl Resolver<'_> {
                     at,
                     format!(
                         "unknown object `{name}`: expected the name of an object declared before the calls ({})",
-                        self.declared_names()
+                        self.declared_names(name)
                     ),
                 );
             };
@@ -1968,9 +2055,106 @@ fn piece_len_hint(piece: &Piece) -> Option<u64> {
     None
 }
 
+/// `names` as `` `a`, `b` ``, for messages.
+fn quoted(names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `list`, led by "did you mean `x`?" when a name of `names` is close to
+/// `wanted`.
+fn with_suggestion(wanted: &str, names: &[&str], list: String) -> String {
+    match crate::suggest::did_you_mean(wanted, names.iter().copied(), 1) {
+        Some(hint) => format!("{hint} {list}"),
+        None => list,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn messages_name_the_scene_objects_they_mention() {
+        let objects = [
+            NamedObject {
+                name: "omm-input".into(),
+                kind: "VkBuffer",
+                handle: 0xb0_0001,
+            },
+            NamedObject {
+                name: "blas".into(),
+                kind: "VkAccelerationStructureKHR",
+                handle: 0xa5_0002,
+            },
+        ];
+        assert_eq!(
+            name_objects(
+                "VkBuffer 0xb00001 and VkBuffer 0xb00001 feed VkAccelerationStructureKHR 0xa50002",
+                &objects
+            ),
+            "VkBuffer 'omm-input' and VkBuffer 'omm-input' feed VkAccelerationStructureKHR 'blas'"
+        );
+        // A longer handle that starts alike, or another type, stays as it is.
+        assert_eq!(
+            name_objects("VkBuffer 0xb000012, VkMicromapEXT 0xb00001", &objects),
+            "VkBuffer 0xb000012, VkMicromapEXT 0xb00001"
+        );
+        let object = crate::report::ObjectRef {
+            ty: "VkBuffer",
+            handle: 0xb0_0001,
+        };
+        assert_eq!(scene_name(&objects, &object).as_deref(), Some("omm-input"));
+        let other = crate::report::ObjectRef {
+            ty: "VkMicromapEXT",
+            handle: 0xb0_0001,
+        };
+        assert_eq!(scene_name(&objects, &other), None);
+    }
+
+    /// A file piece is read into place beside the other pieces, once: the
+    /// buffer's shared contents are the bytes of every piece at its offset.
+    #[test]
+    fn file_pieces_are_read_into_place() {
+        let dir = std::env::temp_dir().join(format!("ommcheck-pieces-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("middle.bin"), [7u8, 8, 9, 10]).unwrap();
+        let text = r#"{ "buffers": [{ "name": "b", "size": 12,
+            "usage": "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
+            "contents": [{ "at": 0, "hex": "0102" }, { "at": 4, "file": "middle.bin" },
+                         { "at": 10, "u8": [5, 6] }] }],
+            "calls": [] }"#;
+        let scene: SceneFile = serde_json::from_str(text).unwrap();
+        let ran = run(&scene, &dir, &super::super::CheckOptions::default());
+        let short = r#"{ "buffers": [{ "name": "b", "size": 6,
+            "usage": "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
+            "contents": { "at": 4, "file": "middle.bin" } }], "calls": [] }"#;
+        let past_end = run(
+            &serde_json::from_str(short).unwrap(),
+            &dir,
+            &super::super::CheckOptions::default(),
+        );
+        std::fs::remove_dir_all(&dir).ok();
+        let ran = ran.unwrap_or_else(|p| panic!("{}: {}", p.path, p.message));
+        let handle = ran.checked.objects[0].handle;
+        let contents = ran.validator.state().buffers[&handle]
+            .contents
+            .clone()
+            .expect("contents given");
+        assert_eq!(&contents[..], [1, 2, 0, 0, 7, 8, 9, 10, 0, 0, 5, 6]);
+        let problem = past_end.err().expect("4 bytes at 4 do not fit 6");
+        assert_eq!(problem.path, "buffers[0].contents");
+        assert!(
+            problem
+                .message
+                .contains("4 bytes at 4 end past the 6 bytes"),
+            "{}",
+            problem.message
+        );
+    }
 
     #[test]
     fn placement_keeps_clear_of_fixed_ranges_and_never_overflows() {

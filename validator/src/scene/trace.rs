@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::names::{self, Kind};
 use super::resolve::{self, NamedObject, ResolvedRay};
-use super::{CheckOptions, Scene, SceneError};
+use super::{count, CheckOptions, Scene, SceneError, Summary};
 use crate::report::{Finding, Report};
 use crate::sim::decode::{LookupError, WorkCounters};
 use crate::sim::index::BaryError;
@@ -22,7 +22,9 @@ use crate::sim::trace::TraceError;
 use crate::state::Handle;
 use crate::validator::Validator;
 
-/// The result of `ommcheck trace` on one scene (its JSON form).
+/// The result of `ommcheck trace` on one scene: an element of the JSON
+/// output's `scenes`, laid out as `ommcheck check`'s ([`super::SceneReport`])
+/// with the rays added.
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct TraceReport {
@@ -34,25 +36,53 @@ pub struct TraceReport {
     /// The calls' findings, as `ommcheck check` reports them.
     pub findings: Vec<Finding>,
     pub rays: Vec<RayReport>,
-    pub summary: TraceSummary,
     #[serde(skip)]
     pub report: Report,
 }
 
-/// Counts over the calls' findings and the rays.
+/// Counts over the traced scenes: `ommcheck check`'s summary and the rays.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct TraceSummary {
-    pub calls: usize,
-    pub findings: usize,
-    pub errors: usize,
-    pub warnings: usize,
-    pub info: usize,
+    #[serde(flatten)]
+    pub checks: Summary,
     pub rays: usize,
     /// Rays the simulator answered (a miss is an answer).
     pub simulated: usize,
     /// Rays it could not answer (each says why in `error`).
     pub not_simulated: usize,
+}
+
+impl TraceSummary {
+    pub fn of(reports: &[TraceReport]) -> TraceSummary {
+        let mut summary = TraceSummary {
+            checks: Summary::over(reports.iter().map(|r| (r.calls, &r.report))),
+            ..TraceSummary::default()
+        };
+        for report in reports {
+            summary.rays += report.rays.len();
+            summary.simulated += report.rays.iter().filter(|r| r.simulated).count();
+        }
+        summary.not_simulated = summary.rays - summary.simulated;
+        summary
+    }
+
+    /// Whether `ommcheck trace` exits 0: the calls had no errors and every
+    /// ray was simulated.
+    pub fn success(&self) -> bool {
+        self.checks.errors == 0 && self.not_simulated == 0
+    }
+
+    /// The text form's last line.
+    pub fn line(&self) -> String {
+        format!(
+            "{}: {} simulated, {} not simulated; {}",
+            count(self.rays, "ray", "rays"),
+            self.simulated,
+            self.not_simulated,
+            self.checks.line()
+        )
+    }
 }
 
 /// One ray's answer. Every member is always present (`null` or empty when
@@ -167,64 +197,53 @@ impl Scene {
             .map(|(i, ray)| ray_report(&run.validator, objects, i, ray))
             .collect();
         let report = run.checked.report;
-        let counts = report.summary();
-        let mut summary = TraceSummary {
-            calls: run.checked.calls,
-            rays: rays.len(),
-            findings: counts.findings,
-            errors: counts.errors,
-            warnings: counts.warnings,
-            info: counts.info,
-            ..TraceSummary::default()
-        };
-        summary.simulated = rays.iter().filter(|r| r.simulated).count();
-        summary.not_simulated = rays.len().saturating_sub(summary.simulated);
         Ok(TraceReport {
             path: self.path.clone(),
             calls: run.checked.calls,
             objects: run.checked.objects,
             findings: report.findings.clone(),
             rays,
-            summary,
             report,
         })
     }
 }
 
 impl TraceReport {
-    /// Whether `ommcheck trace` exits 0: the calls had no errors and every
-    /// ray was simulated.
-    pub fn success(&self) -> bool {
-        self.summary.errors == 0 && self.summary.not_simulated == 0
+    /// The counts over this one scene.
+    pub fn summary(&self) -> TraceSummary {
+        TraceSummary::of(std::slice::from_ref(self))
     }
 
     /// The text form: the calls' findings as `ommcheck check` prints them,
-    /// then one block per ray, then a summary line.
+    /// then one block per ray (the summary line is the caller's, after the
+    /// last scene).
     pub fn text(&self) -> String {
         let mut out = String::new();
         let _ = writeln!(
             out,
-            "== {} ({} calls, {} rays)",
+            "== {} ({}, {})",
             self.path,
-            self.calls,
-            self.rays.len()
+            count(self.calls, "call", "calls"),
+            count(self.rays.len(), "ray", "rays")
         );
         if self.findings.is_empty() {
             out.push_str("no findings\n\n");
         } else {
-            let _ = write!(out, "\n{}", self.report);
+            let named = self
+                .report
+                .text_naming(&|object| resolve::scene_name(&self.objects, object));
+            let _ = write!(out, "\n{named}");
         }
         for ray in &self.rays {
             ray.write_text(&mut out);
         }
-        let s = &self.summary;
-        let _ = writeln!(
-            out,
-            "{} ray(s): {} simulated, {} not simulated; {} call(s): {} error(s), {} warning(s), {} info",
-            s.rays, s.simulated, s.not_simulated, s.calls, s.errors, s.warnings, s.info
-        );
         out
     }
+}
+
+/// [`count`] of a 64-bit counter.
+fn count64(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
 }
 
 /// `x` as the shortest decimal that reads back to it: an f32 value (the
@@ -335,8 +354,10 @@ impl RayReport {
         let w = &self.work;
         let _ = writeln!(
             out,
-            "  work:            {} block(s) decoded, {} byte(s) read, {} index(es) read\n",
-            w.blocks_decoded, w.bytes_read, w.indices_read
+            "  work:            {} decoded, {} read, {} read\n",
+            count64(w.blocks_decoded, "block", "blocks"),
+            count64(w.bytes_read, "byte", "bytes"),
+            count64(w.indices_read, "index", "indices")
         );
     }
 }
