@@ -143,4 +143,10 @@ pub use tracked::{DescribesDevice, HostBytes};
 #[cfg(doctest)]
 #[doc = include_str!("../../docs/static-checker.md")]
 pub struct StaticCheckerDocs;
+/// The README's example, compiled as a doctest, so it keeps up with the
+/// API (its `#[test]` function is compiled, not run; the crate
+/// documentation's first example runs the same checks).
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct ReadmeDocs;
 pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};
