@@ -21,10 +21,11 @@ use std::fmt::{self, Display};
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
-use crate::checks::common::{self, FormatNames, Tally, TriangleHistogram};
+use crate::checks::common::{self, Tally, TriangleHistogram};
 use crate::checks::Coverage;
 use crate::model::accel::*;
 use crate::model::micromap::UsageCounts;
+use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::not_checked::Cause;
 use crate::report::{Report, RuleId, Severity};
@@ -1342,8 +1343,8 @@ fn usage_counts_match_indices(
         declared.keys().chain(found.keys()).copied().collect();
     let array = a.member(member);
     let names = match a.kind {
-        Kind::Nv => FormatNames::DisplacementNv,
-        _ => FormatNames::OpacityExt,
+        Kind::Nv => FormatKind::DisplacementNv,
+        _ => FormatKind::OpacityExt,
     };
     let mut tally = Tally::new();
     for (format, level) in keys {

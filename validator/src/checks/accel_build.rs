@@ -32,12 +32,13 @@ use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{
     self, bytes_available, decode_entries, readable_entries, usage_counts_match_triangles,
-    CleanRun, FormatNames, Tally, TriangleEntry, TriangleHistogram,
+    CleanRun, Tally, TriangleEntry, TriangleHistogram,
 };
 use crate::checks::{accel_attach, hygiene, Coverage};
 use crate::device::Limits;
 use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
+use crate::model::values::FormatKind;
 use crate::model::values::{
     BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
@@ -1177,7 +1178,7 @@ fn micromap_inputs(
             (data.triangle_array, command.reads_host_memory()),
             data.triangle_array_stride,
             &data.usage_counts,
-            FormatNames::OpacityKhr,
+            FormatKind::OpacityKhr,
         );
     }
     TriangleArrayCheck {
@@ -1367,7 +1368,7 @@ impl TriangleArrayCheck {
                 &format!("{}.{}", self.at, data.usage_counts.member()),
                 &data.usage_counts,
                 &histogram.into_map(),
-                FormatNames::OpacityKhr,
+                FormatKind::OpacityKhr,
             );
         }
     }

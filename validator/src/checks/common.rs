@@ -8,6 +8,7 @@ use ommcheck_vuids::Vuid;
 
 use crate::model::command::queue;
 use crate::model::micromap::UsageCounts;
+use crate::model::values::FormatKind;
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::not_checked::Cause;
 use crate::report::{ObjectRef, RuleId, Severity};
@@ -533,43 +534,6 @@ impl Tally {
     }
 }
 
-/// Which enum names a micromap format value in a message.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum FormatNames {
-    /// `VkOpacityMicromapFormatEXT`
-    OpacityExt,
-    /// `VkOpacityMicromapFormatKHR`
-    OpacityKhr,
-    /// `VkDisplacementMicromapFormatNV`
-    DisplacementNv,
-}
-
-impl FormatNames {
-    /// The enumerant's name, or the number where the value is none of them.
-    pub fn name(self, format: u32) -> String {
-        let name = match (self, format) {
-            (Self::OpacityExt, 1) => "VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT",
-            (Self::OpacityExt, 2) => "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT",
-            (Self::OpacityKhr, 1) => "VK_OPACITY_MICROMAP_FORMAT_2_STATE_KHR",
-            (Self::OpacityKhr, 2) => "VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR",
-            (Self::DisplacementNv, 1) => "VK_DISPLACEMENT_MICROMAP_FORMAT_64_TRIANGLES_64_BYTES_NV",
-            (Self::DisplacementNv, 2) => {
-                "VK_DISPLACEMENT_MICROMAP_FORMAT_256_TRIANGLES_128_BYTES_NV"
-            }
-            (Self::DisplacementNv, 3) => {
-                "VK_DISPLACEMENT_MICROMAP_FORMAT_1024_TRIANGLES_128_BYTES_NV"
-            }
-            _ => return format!("format {format}"),
-        };
-        name.to_owned()
-    }
-
-    /// "`<format name>` level `<level>`": one usage-count key.
-    pub fn key(self, format: u32, level: u32) -> String {
-        format!("{} level {level}", self.name(format))
-    }
-}
-
 /// The usage counts summed per (format, subdivision level); duplicate keys
 /// add up (the specification allows them) and zero counts are left out.
 pub(crate) fn declared_counts(counts: &UsageCounts) -> BTreeMap<(u32, u32), u64> {
@@ -592,7 +556,7 @@ pub(crate) fn usage_counts_match_triangles(
     location: &str,
     counts: &UsageCounts,
     found: &BTreeMap<(u32, u32), u64>,
-    names: FormatNames,
+    names: FormatKind,
 ) {
     let declared = declared_counts(counts);
     let keys: BTreeSet<(u32, u32)> = declared.keys().chain(found.keys()).copied().collect();
@@ -614,7 +578,7 @@ pub(crate) fn usage_counts_match_triangles(
 
 /// The usage counts in words, at most four keys, for a message about
 /// entries the triangle array lacks: "4 (`<key>`: 3, `<key>`: 1)".
-pub(crate) fn counts_in_words(counts: &UsageCounts, names: FormatNames) -> String {
+pub(crate) fn counts_in_words(counts: &UsageCounts, names: FormatKind) -> String {
     const SHOWN: usize = 4;
     let declared = declared_counts(counts);
     let total: u64 = declared.values().fold(0, |sum, c| sum.saturating_add(*c));
@@ -636,7 +600,7 @@ pub(crate) fn entry_past_end(
     stride: u64,
     len: u64,
     counts: &UsageCounts,
-    names: FormatNames,
+    names: FormatKind,
 ) -> String {
     let inside = readable_entries(len, stride);
     format!(
@@ -658,7 +622,7 @@ pub(crate) fn triangle_array_holds_every_entry(
     (address, host): (u64, bool),
     stride: u64,
     counts: &UsageCounts,
-    names: FormatNames,
+    names: FormatKind,
 ) {
     let total = counts.total();
     let Some(state) = ctx.state else {
@@ -781,29 +745,29 @@ mod tests {
     #[test]
     fn formats_are_named_by_their_enum() {
         assert_eq!(
-            FormatNames::OpacityExt.key(2, 3),
+            FormatKind::OpacityExt.key(2, 3),
             "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3"
         );
         assert_eq!(
-            FormatNames::OpacityKhr.name(1),
+            FormatKind::OpacityKhr.name(1),
             "VK_OPACITY_MICROMAP_FORMAT_2_STATE_KHR"
         );
         assert_eq!(
-            FormatNames::DisplacementNv.name(3),
+            FormatKind::DisplacementNv.name(3),
             "VK_DISPLACEMENT_MICROMAP_FORMAT_1024_TRIANGLES_128_BYTES_NV"
         );
-        assert_eq!(FormatNames::OpacityExt.name(3), "format 3");
+        assert_eq!(FormatKind::OpacityExt.name(3), "format 3");
     }
 
     #[test]
     fn counts_in_words_sum_duplicate_keys_and_stop_at_four() {
         let counts = usage_counts(&[(3, 3, 2), (2, 3, 2), (0, 1, 1), (1, 1, 1)]);
         assert_eq!(
-            counts_in_words(&counts, FormatNames::OpacityExt),
+            counts_in_words(&counts, FormatKind::OpacityExt),
             "6 (VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT level 1: 1, VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3: 5)"
         );
         let many: Vec<_> = (0..6).map(|level| (1, level, 2)).collect();
-        let words = counts_in_words(&usage_counts(&many), FormatNames::OpacityKhr);
+        let words = counts_in_words(&usage_counts(&many), FormatKind::OpacityKhr);
         assert!(words.starts_with("6 ("), "{words}");
         assert!(words.ends_with(", 2 more keys)"), "{words}");
     }
@@ -811,12 +775,12 @@ mod tests {
     #[test]
     fn an_entry_past_the_end_names_the_last_inside() {
         let counts = usage_counts(&[(5, 3, 2)]);
-        let message = entry_past_end(4, 8, 36, &counts, FormatNames::OpacityExt);
+        let message = entry_past_end(4, 8, 36, &counts, FormatKind::OpacityExt);
         assert_eq!(
             message,
             "the 36 bytes from triangleArray hold 4 entries at stride 8, but the usage counts say 5 (VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3: 5): entry 4 lies past the end (the last inside is entry 3)"
         );
-        let none = entry_past_end(0, 8, 4, &counts, FormatNames::OpacityExt);
+        let none = entry_past_end(0, 8, 4, &counts, FormatKind::OpacityExt);
         assert!(none.ends_with("(no entry lies inside)"), "{none}");
     }
 

@@ -9,11 +9,12 @@ use ommcheck_vuids::vuid::{
 
 use crate::checks::common::{
     self, decode_entries, readable_entries, usage_counts_match_triangles, CleanRun,
-    CommandBufferVuids, FormatNames, Tally, TriangleEntry, TriangleHistogram,
+    CommandBufferVuids, Tally, TriangleEntry, TriangleHistogram,
 };
 use crate::checks::hygiene;
 use crate::checks::Coverage;
 use crate::model::micromap::opacity_triangle_bytes;
+use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
 use crate::report::{Report, RuleId};
@@ -727,11 +728,11 @@ fn triangle_array_stride(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo) 
 }
 
 /// The enum that names the formats of an opacity or displacement micromap.
-fn format_names(opacity: bool) -> FormatNames {
+fn format_names(opacity: bool) -> FormatKind {
     if opacity {
-        FormatNames::OpacityExt
+        FormatKind::OpacityExt
     } else {
-        FormatNames::DisplacementNv
+        FormatKind::DisplacementNv
     }
 }
 

@@ -51,6 +51,16 @@ pub enum FormatKind {
 }
 
 impl FormatKind {
+    /// The enumerant's name ([`format_name`]).
+    pub fn name(self, format: u32) -> String {
+        format_name(self, format)
+    }
+
+    /// "`<format name>` level `<level>`": one usage-count key in findings.
+    pub fn key(self, format: u32, level: u32) -> String {
+        format!("{} level {level}", self.name(format))
+    }
+
     /// The format enum of a micromap of type `micromap_type` built through EXT.
     pub fn of_micromap_type(micromap_type: i32) -> Self {
         if micromap_type == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV {
