@@ -99,7 +99,7 @@ mod driver {
             #[arg(long)]
             check: bool,
         },
-        /// Write VUID-COVERAGE.md (every catalog VUID's status) and README.md's table of our rules.
+        /// Write VUID-COVERAGE.md (every catalog VUID's status) and docs/rules.md's table of our rules.
         Coverage,
         /// Build the Vulkan layer in release and write its manifest,
         /// VkLayer_ommcheck.json; --install, --uninstall (`cargo xtask layer --help`).
@@ -179,7 +179,7 @@ mod driver {
             }
             Task::Coverage => {
                 let path = root.join("VUID-COVERAGE.md");
-                let readme_path = root.join("README.md");
+                let readme_path = root.join("docs/rules.md");
                 ommcheck::coverage::corpus_tiers(&root.join(ommcheck::coverage::CORPUS))
                     .map_err(xtask::Error::Tool)
                     .and_then(|tiers| {
@@ -203,7 +203,7 @@ mod driver {
                         let updated =
                             ommcheck::coverage::update_readme(&readme).ok_or_else(|| {
                                 xtask::Error::Tool(
-                                    "README.md lacks the ommcheck-rules markers".into(),
+                                    "docs/rules.md lacks the ommcheck-rules markers".into(),
                                 )
                             })?;
                         std::fs::write(&readme_path, updated).map_err(|source| xtask::Error::Io {
@@ -213,7 +213,7 @@ mod driver {
                     })
                     .map(|()| {
                         println!(
-                            "wrote VUID-COVERAGE.md, {} and the rules table of README.md",
+                            "wrote VUID-COVERAGE.md, {} and the rules table of docs/rules.md",
                             ommcheck::coverage::TIERS_FILE
                         )
                     })
