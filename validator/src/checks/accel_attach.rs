@@ -486,7 +486,8 @@ fn pnext_chain(ctx: &mut Ctx<'_>, at: GeometryAt, data: &TrianglesData) {
             triangles_vuid::pNext_pNext,
             format!("{at}.geometry.triangles.pNext"),
             format!(
-                "sType {s_type} does not extend VkAccelerationStructureGeometryTrianglesDataKHR"
+                "sType {} does not extend VkAccelerationStructureGeometryTrianglesDataKHR",
+                structure_type_name(s_type)
             ),
         );
     }
@@ -501,7 +502,13 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
         a.s_type == s_type,
         s_type_vuid,
         || a.member("sType"),
-        || format!("{} is not the sType of {}", a.s_type, a.kind.struct_name()),
+        || {
+            format!(
+                "{} is not the sType of {}",
+                structure_type_name(a.s_type),
+                a.kind.struct_name()
+            )
+        },
     );
     let valid_index_type = INDEX_TYPES.contains(&a.index_type);
     ctx.require(
@@ -518,7 +525,7 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
             || {
                 format!(
                     "{} is not an index type this structure allows",
-                    a.index_type
+                    index_type_name(a.index_type)
                 )
             },
         );
@@ -837,8 +844,18 @@ fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vui
     };
     if wrong {
         let found = built_type.map_or_else(
-            || format!("was created with type {}", structure.ty),
-            |ty| format!("was built with type {ty}"),
+            || {
+                format!(
+                    "was created with type {}",
+                    acceleration_structure_type_name(structure.ty)
+                )
+            },
+            |ty| {
+                format!(
+                    "was built with type {}",
+                    acceleration_structure_type_name(ty)
+                )
+            },
         );
         ctx.error(
             vuid,

@@ -40,6 +40,8 @@ use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::{
+    acceleration_structure_type_name, build_acceleration_structure_mode_name, build_type_name,
+    geometry_type_name, structure_type_name,
     BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
@@ -247,7 +249,7 @@ impl Validator {
                 sizes::buildType_11614,
                 || "buildType".into(),
                 || {
-                    format!("{build_type} is not VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, for an opacity micromap")
+                    format!("{} is not VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, for an opacity micromap", build_type_name(build_type))
                 },
             );
             ctx.require(
@@ -755,7 +757,7 @@ fn cmd_rules(
             || {
                 format!(
                     "{} is not VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR, for an opacity micromap",
-                    info.mode
+                    build_acceleration_structure_mode_name(info.mode)
                 )
             },
         );
@@ -784,7 +786,7 @@ fn cmd_rules(
                     || ty == ACCELERATION_STRUCTURE_TYPE_GENERIC,
                 cmd::dstAccelerationStructure_11547,
                 || format!("pInfos[{i}].dstAccelerationStructure"),
-                || format!("was created with type {ty}, not OPACITY_MICROMAP or GENERIC"),
+                || format!("was created with type {}, not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR or VK_ACCELERATION_STRUCTURE_TYPE_GENERIC_KHR", acceleration_structure_type_name(ty)),
             );
         }
     }
@@ -843,7 +845,7 @@ fn build_flags(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
         flags & BUILD_MICROMAP_LOSSY == 0 || info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
         info_vuid::type_11563,
         || format!("{prefix}type"),
-        || format!("{} is not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, but flags include VK_BUILD_ACCELERATION_STRUCTURE_MICROMAP_LOSSY_BIT_KHR", info.ty),
+        || format!("{} is not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, but flags include VK_BUILD_ACCELERATION_STRUCTURE_MICROMAP_LOSSY_BIT_KHR", acceleration_structure_type_name(info.ty)),
     );
     if info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
         let outside = flags & !MICROMAP_BUILD_FLAGS;
@@ -920,7 +922,7 @@ fn micromap_type(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
             || {
                 format!(
                     "is {}, not VK_GEOMETRY_TYPE_MICROMAP_KHR, in an opacity micromap build",
-                    geometry.geometry_type
+                    geometry_type_name(geometry.geometry_type)
                 )
             },
         );
@@ -938,7 +940,10 @@ fn geometry_rules(ctx: &mut Ctx<'_>, at: GeometryAt, geometry: &Geometry) {
         ctx.error(
             geometry_vuid::pNext_pNext,
             format!("{at}.pNext"),
-            format!("a structure with sType {s_type} does not extend VkAccelerationStructureGeometryKHR"),
+            format!(
+                "a structure with sType {} does not extend VkAccelerationStructureGeometryKHR",
+                structure_type_name(*s_type)
+            ),
         );
     }
     if geometry.geometry_type != GEOMETRY_TYPE_MICROMAP {
@@ -974,7 +979,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || {
             format!(
                 "{} is not VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR",
-                data.s_type
+                structure_type_name(data.s_type)
             )
         },
     );
@@ -1057,7 +1062,8 @@ fn usage_rules(
         || format!("{loc}.format"),
         || {
             format!(
-                "{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build"
+                "{} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build",
+                FormatKind::OpacityKhr.name(format)
             )
         },
     );
@@ -1434,7 +1440,7 @@ impl TriangleArrayCheck {
         if self.lossy {
             if !four_state {
                 fail(info_vuid::format_11713, "format", &|| {
-                    format!("{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build")
+                    format!("{} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build", FormatKind::OpacityKhr.name(format))
                 });
             }
             let max = limits.max_opacity_lossy4_state_subdivision_level;

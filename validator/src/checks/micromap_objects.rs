@@ -633,7 +633,13 @@ impl Validator {
             pool_type == query_type,
             cmd_write::queryPool_07525,
             || "queryPool".into(),
-            || format!("the pool was created with queryType {pool_type}, not {query_type}"),
+            || {
+                format!(
+                    "the pool was created with queryType {}, not {}",
+                    query_type_name(pool_type),
+                    query_type_name(query_type)
+                )
+            },
         );
         let end = u64::from(first_query) + u64::from(micromaps.count);
         ctx.require(
@@ -998,13 +1004,22 @@ fn structure_header(ctx: &mut Ctx<'_>, header: Header<'_>) {
         header.s_type == header.expected,
         header.s_type_vuid,
         || format!("{at}.sType"),
-        || format!("{} is not {}", header.s_type, header.expected_name),
+        || {
+            format!(
+                "{} is not {}",
+                structure_type_name(header.s_type),
+                header.expected_name
+            )
+        },
     );
     if let Some(s_type) = header.next.first() {
         ctx.error(
             header.next_vuid,
             format!("{at}.pNext"),
-            format!("pNext must be NULL, but it points to a structure with sType {s_type}"),
+            format!(
+                "pNext must be NULL, but it points to a structure with sType {}",
+                structure_type_name(*s_type)
+            ),
         );
     }
 }
@@ -1031,7 +1046,11 @@ fn copy_mode(
         ctx.error(
             required,
             "pInfo->mode",
-            format!("{mode} is not {}", names.join(" or ")),
+            format!(
+                "{} is not {}",
+                copy_micromap_mode_name(mode),
+                names.join(" or ")
+            ),
         );
     }
 }
@@ -1471,7 +1490,12 @@ fn not_a_micromap_pool(ctx: &mut Ctx<'_>, query_pool: Handle, vuid: Vuid) {
             && query_type != QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT,
         vuid,
         || "queryPool".into(),
-        || format!("the pool was created with the micromap size query type {query_type}, which cannot be begun"),
+        || {
+            format!(
+                "the pool was created with the micromap size query type {}, which cannot be begun",
+                query_type_name(query_type)
+            )
+        },
     );
 }
 
