@@ -870,13 +870,20 @@ fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vui
 
 /// 11577: `[indexBuffer, indexBuffer + indexStride * primitiveCount)` lies in one buffer.
 fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count: u64) {
-    // An address inside no buffer is 11572's finding.
     let Some(state) = ctx.state else {
         return;
     };
-    if count == 0 || state.buffers_at(a.index_buffer).next().is_none() {
+    if count == 0 {
         return;
     }
+    // An address inside no buffer is 11572's finding; with no buffer
+    // address known, 11577 is reported not checked.
+    if state.buffers_at(a.index_buffer).next().is_none() {
+        let rules = [cmd::indexBuffer_11577.into()];
+        common::unreadable(ctx, false, a.index_buffer, &rules, a.member("indexBuffer"));
+        return;
+    }
+    ctx.checked(&[cmd::indexBuffer_11577.into()]);
     // A stride below the index size still reads whole indices.
     let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
     let inside = len.is_some_and(|len| state.range_in_one_buffer(a.index_buffer, len));

@@ -1197,14 +1197,26 @@ fn micromap_inputs(
 }
 
 /// 11554: `[triangleArray, triangleArray + stride * Σcount)` inside the
-/// buffer `triangleArray` lies in (addresses inside no buffer are 11550's).
+/// buffer `triangleArray` lies in (addresses inside no buffer are 11550's;
+/// with no buffer address known, 11554 is reported not checked).
 fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData) {
     let total = data.usage_counts.total();
     let start = data.triangle_array;
     let Some(state) = ctx.state else {
         return;
     };
-    if total == 0 || state.buffers_at(start).next().is_none() {
+    if total == 0 {
+        return;
+    }
+    if state.buffers_at(start).next().is_none() {
+        let rules = [cmd::micromap_11554.into()];
+        common::unreadable(
+            ctx,
+            false,
+            start,
+            &rules,
+            format_args!("{at}.triangleArray"),
+        );
         return;
     }
     let len = u128::from(total) * u128::from(data.triangle_array_stride);
