@@ -28,6 +28,7 @@ use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::not_checked::Cause;
+use crate::report::count as count_of;
 use crate::report::{Report, RuleId, Severity};
 use crate::rules;
 use crate::state::{AccelerationStructure, Handle, State};
@@ -625,8 +626,8 @@ fn usage_count_pointers(
             || a.member("pUsageCounts"),
             || {
                 format!(
-                    "points to {} elements, not usageCountsCount = {}",
-                    array.len(),
+                    "points to {}, not usageCountsCount = {}",
+                    count_of(array.len(), "element", "elements"),
                     counts.count
                 )
             },
@@ -894,9 +895,10 @@ fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count
             cmd::indexBuffer_11577,
             a.member("indexBuffer"),
             format!(
-                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer, whose {available} bytes from there hold {held} indices ({})",
+                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer, whose {available} bytes from there hold {} ({})",
                 a.index_stride,
                 a.index_buffer,
+                count_of(held, "index", "indices"),
                 common::last_inside("index", held)
             ),
         );
@@ -937,7 +939,8 @@ fn index_buffer_holds_every_index(
         &rules::INDEX_BUFFER_RANGE,
         a.member("indexBuffer"),
         format!(
-            "the {available} bytes from indexBuffer hold {inside} {size}-byte indices at stride {}, but primitiveCount is {count}: index {inside} lies past the end ({})",
+            "the {available} bytes from indexBuffer hold {} at stride {}, but primitiveCount is {count}: index {inside} lies past the end ({})",
+            count_of(inside, &format!("{size}-byte index"), &format!("{size}-byte indices")),
             a.index_stride,
             common::last_inside("index", inside)
         ),
@@ -1382,7 +1385,7 @@ fn usage_counts_match_indices(
             ctx,
             &rules::ATTACH_USAGE_COUNTS,
             location,
-            || format!("{}: the usage counts say {said}, the {count} geometry triangles reference micromap triangles of that format and level {has} times", names.key(format, level)),
+            || format!("{}: the usage counts say {said}, the {} reference micromap triangles of that format and level {}", names.key(format, level), count_of(count, "geometry triangle", "geometry triangles"), count_of(has, "time", "times")),
             &array,
         );
     }
@@ -1508,7 +1511,8 @@ fn instances_in_range(
             &rules::INSTANCES_RANGE,
             format!("{at}.geometry.instances.data"),
             format!(
-                "the {available} bytes from data + primitiveOffset {offset} hold {inside} {size}-byte {what}s, but primitiveCount is {count}: {what} {inside} lies past the end ({})",
+                "the {available} bytes from data + primitiveOffset {offset} hold {}, but primitiveCount is {count}: {what} {inside} lies past the end ({})",
+                count_of(inside, &format!("{size}-byte {what}"), &format!("{size}-byte {what}s")),
                 common::last_inside(what, inside)
             ),
         );

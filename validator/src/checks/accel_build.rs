@@ -46,6 +46,7 @@ use crate::model::values::{
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
 use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
+use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::MicromapContent;
@@ -1113,8 +1114,8 @@ fn usage_count_pointers(ctx: &mut Ctx<'_>, at: MicromapAt, counts: &UsageCounts)
             || format!("{at}.pUsageCounts"),
             || {
                 format!(
-                    "points to {} elements, not usageCountsCount = {expected}",
-                    array.len()
+                    "points to {}, not usageCountsCount = {expected}",
+                    count_of(array.len(), "element", "elements")
                 )
             },
         );
@@ -1229,8 +1230,11 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
             let available = bytes_available(state, false, start).unwrap_or(0);
             let inside = readable_entries(available, data.triangle_array_stride).min(total);
             format!(
-                "{total} entries at stride {} ({len} bytes from {start:#x}) run past the end of the buffer it lies in, {available} bytes from there ({inside} whole entries inside: {})",
+                "{} at stride {} ({len} bytes from {start:#x}) {} past the end of the buffer it lies in, {available} bytes from there ({} inside: {})",
+                count_of(total, "entry", "entries"),
                 data.triangle_array_stride,
+                if total == 1 { "runs" } else { "run" },
+                count_of(inside, "whole entry", "whole entries"),
                 common::last_inside("entry", inside)
             )
         },

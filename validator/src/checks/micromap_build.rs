@@ -17,6 +17,7 @@ use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
+use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::MicromapContent;
@@ -604,8 +605,8 @@ pub(crate) fn build_info(
                 || format!("{at}.pUsageCounts"),
                 || {
                     format!(
-                        "points to {} elements, not usageCountsCount = {}",
-                        array.len(),
+                        "points to {}, not usageCountsCount = {}",
+                        count_of(array.len(), "element", "elements"),
                         counts.count
                     )
                 },

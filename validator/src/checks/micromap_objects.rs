@@ -23,6 +23,7 @@ use crate::checks::Coverage;
 use crate::model::micromap_objects::*;
 use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo};
+use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
 use crate::state::{Handle, MemoryBinding, Micromap};
 use crate::validator::{Ctx, Validator};
@@ -648,8 +649,9 @@ impl Validator {
             || "firstQuery".into(),
             || {
                 format!(
-                    "firstQuery {first_query} + micromapCount {} = {end} exceeds the pool's {pool_count} queries",
-                    micromaps.count
+                    "firstQuery {first_query} + micromapCount {} = {end} exceeds the pool's {}",
+                    micromaps.count,
+                    count_of(pool_count, "query", "queries")
                 )
             },
         );
