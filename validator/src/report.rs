@@ -100,6 +100,15 @@ pub fn message_id(id: &str) -> u32 {
     xxhash_rust::xxh32::xxh32(id.as_bytes(), 8)
 }
 
+/// `n` and the noun in the number that agrees with it: `1 call`, `2 calls`,
+/// for messages and summaries that print a count next to a noun.
+pub fn count<N>(n: N, one: &str, many: &str) -> String
+where
+    N: Copy + fmt::Display + PartialEq + From<u8>,
+{
+    format!("{n} {}", if n == N::from(1) { one } else { many })
+}
+
 /// A Vulkan object a finding involves.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize)]
 pub struct ObjectRef {
@@ -424,6 +433,14 @@ impl fmt::Display for ReportSummary {
 mod tests {
     use super::*;
     use ommcheck_vuids::vuid;
+
+    #[test]
+    fn counts_agree_with_their_nouns_at_every_width() {
+        assert_eq!(count(1u64, "entry", "entries"), "1 entry");
+        assert_eq!(count(0u64, "entry", "entries"), "0 entries");
+        assert_eq!(count(2u32, "query", "queries"), "2 queries");
+        assert_eq!(count(1usize, "element", "elements"), "1 element");
+    }
 
     #[test]
     fn message_id_matches_xxh32_seed_8() {

@@ -28,6 +28,7 @@ use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::not_checked::Cause;
+use crate::report::count as count_of;
 use crate::report::{Report, RuleId, Severity};
 use crate::rules;
 use crate::state::{AccelerationStructure, Handle, State};
@@ -486,7 +487,8 @@ fn pnext_chain(ctx: &mut Ctx<'_>, at: GeometryAt, data: &TrianglesData) {
             triangles_vuid::pNext_pNext,
             format!("{at}.geometry.triangles.pNext"),
             format!(
-                "sType {s_type} does not extend VkAccelerationStructureGeometryTrianglesDataKHR"
+                "sType {} does not extend VkAccelerationStructureGeometryTrianglesDataKHR",
+                structure_type_name(s_type)
             ),
         );
     }
@@ -501,7 +503,13 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
         a.s_type == s_type,
         s_type_vuid,
         || a.member("sType"),
-        || format!("{} is not the sType of {}", a.s_type, a.kind.struct_name()),
+        || {
+            format!(
+                "{} is not the sType of {}",
+                structure_type_name(a.s_type),
+                a.kind.struct_name()
+            )
+        },
     );
     let valid_index_type = INDEX_TYPES.contains(&a.index_type);
     ctx.require(
@@ -518,7 +526,7 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
             || {
                 format!(
                     "{} is not an index type this structure allows",
-                    a.index_type
+                    index_type_name(a.index_type)
                 )
             },
         );
@@ -618,8 +626,8 @@ fn usage_count_pointers(
             || a.member("pUsageCounts"),
             || {
                 format!(
-                    "points to {} elements, not usageCountsCount = {}",
-                    array.len(),
+                    "points to {}, not usageCountsCount = {}",
+                    count_of(array.len(), "element", "elements"),
                     counts.count
                 )
             },
@@ -837,8 +845,18 @@ fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vui
     };
     if wrong {
         let found = built_type.map_or_else(
-            || format!("was created with type {}", structure.ty),
-            |ty| format!("was built with type {ty}"),
+            || {
+                format!(
+                    "was created with type {}",
+                    acceleration_structure_type_name(structure.ty)
+                )
+            },
+            |ty| {
+                format!(
+                    "was built with type {}",
+                    acceleration_structure_type_name(ty)
+                )
+            },
         );
         ctx.error(
             vuid,
@@ -853,13 +871,20 @@ fn micromap_is_opacity_micromap(ctx: &mut Ctx<'_>, a: &Attachment<'_>, vuid: Vui
 
 /// 11577: `[indexBuffer, indexBuffer + indexStride * primitiveCount)` lies in one buffer.
 fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count: u64) {
-    // An address inside no buffer is 11572's finding.
     let Some(state) = ctx.state else {
         return;
     };
-    if count == 0 || state.buffers_at(a.index_buffer).next().is_none() {
+    if count == 0 {
         return;
     }
+    // An address inside no buffer is 11572's finding; with no buffer
+    // address known, 11577 is reported not checked.
+    if state.buffers_at(a.index_buffer).next().is_none() {
+        let rules = [cmd::indexBuffer_11577.into()];
+        common::unreadable(ctx, false, a.index_buffer, &rules, a.member("indexBuffer"));
+        return;
+    }
+    ctx.checked(&[cmd::indexBuffer_11577.into()]);
     // A stride below the index size still reads whole indices.
     let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
     let inside = len.is_some_and(|len| state.range_in_one_buffer(a.index_buffer, len));
@@ -870,9 +895,10 @@ fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count
             cmd::indexBuffer_11577,
             a.member("indexBuffer"),
             format!(
-                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer, whose {available} bytes from there hold {held} indices ({})",
+                "indexStride {} x primitiveCount {count} bytes from {:#x} do not lie inside one buffer, whose {available} bytes from there hold {} ({})",
                 a.index_stride,
                 a.index_buffer,
+                count_of(held, "index", "indices"),
                 common::last_inside("index", held)
             ),
         );
@@ -913,7 +939,8 @@ fn index_buffer_holds_every_index(
         &rules::INDEX_BUFFER_RANGE,
         a.member("indexBuffer"),
         format!(
-            "the {available} bytes from indexBuffer hold {inside} {size}-byte indices at stride {}, but primitiveCount is {count}: index {inside} lies past the end ({})",
+            "the {available} bytes from indexBuffer hold {} at stride {}, but primitiveCount is {count}: index {inside} lies past the end ({})",
+            count_of(inside, &format!("{size}-byte index"), &format!("{size}-byte indices")),
             a.index_stride,
             common::last_inside("index", inside)
         ),
@@ -1364,7 +1391,7 @@ fn usage_counts_match_indices(
             ctx,
             &rules::ATTACH_USAGE_COUNTS,
             location,
-            || format!("{}: the usage counts say {said}, the {count} geometry triangles reference micromap triangles of that format and level {has} times", names.key(format, level)),
+            || format!("{}: the usage counts say {said}, the {} reference micromap triangles of that format and level {}", names.key(format, level), count_of(count, "geometry triangle", "geometry triangles"), count_of(has, "time", "times")),
             &array,
         );
     }
@@ -1490,7 +1517,8 @@ fn instances_in_range(
             &rules::INSTANCES_RANGE,
             format!("{at}.geometry.instances.data"),
             format!(
-                "the {available} bytes from data + primitiveOffset {offset} hold {inside} {size}-byte {what}s, but primitiveCount is {count}: {what} {inside} lies past the end ({})",
+                "the {available} bytes from data + primitiveOffset {offset} hold {}, but primitiveCount is {count}: {what} {inside} lies past the end ({})",
+                count_of(inside, &format!("{size}-byte {what}"), &format!("{size}-byte {what}s")),
                 common::last_inside(what, inside)
             ),
         );

@@ -40,10 +40,13 @@ use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::{
+    acceleration_structure_type_name, build_acceleration_structure_mode_name, build_type_name,
+    geometry_type_name, structure_type_name,
     BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
 use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
+use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::MicromapContent;
@@ -247,7 +250,7 @@ impl Validator {
                 sizes::buildType_11614,
                 || "buildType".into(),
                 || {
-                    format!("{build_type} is not VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, for an opacity micromap")
+                    format!("{} is not VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, for an opacity micromap", build_type_name(build_type))
                 },
             );
             ctx.require(
@@ -755,7 +758,7 @@ fn cmd_rules(
             || {
                 format!(
                     "{} is not VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR, for an opacity micromap",
-                    info.mode
+                    build_acceleration_structure_mode_name(info.mode)
                 )
             },
         );
@@ -784,7 +787,7 @@ fn cmd_rules(
                     || ty == ACCELERATION_STRUCTURE_TYPE_GENERIC,
                 cmd::dstAccelerationStructure_11547,
                 || format!("pInfos[{i}].dstAccelerationStructure"),
-                || format!("was created with type {ty}, not OPACITY_MICROMAP or GENERIC"),
+                || format!("was created with type {}, not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR or VK_ACCELERATION_STRUCTURE_TYPE_GENERIC_KHR", acceleration_structure_type_name(ty)),
             );
         }
     }
@@ -843,7 +846,7 @@ fn build_flags(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
         flags & BUILD_MICROMAP_LOSSY == 0 || info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
         info_vuid::type_11563,
         || format!("{prefix}type"),
-        || format!("{} is not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, but flags include VK_BUILD_ACCELERATION_STRUCTURE_MICROMAP_LOSSY_BIT_KHR", info.ty),
+        || format!("{} is not VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, but flags include VK_BUILD_ACCELERATION_STRUCTURE_MICROMAP_LOSSY_BIT_KHR", acceleration_structure_type_name(info.ty)),
     );
     if info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
         let outside = flags & !MICROMAP_BUILD_FLAGS;
@@ -920,7 +923,7 @@ fn micromap_type(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryInfo) {
             || {
                 format!(
                     "is {}, not VK_GEOMETRY_TYPE_MICROMAP_KHR, in an opacity micromap build",
-                    geometry.geometry_type
+                    geometry_type_name(geometry.geometry_type)
                 )
             },
         );
@@ -938,7 +941,10 @@ fn geometry_rules(ctx: &mut Ctx<'_>, at: GeometryAt, geometry: &Geometry) {
         ctx.error(
             geometry_vuid::pNext_pNext,
             format!("{at}.pNext"),
-            format!("a structure with sType {s_type} does not extend VkAccelerationStructureGeometryKHR"),
+            format!(
+                "a structure with sType {} does not extend VkAccelerationStructureGeometryKHR",
+                structure_type_name(*s_type)
+            ),
         );
     }
     if geometry.geometry_type != GEOMETRY_TYPE_MICROMAP {
@@ -974,7 +980,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || {
             format!(
                 "{} is not VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR",
-                data.s_type
+                structure_type_name(data.s_type)
             )
         },
     );
@@ -1057,7 +1063,8 @@ fn usage_rules(
         || format!("{loc}.format"),
         || {
             format!(
-                "{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build"
+                "{} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build",
+                FormatKind::OpacityKhr.name(format)
             )
         },
     );
@@ -1107,8 +1114,8 @@ fn usage_count_pointers(ctx: &mut Ctx<'_>, at: MicromapAt, counts: &UsageCounts)
             || format!("{at}.pUsageCounts"),
             || {
                 format!(
-                    "points to {} elements, not usageCountsCount = {expected}",
-                    array.len()
+                    "points to {}, not usageCountsCount = {expected}",
+                    count_of(array.len(), "element", "elements")
                 )
             },
         );
@@ -1191,14 +1198,26 @@ fn micromap_inputs(
 }
 
 /// 11554: `[triangleArray, triangleArray + stride * Σcount)` inside the
-/// buffer `triangleArray` lies in (addresses inside no buffer are 11550's).
+/// buffer `triangleArray` lies in (addresses inside no buffer are 11550's;
+/// with no buffer address known, 11554 is reported not checked).
 fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData) {
     let total = data.usage_counts.total();
     let start = data.triangle_array;
     let Some(state) = ctx.state else {
         return;
     };
-    if total == 0 || state.buffers_at(start).next().is_none() {
+    if total == 0 {
+        return;
+    }
+    if state.buffers_at(start).next().is_none() {
+        let rules = [cmd::micromap_11554.into()];
+        common::unreadable(
+            ctx,
+            false,
+            start,
+            &rules,
+            format_args!("{at}.triangleArray"),
+        );
         return;
     }
     let len = u128::from(total) * u128::from(data.triangle_array_stride);
@@ -1211,8 +1230,11 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
             let available = bytes_available(state, false, start).unwrap_or(0);
             let inside = readable_entries(available, data.triangle_array_stride).min(total);
             format!(
-                "{total} entries at stride {} ({len} bytes from {start:#x}) run past the end of the buffer it lies in, {available} bytes from there ({inside} whole entries inside: {})",
+                "{} at stride {} ({len} bytes from {start:#x}) {} past the end of the buffer it lies in, {available} bytes from there ({} inside: {})",
+                count_of(total, "entry", "entries"),
                 data.triangle_array_stride,
+                if total == 1 { "runs" } else { "run" },
+                count_of(inside, "whole entry", "whole entries"),
                 common::last_inside("entry", inside)
             )
         },
@@ -1434,7 +1456,7 @@ impl TriangleArrayCheck {
         if self.lossy {
             if !four_state {
                 fail(info_vuid::format_11713, "format", &|| {
-                    format!("{format} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build")
+                    format!("{} is not VK_OPACITY_MICROMAP_FORMAT_4_STATE_KHR, in a MICROMAP_LOSSY build", FormatKind::OpacityKhr.name(format))
                 });
             }
             let max = limits.max_opacity_lossy4_state_subdivision_level;

@@ -11,6 +11,7 @@ use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::not_checked::Cause;
+use crate::report::count as count_of;
 use crate::report::{ObjectRef, RuleId, Severity};
 use crate::rules;
 use crate::state::{Handle, State};
@@ -606,7 +607,8 @@ pub(crate) fn entry_past_end(
 ) -> String {
     let inside = readable_entries(len, stride);
     format!(
-        "the {len} bytes from triangleArray hold {inside} entries at stride {stride}, but the usage counts say {}: entry {m} lies past the end ({})",
+        "the {len} bytes from triangleArray hold {} at stride {stride}, but the usage counts say {}: entry {m} lies past the end ({})",
+        count_of(inside, "entry", "entries"),
         counts_in_words(counts, names),
         last_inside("entry", inside)
     )

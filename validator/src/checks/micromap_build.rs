@@ -17,6 +17,7 @@ use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
+use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::MicromapContent;
@@ -422,8 +423,9 @@ fn dst_micromap(
         || format!("pInfos[{i}].type"),
         || {
             format!(
-                "the build's type {} differs from the type {ty} dstMicromap was created with",
-                info.ty
+                "the build's type {} differs from the type {} dstMicromap was created with",
+                micromap_type_name(info.ty),
+                micromap_type_name(ty)
             )
         },
     );
@@ -554,7 +556,7 @@ pub(crate) fn build_info(
         || {
             format!(
                 "{} is not VK_STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT",
-                info.s_type
+                structure_type_name(info.s_type)
             )
         },
     );
@@ -563,7 +565,8 @@ pub(crate) fn build_info(
             info_vuid::pNext_pNext,
             format!("{at}.pNext"),
             format!(
-                "VkMicromapBuildInfoEXT extends with no structure, but pNext has sType {s_type}"
+                "VkMicromapBuildInfoEXT extends with no structure, but pNext has sType {}",
+                structure_type_name(*s_type)
             ),
         );
     }
@@ -602,8 +605,8 @@ pub(crate) fn build_info(
                 || format!("{at}.pUsageCounts"),
                 || {
                     format!(
-                        "points to {} elements, not usageCountsCount = {}",
-                        array.len(),
+                        "points to {}, not usageCountsCount = {}",
+                        count_of(array.len(), "element", "elements"),
                         counts.count
                     )
                 },

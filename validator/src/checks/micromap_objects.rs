@@ -23,6 +23,7 @@ use crate::checks::Coverage;
 use crate::model::micromap_objects::*;
 use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo};
+use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
 use crate::state::{Handle, MemoryBinding, Micromap};
 use crate::validator::{Ctx, Validator};
@@ -633,7 +634,13 @@ impl Validator {
             pool_type == query_type,
             cmd_write::queryPool_07525,
             || "queryPool".into(),
-            || format!("the pool was created with queryType {pool_type}, not {query_type}"),
+            || {
+                format!(
+                    "the pool was created with queryType {}, not {}",
+                    query_type_name(pool_type),
+                    query_type_name(query_type)
+                )
+            },
         );
         let end = u64::from(first_query) + u64::from(micromaps.count);
         ctx.require(
@@ -642,8 +649,9 @@ impl Validator {
             || "firstQuery".into(),
             || {
                 format!(
-                    "firstQuery {first_query} + micromapCount {} = {end} exceeds the pool's {pool_count} queries",
-                    micromaps.count
+                    "firstQuery {first_query} + micromapCount {} = {end} exceeds the pool's {}",
+                    micromaps.count,
+                    count_of(pool_count, "query", "queries")
                 )
             },
         );
@@ -998,13 +1006,22 @@ fn structure_header(ctx: &mut Ctx<'_>, header: Header<'_>) {
         header.s_type == header.expected,
         header.s_type_vuid,
         || format!("{at}.sType"),
-        || format!("{} is not {}", header.s_type, header.expected_name),
+        || {
+            format!(
+                "{} is not {}",
+                structure_type_name(header.s_type),
+                header.expected_name
+            )
+        },
     );
     if let Some(s_type) = header.next.first() {
         ctx.error(
             header.next_vuid,
             format!("{at}.pNext"),
-            format!("pNext must be NULL, but it points to a structure with sType {s_type}"),
+            format!(
+                "pNext must be NULL, but it points to a structure with sType {}",
+                structure_type_name(*s_type)
+            ),
         );
     }
 }
@@ -1031,7 +1048,11 @@ fn copy_mode(
         ctx.error(
             required,
             "pInfo->mode",
-            format!("{mode} is not {}", names.join(" or ")),
+            format!(
+                "{} is not {}",
+                copy_micromap_mode_name(mode),
+                names.join(" or ")
+            ),
         );
     }
 }
@@ -1471,7 +1492,12 @@ fn not_a_micromap_pool(ctx: &mut Ctx<'_>, query_pool: Handle, vuid: Vuid) {
             && query_type != QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT,
         vuid,
         || "queryPool".into(),
-        || format!("the pool was created with the micromap size query type {query_type}, which cannot be begun"),
+        || {
+            format!(
+                "the pool was created with the micromap size query type {}, which cannot be begun",
+                query_type_name(query_type)
+            )
+        },
     );
 }
 

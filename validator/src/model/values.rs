@@ -5,6 +5,8 @@
 use ash::vk;
 use ommcheck_vuids::khr;
 
+use crate::scene::names;
+
 pub const MICROMAP_TYPE_OPACITY_MICROMAP_EXT: i32 = vk::MicromapTypeEXT::OPACITY_MICROMAP.as_raw();
 pub const MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV: i32 =
     khr::MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV.as_raw();
@@ -109,6 +111,55 @@ pub fn format_name(kind: FormatKind, format: u32) -> String {
         .map_or_else(|| format!("format {format}"), |(name, _)| name.to_string())
 }
 
+/// A value of the enum `K` as findings print it: its specification name
+/// from the scene's name table (ash's constants and the generated
+/// declarations, checked against both), or the enum's name and the number
+/// (`VkQueryType 123`) for a value the table lacks.
+fn enum_name<K: names::Kind>(raw: i32) -> String {
+    names::name_of::<K>(i64::from(raw))
+        .map_or_else(|| format!("{} {raw}", K::TYPE_NAME), str::to_string)
+}
+
+/// One `pub fn name(raw: i32) -> String` per enum family, printing a value
+/// by [`enum_name`].
+macro_rules! enum_names {
+    ($($name:ident => $kind:ident),* $(,)?) => {
+        $(
+            #[doc = concat!("A [`names::", stringify!($kind), "`] value by its specification name, or its type name and number.")]
+            pub fn $name(raw: i32) -> String {
+                enum_name::<names::$kind>(raw)
+            }
+        )*
+    };
+}
+
+enum_names!(
+    micromap_type_name => MicromapType,
+    acceleration_structure_type_name => AccelerationStructureType,
+    build_type_name => BuildType,
+    build_acceleration_structure_mode_name => BuildAccelerationStructureMode,
+    query_type_name => QueryType,
+    index_type_name => IndexType,
+    geometry_type_name => GeometryType,
+    copy_micromap_mode_name => CopyMicromapMode,
+);
+
+/// A `VkStructureType` value by name: the scene's table (which has the
+/// micromap values ash 0.38 lacks), else ash's name of the core enum with
+/// the specification's `VK_STRUCTURE_TYPE_` prefix, else `VkStructureType 7`.
+pub fn structure_type_name(raw: i32) -> String {
+    if let Some(name) = names::name_of::<names::StructureType>(i64::from(raw)) {
+        return name.to_string();
+    }
+    // ash's Debug prints a value it does not know as its number.
+    let ash = format!("{:?}", vk::StructureType::from_raw(raw));
+    if ash.parse::<i64>().is_ok() {
+        enum_name::<names::StructureType>(raw)
+    } else {
+        format!("VK_STRUCTURE_TYPE_{ash}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -130,6 +181,65 @@ mod tests {
             FormatKind::of_micromap_type(MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV),
             FormatKind::DisplacementNv
         );
+    }
+
+    #[test]
+    fn enum_values_print_by_name_or_as_the_enum_and_number() {
+        assert_eq!(
+            micromap_type_name(MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV),
+            "VK_MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV"
+        );
+        assert_eq!(micromap_type_name(5), "VkMicromapTypeEXT 5");
+        assert_eq!(
+            acceleration_structure_type_name(
+                crate::model::accel::ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP
+            ),
+            "VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR"
+        );
+        assert_eq!(
+            acceleration_structure_type_name(vk::AccelerationStructureTypeKHR::TOP_LEVEL.as_raw()),
+            "VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR"
+        );
+        assert_eq!(
+            build_type_name(vk::AccelerationStructureBuildTypeKHR::HOST.as_raw()),
+            "VK_ACCELERATION_STRUCTURE_BUILD_TYPE_HOST_KHR"
+        );
+        assert_eq!(
+            build_acceleration_structure_mode_name(1),
+            "VK_BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE_KHR"
+        );
+        assert_eq!(
+            query_type_name(khr::QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT.as_raw()),
+            "VK_QUERY_TYPE_MICROMAP_COMPACTED_SIZE_EXT"
+        );
+        assert_eq!(query_type_name(2), "VK_QUERY_TYPE_TIMESTAMP");
+        assert_eq!(query_type_name(123), "VkQueryType 123");
+        assert_eq!(index_type_name(1), "VK_INDEX_TYPE_UINT32");
+        assert_eq!(index_type_name(-1), "VkIndexType -1");
+        assert_eq!(
+            geometry_type_name(khr::GEOMETRY_TYPE_MICROMAP_KHR.as_raw()),
+            "VK_GEOMETRY_TYPE_MICROMAP_KHR"
+        );
+        assert_eq!(geometry_type_name(0), "VK_GEOMETRY_TYPE_TRIANGLES_KHR");
+        assert_eq!(
+            copy_micromap_mode_name(3),
+            "VK_COPY_MICROMAP_MODE_COMPACT_EXT"
+        );
+        assert_eq!(copy_micromap_mode_name(9), "VkCopyMicromapModeEXT 9");
+    }
+
+    #[test]
+    fn structure_types_come_from_the_table_then_from_ash() {
+        assert_eq!(
+            structure_type_name(STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT),
+            "VK_STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT"
+        );
+        // Not in the scene's table: ash's name with the spec's prefix.
+        assert_eq!(
+            structure_type_name(vk::StructureType::BUFFER_CREATE_INFO.as_raw()),
+            "VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO"
+        );
+        assert_eq!(structure_type_name(-7), "VkStructureType -7");
     }
 
     /// Every name is one the scene format accepts for that value.

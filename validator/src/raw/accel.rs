@@ -1363,7 +1363,15 @@ mod tests {
                 std::ptr::null(),
             )
         };
-        assert_eq!(raw.findings, report.findings);
+        // An adaptor reports what it cannot read at submission, so the raw
+        // call leaves out the not-checked information the ash call gives.
+        let decided: Vec<_> = report
+            .findings
+            .iter()
+            .filter(|f| f.not_checked_cause().is_none())
+            .cloned()
+            .collect();
+        assert_eq!(raw.findings, decided);
         // SAFETY: NULL arrays are not read.
         let null = unsafe {
             v.cmd_build_acceleration_structures_raw(

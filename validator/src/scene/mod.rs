@@ -35,6 +35,7 @@ pub use resolve::{
 };
 pub use trace::{RayReport, TraceReport, TraceSummary};
 
+pub use crate::report::count;
 use crate::report::{Finding, Report, ReportSummary};
 use format::SceneFile;
 
@@ -305,11 +306,6 @@ impl fmt::Display for Summary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.line())
     }
-}
-
-/// `n` and the noun in the number that agrees with it: `1 call`, `2 calls`.
-pub fn count(n: usize, one: &str, many: &str) -> String {
-    format!("{n} {}", if n == 1 { one } else { many })
 }
 
 /// The JSON output of `ommcheck check --format json` (`Output<SceneReport,

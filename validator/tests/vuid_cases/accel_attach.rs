@@ -1734,3 +1734,14 @@ fn an_update_of_a_structure_whose_original_build_was_not_seen_says_so() {
         .all(|f| f.location != "pInfos[0].srcAccelerationStructure"));
     assert!(seen.checked.contains(cmd::micromap_11625));
 }
+
+#[test]
+fn the_index_buffer_range_is_not_checked_without_buffer_addresses() {
+    let blas = device_blas(with_khr(khr_ok()));
+    let report = cmd_in(forget_addresses(world()), &[blas]);
+    unknown_address_skipping(&report, cmd::indexBuffer_11577);
+    // With the addresses known the rule is checked and nothing is skipped.
+    let known = ok_khr();
+    assert!(known.checked.contains(cmd::indexBuffer_11577), "{known}");
+    assert_eq!(known.not_checked().count(), 0, "{known}");
+}

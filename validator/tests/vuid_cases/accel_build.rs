@@ -836,3 +836,14 @@ fn khr_micromap_data_gets_the_hygiene_information_too() {
     let content = at(Tier::Content, &two_copies);
     assert!(content.is_empty(), "{content}");
 }
+
+#[test]
+fn the_triangle_array_range_is_not_checked_without_buffer_addresses() {
+    let report = cmd_on(&mut forget_addresses(world()), micromap_build());
+    let finding = unknown_address_skipping(&report, cmd::micromap_11554);
+    assert_eq!(finding.location, "pInfos[0].pGeometries[0].pNext<VkAccelerationStructureGeometryMicromapDataKHR>.triangleArray");
+    // With the addresses known the rule is checked and nothing is skipped.
+    let known = ok_cmd();
+    assert!(known.checked.contains(cmd::micromap_11554), "{known}");
+    assert_eq!(known.not_checked().count(), 0, "{known}");
+}

@@ -172,3 +172,39 @@ pub fn host_build() -> MicromapBuildInfo {
 pub fn command_buffer() -> CommandBuffer {
     CommandBuffer::default()
 }
+
+/// `v` with no buffer's device address known, so no address can be placed
+/// in a buffer.
+pub fn forget_addresses(mut v: Validator) -> Validator {
+    let handles: Vec<_> = v.state().buffers.keys().copied().collect();
+    for handle in handles {
+        if let Some(mut buffer) = v.state_mut().buffers.get_mut(&handle) {
+            buffer.device_address = None;
+        }
+    }
+    v
+}
+
+/// The information finding that says `rule` was not checked because no
+/// buffer address is known, naming the rule in its message.
+pub fn unknown_address_skipping(
+    report: &ommcheck::Report,
+    rule: impl Into<ommcheck::RuleId>,
+) -> &ommcheck::Finding {
+    let rule = rule.into();
+    let finding = report
+        .not_checked()
+        .find(|f| f.not_checked.contains(&rule))
+        .unwrap_or_else(|| panic!("{rule} is not reported not checked: {report}"));
+    assert_eq!(
+        finding.not_checked_cause(),
+        Some(ommcheck::Cause::UnknownAddress)
+    );
+    assert!(
+        finding.message.contains(rule.as_str()),
+        "{}",
+        finding.message
+    );
+    assert!(!report.contains(rule), "{report}");
+    finding
+}

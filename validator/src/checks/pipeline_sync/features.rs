@@ -16,6 +16,7 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::model::pipeline::{ChainedStruct, MicromapStruct};
+use crate::model::values::structure_type_name;
 use crate::report::Report;
 use crate::validator::{Ctx, Validator};
 
@@ -69,7 +70,13 @@ fn chain(ctx: &mut Ctx<'_>, parent: &str, next: &[ChainedStruct], pnext_vuid: Vu
                 s_type == which.s_type(),
                 s_type_vuid(which),
                 || format!("{at}<{}>.sType", which.name()),
-                || format!("{s_type} is not the structure's sType {}", which.s_type()),
+                || {
+                    format!(
+                        "{} is not the structure's sType {}",
+                        structure_type_name(s_type),
+                        structure_type_name(which.s_type())
+                    )
+                },
             );
         }
         let Some(found) = MicromapStruct::from_s_type(entry.s_type()) else {
@@ -81,9 +88,9 @@ fn chain(ctx: &mut Ctx<'_>, parent: &str, next: &[ChainedStruct], pnext_vuid: Vu
             || at.clone(),
             || {
                 format!(
-                    "{} (sType {}) does not extend this structure",
+                    "{} ({}) does not extend this structure",
                     found.name(),
-                    entry.s_type()
+                    structure_type_name(entry.s_type())
                 )
             },
         );
