@@ -149,4 +149,8 @@ pub struct StaticCheckerDocs;
 #[cfg(doctest)]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDocs;
+/// The catalog example of `docs/catalog.md`, through `ommcheck::vuids`.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/catalog.md")]
+pub struct CatalogDocs;
 pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};
