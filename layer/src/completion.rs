@@ -19,7 +19,7 @@ use foldhash::HashMap;
 
 use crate::commands::KeptBuild;
 use crate::device::device_and;
-use crate::dispatch::{DeviceData, DeviceFns};
+use crate::dispatch::{aliased_intercepts, DeviceData, DeviceFns};
 use crate::report::Message;
 use crate::{guarded, panic_message, read};
 
@@ -86,6 +86,14 @@ impl Submissions {
             kept,
             submit_function,
         });
+        // Fences and signals matter only while a submission they complete
+        // has a build waiting: without this, an application that never
+        // waits would grow them by one entry per submission.
+        let waiting: Vec<(u64, u64)> = self.pending.iter().map(|p| (p.queue, p.sequence)).collect();
+        let completes_one =
+            |queue: u64, sequence: u64| waiting.iter().any(|&(q, s)| q == queue && s <= sequence);
+        self.fences.retain(|_, &mut (q, s)| completes_one(q, s));
+        self.signals.retain(|&(_, _, q, s)| completes_one(q, s));
     }
 
     /// Takes the pending builds `done` says are complete, in submission
@@ -338,38 +346,13 @@ unsafe fn wait_semaphores_with(
     )
 }
 
-pub unsafe extern "system" fn wait_semaphores(
-    device: vk::Device,
-    info: *const vk::SemaphoreWaitInfo<'_>,
-    timeout: u64,
-) -> vk::Result {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        wait_semaphores_with(
-            "vkWaitSemaphores",
-            |f| f.memory.wait_semaphores,
-            device,
-            info,
-            timeout,
-        )
-    }
-}
-
-pub unsafe extern "system" fn wait_semaphores_khr(
-    device: vk::Device,
-    info: *const vk::SemaphoreWaitInfo<'_>,
-    timeout: u64,
-) -> vk::Result {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        wait_semaphores_with(
-            "vkWaitSemaphoresKHR",
-            |f| f.memory.wait_semaphores_khr,
-            device,
-            info,
-            timeout,
-        )
-    }
+aliased_intercepts! {
+    wait_semaphores_with(device: vk::Device, info: *const vk::SemaphoreWaitInfo<'_>, timeout: u64) -> vk::Result;
+    wait_semaphores = "vkWaitSemaphores", wait_semaphores;
+    wait_semaphores_khr = "vkWaitSemaphoresKHR", wait_semaphores_khr;
+    counter_value_with(device: vk::Device, semaphore: vk::Semaphore, value: *mut u64) -> vk::Result;
+    get_semaphore_counter_value = "vkGetSemaphoreCounterValue", get_semaphore_counter_value;
+    get_semaphore_counter_value_khr = "vkGetSemaphoreCounterValueKHR", get_semaphore_counter_value_khr;
 }
 
 /// `vkGetSemaphoreCounterValue(KHR)`: the counter reached the value written.
@@ -394,40 +377,6 @@ unsafe fn counter_value_with(
             }
         },
     )
-}
-
-pub unsafe extern "system" fn get_semaphore_counter_value(
-    device: vk::Device,
-    semaphore: vk::Semaphore,
-    value: *mut u64,
-) -> vk::Result {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        counter_value_with(
-            "vkGetSemaphoreCounterValue",
-            |f| f.memory.get_semaphore_counter_value,
-            device,
-            semaphore,
-            value,
-        )
-    }
-}
-
-pub unsafe extern "system" fn get_semaphore_counter_value_khr(
-    device: vk::Device,
-    semaphore: vk::Semaphore,
-    value: *mut u64,
-) -> vk::Result {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        counter_value_with(
-            "vkGetSemaphoreCounterValueKHR",
-            |f| f.memory.get_semaphore_counter_value_khr,
-            device,
-            semaphore,
-            value,
-        )
-    }
 }
 
 #[cfg(test)]
@@ -464,6 +413,26 @@ mod tests {
         assert!(submissions.fence_signalled(77).is_empty(), "checked once");
         assert_eq!(sequences(&submissions.through(2, u64::MAX)), [other_queue]);
         assert_eq!(sequences(&submissions.take(|_, _| true)), [later]);
+    }
+
+    #[test]
+    fn resubmitting_without_waiting_keeps_what_is_tracked_bounded() {
+        let mut submissions = Submissions::default();
+        let build = KeptBuild {
+            readback: Some(Arc::new(crate::readback::Readback::empty())),
+            ..kept()
+        };
+        let mut last = 0;
+        for k in 0..1000u64 {
+            // The same recorded build, submitted again with a new fence
+            // and timeline value, and never waited for.
+            last = submissions.submit(1, 100 + k, &[(5, k)]);
+            submissions.add(1, last, 10, build.clone(), "vkQueueSubmit");
+        }
+        assert_eq!(sequences(&submissions.pending), [last]);
+        assert_eq!(submissions.fences.len(), 1);
+        assert_eq!(submissions.signals.len(), 1);
+        assert_eq!(sequences(&submissions.semaphore_reached(5, 999)), [last]);
     }
 
     #[test]

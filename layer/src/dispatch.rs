@@ -30,6 +30,28 @@ macro_rules! next_fn {
 }
 pub(crate) use next_fn;
 
+/// A command and its alias (the KHR or EXT spelling of a promoted
+/// command): two intercepts that share one body, `$with(name, pick, args)`,
+/// each with its own name and next-layer function.
+macro_rules! aliased_intercepts {
+    ($(
+        $with:ident($($arg:ident: $ty:ty),*) -> $ret:ty;
+        $ours:ident = $name:literal, $field:ident;
+        $alias:ident = $alias_name:literal, $alias_field:ident;
+    )*) => {$(
+        pub unsafe extern "system" fn $ours($($arg: $ty),*) -> $ret {
+            // SAFETY: forwarded from the application.
+            unsafe { $with($name, |f| f.memory.$field, $($arg),*) }
+        }
+
+        pub unsafe extern "system" fn $alias($($arg: $ty),*) -> $ret {
+            // SAFETY: forwarded from the application.
+            unsafe { $with($alias_name, |f| f.memory.$alias_field, $($arg),*) }
+        }
+    )*};
+}
+pub(crate) use aliased_intercepts;
+
 /// The next layer's instance functions.
 pub struct InstanceFns {
     pub destroy_instance: Option<vk::PFN_vkDestroyInstance>,

@@ -93,6 +93,22 @@ impl Readback {
     }
 }
 
+#[cfg(test)]
+impl Readback {
+    /// A readback of no memory, for tests of what holds readbacks.
+    pub fn empty() -> Self {
+        Readback {
+            arena: Arc::default(),
+            block: 0,
+            offset: 0,
+            size: 0,
+            buffer: vk::Buffer::null(),
+            mapped: 0,
+            windows: Vec::new(),
+        }
+    }
+}
+
 /// How the inputs of a recorded device build will be read.
 #[derive(Debug)]
 pub enum Plan {
@@ -204,7 +220,12 @@ pub fn plan(
     let mut size = 0u64;
     for w in &mut windows {
         w.at = size;
-        size = size.saturating_add(w.len.next_multiple_of(WINDOW_ALIGNMENT));
+        // A window's length comes from a buffer size the application chose.
+        let padded = w
+            .len
+            .checked_next_multiple_of(WINDOW_ALIGNMENT)
+            .unwrap_or(u64::MAX);
+        size = size.saturating_add(padded);
     }
     let size = size.max(WINDOW_ALIGNMENT);
     let limit = settings.gpu_readback_max_bytes;
@@ -501,55 +522,68 @@ unsafe fn record_copies(data: &DeviceData, command_buffer: vk::CommandBuffer, re
     ) else {
         return;
     };
-    let before = vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::MEMORY_WRITE)
-        .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-    let after = vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(vk::AccessFlags::HOST_READ);
-    // SAFETY: the next layer's functions, with the caller's recording
-    // command buffer, the application's buffers (created with
-    // TRANSFER_SRC: see `plan`) and the layer's own.
-    unsafe {
-        barrier(
-            command_buffer,
+    // One global memory barrier from `src` to `dst`.
+    let memory_barrier = |src: (vk::PipelineStageFlags, vk::AccessFlags),
+                          dst: (vk::PipelineStageFlags, vk::AccessFlags)| {
+        let memory = vk::MemoryBarrier::default()
+            .src_access_mask(src.1)
+            .dst_access_mask(dst.1);
+        // SAFETY: the next layer's function, with the caller's recording
+        // command buffer and one barrier.
+        unsafe {
+            barrier(
+                command_buffer,
+                src.0,
+                dst.0,
+                vk::DependencyFlags::empty(),
+                1,
+                &memory,
+                0,
+                std::ptr::null(),
+                0,
+                std::ptr::null(),
+            )
+        };
+    };
+    let transfer_read = (
+        vk::PipelineStageFlags::TRANSFER,
+        vk::AccessFlags::TRANSFER_READ,
+    );
+    // Every earlier write (an upload, a shader) is visible to the copies.
+    memory_barrier(
+        (
             vk::PipelineStageFlags::ALL_COMMANDS,
-            vk::PipelineStageFlags::TRANSFER,
-            vk::DependencyFlags::empty(),
-            1,
-            &before,
-            0,
-            std::ptr::null(),
-            0,
-            std::ptr::null(),
-        );
-        for w in &readback.windows {
-            let region = vk::BufferCopy {
-                src_offset: w.offset,
-                dst_offset: readback.offset + w.at,
-                size: w.len,
-            };
+            vk::AccessFlags::MEMORY_WRITE,
+        ),
+        transfer_read,
+    );
+    for w in &readback.windows {
+        let region = vk::BufferCopy {
+            src_offset: w.offset,
+            dst_offset: readback.offset + w.at,
+            size: w.len,
+        };
+        // SAFETY: the next layer's function, with the caller's recording
+        // command buffer, the application's buffer (created with
+        // TRANSFER_SRC: see `plan`) and the layer's own.
+        unsafe {
             copy(
                 command_buffer,
                 vk::Buffer::from_raw(w.buffer),
                 readback.buffer,
                 1,
                 &region,
-            );
-        }
-        barrier(
-            command_buffer,
-            vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::HOST,
-            vk::DependencyFlags::empty(),
-            1,
-            &after,
-            0,
-            std::ptr::null(),
-            0,
-            std::ptr::null(),
-        );
+            )
+        };
     }
+    // The copies' writes are visible to the host at completion.
+    memory_barrier(
+        (
+            vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::TRANSFER_WRITE,
+        ),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
 }
 
 /// Usages that make a buffer a build input read by device address.

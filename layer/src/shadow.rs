@@ -157,6 +157,13 @@ impl Shadows {
         }
     }
 
+    /// Whether `len` more bytes fit under `max_bytes` (checked before bytes
+    /// are gathered for a write: a window's length comes from a buffer size
+    /// the application chose).
+    fn has_room_for(&self, len: u64) -> bool {
+        self.held.saturating_add(len) <= self.max_bytes
+    }
+
     /// `bytes` were written at `offset` of `buffer`: the part inside its
     /// watched window becomes known (or unknown, past `max_bytes`).
     pub fn write(&mut self, buffer: u64, offset: u64, bytes: &[u8]) {
@@ -165,7 +172,7 @@ impl Shadows {
         };
         self.invalidate(buffer, start, end);
         let len = end - start;
-        if self.held.saturating_add(len) > self.max_bytes {
+        if !self.has_room_for(len) {
             return;
         }
         let from = (start - offset) as usize;
@@ -176,6 +183,11 @@ impl Shadows {
 
     /// The bytes `[start, start + len)` of `buffer`, if all are known.
     pub fn read(&self, buffer: u64, start: u64, len: u64) -> Option<Vec<u8>> {
+        // Known bytes never exceed what is held: a longer read cannot be
+        // covered, and is refused before anything is allocated for it.
+        if len > self.held {
+            return None;
+        }
         let end = start.checked_add(len)?;
         let runs = self.known.get(&buffer)?;
         let mut out = Vec::with_capacity(usize::try_from(len).ok()?);
@@ -232,6 +244,10 @@ impl Shadows {
                     };
                     let from = src_offset.saturating_add(start - dst_offset);
                     let len = end - start;
+                    if !self.has_room_for(len) {
+                        self.invalidate(*dst, start, end);
+                        continue;
+                    }
                     let bytes = self.read(*src, from, len).or_else(|| {
                         let mut bytes = read_mapped(*src, from, len)?;
                         self.overlay(*src, from, &mut bytes);
@@ -253,6 +269,10 @@ impl Shadows {
                 let Some((start, end)) = self.clip(*dst, *offset, *size) else {
                     return;
                 };
+                if !self.has_room_for(end - start) {
+                    self.invalidate(*dst, start, end);
+                    return;
+                }
                 // The word's bytes continue from the fill's own start.
                 let word = value.to_le_bytes();
                 let bytes: Vec<u8> = (start..end)
@@ -359,6 +379,37 @@ mod tests {
         assert_eq!(mapped, [1, 1, 1, 1, 0, 0, 0, 0]);
         shadows.apply(&Transfer::Unknown, no_mapped);
         assert_eq!(shadows.read(1, 0, 1), None);
+        assert_eq!(shadows.held, 0);
+    }
+
+    #[test]
+    fn huge_windows_are_refused_before_anything_is_allocated() {
+        let mut shadows = Shadows::new(1 << 20);
+        // A window as long as a buffer the application says is 2^60 bytes.
+        shadows.watch(1, 0, 1 << 60);
+        shadows.write(1, 0, &[5u8; 8]);
+        let fill = Transfer::Fill {
+            dst: 1,
+            offset: 0,
+            size: 1 << 60,
+            value: 7,
+        };
+        shadows.apply(&fill, no_mapped);
+        assert_eq!(
+            shadows.read(1, 0, 8),
+            None,
+            "the fill made the range unknown"
+        );
+        assert_eq!(shadows.read(1, 0, 1 << 60), None);
+        let copy = Transfer::Copy {
+            src: 2,
+            dst: 1,
+            regions: vec![(0, 0, 1 << 60)],
+        };
+        shadows.apply(&copy, |_, _, len| {
+            assert!(len <= 1 << 20, "asked the host for {len} bytes");
+            None
+        });
         assert_eq!(shadows.held, 0);
     }
 

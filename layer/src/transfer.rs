@@ -15,7 +15,7 @@ use ash::vk::Handle as _;
 
 use crate::commands::{self, Recorded};
 use crate::device::{as_void, device_and};
-use crate::dispatch::{next_fn, DeviceData, DeviceFns, DeviceState};
+use crate::dispatch::{aliased_intercepts, next_fn, DeviceData, DeviceFns, DeviceState};
 use crate::shadow::Transfer;
 use crate::{completion, guarded, read};
 
@@ -172,14 +172,17 @@ unsafe fn copy2(info: *const vk::CopyBufferInfo2<'_>) -> Transfer {
     }
 }
 
-unsafe extern "system" fn cmd_copy_buffer2(
+/// `vkCmdCopyBuffer2(KHR)`.
+unsafe fn copy_buffer2_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkCmdCopyBuffer2>,
     command_buffer: vk::CommandBuffer,
     info: *const vk::CopyBufferInfo2<'_>,
 ) {
     transfer_command(
-        "vkCmdCopyBuffer2",
+        function,
         command_buffer,
-        |f| f.memory.cmd_copy_buffer2,
+        pick,
         // SAFETY: the application's copy info.
         |_| unsafe { copy2(info) },
         // SAFETY: the next layer's function, with the application's arguments.
@@ -187,19 +190,30 @@ unsafe extern "system" fn cmd_copy_buffer2(
     );
 }
 
-unsafe extern "system" fn cmd_copy_buffer2_khr(
+/// `vkCmdCopyImageToBuffer2(KHR)`: what it writes is not followed.
+unsafe fn copy_image_to_buffer2_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkCmdCopyImageToBuffer2>,
     command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyBufferInfo2<'_>,
+    info: *const vk::CopyImageToBufferInfo2<'_>,
 ) {
     transfer_command(
-        "vkCmdCopyBuffer2KHR",
+        function,
         command_buffer,
-        |f| f.memory.cmd_copy_buffer2_khr,
-        // SAFETY: the application's copy info.
-        |_| unsafe { copy2(info) },
+        pick,
+        |_| Transfer::Unknown,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(command_buffer, info) },
     );
+}
+
+aliased_intercepts! {
+    copy_buffer2_with(command_buffer: vk::CommandBuffer, info: *const vk::CopyBufferInfo2<'_>) -> ();
+    cmd_copy_buffer2 = "vkCmdCopyBuffer2", cmd_copy_buffer2;
+    cmd_copy_buffer2_khr = "vkCmdCopyBuffer2KHR", cmd_copy_buffer2_khr;
+    copy_image_to_buffer2_with(command_buffer: vk::CommandBuffer, info: *const vk::CopyImageToBufferInfo2<'_>) -> ();
+    cmd_copy_image_to_buffer2 = "vkCmdCopyImageToBuffer2", cmd_copy_image_to_buffer2;
+    cmd_copy_image_to_buffer2_khr = "vkCmdCopyImageToBuffer2KHR", cmd_copy_image_to_buffer2_khr;
 }
 
 /// The most bytes `vkCmdUpdateBuffer` may write (its `dataSize` limit).
@@ -280,34 +294,6 @@ unsafe extern "system" fn cmd_copy_image_to_buffer(
         |_| Transfer::Unknown,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(command_buffer, image, layout, dst, count, regions) },
-    );
-}
-
-unsafe extern "system" fn cmd_copy_image_to_buffer2(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyImageToBufferInfo2<'_>,
-) {
-    transfer_command(
-        "vkCmdCopyImageToBuffer2",
-        command_buffer,
-        |f| f.memory.cmd_copy_image_to_buffer2,
-        |_| Transfer::Unknown,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn cmd_copy_image_to_buffer2_khr(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyImageToBufferInfo2<'_>,
-) {
-    transfer_command(
-        "vkCmdCopyImageToBuffer2KHR",
-        command_buffer,
-        |f| f.memory.cmd_copy_image_to_buffer2_khr,
-        |_| Transfer::Unknown,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
     );
 }
 
