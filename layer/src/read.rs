@@ -659,6 +659,60 @@ mod tests {
         assert_eq!(got, [a[0], a[1], b[0]]);
     }
 
+    #[test]
+    fn signals_pair_semaphores_with_their_timeline_values() {
+        let semaphores: [vk::Semaphore; 2] = [vk::Handle::from_raw(7), vk::Handle::from_raw(8)];
+        // One value for two semaphores: the second gets 0.
+        let values = [5u64];
+        let mut timeline = vk::TimelineSemaphoreSubmitInfo::default();
+        timeline.signal_semaphore_value_count = 1;
+        timeline.p_signal_semaphore_values = values.as_ptr();
+        let mut with_values = vk::SubmitInfo::default().signal_semaphores(&semaphores);
+        with_values.p_next = as_next(&timeline);
+        let binary = vk::SubmitInfo::default().signal_semaphores(&semaphores[..1]);
+        let submits = [with_values, binary];
+        // SAFETY: two submits, each valid for its counts; the chain holds
+        // one timeline structure.
+        let got = unsafe { submitted_signals(2, submits.as_ptr()) };
+        assert_eq!(got, [(7, 5), (8, 0), (7, 0)]);
+        // SAFETY: NULL pSubmits is not read.
+        assert!(unsafe { submitted_signals(3, ptr::null()) }.is_empty());
+
+        let infos = [
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(semaphores[1])
+                .value(9),
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(semaphores[0])
+                .value(3),
+        ];
+        let submit2 = vk::SubmitInfo2::default().signal_semaphore_infos(&infos);
+        // SAFETY: one submit, valid for its count.
+        let got = unsafe { submitted_signals2(1, &submit2) };
+        assert_eq!(got, [(8, 9), (7, 3)]);
+    }
+
+    #[test]
+    fn chain_has_finds_a_structure_and_stops_on_a_cycle() {
+        let mut first = vk::ValidationFeaturesEXT::default();
+        let usage = vk::BufferUsageFlags2CreateInfoKHR::default();
+        let first_at = ptr::addr_of_mut!(first);
+        // SAFETY: `first_at` points to `first`.
+        unsafe { (*first_at).p_next = as_next(&usage) };
+        let head: *const c_void = first_at.cast_const().cast();
+        let flags2 = vk::StructureType::BUFFER_USAGE_FLAGS_2_CREATE_INFO_KHR;
+        // SAFETY: a well-formed chain of two structures.
+        assert!(unsafe { chain_has(head, flags2) });
+        // SAFETY: as above.
+        assert!(!unsafe { chain_has(head, vk::StructureType::SUBMIT_INFO) });
+        // SAFETY: the head points back at itself: walked once.
+        unsafe { (*first_at).p_next = head };
+        // SAFETY: a chain that loops back to its head.
+        assert!(!unsafe { chain_has(head, flags2) });
+        // SAFETY: NULL is not read.
+        assert!(!unsafe { chain_has(ptr::null(), flags2) });
+    }
+
     /// A next layer's `vkGetPhysicalDeviceQueueFamilyProperties` with 100
     /// families, each flagged by its index's parity: it writes no more than
     /// the count it is given, as the API requires.
