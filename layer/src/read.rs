@@ -664,9 +664,11 @@ mod tests {
         let semaphores: [vk::Semaphore; 2] = [vk::Handle::from_raw(7), vk::Handle::from_raw(8)];
         // One value for two semaphores: the second gets 0.
         let values = [5u64];
-        let mut timeline = vk::TimelineSemaphoreSubmitInfo::default();
-        timeline.signal_semaphore_value_count = 1;
-        timeline.p_signal_semaphore_values = values.as_ptr();
+        let timeline = vk::TimelineSemaphoreSubmitInfo {
+            signal_semaphore_value_count: 1,
+            p_signal_semaphore_values: values.as_ptr(),
+            ..Default::default()
+        };
         let mut with_values = vk::SubmitInfo::default().signal_semaphores(&semaphores);
         with_values.p_next = as_next(&timeline);
         let binary = vk::SubmitInfo::default().signal_semaphores(&semaphores[..1]);
