@@ -7,6 +7,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 mod buffers;
+pub mod execution;
 pub use buffers::{BufferMut, Buffers, WALK_AT_MOST};
 
 /// A Vulkan handle's value; 0 is VK_NULL_HANDLE.
@@ -203,6 +204,9 @@ pub struct State {
     /// triangles geometries as KHR opacity attachments (update builds must
     /// chain the same); recorded by `checks::accel_attach::record_original_attachments`.
     pub original_attachments: BTreeMap<Handle, crate::model::accel::OriginalAttachments>,
+    /// What recorded work does when it runs, the submissions that ran it,
+    /// and what the host saw complete (`checks::execution`).
+    pub execution: execution::Execution,
 }
 
 impl State {

@@ -74,6 +74,7 @@ impl Validator {
     /// `VK_NOT_READY`: the operation's command has completed.
     pub fn deferred_operation_completed(&mut self, operation: Handle) {
         self.state.pending_deferred_operations.remove(&operation);
+        self.state.execution.operation_completed(operation);
     }
 
     /// A host command was given `operation`; it runs until reported complete.

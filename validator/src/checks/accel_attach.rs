@@ -108,10 +108,6 @@ pub const COVERAGE: Coverage = Coverage {
         host::pInfos_11705,
     ],
     not_decidable: &[
-        (cmd::micromap_11632, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
-        (indirect::micromap_11632, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
-        (cmd::micromap_11701, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
-        (indirect::micromap_11701, "device execution order is fixed at submission: a build of the micromap recorded later, in a command buffer submitted earlier, satisfies it"),
         (cmd::micromap_11628, "needs which micromap was deserialized from which serialized data; serialized micromaps pass through application memory and storage the checker does not follow"),
         (indirect::micromap_11628, "needs which micromap was deserialized from which serialized data; serialized micromaps pass through application memory and storage the checker does not follow"),
     ],

@@ -10,6 +10,7 @@
 //! them, so the `vkCmd*` entry points here take the command buffer without
 //! checking it: there is no catalog VUID to cite.
 
+use crate::state::execution::ExecEvent;
 use std::fmt::{self, Display};
 use std::sync::Arc;
 
@@ -188,6 +189,12 @@ impl Validator {
         let report = ctx.finish();
         record_builds(&mut self.state, self.tier, infos, build_range_infos, false);
         self.record_micromap_geometry(infos, build_range_infos);
+        self.record_acceleration_structure_builds(
+            command_buffer,
+            BuildCommand::Cmd.function(),
+            infos,
+            false,
+        );
         report
     }
 
@@ -204,7 +211,6 @@ impl Validator {
         // The indirect arguments carry no micromap rule, and the command
         // buffer has no catalog VUID (see the module doc).
         let _ = (
-            command_buffer,
             indirect_device_addresses,
             indirect_strides,
             max_primitive_counts,
@@ -215,6 +221,12 @@ impl Validator {
         record_builds(&mut self.state, self.tier, infos, &[], false);
         // Primitive counts live in device memory: no index buffer is read.
         self.record_micromap_geometry(infos, &[]);
+        self.record_acceleration_structure_builds(
+            command_buffer,
+            BuildCommand::Indirect.function(),
+            infos,
+            true,
+        );
         report
     }
 
@@ -229,6 +241,9 @@ impl Validator {
         let report = ctx.finish();
         record_builds(&mut self.state, self.tier, infos, build_range_infos, true);
         self.record_micromap_geometry(infos, build_range_infos);
+        for info in infos {
+            self.constructed_on_host(info.dst_acceleration_structure, 0);
+        }
         report
     }
 
@@ -394,9 +409,14 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: &CopyAccelerationStructureInfo,
     ) -> Report {
-        let _ = command_buffer;
         let report = self.ctx("vkCmdCopyAccelerationStructureKHR").finish();
         record_copy(&mut self.state, info);
+        let construct = ExecEvent::Construct { object: info.dst };
+        self.record_execution(
+            command_buffer,
+            "vkCmdCopyAccelerationStructureKHR",
+            [construct],
+        );
         report
     }
 
@@ -405,6 +425,7 @@ impl Validator {
     pub fn copy_acceleration_structure(&mut self, info: &CopyAccelerationStructureInfo) -> Report {
         let report = self.ctx("vkCopyAccelerationStructureKHR").finish();
         record_copy(&mut self.state, info);
+        self.constructed_on_host(info.dst, 0);
         report
     }
 
@@ -443,7 +464,6 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: &CopyMemoryToAccelerationStructureInfo,
     ) -> Report {
-        let _ = command_buffer;
         let mut ctx = self.ctx("vkCmdCopyMemoryToAccelerationStructureKHR");
         // Only an opacity micromap deserializes into a structure created as
         // one, so the destination's creation type tells what src holds.
@@ -466,6 +486,12 @@ impl Validator {
             dst.built = None;
         }
         self.state.original_attachments.remove(&info.dst);
+        let construct = ExecEvent::Construct { object: info.dst };
+        self.record_execution(
+            command_buffer,
+            "vkCmdCopyMemoryToAccelerationStructureKHR",
+            [construct],
+        );
         report
     }
 }

@@ -112,6 +112,16 @@ impl Validator {
         let contents = cmd_build_micromaps_rules(&mut ctx, command_buffer, infos);
         let report = ctx.finish();
         self.record_builds(infos, contents);
+        let constructs = infos
+            .iter()
+            .map(|info| crate::state::execution::ExecEvent::Construct {
+                object: info.dst_micromap,
+            });
+        self.record_execution(
+            command_buffer,
+            "vkCmdBuildMicromapsEXT",
+            constructs.collect::<Vec<_>>(),
+        );
         report
     }
 
@@ -237,6 +247,9 @@ impl Validator {
         let report = ctx.finish();
         self.record_builds(infos, contents);
         self.defer(deferred_operation);
+        for info in infos {
+            self.constructed_on_host(info.dst_micromap, deferred_operation);
+        }
         report
     }
 

@@ -25,11 +25,10 @@ use crate::model::values::*;
 use crate::model::{CommandBuffer, MicromapBuildInfo};
 use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
+use crate::state::execution::{ExecEvent, ReadRule};
 use crate::state::{Handle, MemoryBinding, Micromap};
 use crate::validator::{Ctx, Validator};
 
-const EXECUTION: &str = "whether the micromap was built before this command executes is GPU execution order (submissions, semaphores, fences), not visible at the API boundary";
-const HOST_EXECUTION: &str = "whether the build completed before this host command runs depends on deferred operations and other threads finishing, not visible at the API boundary";
 const SERIALIZED_SIZE: &str = "the serialization size is the implementation's, returned only through a query the GPU or driver writes";
 const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
@@ -187,19 +186,24 @@ pub const COVERAGE: Coverage = Coverage {
         host_from_memory::deferredOperation_03678,
     ],
     not_decidable: &[
-        (destroy::micromap_07441, "completion of submitted commands is GPU execution state (fences, semaphores, vkQueueWaitIdle), not visible at the API boundary"),
-        (cmd_copy::src_07532, EXECUTION),
-        (cmd_write::pMicromaps_11662, EXECUTION),
-        (to_memory_info::src_07540, EXECUTION),
-        (host_copy::src_11670, HOST_EXECUTION),
-        (host_write::pMicromaps_11671, HOST_EXECUTION),
         (to_memory_info::dst_07541, SERIALIZED_SIZE),
         (from_memory_info::dst_07550, SERIALIZED_SIZE),
         (from_memory_info::src_07547, SERIALIZED_DATA),
         (from_memory_info::src_07549, "compatibility of serialized data with a device is what vkGetDeviceMicromapCompatibilityEXT reports, which only the driver decides"),
-        (cmd_write::None_12417, "query availability changes when commands execute (writes, vkCmdResetQueryPool in other command buffers, vkResetQueryPool on the host), in submission order rather than recording order"),
     ],
 };
+
+/// The non-NULL micromaps of `pMicromaps` within `micromapCount`, with their indices.
+fn listed_handles(list: &MicromapList) -> impl Iterator<Item = (usize, Handle)> + '_ {
+    let count = usize::try_from(list.count).unwrap_or(usize::MAX);
+    list.handles
+        .iter()
+        .flatten()
+        .take(count)
+        .enumerate()
+        .filter(|(_, h)| **h != 0)
+        .map(|(k, h)| (k, *h))
+}
 
 /// The alignment of a device address that serialized data is read from or written to.
 const SERIALIZED_DEVICE_ALIGNMENT: u64 = 256;
@@ -346,8 +350,12 @@ impl Validator {
                 }
             }
         }
-        let report = ctx.finish();
+        let mut report = ctx.finish();
+        if micromap != 0 {
+            report.extend(self.destroyed_in_flight(micromap));
+        }
         self.state.micromaps.remove(&micromap);
+        self.state.execution.forget(micromap);
         report
     }
 
@@ -375,7 +383,19 @@ impl Validator {
             bound_to_device_memory(&mut ctx, src, cmd_copy::buffer_07529, "pInfo->src");
             bound_to_device_memory(&mut ctx, dst, cmd_copy::buffer_07530, "pInfo->dst");
         }
-        ctx.finish()
+        let report = ctx.finish();
+        if let Some(info) = info {
+            let events = [
+                ExecEvent::Read {
+                    object: info.src,
+                    rule: ReadRule::CopySource,
+                    location: "pInfo->src".into(),
+                },
+                ExecEvent::Construct { object: info.dst },
+            ];
+            self.record_execution(command_buffer, "vkCmdCopyMicromapEXT", events);
+        }
+        report
     }
 
     /// `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`: `dst` is a device address.
@@ -408,7 +428,16 @@ impl Validator {
                 "pInfo->dst.deviceAddress",
             );
         }
-        ctx.finish()
+        let report = ctx.finish();
+        if let Some(info) = info {
+            let read = ExecEvent::Read {
+                object: info.src,
+                rule: ReadRule::SerializeSource,
+                location: "pInfo->src".into(),
+            };
+            self.record_execution(command_buffer, "vkCmdCopyMicromapToMemoryEXT", [read]);
+        }
+        report
     }
 
     /// `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`: `src` is a device address.
@@ -441,7 +470,12 @@ impl Validator {
                 "pInfo->src.deviceAddress",
             );
         }
-        ctx.finish()
+        let report = ctx.finish();
+        if let Some(info) = info {
+            let construct = ExecEvent::Construct { object: info.dst };
+            self.record_execution(command_buffer, "vkCmdCopyMemoryToMicromapEXT", [construct]);
+        }
+        report
     }
 
     /// `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
@@ -475,8 +509,19 @@ impl Validator {
             host_accessible(&mut ctx, src, &src_vuids, "pInfo->src");
             host_accessible(&mut ctx, dst, &dst_vuids, "pInfo->dst");
         }
-        let report = ctx.finish();
+        let mut report = ctx.finish();
+        if let Some(info) = info {
+            let reads = [("pInfo->src".to_string(), info.src)];
+            report.extend(self.host_reads_constructed(
+                "vkCopyMicromapEXT",
+                host_copy::src_11670,
+                &reads,
+            ));
+        }
         self.defer(deferred_operation);
+        if let Some(info) = info {
+            self.constructed_on_host(info.dst, deferred_operation);
+        }
         report
     }
 
@@ -514,7 +559,15 @@ impl Validator {
                 "pInfo->dst.hostAddress",
             );
         }
-        let report = ctx.finish();
+        let mut report = ctx.finish();
+        if let Some(info) = info {
+            let reads = [("pInfo->src".to_string(), info.src)];
+            report.extend(self.host_reads_constructed(
+                "vkCopyMicromapToMemoryEXT",
+                to_memory_info::src_07540,
+                &reads,
+            ));
+        }
         self.defer(deferred_operation);
         report
     }
@@ -555,12 +608,46 @@ impl Validator {
         }
         let report = ctx.finish();
         self.defer(deferred_operation);
+        if let Some(info) = info {
+            self.constructed_on_host(info.dst, deferred_operation);
+        }
         report
     }
 
     /// `vkCmdWriteMicromapsPropertiesEXT(commandBuffer, micromapCount,
     /// pMicromaps, queryType, queryPool, firstQuery)`.
     pub fn cmd_write_micromaps_properties(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        micromaps: &MicromapList,
+        query_type: i32,
+        query_pool: Handle,
+        first_query: u32,
+    ) -> Report {
+        let report = self.cmd_write_micromaps_properties_rules(
+            command_buffer,
+            micromaps,
+            query_type,
+            query_pool,
+            first_query,
+        );
+        let reads = listed_handles(micromaps).map(|(k, object)| ExecEvent::Read {
+            object,
+            rule: ReadRule::PropertiesMicromap,
+            location: format!("pMicromaps[{k}]"),
+        });
+        let write = ExecEvent::WriteQueries {
+            pool: query_pool,
+            first: first_query,
+            count: micromaps.count,
+        };
+        let events: Vec<_> = reads.chain([write]).collect();
+        self.record_execution(command_buffer, "vkCmdWriteMicromapsPropertiesEXT", events);
+        report
+    }
+
+    /// The rules of [`Self::cmd_write_micromaps_properties`].
+    fn cmd_write_micromaps_properties_rules(
         &mut self,
         command_buffer: &CommandBuffer,
         micromaps: &MicromapList,
@@ -662,6 +749,30 @@ impl Validator {
     /// queryType, dataSize, pData, stride)`; `data` is the host address
     /// `pData` (0: NULL).
     pub fn write_micromaps_properties(
+        &mut self,
+        device: Handle,
+        micromaps: &MicromapList,
+        query_type: i32,
+        data_size: u64,
+        data: u64,
+        stride: u64,
+    ) -> Report {
+        let mut report = self.write_micromaps_properties_rules(
+            device, micromaps, query_type, data_size, data, stride,
+        );
+        let reads: Vec<_> = listed_handles(micromaps)
+            .map(|(k, handle)| (format!("pMicromaps[{k}]"), handle))
+            .collect();
+        report.extend(self.host_reads_constructed(
+            "vkWriteMicromapsPropertiesEXT",
+            host_write::pMicromaps_11671,
+            &reads,
+        ));
+        report
+    }
+
+    /// The rules of [`Self::write_micromaps_properties`] but 11671.
+    fn write_micromaps_properties_rules(
         &mut self,
         device: Handle,
         micromaps: &MicromapList,

@@ -9,6 +9,7 @@ pub mod accel_attach;
 pub mod accel_build;
 pub(crate) mod common;
 pub mod device_contents;
+pub mod execution;
 pub(crate) mod hygiene;
 pub mod micromap_build;
 pub mod micromap_objects;
@@ -31,5 +32,6 @@ pub fn coverage() -> Vec<Coverage> {
         accel_build::COVERAGE,
         accel_attach::COVERAGE,
         pipeline_sync::COVERAGE,
+        execution::COVERAGE,
     ]
 }

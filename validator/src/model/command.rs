@@ -42,3 +42,25 @@ impl Default for CommandBuffer {
         }
     }
 }
+
+/// A semaphore wait or signal of a submission, as execution order reads it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SemaphoreOp {
+    pub semaphore: Handle,
+    /// The timeline value (ignored for a binary semaphore).
+    pub value: u64,
+    /// A timeline semaphore (`VK_SEMAPHORE_TYPE_TIMELINE`), not a binary one.
+    pub timeline: bool,
+}
+
+/// One batch of a queue submission (`VkSubmitInfo` or `VkSubmitInfo2`):
+/// the semaphores it waits on, its command buffers in order, and the
+/// semaphores it signals.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SubmitBatch {
+    pub waits: Vec<SemaphoreOp>,
+    pub command_buffers: Vec<Handle>,
+    pub signals: Vec<SemaphoreOp>,
+}

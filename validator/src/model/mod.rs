@@ -10,5 +10,5 @@ pub mod micromap_objects;
 pub mod pipeline;
 pub mod values;
 
-pub use command::CommandBuffer;
+pub use command::{CommandBuffer, SemaphoreOp, SubmitBatch};
 pub use micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};

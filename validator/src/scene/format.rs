@@ -1497,6 +1497,9 @@ pub enum Call {
     /// A command that runs shaders (`WORK_CALL_NAMES`).
     #[serde(untagged)]
     RunShaders(RunShadersCall),
+    /// A call of execution order (`EXECUTION_CALL_NAMES`).
+    #[serde(untagged)]
+    Execution(ExecutionCall),
 }
 
 /// A command that runs shaders, by name, with its parameters.
@@ -1672,13 +1675,20 @@ impl Tagged for Call {
             "vkCmdBuildClusterAccelerationStructureIndirectNV" => {
                 Call::CmdBuildClusterAccelerationStructureIndirect(De::deserialize(rest)?)
             }
+            name if EXECUTION_CALL_NAMES.contains(&name) => {
+                Call::Execution(execution::execution_call(name, rest)?)
+            }
             other => match WorkCommand::ALL.iter().find(|c| c.function() == other) {
                 Some(command) => Call::RunShaders(RunShadersCall {
                     command: WorkCommandName(*command),
                     params: De::deserialize(rest)?,
                 }),
                 None => {
-                    let calls = CALL_NAMES.iter().copied().chain(work_call_names());
+                    let calls = CALL_NAMES
+                        .iter()
+                        .copied()
+                        .chain(work_call_names())
+                        .chain(EXECUTION_CALL_NAMES);
                     let hint = crate::suggest::did_you_mean(other, calls, CALL_SUGGESTIONS)
                         .map(|s| format!("; {s}"))
                         .unwrap_or_default();
@@ -1700,3 +1710,6 @@ impl<'de> Deserialize<'de> for Call {
 // Device, pipeline, shader, synchronization, query and cluster calls.
 mod pipeline;
 pub use pipeline::*;
+// Command buffer, submission, wait and query-reset calls.
+mod execution;
+pub use execution::*;

@@ -47,6 +47,7 @@ pub struct Problem {
 
 type Result<T> = std::result::Result<T, Problem>;
 
+mod execution;
 mod pipeline;
 
 fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {
@@ -85,6 +86,8 @@ pub enum ObjectKind {
     Shader,
     Event,
     Semaphore,
+    Fence,
+    Queue,
 }
 
 impl ObjectKind {
@@ -101,6 +104,8 @@ impl ObjectKind {
             ObjectKind::Shader => "VkShaderEXT",
             ObjectKind::Event => "VkEvent",
             ObjectKind::Semaphore => "VkSemaphore",
+            ObjectKind::Fence => "VkFence",
+            ObjectKind::Queue => "VkQueue",
         }
     }
 
@@ -117,6 +122,8 @@ impl ObjectKind {
             ObjectKind::Shader => "shader object",
             ObjectKind::Event => "event",
             ObjectKind::Semaphore => "semaphore",
+            ObjectKind::Fence => "fence",
+            ObjectKind::Queue => "queue",
         }
     }
 
@@ -135,6 +142,8 @@ impl ObjectKind {
             ObjectKind::Shader => 0x5e_0001,
             ObjectKind::Event => 0xe7_0001,
             ObjectKind::Semaphore => 0x5a_0001,
+            ObjectKind::Fence => 0xfe_0001,
+            ObjectKind::Queue => 0x9e_0001,
         }
     }
 }
@@ -1117,6 +1126,9 @@ impl Resolver<'_> {
                 }),
                 ..Default::default()
             };
+            if desc.built.is_some() {
+                self.validator.declare_constructed(handle);
+            }
             self.validator
                 .state_mut()
                 .micromaps
@@ -1161,6 +1173,9 @@ impl Resolver<'_> {
                     ..Default::default()
                 }),
             };
+            if desc.built.is_some() {
+                self.validator.declare_constructed(handle);
+            }
             self.validator
                 .state_mut()
                 .acceleration_structures

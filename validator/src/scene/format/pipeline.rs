@@ -396,13 +396,15 @@ pub struct SemaphoreSubmitInfoDesc {
     pub device_index: u32,
 }
 
-/// `VkSubmitInfo2`: its semaphore operations (command buffers may be
-/// written and are not read).
+/// `VkSubmitInfo2`: its semaphore operations and the command buffers it
+/// runs (`docs/scene-format.md`, "Execution order").
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(rename_all = "camelCase")]
 pub struct SubmitInfo2Desc {
     #[serde(default)]
     pub p_wait_semaphore_infos: Vec<SemaphoreSubmitInfoDesc>,
+    #[serde(default)]
+    pub p_command_buffer_infos: Vec<super::CommandBufferSubmitInfoDesc>,
     #[serde(default)]
     pub p_signal_semaphore_infos: Vec<SemaphoreSubmitInfoDesc>,
 }

@@ -149,7 +149,7 @@ fn cluster_opacity(
 impl Resolver<'_> {
     /// A handle of an object that carries no state ommcheck reads (events,
     /// semaphores): a new name denotes a new object.
-    fn loose_handle(
+    pub(super) fn loose_handle(
         &mut self,
         arg: &super::HandleArg,
         kind: ObjectKind,
@@ -686,7 +686,9 @@ impl Resolver<'_> {
                         )?,
                     });
                 }
-                Ok(self.validator.queue_submit2(&submits))
+                let mut report = self.validator.queue_submit2(&submits);
+                report.extend(self.submit2_execution(c, &submits, at)?);
+                Ok(report)
             })(),
             Call::CmdBeginQuery(c) => self
                 .query_command(&c.command_buffer, &c.query_pool, at)
@@ -695,6 +697,7 @@ impl Resolver<'_> {
                 .query_command(&c.command_buffer, &c.query_pool, at)
                 .map(|(cb, pool)| self.validator.cmd_begin_query_indexed(&cb, pool)),
             Call::CmdBuildClusterAccelerationStructureIndirect(c) => self.cluster_build(c, at),
+            Call::Execution(c) => self.execution_call(c, at),
             _ => return None,
         })
     }

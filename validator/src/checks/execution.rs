@@ -1,0 +1,517 @@
+//! Execution order: the rules that depend on what runs before what on the
+//! device and on what the host has seen complete. Recorded commands note
+//! what their execution does (`state::execution`); the rules are decided
+//! when a submission runs them, in submission order, and at the host
+//! commands and `vkDestroyMicromapEXT` that depend on submitted work.
+//!
+//! Command buffers that are never submitted are never decided, so a caller
+//! that does not submit sees no finding of these rules (`docs/choices.md`).
+
+use std::collections::BTreeSet;
+
+use ommcheck_vuids::vuid::{
+    vkCmdBuildAccelerationStructuresIndirectKHR as build_indirect,
+    vkCmdBuildAccelerationStructuresKHR as build_cmd, vkCmdCopyMicromapEXT as cmd_copy,
+    vkCmdWriteMicromapsPropertiesEXT as cmd_write, vkCopyMicromapEXT as host_copy,
+    vkDestroyMicromapEXT as destroy, vkWriteMicromapsPropertiesEXT as host_write,
+    VkCopyMicromapToMemoryInfoEXT as to_memory_info,
+};
+use ommcheck_vuids::Vuid;
+
+use crate::checks::Coverage;
+use crate::model::accel::{BuildGeometryInfo, GeometryData};
+use crate::model::{CommandBuffer, SubmitBatch};
+use crate::report::{ObjectRef, Report};
+use crate::state::execution::{
+    first_available, join, set_queries, Clock, ExecEvent, Execution, ReadRule,
+};
+use crate::state::Handle;
+use crate::tier::Tier;
+use crate::validator::Validator;
+
+pub const COVERAGE: Coverage = Coverage {
+    module: "execution",
+    enforced: &[
+        cmd_copy::src_07532,
+        to_memory_info::src_07540,
+        cmd_write::pMicromaps_11662,
+        cmd_write::None_12417,
+        build_cmd::micromap_11632,
+        build_indirect::micromap_11632,
+        build_cmd::micromap_11701,
+        build_indirect::micromap_11701,
+        destroy::micromap_07441,
+        host_copy::src_11670,
+        host_write::pMicromaps_11671,
+    ],
+    not_decidable: &[],
+};
+
+impl ReadRule {
+    /// The VUID a read of an unconstructed object breaks.
+    fn vuid(self) -> Vuid {
+        match self {
+            ReadRule::CopySource => cmd_copy::src_07532,
+            ReadRule::SerializeSource => to_memory_info::src_07540,
+            ReadRule::PropertiesMicromap => cmd_write::pMicromaps_11662,
+            ReadRule::AttachedExt { indirect: false } => build_cmd::micromap_11632,
+            ReadRule::AttachedExt { indirect: true } => build_indirect::micromap_11632,
+            ReadRule::AttachedKhr { indirect: false } => build_cmd::micromap_11701,
+            ReadRule::AttachedKhr { indirect: true } => build_indirect::micromap_11701,
+        }
+    }
+
+    /// The object type the read names.
+    fn object_type(self) -> &'static str {
+        match self {
+            ReadRule::AttachedKhr { .. } => "VkAccelerationStructureKHR",
+            _ => "VkMicromapEXT",
+        }
+    }
+}
+
+/// A finding decided while execution state was being updated, reported
+/// once the update is done.
+struct Decided {
+    vuid: Vuid,
+    location: String,
+    message: String,
+    object: Option<ObjectRef>,
+}
+
+/// What a submitted command buffer is called in the submit command's parameters.
+fn command_buffer_member(function: &str, batch: usize, index: usize) -> String {
+    if function == "vkQueueSubmit" {
+        format!("pSubmits[{batch}].pCommandBuffers[{index}]")
+    } else {
+        format!("pSubmits[{batch}].pCommandBufferInfos[{index}].commandBuffer")
+    }
+}
+
+/// Runs the events of `command_buffer` in a batch whose clock is `clock`
+/// on `(queue, seq)`; `ordered` is false where a wait could not be placed
+/// (its signal is not known), and then nothing is decided.
+struct Run<'a> {
+    queue: Handle,
+    seq: u64,
+    clock: &'a Clock,
+    ordered: bool,
+    at: String,
+}
+
+fn run_command_buffer(
+    exec: &mut Execution,
+    command_buffer: Handle,
+    run: &Run<'_>,
+    uses: &mut BTreeSet<Handle>,
+    checked: &mut BTreeSet<Vuid>,
+    decided: &mut Vec<Decided>,
+) {
+    let Some(recording) = exec.recordings.get(&command_buffer) else {
+        return;
+    };
+    let decide = run.ordered && !recording.overflowed;
+    let events = recording.events.clone();
+    for (function, event) in events {
+        uses.extend(event.object());
+        match event {
+            ExecEvent::Construct { object } => {
+                let c = exec.constructed.entry(object).or_default();
+                c.on_device.entry(run.queue).or_insert(run.seq);
+            }
+            ExecEvent::Read {
+                object,
+                rule,
+                location,
+            } => {
+                if decide {
+                    checked.insert(rule.vuid());
+                }
+                if decide && !exec.constructed_before(object, run.clock) {
+                    decided.push(Decided {
+                        vuid: rule.vuid(),
+                        location: run.at.clone(),
+                        message: format!(
+                            "{function} recorded in VkCommandBuffer {command_buffer:#x} reads {location} ({} {object:#x}), which no build, copy or deserialization executed before it has constructed",
+                            rule.object_type()
+                        ),
+                        object: Some(ObjectRef {
+                            ty: rule.object_type(),
+                            handle: object,
+                        }),
+                    });
+                }
+            }
+            ExecEvent::Use { .. } => {}
+            ExecEvent::WriteQueries { pool, first, count } => {
+                let (start, end) = (u64::from(first), u64::from(first) + u64::from(count));
+                let ranges = exec.available_queries.entry(pool).or_default();
+                if decide {
+                    checked.insert(cmd_write::None_12417);
+                    if let Some(query) = first_available(ranges, start, end) {
+                        decided.push(Decided {
+                            vuid: cmd_write::None_12417,
+                            location: run.at.clone(),
+                            message: format!(
+                                "{function} recorded in VkCommandBuffer {command_buffer:#x} writes query {query} of VkQueryPool {pool:#x}, which executed work left available: no vkCmdResetQueryPool or vkResetQueryPool reset it since it was last written"
+                            ),
+                            object: Some(ObjectRef {
+                                ty: "VkQueryPool",
+                                handle: pool,
+                            }),
+                        });
+                    }
+                }
+                set_queries(ranges, start, end, true);
+            }
+            ExecEvent::ResetQueries { pool, first, count } => {
+                let ranges = exec.available_queries.entry(pool).or_default();
+                set_queries(
+                    ranges,
+                    u64::from(first),
+                    u64::from(first) + u64::from(count),
+                    false,
+                );
+            }
+        }
+    }
+}
+
+impl Validator {
+    /// Notes what executing a command recorded into `command_buffer` does;
+    /// a NULL command buffer records nothing.
+    pub(crate) fn record_execution(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        function: &'static str,
+        events: impl IntoIterator<Item = ExecEvent>,
+    ) {
+        if command_buffer.handle == 0 {
+            return;
+        }
+        for event in events {
+            self.state
+                .execution
+                .record(command_buffer.handle, function, event);
+        }
+    }
+
+    /// What executing an acceleration-structure build does: its micromap
+    /// attachments are read, its destinations constructed.
+    pub(crate) fn record_acceleration_structure_builds(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        function: &'static str,
+        infos: &[BuildGeometryInfo],
+        indirect: bool,
+    ) {
+        let mut events = Vec::new();
+        for (i, info) in infos.iter().enumerate() {
+            let member = info.geometry_member();
+            for (g, geometry) in info.geometries_read() {
+                let GeometryData::Triangles(triangles) = &geometry.geometry else {
+                    continue;
+                };
+                let at = format!("pInfos[{i}].{member}[{g}].geometry.triangles.pNext");
+                if let Some(ext) = triangles.opacity_ext.as_ref().filter(|a| a.micromap != 0) {
+                    events.push(ExecEvent::Read {
+                        object: ext.micromap,
+                        rule: ReadRule::AttachedExt { indirect },
+                        location: format!(
+                            "{at}<VkAccelerationStructureTrianglesOpacityMicromapEXT>.micromap"
+                        ),
+                    });
+                }
+                if let Some(khr) = triangles.opacity_khr.as_ref().filter(|a| a.micromap != 0) {
+                    events.push(ExecEvent::Read {
+                        object: khr.micromap,
+                        rule: ReadRule::AttachedKhr { indirect },
+                        location: format!(
+                            "{at}<VkAccelerationStructureTrianglesOpacityMicromapKHR>.micromap"
+                        ),
+                    });
+                }
+            }
+            events.push(ExecEvent::Construct {
+                object: info.dst_acceleration_structure,
+            });
+        }
+        self.record_execution(command_buffer, function, events);
+    }
+
+    /// A host command constructed `object` (a build, copy or
+    /// deserialization returned, or runs on `deferred_operation`).
+    pub(crate) fn constructed_on_host(&mut self, object: Handle, deferred_operation: Handle) {
+        if object == 0 {
+            return;
+        }
+        let deferred = (deferred_operation != 0
+            && self
+                .state
+                .pending_deferred_operations
+                .contains(&deferred_operation))
+        .then_some(deferred_operation);
+        self.state.execution.constructed_on_host(object, deferred);
+    }
+
+    /// Declares `object` constructed before the first call (a scene's
+    /// `built` micromap or acceleration structure).
+    pub fn declare_constructed(&mut self, object: Handle) {
+        self.state.execution.constructed_on_host(object, None);
+    }
+
+    /// `vkBeginCommandBuffer` (or `vkResetCommandBuffer`): what the command
+    /// buffer recorded before is forgotten.
+    pub fn begin_command_buffer(&mut self, command_buffer: Handle) {
+        self.state.execution.begin(command_buffer);
+    }
+
+    /// `vkCmdExecuteCommands(commandBuffer, commandBufferCount, pCommandBuffers)`:
+    /// the secondaries' recorded work runs in the primary.
+    pub fn cmd_execute_commands(&mut self, primary: Handle, secondaries: &[Handle]) {
+        self.state.execution.execute_commands(primary, secondaries);
+    }
+
+    /// `vkCmdResetQueryPool(commandBuffer, queryPool, firstQuery, queryCount)`.
+    pub fn cmd_reset_query_pool(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        query_pool: Handle,
+        first_query: u32,
+        query_count: u32,
+    ) -> Report {
+        self.record_execution(
+            command_buffer,
+            "vkCmdResetQueryPool",
+            [ExecEvent::ResetQueries {
+                pool: query_pool,
+                first: first_query,
+                count: query_count,
+            }],
+        );
+        Report::new()
+    }
+
+    /// `vkResetQueryPool(device, queryPool, firstQuery, queryCount)`: the
+    /// queries are unavailable now.
+    pub fn reset_query_pool(
+        &mut self,
+        query_pool: Handle,
+        first_query: u32,
+        query_count: u32,
+    ) -> Report {
+        let ranges = self
+            .state
+            .execution
+            .available_queries
+            .entry(query_pool)
+            .or_default();
+        let start = u64::from(first_query);
+        set_queries(ranges, start, start + u64::from(query_count), false);
+        Report::new()
+    }
+
+    /// `vkQueueSubmit` / `vkQueueSubmit2` (`function`) on `queue`: runs the
+    /// batches' command buffers in submission order and decides the
+    /// execution-order rules for the work they recorded. `fence` (0: none)
+    /// signals when they complete.
+    pub fn queue_submit(
+        &mut self,
+        function: &'static str,
+        queue: Handle,
+        batches: &[SubmitBatch],
+        fence: Handle,
+    ) -> Report {
+        let mut exec = std::mem::take(&mut self.state.execution);
+        let mut decided = Vec::new();
+        let mut checked = BTreeSet::new();
+        let (mut seq, mut clock) = exec.queues.get(&queue).cloned().unwrap_or_default();
+        for (b, batch) in batches.iter().enumerate() {
+            seq += 1;
+            join(&mut clock, &exec.completed.clone());
+            clock.insert(queue, seq);
+            let mut ordered = true;
+            for wait in &batch.waits {
+                let signal = if wait.timeline {
+                    exec.timeline_reached(wait.semaphore, wait.value).cloned()
+                } else {
+                    exec.binary_signals.remove(&wait.semaphore)
+                };
+                match signal {
+                    Some(signal) => join(&mut clock, &signal),
+                    // A timeline wait whose signal is not submitted yet
+                    // orders this batch after work not seen: undecided.
+                    None => ordered &= !wait.timeline,
+                }
+            }
+            let mut uses = BTreeSet::new();
+            for (k, command_buffer) in batch.command_buffers.iter().enumerate() {
+                let run = Run {
+                    queue,
+                    seq,
+                    clock: &clock,
+                    ordered,
+                    at: command_buffer_member(function, b, k),
+                };
+                run_command_buffer(
+                    &mut exec,
+                    *command_buffer,
+                    &run,
+                    &mut uses,
+                    &mut checked,
+                    &mut decided,
+                );
+            }
+            for signal in &batch.signals {
+                if signal.timeline {
+                    exec.timeline_signal(signal.semaphore, signal.value, clock.clone());
+                } else {
+                    exec.binary_signals.insert(signal.semaphore, clock.clone());
+                }
+            }
+            exec.submitted(queue, seq, uses);
+        }
+        if fence != 0 {
+            exec.fences.insert(fence, clock.clone());
+        }
+        if seq > 0 {
+            exec.queues.insert(queue, (seq, clock));
+        }
+        self.state.execution = exec;
+        self.report_decided(function, &checked, decided)
+    }
+
+    /// Reports what an execution-order check decided, from the state tier
+    /// up; `checked`: the rules it decided, with or without a finding.
+    fn report_decided(
+        &self,
+        function: &'static str,
+        checked: &BTreeSet<Vuid>,
+        decided: Vec<Decided>,
+    ) -> Report {
+        let mut ctx = self.ctx(function);
+        if self.tier < Tier::State {
+            return ctx.finish();
+        }
+        let rules: Vec<_> = checked.iter().map(|v| (*v).into()).collect();
+        ctx.checked(&rules);
+        for d in decided {
+            ctx.error(d.vuid, d.location, d.message)
+                .objects
+                .extend(d.object);
+        }
+        ctx.finish()
+    }
+
+    /// `vkWaitForFences` or `vkGetFenceStatus` reported these fences
+    /// signalled: the submissions that signal them, and everything before
+    /// those, are complete.
+    pub fn fences_signalled(&mut self, fences: &[Handle]) {
+        let exec = &mut self.state.execution;
+        for fence in fences {
+            if let Some(clock) = exec.fences.get(fence).cloned() {
+                exec.complete(&clock);
+            }
+        }
+    }
+
+    /// `vkResetFences`: the fences no longer stand for a submission.
+    pub fn reset_fences(&mut self, fences: &[Handle]) {
+        for fence in fences {
+            self.state.execution.fences.remove(fence);
+        }
+    }
+
+    /// `vkQueueWaitIdle(queue)` returned `VK_SUCCESS`.
+    pub fn queue_wait_idle(&mut self, queue: Handle) {
+        let exec = &mut self.state.execution;
+        if let Some((_, clock)) = exec.queues.get(&queue).cloned() {
+            exec.complete(&clock);
+        }
+    }
+
+    /// `vkDeviceWaitIdle` returned `VK_SUCCESS`: every submission is complete.
+    pub fn device_wait_idle(&mut self) {
+        let exec = &mut self.state.execution;
+        let clocks: Vec<Clock> = exec.queues.values().map(|(_, c)| c.clone()).collect();
+        for clock in clocks {
+            exec.complete(&clock);
+        }
+    }
+
+    /// The host saw timeline `semaphore` reach `value` (`vkWaitSemaphores`
+    /// or `vkGetSemaphoreCounterValue`): the submissions signalling up to
+    /// it are complete.
+    pub fn semaphore_reached(&mut self, semaphore: Handle, value: u64) {
+        let exec = &mut self.state.execution;
+        if let Some(clock) = exec
+            .timeline_signals
+            .get(&semaphore)
+            .and_then(|signals| signals.range(..=value).next_back())
+            .map(|(_, clock)| clock.clone())
+        {
+            exec.complete(&clock);
+        }
+    }
+
+    /// `vkSignalSemaphore`: the host signals timeline `semaphore` to
+    /// `value`; work waiting on it is ordered after what the host has seen
+    /// complete.
+    pub fn signal_semaphore(&mut self, semaphore: Handle, value: u64) {
+        let exec = &mut self.state.execution;
+        let clock = exec.completed.clone();
+        exec.timeline_signal(semaphore, value, clock);
+    }
+
+    /// 07441: `micromap` is used by a submission not seen complete.
+    pub(crate) fn destroyed_in_flight(&self, micromap: Handle) -> Report {
+        let mut decided = Vec::new();
+        if let Some(s) = self.state.execution.in_flight_use(micromap) {
+            decided.push(Decided {
+                vuid: destroy::micromap_07441,
+                location: "micromap".into(),
+                message: format!(
+                    "submission {} on VkQueue {:#x} refers to the micromap and has not been seen complete (no vkWaitForFences, vkGetFenceStatus, vkQueueWaitIdle, vkDeviceWaitIdle or timeline wait covers it)",
+                    s.seq, s.queue
+                ),
+                object: Some(ObjectRef {
+                    ty: "VkMicromapEXT",
+                    handle: micromap,
+                }),
+            });
+        }
+        let checked = BTreeSet::from([destroy::micromap_07441]);
+        self.report_decided("vkDestroyMicromapEXT", &checked, decided)
+    }
+
+    /// 11670, 11671, 07540 on the host: the micromaps a host command reads
+    /// (`(location, handle)`) must be constructed by work the host has seen
+    /// complete; a micromap whose construction the checker never saw is
+    /// not decided.
+    pub(crate) fn host_reads_constructed(
+        &self,
+        function: &'static str,
+        vuid: Vuid,
+        reads: &[(String, Handle)],
+    ) -> Report {
+        let decided = reads
+            .iter()
+            .filter(|(_, handle)| {
+                self.state.execution.constructed_for_host(*handle) == Some(false)
+            })
+            .map(|(location, handle)| Decided {
+                vuid,
+                location: location.clone(),
+                message: format!(
+                    "VkMicromapEXT {handle:#x} is still being constructed: the build, copy or deserialization that constructs it is on the device and not seen complete, or deferred to an operation not yet joined"
+                ),
+                object: Some(ObjectRef {
+                    ty: "VkMicromapEXT",
+                    handle: *handle,
+                }),
+            })
+            .collect();
+        let checked = reads.iter().take(1).map(|_| vuid).collect();
+        self.report_decided(function, &checked, decided)
+    }
+}

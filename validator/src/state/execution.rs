@@ -1,0 +1,393 @@
+//! Execution order: what command buffers recorded that matters once they
+//! run, the submissions that ran them, and what the host has seen complete.
+//!
+//! Recording a `vkCmd*` call checks it at once (`checks/`) and, here, notes
+//! what its execution does to micromaps and queries ([`ExecEvent`]). Nothing
+//! of that happens until a submission carries the command buffer: the
+//! execution-order rules (`checks::execution`) replay the events at
+//! `vkQueueSubmit*`, in submission order. Work that is never submitted is
+//! never decided, so a caller that never submits sees what it saw before.
+//!
+//! Ordering between queues is a vector clock per submission: for every
+//! queue, the last of its submissions known to execute before this one
+//! (earlier on the same queue, or before a semaphore signal it waits on, or
+//! seen complete by the host). Everything here is bounded: one clock entry
+//! per queue, a few signals per semaphore, and at most
+//! [`IN_FLIGHT_AT_MOST`] submissions remembered while nobody waits for them.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use super::Handle;
+
+/// How many submissions not yet seen complete are remembered (for the
+/// objects they use): past it the oldest are forgotten, which can only hide
+/// a use, never invent one.
+pub const IN_FLIGHT_AT_MOST: usize = 4096;
+/// How many timeline values one semaphore remembers the signals of; a wait
+/// on a value whose signal was forgotten takes a later signal's clock,
+/// which orders more work before it and so only hides findings.
+pub const TIMELINE_SIGNALS_AT_MOST: usize = 64;
+/// How many events one command buffer keeps; past it the command buffer's
+/// execution order is not decided (see [`Recording::overflowed`]).
+pub const EVENTS_AT_MOST: usize = 1 << 16;
+
+/// The rules a recorded read answers to (which VUID it reports).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReadRule {
+    /// `vkCmdCopyMicromapEXT` `pInfo->src` (07532).
+    CopySource,
+    /// `vkCmdCopyMicromapToMemoryEXT` `pInfo->src` (07540).
+    SerializeSource,
+    /// `vkCmdWriteMicromapsPropertiesEXT` `pMicromaps[k]` (11662).
+    PropertiesMicromap,
+    /// An acceleration-structure build's EXT attachment (11632).
+    AttachedExt { indirect: bool },
+    /// An acceleration-structure build's KHR attachment (11701).
+    AttachedKhr { indirect: bool },
+}
+
+/// What executing one recorded command does that the execution-order rules
+/// ask about.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ExecEvent {
+    /// A micromap (or acceleration structure) is built, copied or
+    /// deserialized into: constructed from here on.
+    Construct { object: Handle },
+    /// A micromap (or KHR micromap) must have been constructed before this
+    /// executes; `location` is the member that names it.
+    Read {
+        object: Handle,
+        rule: ReadRule,
+        location: String,
+    },
+    /// Any other reference to a micromap (for `vkDestroyMicromapEXT`).
+    Use { object: Handle },
+    /// `vkCmdWriteMicromapsPropertiesEXT` writes queries `[first, first + count)`.
+    WriteQueries {
+        pool: Handle,
+        first: u32,
+        count: u32,
+    },
+    /// `vkCmdResetQueryPool` makes queries `[first, first + count)` unavailable.
+    ResetQueries {
+        pool: Handle,
+        first: u32,
+        count: u32,
+    },
+}
+
+impl ExecEvent {
+    /// The micromap or acceleration structure the event refers to.
+    pub fn object(&self) -> Option<Handle> {
+        match self {
+            ExecEvent::Construct { object }
+            | ExecEvent::Read { object, .. }
+            | ExecEvent::Use { object } => Some(*object),
+            _ => None,
+        }
+    }
+}
+
+/// What one command buffer recorded since it began.
+#[derive(Clone, Debug, Default)]
+pub struct Recording {
+    /// The events in recording order, each with the function that recorded it.
+    pub events: Vec<(&'static str, ExecEvent)>,
+    /// More than [`EVENTS_AT_MOST`] events were recorded: the command
+    /// buffer's execution order is not decided (nothing is reported for it,
+    /// and what it constructs is taken as constructed).
+    pub overflowed: bool,
+}
+
+/// For each queue, the sequence number of its last submission known to
+/// execute before (or be complete at) some point.
+pub type Clock = BTreeMap<Handle, u64>;
+
+/// Joins `other` into `clock`: the later of each queue's entries.
+pub fn join(clock: &mut Clock, other: &Clock) {
+    for (queue, seq) in other {
+        let entry = clock.entry(*queue).or_insert(0);
+        *entry = (*entry).max(*seq);
+    }
+}
+
+/// Whether `point` (queue, sequence) lies inside `clock`.
+pub fn covers(clock: &Clock, (queue, seq): (Handle, u64)) -> bool {
+    clock.get(&queue).is_some_and(|known| *known >= seq)
+}
+
+/// How an object came to be constructed, as far as execution goes.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Construction {
+    /// Constructed before the checker saw anything (declared built), or by
+    /// a host command that has returned.
+    pub on_host: bool,
+    /// A host command deferred to these operations is constructing it.
+    pub pending_operations: BTreeSet<Handle>,
+    /// For each queue, the earliest submission that constructs it.
+    pub on_device: Clock,
+}
+
+/// A submission not yet seen complete, with the objects its work refers to.
+#[derive(Clone, Debug)]
+pub struct InFlight {
+    pub queue: Handle,
+    pub seq: u64,
+    pub uses: BTreeSet<Handle>,
+}
+
+/// Half-open ranges of available queries of one pool, sorted, disjoint.
+pub type QueryRanges = Vec<(u64, u64)>;
+
+/// Marks `[start, end)` available (`available`) or unavailable.
+pub fn set_queries(ranges: &mut QueryRanges, start: u64, end: u64, available: bool) {
+    if start >= end {
+        return;
+    }
+    let mut out: QueryRanges = Vec::with_capacity(ranges.len() + 1);
+    for &(s, e) in ranges.iter() {
+        // The parts of [s, e) outside [start, end) stay as they are.
+        if e <= start || s >= end {
+            out.push((s, e));
+            continue;
+        }
+        if s < start {
+            out.push((s, start));
+        }
+        if e > end {
+            out.push((end, e));
+        }
+    }
+    if available {
+        out.push((start, end));
+    }
+    out.sort_unstable();
+    // Merge touching ranges.
+    let mut merged: QueryRanges = Vec::with_capacity(out.len());
+    for (s, e) in out {
+        match merged.last_mut() {
+            Some(last) if last.1 >= s => last.1 = last.1.max(e),
+            _ => merged.push((s, e)),
+        }
+    }
+    *ranges = merged;
+}
+
+/// The first available query in `[start, end)`, if any.
+pub fn first_available(ranges: &QueryRanges, start: u64, end: u64) -> Option<u64> {
+    ranges
+        .iter()
+        .find(|(s, e)| *s < end && *e > start)
+        .map(|(s, _)| (*s).max(start))
+}
+
+/// Everything execution order needs.
+#[derive(Clone, Debug, Default)]
+pub struct Execution {
+    /// Command buffer → what it recorded since it began.
+    pub recordings: BTreeMap<Handle, Recording>,
+    /// Queue → its last submission's sequence number and clock.
+    pub queues: BTreeMap<Handle, (u64, Clock)>,
+    /// What the host has seen complete.
+    pub completed: Clock,
+    /// Fence → the clock of the submission that signals it.
+    pub fences: BTreeMap<Handle, Clock>,
+    /// Binary semaphore → the clock of its pending signal.
+    pub binary_signals: BTreeMap<Handle, Clock>,
+    /// Timeline semaphore → value → the clock of the submission that signals it.
+    pub timeline_signals: BTreeMap<Handle, BTreeMap<u64, Clock>>,
+    /// Object → how it was constructed.
+    pub constructed: BTreeMap<Handle, Construction>,
+    /// Submissions not yet seen complete, oldest first.
+    pub in_flight: VecDeque<InFlight>,
+    /// Query pool → its available queries, as executed work left them.
+    pub available_queries: BTreeMap<Handle, QueryRanges>,
+}
+
+impl Execution {
+    /// Notes `event`, recorded by `function` into `command_buffer`.
+    pub fn record(&mut self, command_buffer: Handle, function: &'static str, event: ExecEvent) {
+        let recording = self.recordings.entry(command_buffer).or_default();
+        if recording.events.len() >= EVENTS_AT_MOST {
+            recording.overflowed = true;
+            return;
+        }
+        recording.events.push((function, event));
+    }
+
+    /// `vkBeginCommandBuffer` or a reset: the command buffer records anew.
+    pub fn begin(&mut self, command_buffer: Handle) {
+        self.recordings.remove(&command_buffer);
+    }
+
+    /// `vkCmdExecuteCommands`: the secondaries' events run inside the primary.
+    pub fn execute_commands(&mut self, primary: Handle, secondaries: &[Handle]) {
+        for secondary in secondaries {
+            let Some(recording) = self.recordings.get(secondary).cloned() else {
+                continue;
+            };
+            let target = self.recordings.entry(primary).or_default();
+            target.overflowed |= recording.overflowed;
+            for event in recording.events {
+                if target.events.len() >= EVENTS_AT_MOST {
+                    target.overflowed = true;
+                    break;
+                }
+                target.events.push(event);
+            }
+        }
+    }
+
+    /// The host saw everything inside `clock` complete.
+    pub fn complete(&mut self, clock: &Clock) {
+        join(&mut self.completed, clock);
+        let completed = &self.completed;
+        self.in_flight
+            .retain(|s| !covers(completed, (s.queue, s.seq)));
+    }
+
+    /// Whether the host has seen `object`'s construction complete, or
+    /// cannot tell: None when nothing is known of its construction.
+    pub fn constructed_for_host(&self, object: Handle) -> Option<bool> {
+        let c = self.constructed.get(&object)?;
+        if c.on_host {
+            return Some(true);
+        }
+        if !c.pending_operations.is_empty() {
+            return Some(false);
+        }
+        Some(
+            c.on_device
+                .iter()
+                .any(|(q, s)| covers(&self.completed, (*q, *s))),
+        )
+    }
+
+    /// Whether `object` is constructed before work whose clock is `clock`.
+    pub fn constructed_before(&self, object: Handle, clock: &Clock) -> bool {
+        self.constructed.get(&object).is_some_and(|c| {
+            c.on_host
+                || c.on_device
+                    .iter()
+                    .any(|(q, s)| covers(clock, (*q, *s)) || covers(&self.completed, (*q, *s)))
+        })
+    }
+
+    /// `object` is constructed on the host (declared built, or a host
+    /// command returned); `deferred` is the operation still running it.
+    pub fn constructed_on_host(&mut self, object: Handle, deferred: Option<Handle>) {
+        let c = self.constructed.entry(object).or_default();
+        match deferred {
+            Some(op) => {
+                c.pending_operations.insert(op);
+            }
+            None => c.on_host = true,
+        }
+    }
+
+    /// A deferred operation completed: what it constructed is constructed.
+    pub fn operation_completed(&mut self, operation: Handle) {
+        for c in self.constructed.values_mut() {
+            if c.pending_operations.remove(&operation) {
+                c.on_host = true;
+            }
+        }
+    }
+
+    /// `object` is destroyed: nothing is known of a later object with its handle.
+    pub fn forget(&mut self, object: Handle) {
+        self.constructed.remove(&object);
+    }
+
+    /// Remembers a submission that uses `uses`, forgetting the oldest past
+    /// [`IN_FLIGHT_AT_MOST`].
+    pub fn submitted(&mut self, queue: Handle, seq: u64, uses: BTreeSet<Handle>) {
+        if uses.is_empty() {
+            return;
+        }
+        if self.in_flight.len() >= IN_FLIGHT_AT_MOST {
+            self.in_flight.pop_front();
+        }
+        self.in_flight.push_back(InFlight { queue, seq, uses });
+    }
+
+    /// The oldest submission not seen complete that uses `object`.
+    pub fn in_flight_use(&self, object: Handle) -> Option<&InFlight> {
+        self.in_flight
+            .iter()
+            .find(|s| s.uses.contains(&object) && !covers(&self.completed, (s.queue, s.seq)))
+    }
+
+    /// Records a timeline signal, keeping at most [`TIMELINE_SIGNALS_AT_MOST`].
+    pub fn timeline_signal(&mut self, semaphore: Handle, value: u64, clock: Clock) {
+        let signals = self.timeline_signals.entry(semaphore).or_default();
+        signals.insert(value, clock);
+        while signals.len() > TIMELINE_SIGNALS_AT_MOST {
+            signals.pop_first();
+        }
+    }
+
+    /// The clock a wait for `value` of a timeline semaphore joins: that of
+    /// the first signal reaching it; None when no known signal does.
+    pub fn timeline_reached(&self, semaphore: Handle, value: u64) -> Option<&Clock> {
+        self.timeline_signals
+            .get(&semaphore)?
+            .range(value..)
+            .next()
+            .map(|(_, clock)| clock)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn query_ranges_split_and_merge() {
+        let mut r = QueryRanges::new();
+        set_queries(&mut r, 0, 8, true);
+        set_queries(&mut r, 2, 4, false);
+        assert_eq!(r, vec![(0, 2), (4, 8)]);
+        assert_eq!(first_available(&r, 2, 4), None);
+        assert_eq!(first_available(&r, 3, 6), Some(4));
+        set_queries(&mut r, 2, 4, true);
+        assert_eq!(r, vec![(0, 8)]);
+        set_queries(&mut r, 0, 100, false);
+        assert!(r.is_empty());
+        set_queries(&mut r, 5, 5, true);
+        assert!(r.is_empty(), "an empty range changes nothing");
+    }
+
+    #[test]
+    fn clocks_join_and_cover() {
+        let mut a = Clock::from([(1, 3)]);
+        join(&mut a, &Clock::from([(1, 2), (2, 7)]));
+        assert_eq!(a, Clock::from([(1, 3), (2, 7)]));
+        assert!(covers(&a, (2, 7)));
+        assert!(!covers(&a, (2, 8)));
+        assert!(!covers(&a, (3, 1)));
+    }
+
+    #[test]
+    fn in_flight_submissions_stay_bounded_and_leave_when_complete() {
+        let mut e = Execution::default();
+        for seq in 1..=(IN_FLIGHT_AT_MOST as u64 + 10) {
+            e.submitted(1, seq, BTreeSet::from([42]));
+        }
+        assert_eq!(e.in_flight.len(), IN_FLIGHT_AT_MOST);
+        assert_eq!(e.in_flight_use(42).map(|s| s.seq), Some(11));
+        e.complete(&Clock::from([(1, IN_FLIGHT_AT_MOST as u64 + 10)]));
+        assert!(e.in_flight.is_empty());
+        assert!(e.in_flight_use(42).is_none());
+    }
+
+    #[test]
+    fn a_deferred_construction_completes_with_its_operation() {
+        let mut e = Execution::default();
+        assert_eq!(e.constructed_for_host(7), None);
+        e.constructed_on_host(7, Some(99));
+        assert_eq!(e.constructed_for_host(7), Some(false));
+        e.operation_completed(99);
+        assert_eq!(e.constructed_for_host(7), Some(true));
+    }
+}
