@@ -416,7 +416,7 @@ unsafe extern "system" fn reset_command_pool(
     flags: vk::CommandPoolResetFlags,
 ) -> vk::Result {
     guarded("vkResetCommandPool", vk::Result::ERROR_UNKNOWN, || {
-        let Some((_, next)) = device_and(device, |f| f.commands.reset_command_pool) else {
+        let Some((data, next)) = device_and(device, |f| f.commands.reset_command_pool) else {
             return vk::Result::ERROR_UNKNOWN;
         };
         // SAFETY: the next layer's function, with the application's arguments.
@@ -428,6 +428,7 @@ unsafe extern "system" fn reset_command_pool(
                 .unwrap_or_default();
             for handle in members {
                 COMMAND_BUFFERS.update(handle, Tracked::reset);
+                forget_recording(&data, handle);
             }
         }
         result
@@ -495,7 +496,7 @@ unsafe extern "system" fn free_command_buffers(
     command_buffers: *const vk::CommandBuffer,
 ) {
     guarded("vkFreeCommandBuffers", (), || {
-        let Some((_, next)) = device_and(device, |f| f.commands.free_command_buffers) else {
+        let Some((data, next)) = device_and(device, |f| f.commands.free_command_buffers) else {
             return;
         };
         // SAFETY: the array holds `count` handles (the API's requirement).
@@ -510,6 +511,10 @@ unsafe extern "system" fn free_command_buffers(
                 }
                 COMMAND_BUFFERS.shard(handle).remove(&handle);
             }
+        }
+        // Outside the pools' lock: the device state has its own.
+        for command_buffer in handles {
+            forget_recording(&data, command_buffer.as_raw());
         }
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, pool, count, command_buffers) };
@@ -526,13 +531,15 @@ unsafe extern "system" fn begin_command_buffer(
         "vkBeginCommandBuffer",
         vk::Result::ERROR_INITIALIZATION_FAILED,
         || {
-            let Some((_, next)) = device_and(command_buffer, |f| f.commands.begin_command_buffer)
+            let Some((data, next)) =
+                device_and(command_buffer, |f| f.commands.begin_command_buffer)
             else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
             // SAFETY: the next layer's function, with the application's arguments.
             let result = unsafe { next(command_buffer, begin_info) };
             if result == vk::Result::SUCCESS {
+                forget_recording(&data, command_buffer.as_raw());
                 // SAFETY: the begin info is valid (the API's requirement).
                 let flags = unsafe { read::value(begin_info) }.map(|info| info.flags);
                 let continues = flags
@@ -546,6 +553,14 @@ unsafe extern "system" fn begin_command_buffer(
             result
         },
     )
+}
+
+/// The core forgets what `command_buffer` recorded for execution order
+/// (it begins anew, is reset or freed).
+fn forget_recording(data: &DeviceData, command_buffer: u64) {
+    crate::device::track(data, "vkBeginCommandBuffer", |state| {
+        state.validator.begin_command_buffer(command_buffer);
+    });
 }
 
 /// `vkEndCommandBuffer`: recording ends (also when it fails: the command
@@ -578,13 +593,15 @@ unsafe extern "system" fn reset_command_buffer(
         "vkResetCommandBuffer",
         vk::Result::ERROR_INITIALIZATION_FAILED,
         || {
-            let Some((_, next)) = device_and(command_buffer, |f| f.commands.reset_command_buffer)
+            let Some((data, next)) =
+                device_and(command_buffer, |f| f.commands.reset_command_buffer)
             else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
             // SAFETY: the next layer's function, with the application's arguments.
             let result = unsafe { next(command_buffer, flags) };
             if result == vk::Result::SUCCESS {
+                forget_recording(&data, command_buffer.as_raw());
                 COMMAND_BUFFERS.update(command_buffer.as_raw(), Tracked::reset);
             }
             result
@@ -821,6 +838,13 @@ unsafe extern "system" fn cmd_execute_commands(
         .iter()
         .map(|cb| cb.as_raw())
         .collect();
+    if let Some(data) = crate::dispatch::DEVICES.get(command_buffer) {
+        crate::device::track(&data, "vkCmdExecuteCommands", |state| {
+            state
+                .validator
+                .cmd_execute_commands(command_buffer.as_raw(), &handles);
+        });
+    }
     state_command(
         "vkCmdExecuteCommands",
         command_buffer,

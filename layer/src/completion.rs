@@ -189,14 +189,17 @@ fn check_completed(data: &DeviceData, completed: Vec<Pending>, observed_by: &'st
     }
 }
 
-/// Runs a waiting command below, then, where it succeeded, checks what it
-/// shows complete (`complete` picks that from the device's submissions).
+/// Runs a waiting command below, then, where it succeeded, tells the
+/// core's execution order what it shows complete (`observe`) and checks
+/// the read-back builds it completes (`complete` picks them from the
+/// device's submissions; not called when none waits).
 fn wait_command<F: Copy>(
     function: &'static str,
     dispatchable: impl vk::Handle,
     pick: fn(&DeviceFns) -> Option<F>,
     call_down: impl FnOnce(F) -> vk::Result,
-    complete: impl FnOnce(&DeviceData, &mut Submissions) -> Vec<Pending>,
+    observe: impl FnOnce(&DeviceData, &mut ommcheck::Validator) -> Vec<(u64, u64)>,
+    complete: impl FnOnce(&mut Submissions, &[(u64, u64)]) -> Vec<Pending>,
 ) -> vk::Result {
     guarded(function, vk::Result::ERROR_DEVICE_LOST, || {
         let Some((data, next)) = device_and(dispatchable, pick) else {
@@ -206,10 +209,11 @@ fn wait_command<F: Copy>(
         if result == vk::Result::SUCCESS {
             let completed = {
                 let mut state = data.state();
+                let reached = observe(&data, &mut state.validator);
                 if !state.submissions.waiting() {
                     return result;
                 }
-                complete(&data, &mut state.submissions)
+                complete(&mut state.submissions, &reached)
             };
             check_completed(&data, completed, function);
         }
@@ -230,21 +234,30 @@ pub unsafe extern "system" fn wait_for_fences(
         |f| f.memory.wait_for_fences,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(device, count, fences, wait_all, timeout) },
-        |data, submissions| {
+        |data, validator| {
             // SAFETY: `pFences` holds `fenceCount` fences (the API's requirement).
             let fences = unsafe { read::array(fences, count) };
             let status = data.fns.memory.get_fence_status;
+            // With waitAll every fence is signalled; otherwise ask.
+            let signalled: Vec<(u64, u64)> = fences
+                .iter()
+                .filter(|&&fence| {
+                    wait_all != vk::FALSE
+                        || status.is_some_and(|status| {
+                            // SAFETY: the next layer's function, with a fence of the device.
+                            (unsafe { status(device, fence) }) == vk::Result::SUCCESS
+                        })
+                })
+                .map(|fence| (fence.as_raw(), 0))
+                .collect();
+            let handles: Vec<u64> = signalled.iter().map(|(f, _)| *f).collect();
+            validator.fences_signalled(&handles);
+            signalled
+        },
+        |submissions, signalled| {
             let mut completed = Vec::new();
-            for &fence in fences {
-                // With waitAll every fence is signalled; otherwise ask.
-                let signalled = wait_all != vk::FALSE
-                    || status.is_some_and(|status| {
-                        // SAFETY: the next layer's function, with a fence of the device.
-                        (unsafe { status(device, fence) }) == vk::Result::SUCCESS
-                    });
-                if signalled {
-                    completed.extend(submissions.fence_signalled(fence.as_raw()));
-                }
+            for (fence, _) in signalled {
+                completed.extend(submissions.fence_signalled(*fence));
             }
             completed.sort_by_key(|p| p.sequence);
             completed
@@ -259,7 +272,11 @@ pub unsafe extern "system" fn get_fence_status(device: vk::Device, fence: vk::Fe
         |f| f.memory.get_fence_status,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(device, fence) },
-        |_, submissions| submissions.fence_signalled(fence.as_raw()),
+        |_, validator| {
+            validator.fences_signalled(&[fence.as_raw()]);
+            Vec::new()
+        },
+        |submissions, _| submissions.fence_signalled(fence.as_raw()),
     )
 }
 
@@ -270,7 +287,11 @@ pub unsafe extern "system" fn queue_wait_idle(queue: vk::Queue) -> vk::Result {
         |f| f.memory.queue_wait_idle,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(queue) },
-        |_, submissions| submissions.through(queue.as_raw(), u64::MAX),
+        |_, validator| {
+            validator.queue_wait_idle(queue.as_raw());
+            Vec::new()
+        },
+        |submissions, _| submissions.through(queue.as_raw(), u64::MAX),
     )
 }
 
@@ -281,18 +302,23 @@ pub unsafe extern "system" fn device_wait_idle(device: vk::Device) -> vk::Result
         |f| f.memory.device_wait_idle,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(device) },
-        |_, submissions| submissions.take(|_, _| true),
+        |_, validator| {
+            validator.device_wait_idle();
+            Vec::new()
+        },
+        |submissions, _| submissions.take(|_, _| true),
     )
 }
 
 /// Timeline values reached: after a successful wait for all of them, each
 /// waited value; otherwise (waiting for any) each semaphore's counter.
+/// The core's execution order learns each.
 unsafe fn waited_semaphores(
     data: &DeviceData,
     device: vk::Device,
     info: *const vk::SemaphoreWaitInfo<'_>,
-    submissions: &mut Submissions,
-) -> Vec<Pending> {
+    validator: &mut ommcheck::Validator,
+) -> Vec<(u64, u64)> {
     // SAFETY: the application's wait info (the API's requirement).
     let Some(info) = (unsafe { info.as_ref() }) else {
         return Vec::new();
@@ -307,7 +333,7 @@ unsafe fn waited_semaphores(
         .memory
         .get_semaphore_counter_value
         .or(data.fns.memory.get_semaphore_counter_value_khr);
-    let mut completed = Vec::new();
+    let mut reached_values = Vec::new();
     for (&semaphore, &waited) in semaphores.iter().zip(values) {
         let reached = if any {
             let mut value = 0;
@@ -320,8 +346,18 @@ unsafe fn waited_semaphores(
             Some(waited)
         };
         if let Some(value) = reached {
-            completed.extend(submissions.semaphore_reached(semaphore.as_raw(), value));
+            validator.semaphore_reached(semaphore.as_raw(), value);
+            reached_values.push((semaphore.as_raw(), value));
         }
+    }
+    reached_values
+}
+
+/// The read-back builds the timeline values `reached` complete, in submission order.
+fn semaphores_reached(submissions: &mut Submissions, reached: &[(u64, u64)]) -> Vec<Pending> {
+    let mut completed = Vec::new();
+    for (semaphore, value) in reached {
+        completed.extend(submissions.semaphore_reached(*semaphore, *value));
     }
     completed.sort_by_key(|p| p.sequence);
     completed
@@ -342,7 +378,8 @@ unsafe fn wait_semaphores_with(
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(device, info, timeout) },
         // SAFETY: the application's wait info.
-        |data, submissions| unsafe { waited_semaphores(data, device, info, submissions) },
+        |data, validator| unsafe { waited_semaphores(data, device, info, validator) },
+        semaphores_reached,
     )
 }
 
@@ -369,13 +406,18 @@ unsafe fn counter_value_with(
         pick,
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(device, semaphore, value) },
-        |_, submissions| {
+        |_, validator| {
             // SAFETY: on success the next layer wrote the value.
-            match unsafe { read::value(value.cast_const()) } {
-                Some(value) => submissions.semaphore_reached(semaphore.as_raw(), value),
-                None => Vec::new(),
-            }
+            let reached = unsafe { read::value(value.cast_const()) };
+            reached
+                .map(|value| {
+                    validator.semaphore_reached(semaphore.as_raw(), value);
+                    (semaphore.as_raw(), value)
+                })
+                .into_iter()
+                .collect()
         },
+        semaphores_reached,
     )
 }
 

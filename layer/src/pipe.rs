@@ -66,6 +66,9 @@ pipe_commands! {
     cmd_write_timestamp2_khr: vk::PFN_vkCmdWriteTimestamp2 = c"vkCmdWriteTimestamp2KHR" => sync::cmd_write_timestamp2_khr;
     cmd_write_buffer_marker2_amd: vk::PFN_vkCmdWriteBufferMarker2AMD = c"vkCmdWriteBufferMarker2AMD" => sync::cmd_write_buffer_marker2_amd;
     cmd_write_marker_to_memory_amd: PfnCmdWriteMarkerToMemoryAMD = c"vkCmdWriteMarkerToMemoryAMD" => sync::cmd_write_marker_to_memory_amd;
+    cmd_reset_query_pool: vk::PFN_vkCmdResetQueryPool = c"vkCmdResetQueryPool" => sync::cmd_reset_query_pool;
+    reset_query_pool: vk::PFN_vkResetQueryPool = c"vkResetQueryPool" => sync::reset_query_pool;
+    reset_query_pool_ext: vk::PFN_vkResetQueryPool = c"vkResetQueryPoolEXT" => sync::reset_query_pool_ext;
 
     create_descriptor_set_layout: vk::PFN_vkCreateDescriptorSetLayout = c"vkCreateDescriptorSetLayout" => work::create_descriptor_set_layout;
     destroy_descriptor_set_layout: vk::PFN_vkDestroyDescriptorSetLayout = c"vkDestroyDescriptorSetLayout" => work::destroy_descriptor_set_layout;

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use ash::vk;
 use ash::vk::Handle as _;
+use ommcheck::model::{SemaphoreOp, SubmitBatch};
 use ommcheck::raw::MAX_ELEMENTS;
 
 use crate::report::{Callbacks, Messenger, ReportCallback};
@@ -261,25 +262,8 @@ pub unsafe fn submitted_signals(count: u32, submits: *const vk::SubmitInfo<'_>) 
         // SAFETY: forwarded from the caller.
         let semaphores =
             unsafe { array(submit.p_signal_semaphores, submit.signal_semaphore_count) };
-        let mut values: &[u64] = &[];
-        let mut next: *const c_void = submit.p_next;
-        let mut visited = HashSet::new();
-        while !next.is_null() && visited.len() < MAX_CHAIN && visited.insert(next as usize) {
-            // SAFETY: a well-formed chain (the caller's guarantee).
-            let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
-            if base.s_type == vk::StructureType::TIMELINE_SEMAPHORE_SUBMIT_INFO {
-                // SAFETY: the sType says what the structure is.
-                let timeline = unsafe { &*next.cast::<vk::TimelineSemaphoreSubmitInfo<'_>>() };
-                // SAFETY: `pSignalSemaphoreValues` holds its count of values.
-                values = unsafe {
-                    array(
-                        timeline.p_signal_semaphore_values,
-                        timeline.signal_semaphore_value_count,
-                    )
-                };
-            }
-            next = base.p_next.cast();
-        }
+        // SAFETY: forwarded from the caller.
+        let (_, values) = unsafe { timeline_values(submit.p_next) };
         let room = MAX_ELEMENTS.saturating_sub(signals.len());
         signals.extend(
             semaphores
@@ -290,6 +274,149 @@ pub unsafe fn submitted_signals(count: u32, submits: *const vk::SubmitInfo<'_>) 
         );
     }
     signals
+}
+
+/// The wait and signal values of a `VkTimelineSemaphoreSubmitInfo` in the
+/// chain at `next` (empty without one).
+///
+/// # Safety
+/// The chain must be well formed and a chained
+/// `VkTimelineSemaphoreSubmitInfo` valid for its counts.
+unsafe fn timeline_values<'a>(next: *const c_void) -> (&'a [u64], &'a [u64]) {
+    let mut next = next;
+    let mut visited = HashSet::new();
+    while !next.is_null() && visited.len() < MAX_CHAIN && visited.insert(next as usize) {
+        // SAFETY: a well-formed chain (the caller's guarantee).
+        let base = unsafe { &*next.cast::<vk::BaseInStructure<'_>>() };
+        if base.s_type == vk::StructureType::TIMELINE_SEMAPHORE_SUBMIT_INFO {
+            // SAFETY: the sType says what the structure is.
+            let timeline = unsafe { &*next.cast::<vk::TimelineSemaphoreSubmitInfo<'_>>() };
+            // SAFETY: the value arrays hold their counts of values.
+            return unsafe {
+                (
+                    array(
+                        timeline.p_wait_semaphore_values,
+                        timeline.wait_semaphore_value_count,
+                    ),
+                    array(
+                        timeline.p_signal_semaphore_values,
+                        timeline.signal_semaphore_value_count,
+                    ),
+                )
+            };
+        }
+        next = base.p_next.cast();
+    }
+    (&[], &[])
+}
+
+/// A semaphore operation for the core: a value other than 0 marks a
+/// timeline semaphore (a binary semaphore's value is ignored, and
+/// applications leave it 0).
+fn semaphore_op(semaphore: u64, value: u64) -> SemaphoreOp {
+    SemaphoreOp {
+        semaphore,
+        value,
+        timeline: value != 0,
+    }
+}
+
+/// Limits the batches' lists to [`MAX_ELEMENTS`] elements in all: each
+/// list takes what room is left.
+struct Room(usize);
+
+impl Room {
+    fn take<T: Copy, U>(&mut self, list: &[T], map: impl Fn(usize, T) -> U) -> Vec<U> {
+        let taken: Vec<U> = list
+            .iter()
+            .take(self.0)
+            .enumerate()
+            .map(|(k, item)| map(k, *item))
+            .collect();
+        self.0 -= taken.len();
+        taken
+    }
+}
+
+/// The batches of `vkQueueSubmit`'s `pSubmits` for the core's execution
+/// order, with at most [`MAX_ELEMENTS`] semaphores and command buffers in all.
+///
+/// # Safety
+/// A non-NULL `submits` must point to `count` valid `VkSubmitInfo`s.
+pub unsafe fn submitted_batches(
+    count: u32,
+    submits: *const vk::SubmitInfo<'_>,
+) -> Vec<SubmitBatch> {
+    let mut room = Room(MAX_ELEMENTS);
+    // SAFETY: forwarded from the caller.
+    let submits = unsafe { array(submits, count) };
+    let mut batches = Vec::new();
+    for submit in submits.iter().take(MAX_ELEMENTS) {
+        // SAFETY: forwarded from the caller (each array holds its count).
+        let (wait_values, signal_values, waits, command_buffers, signals) = unsafe {
+            let (wait_values, signal_values) = timeline_values(submit.p_next);
+            (
+                wait_values,
+                signal_values,
+                array(submit.p_wait_semaphores, submit.wait_semaphore_count),
+                array(submit.p_command_buffers, submit.command_buffer_count),
+                array(submit.p_signal_semaphores, submit.signal_semaphore_count),
+            )
+        };
+        let value = |values: &[u64], k: usize| values.get(k).copied().unwrap_or(0);
+        batches.push(SubmitBatch {
+            waits: room.take(waits, |k, s| {
+                semaphore_op(s.as_raw(), value(wait_values, k))
+            }),
+            command_buffers: room.take(command_buffers, |_, cb| cb.as_raw()),
+            signals: room.take(signals, |k, s| {
+                semaphore_op(s.as_raw(), value(signal_values, k))
+            }),
+        });
+    }
+    batches
+}
+
+/// The batches of `vkQueueSubmit2`'s `pSubmits` for the core's execution
+/// order, with at most [`MAX_ELEMENTS`] semaphores and command buffers in all.
+///
+/// # Safety
+/// A non-NULL `submits` must point to `count` valid `VkSubmitInfo2`s.
+pub unsafe fn submitted_batches2(
+    count: u32,
+    submits: *const vk::SubmitInfo2<'_>,
+) -> Vec<SubmitBatch> {
+    let mut room = Room(MAX_ELEMENTS);
+    // SAFETY: forwarded from the caller.
+    let submits = unsafe { array(submits, count) };
+    let op =
+        |_, info: vk::SemaphoreSubmitInfo<'_>| semaphore_op(info.semaphore.as_raw(), info.value);
+    let mut batches = Vec::new();
+    for submit in submits.iter().take(MAX_ELEMENTS) {
+        // SAFETY: forwarded from the caller (each array holds its count).
+        let (waits, command_buffers, signals) = unsafe {
+            (
+                array(
+                    submit.p_wait_semaphore_infos,
+                    submit.wait_semaphore_info_count,
+                ),
+                array(
+                    submit.p_command_buffer_infos,
+                    submit.command_buffer_info_count,
+                ),
+                array(
+                    submit.p_signal_semaphore_infos,
+                    submit.signal_semaphore_info_count,
+                ),
+            )
+        };
+        batches.push(SubmitBatch {
+            waits: room.take(waits, op),
+            command_buffers: room.take(command_buffers, |_, info| info.command_buffer.as_raw()),
+            signals: room.take(signals, op),
+        });
+    }
+    batches
 }
 
 /// The semaphores and values `vkQueueSubmit2`'s `pSubmits` signal.

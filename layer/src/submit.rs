@@ -16,12 +16,13 @@ use ash::vk;
 use ash::vk::Handle as _;
 use foldhash::{HashMap, HashSet};
 use ommcheck::checks::device_contents::KnownBytes;
+use ommcheck::model::SubmitBatch;
 use ommcheck::raw::MAX_HOST_BYTES;
 use ommcheck::state::Handle;
 use ommcheck::Severity;
 
 use crate::commands::{self, KeptBuild, Recorded};
-use crate::device::{as_void, device_and};
+use crate::device::{as_void, check, device_and};
 use crate::dispatch::{DeviceData, DeviceFns, DeviceState};
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
 use crate::{guarded, panic_message, read};
@@ -312,7 +313,7 @@ fn submit_with<F: Copy>(
     queue: vk::Queue,
     fence: vk::Fence,
     pick: fn(&DeviceFns) -> Option<F>,
-    read_submission: impl FnOnce() -> (Vec<vk::CommandBuffer>, Vec<(u64, u64)>),
+    read_submission: impl FnOnce() -> (Vec<vk::CommandBuffer>, Vec<(u64, u64)>, Vec<SubmitBatch>),
     call_down: impl FnOnce(F) -> vk::Result,
 ) -> vk::Result {
     guarded(function, vk::Result::ERROR_DEVICE_LOST, || {
@@ -320,7 +321,16 @@ fn submit_with<F: Copy>(
         let Some((data, next)) = device_and(queue, pick) else {
             return vk::Result::ERROR_DEVICE_LOST;
         };
-        let (command_buffers, signals) = read_submission();
+        let (command_buffers, signals, batches) = read_submission();
+        // Execution order: the recorded work runs now, in submission order.
+        let object = (vk::ObjectType::QUEUE, queue.as_raw());
+        if check(&data, function, object, |state| {
+            state
+                .validator
+                .queue_submit(function, queue.as_raw(), &batches, fence.as_raw())
+        }) {
+            return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+        }
         let submitted = Submitted {
             queue,
             fence,
@@ -351,6 +361,7 @@ unsafe extern "system" fn queue_submit(
             (
                 read::submitted_command_buffers(count, submits),
                 read::submitted_signals(count, submits),
+                read::submitted_batches(count, submits),
             )
         },
         // SAFETY: the next layer's function, with the application's arguments.
@@ -385,6 +396,7 @@ unsafe fn queue_submit2_with(
             (
                 read::submitted_command_buffers2(count, submits),
                 read::submitted_signals2(count, submits),
+                read::submitted_batches2(count, submits),
             )
         },
         // SAFETY: the next layer's function, with the application's arguments.

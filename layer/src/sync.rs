@@ -264,3 +264,65 @@ pub unsafe fn check_submit2(
         with_findings(state.validator.queue_submit2(&model), findings)
     })
 }
+
+/// `vkCmdResetQueryPool`: the reset runs when a submission runs the
+/// command buffer (the core's execution order, 12417).
+pub unsafe extern "system" fn cmd_reset_query_pool(
+    command_buffer: vk::CommandBuffer,
+    pool: vk::QueryPool,
+    first: u32,
+    count: u32,
+) {
+    checked_command(
+        "vkCmdResetQueryPool",
+        command_buffer,
+        |f| f.pipe.cmd_reset_query_pool,
+        |v, cb| v.cmd_reset_query_pool(cb, pool.as_raw(), first, count),
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, pool, first, count) },
+    )
+}
+
+/// `vkResetQueryPool` (or its EXT alias, `function`): the queries are
+/// unavailable once it returns.
+fn reset_query_pool_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkResetQueryPool>,
+    device: vk::Device,
+    pool: vk::QueryPool,
+    first: u32,
+    count: u32,
+) {
+    guarded(function, (), || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, pool, first, count) };
+        crate::device::track(&data, function, |state| {
+            state
+                .validator
+                .reset_query_pool(pool.as_raw(), first, count);
+        });
+    })
+}
+
+pub unsafe extern "system" fn reset_query_pool(
+    device: vk::Device,
+    pool: vk::QueryPool,
+    first: u32,
+    count: u32,
+) {
+    let pick = |f: &DeviceFns| f.pipe.reset_query_pool;
+    reset_query_pool_with("vkResetQueryPool", pick, device, pool, first, count);
+}
+
+pub unsafe extern "system" fn reset_query_pool_ext(
+    device: vk::Device,
+    pool: vk::QueryPool,
+    first: u32,
+    count: u32,
+) {
+    let pick = |f: &DeviceFns| f.pipe.reset_query_pool_ext;
+    reset_query_pool_with("vkResetQueryPoolEXT", pick, device, pool, first, count);
+}

@@ -23,6 +23,7 @@ use fake::{
 const BOTH_USAGE_POINTERS: &str = "VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516";
 const MICROMAP_STRUCTURE_TYPE: &str = "VUID-VkAccelerationStructureCreateInfoKHR-type-11600";
 const INDEX_IN_RANGE: &str = "OMMCHECK-attach-index-in-range";
+const DESTROYED_IN_USE: &str = "VUID-vkDestroyMicromapEXT-micromap-07441";
 
 /// How long the threads may take before the test calls it a deadlock: far
 /// beyond what the work takes (well under a second), so only a hang trips it.
@@ -226,7 +227,8 @@ const THREADS: usize = 8;
 /// pointers (07516 each), one acceleration structure created with the
 /// opacity-micromap type (11600), and in odd iterations the attachment's
 /// mapped index 1 is 5, past the micromap's two triangles (reported at
-/// submission).
+/// submission), and the micromap is destroyed while the submission that
+/// builds it has not been waited for (07441).
 fn thread_work(chain: &Chain) {
     let device = Device { chain };
     let pool = device.command_pool();
@@ -361,15 +363,16 @@ fn thread_work(chain: &Chain) {
         };
         assert_eq!(result, vk::Result::SUCCESS);
 
-        // Everything goes again, while other threads create theirs.
+        // Everything goes again, while other threads create theirs; the
+        // micromap without waiting for the submission that uses it (07441).
         let free: vk::PFN_vkFreeCommandBuffers = device.f(c"vkFreeCommandBuffers");
         let destroy_structure: vk::PFN_vkDestroyAccelerationStructureKHR =
             device.f(c"vkDestroyAccelerationStructureKHR");
         let destroy_micromap: vk::PFN_vkDestroyMicromapEXT = device.f(c"vkDestroyMicromapEXT");
         let destroy_buffer: vk::PFN_vkDestroyBuffer = device.f(c"vkDestroyBuffer");
         let free_memory: vk::PFN_vkFreeMemory = device.f(c"vkFreeMemory");
-        // SAFETY: objects of this device that no pending work uses (the
-        // fake driver runs nothing).
+        // SAFETY: objects of this device (the fake driver runs nothing,
+        // so the pending submission touches none of them).
         unsafe {
             free(chain.device, pool, 1, &command_buffer);
             destroy_structure(chain.device, blas, std::ptr::null());
@@ -413,6 +416,7 @@ fn eight_threads_creating_building_and_destroying_report_exactly_their_faults() 
         (BOTH_USAGE_POINTERS.to_owned(), 2 * runs),
         (MICROMAP_STRUCTURE_TYPE.to_owned(), runs),
         (INDEX_IN_RANGE.to_owned(), runs / 2),
+        (DESTROYED_IN_USE.to_owned(), runs),
     ]);
     assert_eq!(counts(&received), expected);
     // Each command buffer's submission reported its own index, at most once.
@@ -714,7 +718,10 @@ fn valid_calls(app: &mut App) {
         copy_structure_on_host(device, vk::DeferredOperationKHR::null(), &copy_structure)
     });
 
-    // Destruction.
+    // Destruction, once the submission is complete (07441).
+    let wait_idle: vk::PFN_vkQueueWaitIdle = app.f(c"vkQueueWaitIdle");
+    // SAFETY: the application's queue.
+    app.saw(unsafe { wait_idle(queue) });
     let free: vk::PFN_vkFreeCommandBuffers = app.f(c"vkFreeCommandBuffers");
     let destroy_pool: vk::PFN_vkDestroyCommandPool = app.f(c"vkDestroyCommandPool");
     let destroy_structure: vk::PFN_vkDestroyAccelerationStructureKHR =

@@ -499,6 +499,38 @@ unsafe extern "system" fn create_query_pool(
     vk::Result::SUCCESS
 }
 
+unsafe extern "system" fn cmd_reset_query_pool(
+    cb: vk::CommandBuffer,
+    pool: vk::QueryPool,
+    first: u32,
+    count: u32,
+) {
+    let args = vec![
+        cb.as_raw(),
+        pool.as_raw(),
+        u64::from(first),
+        u64::from(count),
+    ];
+    record("vkCmdResetQueryPool", args);
+}
+
+unsafe extern "system" fn cmd_write_micromaps_properties(
+    cb: vk::CommandBuffer,
+    count: u32,
+    _: *const vk::MicromapEXT,
+    _: vk::QueryType,
+    pool: vk::QueryPool,
+    first: u32,
+) {
+    let args = vec![
+        cb.as_raw(),
+        u64::from(count),
+        pool.as_raw(),
+        u64::from(first),
+    ];
+    record("vkCmdWriteMicromapsPropertiesEXT", args);
+}
+
 unsafe extern "system" fn cmd_begin_query(
     cb: vk::CommandBuffer,
     pool: vk::QueryPool,
@@ -1218,6 +1250,10 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCreateCommandPool" => void(create_command_pool as vk::PFN_vkCreateCommandPool),
         b"vkCreateQueryPool" => void(create_query_pool as vk::PFN_vkCreateQueryPool),
         b"vkCmdBeginQuery" => void(cmd_begin_query as vk::PFN_vkCmdBeginQuery),
+        b"vkCmdResetQueryPool" => void(cmd_reset_query_pool as vk::PFN_vkCmdResetQueryPool),
+        b"vkCmdWriteMicromapsPropertiesEXT" => {
+            void(cmd_write_micromaps_properties as vk::PFN_vkCmdWriteMicromapsPropertiesEXT)
+        }
         b"vkAllocateCommandBuffers" => {
             void(allocate_command_buffers as vk::PFN_vkAllocateCommandBuffers)
         }
