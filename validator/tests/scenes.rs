@@ -368,7 +368,11 @@ fn documented_examples_check() {
             .check(&CheckOptions::default())
             .unwrap_or_else(|e| panic!("{e}\n{body}"));
     }
-    for call in ommcheck::scene::format::CALL_NAMES {
+    let execution_calls = ommcheck::scene::format::EXECUTION_CALL_NAMES;
+    for call in ommcheck::scene::format::CALL_NAMES
+        .into_iter()
+        .chain(execution_calls)
+    {
         assert!(
             calls_seen.contains(call),
             "docs/scene-format.md has no example of {call}"
