@@ -107,16 +107,17 @@ fn run_command_buffer(
     checked: &mut BTreeSet<Vuid>,
     decided: &mut Vec<Decided>,
 ) {
-    let Some(recording) = exec.recordings.get(&command_buffer) else {
+    // Taken out while it runs (the replay updates the rest of `exec`), put back after.
+    let Some(recording) = exec.recordings.remove(&command_buffer) else {
         return;
     };
     let decide = run.ordered && !recording.overflowed;
-    let events = recording.events.clone();
-    for (function, event) in events {
+    for (function, event) in &recording.events {
+        let function = *function;
         uses.extend(event.object());
         match event {
             ExecEvent::Construct { object } => {
-                let c = exec.constructed.entry(object).or_default();
+                let c = exec.constructed.entry(*object).or_default();
                 c.on_device.entry(run.queue).or_insert(run.seq);
             }
             ExecEvent::Read {
@@ -127,7 +128,7 @@ fn run_command_buffer(
                 if decide {
                     checked.insert(rule.vuid());
                 }
-                if decide && !exec.constructed_before(object, run.clock) {
+                if decide && !exec.constructed_before(*object, run.clock) {
                     decided.push(Decided {
                         vuid: rule.vuid(),
                         location: run.at.clone(),
@@ -137,15 +138,14 @@ fn run_command_buffer(
                         ),
                         object: Some(ObjectRef {
                             ty: rule.object_type(),
-                            handle: object,
+                            handle: *object,
                         }),
                     });
                 }
             }
-            ExecEvent::Use { .. } => {}
             ExecEvent::WriteQueries { pool, first, count } => {
-                let (start, end) = (u64::from(first), u64::from(first) + u64::from(count));
-                let ranges = exec.available_queries.entry(pool).or_default();
+                let (start, end) = (u64::from(*first), u64::from(*first) + u64::from(*count));
+                let ranges = exec.available_queries.entry(*pool).or_default();
                 if decide {
                     checked.insert(cmd_write::None_12417);
                     if let Some(query) = first_available(ranges, start, end) {
@@ -157,7 +157,7 @@ fn run_command_buffer(
                             ),
                             object: Some(ObjectRef {
                                 ty: "VkQueryPool",
-                                handle: pool,
+                                handle: *pool,
                             }),
                         });
                     }
@@ -165,16 +165,13 @@ fn run_command_buffer(
                 set_queries(ranges, start, end, true);
             }
             ExecEvent::ResetQueries { pool, first, count } => {
-                let ranges = exec.available_queries.entry(pool).or_default();
-                set_queries(
-                    ranges,
-                    u64::from(first),
-                    u64::from(first) + u64::from(count),
-                    false,
-                );
+                let ranges = exec.available_queries.entry(*pool).or_default();
+                let start = u64::from(*first);
+                set_queries(ranges, start, start + u64::from(*count), false);
             }
         }
     }
+    exec.recordings.insert(command_buffer, recording);
 }
 
 impl Validator {
@@ -328,7 +325,7 @@ impl Validator {
         let (mut seq, mut clock) = exec.queues.get(&queue).cloned().unwrap_or_default();
         for (b, batch) in batches.iter().enumerate() {
             seq += 1;
-            join(&mut clock, &exec.completed.clone());
+            join(&mut clock, &exec.completed);
             clock.insert(queue, seq);
             let mut ordered = true;
             for wait in &batch.waits {
@@ -513,5 +510,99 @@ impl Validator {
             .collect();
         let checked = reads.iter().take(1).map(|_| vuid).collect();
         self.report_decided(function, &checked, decided)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::SemaphoreOp;
+    use crate::Device;
+
+    const OMM: Handle = 0x33;
+    const GRAPHICS: Handle = 0x9e1;
+    const COMPUTE: Handle = 0x9e2;
+
+    fn cb(handle: Handle) -> CommandBuffer {
+        CommandBuffer {
+            handle,
+            ..CommandBuffer::default()
+        }
+    }
+
+    /// A validator where command buffer 1 builds OMM and 2 copies from it.
+    fn recorded() -> Validator {
+        let mut v = Validator::new(Device::default());
+        v.record_execution(
+            &cb(1),
+            "vkCmdBuildMicromapsEXT",
+            [ExecEvent::Construct { object: OMM }],
+        );
+        let read = ExecEvent::Read {
+            object: OMM,
+            rule: ReadRule::CopySource,
+            location: "pInfo->src".into(),
+        };
+        v.record_execution(&cb(2), "vkCmdCopyMicromapEXT", [read]);
+        v
+    }
+
+    fn batch(
+        command_buffer: Handle,
+        waits: Vec<SemaphoreOp>,
+        signals: Vec<SemaphoreOp>,
+    ) -> SubmitBatch {
+        SubmitBatch {
+            waits,
+            command_buffers: vec![command_buffer],
+            signals,
+        }
+    }
+
+    fn timeline(semaphore: Handle, value: u64) -> SemaphoreOp {
+        SemaphoreOp {
+            semaphore,
+            value,
+            timeline: true,
+        }
+    }
+
+    #[test]
+    fn recorded_work_never_submitted_decides_nothing() {
+        let v = recorded();
+        assert!(v.state.execution.in_flight.is_empty());
+        assert_eq!(v.state.execution.constructed_for_host(OMM), None);
+    }
+
+    #[test]
+    fn a_timeline_wait_orders_work_across_queues_and_its_absence_does_not() {
+        let mut v = recorded();
+        let signal = vec![timeline(0x5e, 1)];
+        let report = v.queue_submit("vkQueueSubmit", GRAPHICS, &[batch(1, vec![], signal)], 0);
+        assert!(report.is_empty(), "{report}");
+        let waited = batch(2, vec![timeline(0x5e, 1)], vec![]);
+        let report = v.queue_submit("vkQueueSubmit", COMPUTE, &[waited], 0);
+        assert!(report.is_empty(), "{report}");
+        assert!(report.checked.contains(cmd_copy::src_07532));
+
+        // Without the wait the compute queue may run the copy first.
+        let mut v = recorded();
+        v.queue_submit("vkQueueSubmit", GRAPHICS, &[batch(1, vec![], vec![])], 0);
+        let report = v.queue_submit("vkQueueSubmit", COMPUTE, &[batch(2, vec![], vec![])], 0);
+        assert_eq!(report.ids(), [cmd_copy::src_07532.id()]);
+
+        // After the host saw the graphics queue idle, it is ordered.
+        v.queue_wait_idle(GRAPHICS);
+        let report = v.queue_submit("vkQueueSubmit", COMPUTE, &[batch(2, vec![], vec![])], 0);
+        assert!(report.is_empty(), "{report}");
+    }
+
+    #[test]
+    fn a_wait_for_a_value_no_one_signals_yet_is_not_decided() {
+        let mut v = recorded();
+        let waits = vec![timeline(0x5e, 7)];
+        let report = v.queue_submit("vkQueueSubmit", COMPUTE, &[batch(2, waits, vec![])], 0);
+        assert!(report.is_empty(), "{report}");
+        assert!(!report.checked.contains(cmd_copy::src_07532));
     }
 }

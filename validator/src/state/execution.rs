@@ -60,8 +60,6 @@ pub enum ExecEvent {
         rule: ReadRule,
         location: String,
     },
-    /// Any other reference to a micromap (for `vkDestroyMicromapEXT`).
-    Use { object: Handle },
     /// `vkCmdWriteMicromapsPropertiesEXT` writes queries `[first, first + count)`.
     WriteQueries {
         pool: Handle,
@@ -80,9 +78,7 @@ impl ExecEvent {
     /// The micromap or acceleration structure the event refers to.
     pub fn object(&self) -> Option<Handle> {
         match self {
-            ExecEvent::Construct { object }
-            | ExecEvent::Read { object, .. }
-            | ExecEvent::Use { object } => Some(*object),
+            ExecEvent::Construct { object } | ExecEvent::Read { object, .. } => Some(*object),
             _ => None,
         }
     }

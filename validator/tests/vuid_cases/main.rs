@@ -6,6 +6,7 @@
 mod accel_attach;
 mod accel_build;
 mod clean_runs;
+mod execution;
 mod fixtures;
 mod micromap_build;
 mod micromap_objects;
@@ -41,6 +42,7 @@ fn all_cases() -> Vec<Case> {
     cases.extend(accel_attach::cases());
     cases.extend(pipeline_sync::cases());
     cases.extend(raw::cases());
+    cases.extend(execution::cases());
     cases
 }
 
