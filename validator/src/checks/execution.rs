@@ -519,16 +519,10 @@ mod tests {
     use crate::model::SemaphoreOp;
     use crate::Device;
 
+    /// The micromap, and the two queues the submissions go to.
     const OMM: Handle = 0x33;
     const GRAPHICS: Handle = 0x9e1;
     const COMPUTE: Handle = 0x9e2;
-
-    fn cb(handle: Handle) -> CommandBuffer {
-        CommandBuffer {
-            handle,
-            ..CommandBuffer::default()
-        }
-    }
 
     /// A validator where command buffer 1 builds OMM and 2 copies from it.
     fn recorded() -> Validator {
@@ -545,6 +539,14 @@ mod tests {
         };
         v.record_execution(&cb(2), "vkCmdCopyMicromapEXT", [read]);
         v
+    }
+
+    /// A command buffer recording on every queue kind.
+    fn cb(handle: Handle) -> CommandBuffer {
+        CommandBuffer {
+            handle,
+            ..CommandBuffer::default()
+        }
     }
 
     fn batch(
