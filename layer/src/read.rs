@@ -822,6 +822,55 @@ mod tests {
     }
 
     #[test]
+    fn batches_keep_each_submit_s_waits_command_buffers_and_signals() {
+        let semaphores: [vk::Semaphore; 2] = [vk::Handle::from_raw(7), vk::Handle::from_raw(8)];
+        let command_buffers: [vk::CommandBuffer; 1] = [vk::Handle::from_raw(0xcb)];
+        let (wait_values, signal_values) = ([4u64], [0u64, 6]);
+        let timeline = vk::TimelineSemaphoreSubmitInfo::default()
+            .wait_semaphore_values(&wait_values)
+            .signal_semaphore_values(&signal_values);
+        let stages = [vk::PipelineStageFlags::ALL_COMMANDS];
+        let mut submit = vk::SubmitInfo::default()
+            .wait_semaphores(&semaphores[..1])
+            .wait_dst_stage_mask(&stages)
+            .command_buffers(&command_buffers)
+            .signal_semaphores(&semaphores);
+        submit.p_next = as_next(&timeline);
+        let empty = vk::SubmitInfo {
+            command_buffer_count: 3,
+            ..Default::default()
+        };
+        let op = |semaphore, value| SemaphoreOp {
+            semaphore,
+            value,
+            timeline: value != 0,
+        };
+        // SAFETY: two submits, each valid for its counts (or NULL arrays).
+        let got = unsafe { submitted_batches(2, [submit, empty].as_ptr()) };
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[0].waits, [op(7, 4)]);
+        assert_eq!(got[0].command_buffers, [0xcb]);
+        assert_eq!(got[0].signals, [op(7, 0), op(8, 6)]);
+        assert_eq!(got[1], SubmitBatch::default());
+        // SAFETY: NULL pSubmits is not read.
+        assert!(unsafe { submitted_batches(4, ptr::null()) }.is_empty());
+
+        let waits = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(semaphores[1])
+            .value(2)];
+        let infos = [vk::CommandBufferSubmitInfo::default().command_buffer(command_buffers[0])];
+        let submit2 = vk::SubmitInfo2::default()
+            .wait_semaphore_infos(&waits)
+            .command_buffer_infos(&infos);
+        // SAFETY: one submit, valid for its counts.
+        let got = unsafe { submitted_batches2(1, &submit2) };
+        assert_eq!(got.len(), 1);
+        assert_eq!(got[0].waits, [op(8, 2)]);
+        assert_eq!(got[0].command_buffers, [0xcb]);
+        assert!(got[0].signals.is_empty());
+    }
+
+    #[test]
     fn chain_has_finds_a_structure_and_stops_on_a_cycle() {
         let mut first = vk::ValidationFeaturesEXT::default();
         let usage = vk::BufferUsageFlags2CreateInfoKHR::default();
