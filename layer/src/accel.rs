@@ -17,7 +17,7 @@ use ommcheck::vuids::khr;
 use ommcheck::Report;
 
 use crate::commands;
-use crate::device::{as_void, check, device_and, device_object, track};
+use crate::device::{as_void, check, deferrable, device_and, device_object, track};
 use crate::dispatch::{next_fn, DeviceFns, DeviceState};
 use crate::{guarded, read};
 
@@ -596,7 +596,11 @@ unsafe extern "system" fn copy_acceleration_structure(
         // SAFETY: the application's arguments, valid as the API requires.
         |state| unsafe { state.validator.copy_acceleration_structure_raw(info) },
         // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, deferred_operation, info) },
+        |next| {
+            deferrable(device, deferred_operation, || unsafe {
+                next(device, deferred_operation, info)
+            })
+        },
     )
 }
 
@@ -669,7 +673,11 @@ unsafe extern "system" fn copy_micromap(
                 .copy_micromap_raw(device, deferred_operation, info)
         },
         // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, deferred_operation, info) },
+        |next| {
+            deferrable(device, deferred_operation, || unsafe {
+                next(device, deferred_operation, info)
+            })
+        },
     )
 }
 
@@ -704,7 +712,11 @@ unsafe extern "system" fn copy_micromap_to_memory(
                 .copy_micromap_to_memory_raw(device, deferred_operation, info)
         },
         // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, deferred_operation, info) },
+        |next| {
+            deferrable(device, deferred_operation, || unsafe {
+                next(device, deferred_operation, info)
+            })
+        },
     )
 }
 
@@ -739,7 +751,11 @@ unsafe extern "system" fn copy_memory_to_micromap(
                 .copy_memory_to_micromap_raw(device, deferred_operation, info)
         },
         // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, deferred_operation, info) },
+        |next| {
+            deferrable(device, deferred_operation, || unsafe {
+                next(device, deferred_operation, info)
+            })
+        },
     )
 }
 

@@ -122,6 +122,29 @@ pub(crate) fn check(
     !messages.is_empty() && data.instance.reporter.deliver(&messages, false)
 }
 
+/// Calls a host command given `operation` down; where the driver ran it at
+/// once (`VK_OPERATION_NOT_DEFERRED_KHR`), the operation is complete, as a
+/// join would have reported, so what it constructed is constructed.
+pub(crate) fn deferrable(
+    device: vk::Device,
+    operation: vk::DeferredOperationKHR,
+    call_down: impl FnOnce() -> vk::Result,
+) -> vk::Result {
+    let result = call_down();
+    if result == vk::Result::OPERATION_NOT_DEFERRED_KHR
+        && operation != vk::DeferredOperationKHR::null()
+    {
+        if let Some(data) = DEVICES.get(device) {
+            track(&data, "vkDeferredOperationJoinKHR", |state| {
+                state
+                    .validator
+                    .deferred_operation_completed(operation.as_raw());
+            });
+        }
+    }
+    result
+}
+
 /// Records what a call did in the device's state; a panic inside becomes
 /// one error message and the call's result stands.
 pub(crate) fn track(
@@ -941,7 +964,9 @@ unsafe extern "system" fn build_micromaps(
                 return vk::Result::ERROR_VALIDATION_FAILED_EXT;
             }
             // SAFETY: the next layer's function, with the application's arguments.
-            unsafe { next(device, deferred_operation, info_count, infos) }
+            deferrable(device, deferred_operation, || unsafe {
+                next(device, deferred_operation, info_count, infos)
+            })
         },
     )
 }
