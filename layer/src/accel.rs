@@ -405,6 +405,7 @@ unsafe extern "system" fn destroy_acceleration_structure(
             let tracked = state.validator.state_mut();
             tracked.acceleration_structures.remove(&structure.as_raw());
             tracked.original_attachments.remove(&structure.as_raw());
+            tracked.execution.forget(structure.as_raw());
         });
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, structure, allocator) };
