@@ -203,6 +203,9 @@ pub struct State {
     /// triangles geometries as KHR opacity attachments (update builds must
     /// chain the same); recorded by `checks::accel_attach::record_original_attachments`.
     pub original_attachments: BTreeMap<Handle, crate::model::accel::OriginalAttachments>,
+    /// The driver's answers (build sizes) stated or asked for, which the
+    /// rules comparing against them read (`checks::driver_sizes`).
+    pub driver: crate::driver::DriverAnswers,
 }
 
 impl State {

@@ -85,9 +85,6 @@ pub const COVERAGE: Coverage = Coverage {
         host::scratchData_11669,
     ],
     not_decidable: &[
-        (cmd::pInfos_07461, "needs the implementation's build size from vkGetMicromapBuildSizesEXT, which only the driver computes"),
-        (host::pInfos_07461, "needs the implementation's build size from vkGetMicromapBuildSizesEXT, which only the driver computes"),
-        (cmd::pInfos_07509, "needs the implementation's buildScratchSize, which only the driver computes"),
         (host::dstMicromap_11668, "the destination is device memory the host reaches through a mapping; the scratch size is the implementation's"),
     ],
 };
@@ -234,6 +231,7 @@ impl Validator {
             }
         }
         overlaps(&mut ctx, infos, Side::Host);
+        crate::checks::driver_sizes::build_sizes(&mut ctx, infos, Side::Host);
         let report = ctx.finish();
         self.record_builds(infos, contents);
         self.defer(deferred_operation);
@@ -386,6 +384,7 @@ pub(crate) fn cmd_build_micromaps_rules(
         );
     }
     overlaps(ctx, infos, Side::Device);
+    crate::checks::driver_sizes::build_sizes(ctx, infos, Side::Device);
     contents
 }
 

@@ -9,6 +9,7 @@ pub mod accel_attach;
 pub mod accel_build;
 pub(crate) mod common;
 pub mod device_contents;
+pub mod driver_sizes;
 pub(crate) mod hygiene;
 pub mod micromap_build;
 pub mod micromap_objects;
@@ -27,6 +28,7 @@ pub struct Coverage {
 pub fn coverage() -> Vec<Coverage> {
     vec![
         micromap_build::COVERAGE,
+        driver_sizes::COVERAGE,
         micromap_objects::COVERAGE,
         accel_build::COVERAGE,
         accel_attach::COVERAGE,
