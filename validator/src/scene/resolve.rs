@@ -47,6 +47,7 @@ pub struct Problem {
 
 type Result<T> = std::result::Result<T, Problem>;
 
+mod driver;
 mod pipeline;
 
 fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {
@@ -274,6 +275,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
         validator,
     };
     resolver.declare(scene)?;
+    driver::state_answers(&mut resolver.validator, &scene.driver_answers);
     let mut report = Report::new();
     for (i, call) in scene.calls.iter().enumerate() {
         let at = format!("calls[{i}]");
