@@ -879,8 +879,12 @@ unsafe extern "system" fn get_micromap_build_sizes(
                 size_info.cast_const(),
             )
         },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, build_type, build_info, size_info) },
+        // SAFETY: the next layer's function, with the application's
+        // arguments; then what it wrote, kept for the build checks.
+        |next| unsafe {
+            next(device, build_type, build_info, size_info);
+            crate::driver_answers::remember(device, build_type, build_info, size_info);
+        },
     );
 }
 

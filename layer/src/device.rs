@@ -248,9 +248,11 @@ pub unsafe extern "system" fn create_device(
                     pipe: Default::default(),
                     shadows: Shadows::new(settings.gpu_readback_max_bytes),
                     submissions: Default::default(),
+                    driver_sizes: None,
                 }),
                 readback_arena: Default::default(),
             });
+            crate::driver_answers::install(&data);
             let messages: Vec<Message> = findings
                 .iter()
                 .map(|finding| Message::from_finding(finding, device_object(handle)))

@@ -1110,7 +1110,7 @@ unsafe extern "system" fn get_micromap_build_sizes(
     let triangles: u64 = usage.iter().map(|u| u64::from(u.count)).sum();
     let out = unsafe { &mut *out };
     out.micromap_size = 1024 + 8 * triangles;
-    out.build_scratch_size = 4096 + triangles;
+    out.build_scratch_size = 2048 + triangles;
     out.discardable = vk::TRUE;
     record_with(
         "vkGetMicromapBuildSizesEXT",
