@@ -927,6 +927,9 @@ unsafe extern "system" fn build_micromaps(
                         Vec::new()
                     };
                     // SAFETY: the application's arguments, valid as the API
+                    // requires.
+                    unsafe { crate::driver_answers::map_destinations(state, info_count, infos) };
+                    // SAFETY: the application's arguments, valid as the API
                     // requires; mapped ranges stay readable until unmapped.
                     unsafe {
                         state.validator.build_micromaps_raw_reading(

@@ -14,8 +14,8 @@ use foldhash::HashMap;
 use ommcheck::driver::{BuildType, DriverQueries, MicromapBuildShape, MicromapBuildSizes};
 
 use crate::device::device_and;
-use crate::dispatch::DeviceData;
-use crate::read;
+use crate::dispatch::{DeviceData, DeviceState};
+use crate::{read, submit};
 
 /// At most this many answers are kept per device; past it the driver is
 /// asked each time for a new shape (an application builds few shapes;
@@ -163,4 +163,32 @@ pub unsafe fn remember(
     if let Some(shape) = MicromapBuildShape::queryable(&model, state.validator.device()) {
         kept.keep((build_type, shape), MicromapBuildSizes::from(sizes));
     }
+}
+
+/// Tells the checks where the application has mapped each destination of
+/// a host build (`vkBuildMicromapsEXT`'s `pInfos`), so its scratch can be
+/// checked against them (`VUID-vkBuildMicromapsEXT-dstMicromap-11668`);
+/// what an earlier build was told is forgotten first.
+///
+/// # Safety
+/// A non-NULL `infos` must point to `count` structures, as the API requires.
+pub unsafe fn map_destinations(
+    state: &mut DeviceState,
+    count: u32,
+    infos: *const vk::MicromapBuildInfoEXT<'_>,
+) {
+    let mut mapped = std::mem::take(&mut state.validator.state_mut().mapped_micromaps);
+    mapped.clear();
+    // SAFETY: forwarded from the caller; at most `read::MAX_ELEMENTS` read.
+    for info in unsafe { read::array(infos, count) } {
+        let handle = vk::Handle::as_raw(info.dst_micromap);
+        let Some(micromap) = state.validator.state().micromaps.get(&handle) else {
+            continue;
+        };
+        let (buffer, offset, size) = (micromap.buffer, micromap.offset, micromap.size);
+        if let Some(address) = submit::mapped_address(state, buffer, offset, size) {
+            mapped.insert(handle, address as u64);
+        }
+    }
+    state.validator.state_mut().mapped_micromaps = mapped;
 }

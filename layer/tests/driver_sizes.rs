@@ -11,7 +11,7 @@ mod fake;
 
 use ash::vk;
 use fake::app::record_micromap_build;
-use fake::{calls, device_fn, device_micromap_build, reset_calls, Chain, USAGE};
+use fake::{calls, device_fn, device_micromap_build, reset_calls, Chain, TRIANGLES, USAGE};
 
 const SIZE: &str = "VUID-vkCmdBuildMicromapsEXT-pInfos-07461";
 const SCRATCH: &str = "VUID-vkCmdBuildMicromapsEXT-pInfos-07509";
@@ -107,4 +107,71 @@ fn a_shape_the_application_asked_about_costs_no_call() {
     let ids: Vec<String> = chain.collector.take().into_iter().map(|m| m.id).collect();
     assert!(ids.iter().any(|id| id == SIZE), "{ids:?}");
     assert_eq!(calls(QUERY), []);
+}
+
+const HOST_OVERLAP: &str = "VUID-vkBuildMicromapsEXT-dstMicromap-11668";
+
+/// A host build of [`USAGE`] into a micromap in the second half of an
+/// 8192-byte buffer of host-visible memory the application mapped, with
+/// the host scratch `scratch_at` bytes into that mapping; the ids of the
+/// messages it drew.
+fn host_build_with_scratch_in_the_mapping(chain: &Chain, scratch_at: usize) -> Vec<String> {
+    let (storage, memory) = chain.buffer_and_memory(
+        8192,
+        vk::BufferUsageFlags::MICROMAP_STORAGE_EXT,
+        1, // host-visible
+    );
+    let create: vk::PFN_vkCreateMicromapEXT = device_fn(chain.device, c"vkCreateMicromapEXT");
+    let create_info = vk::MicromapCreateInfoEXT {
+        buffer: storage,
+        offset: 4096,
+        size: 4096,
+        ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
+        ..Default::default()
+    };
+    let mut micromap = vk::MicromapEXT::null();
+    // SAFETY: valid arguments.
+    let result = unsafe { create(chain.device, &create_info, std::ptr::null(), &mut micromap) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    let mapping = chain.map_backing(memory);
+    // The triangle array at the start, the data (one byte each) at 256.
+    let mut input = [0u8; 512];
+    for (k, triangle) in TRIANGLES.iter().enumerate() {
+        input[8 * k..8 * k + 4].copy_from_slice(&triangle.data_offset.to_le_bytes());
+        input[8 * k + 4..8 * k + 6].copy_from_slice(&triangle.subdivision_level.to_le_bytes());
+        input[8 * k + 6..8 * k + 8].copy_from_slice(&triangle.format.to_le_bytes());
+    }
+    let info = vk::MicromapBuildInfoEXT {
+        data: vk::DeviceOrHostAddressConstKHR {
+            host_address: input[256..].as_ptr().cast(),
+        },
+        triangle_array: vk::DeviceOrHostAddressConstKHR {
+            host_address: input.as_ptr().cast(),
+        },
+        scratch_data: vk::DeviceOrHostAddressKHR {
+            host_address: mapping.wrapping_add(scratch_at).cast(),
+        },
+        ..device_micromap_build(micromap, &USAGE, 0, 0, 0)
+    };
+    let build: vk::PFN_vkBuildMicromapsEXT = device_fn(chain.device, c"vkBuildMicromapsEXT");
+    // SAFETY: valid pointers for one info; the layer passes the build on
+    // to the fake driver, which does not write the scratch.
+    unsafe { build(chain.device, vk::DeferredOperationKHR::null(), 1, &info) };
+    chain.collector.take().into_iter().map(|m| m.id).collect()
+}
+
+#[test]
+fn host_scratch_reaching_into_the_mapped_destination_is_reported() {
+    let chain = Chain::new();
+    // The scratch's buildScratchSize bytes end where the micromap starts.
+    let before = 4096 - SCRATCH_SIZE as usize;
+    assert_eq!(
+        host_build_with_scratch_in_the_mapping(&chain, before),
+        Vec::<String>::new()
+    );
+    // One byte later its last byte is the micromap's first.
+    assert_eq!(
+        host_build_with_scratch_in_the_mapping(&chain, before + 1),
+        [HOST_OVERLAP]
+    );
 }

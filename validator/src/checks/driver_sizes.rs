@@ -2,7 +2,9 @@
 //! `vkGetMicromapBuildSizesEXT` for the build (`crate::driver`): the
 //! destination's size (07461) and the scratch range (07509). Decided only
 //! where an answer is stated or the driver can be asked; otherwise nothing
-//! is reported, as no other information decides them.
+//! is reported, as no other information decides them. And a host build's
+//! scratch against its destinations' memory as the host sees it (11668),
+//! which only an adaptor that follows `vkMapMemory` knows.
 
 use ommcheck_vuids::vuid::{vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd};
 
@@ -19,6 +21,13 @@ pub const COVERAGE: Coverage = Coverage {
     enforced: &[cmd::pInfos_07461, host::pInfos_07461, cmd::pInfos_07509],
     not_decidable: &[],
 };
+
+/// Rules only the layer decides, with what it needs that a scene cannot
+/// state (see `crate::checks::layer_only`).
+pub const LAYER_ONLY: &[(ommcheck_vuids::Vuid, &str)] = &[(
+    host::dstMicromap_11668,
+    "needs the host address where the application mapped each dstMicromap's memory (vkMapMemory), which the layer follows and scenes do not describe; the scratch range is buildScratchSize bytes where the driver answers, its first byte otherwise",
+)];
 
 /// Checks each info of a build against the sizes the driver gives for its
 /// shape.
@@ -64,6 +73,72 @@ pub(crate) fn build_sizes(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: 
         }
         if side == Side::Device && info.mode == BUILD_MICROMAP_MODE_BUILD_EXT {
             scratch_range(ctx, i, info, sizes);
+        }
+    }
+}
+
+/// 11668: each host build's scratch, `[scratchData, + buildScratchSize)`
+/// (its first byte where the driver did not answer), against the host
+/// ranges where the destinations' memory is mapped. Sorted by start, with
+/// the furthest end reached so far, so `infoCount` infos take n log n.
+pub(crate) fn host_scratch_overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo]) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if state.mapped_micromaps.is_empty() {
+        return;
+    }
+    // (start, end, info index) of each destination mapped whole.
+    let mut mapped: Vec<(u64, u64, usize)> = Vec::new();
+    let mut all_mapped = true;
+    for (i, info) in infos.iter().enumerate() {
+        let range = state.micromaps.get(&info.dst_micromap).and_then(|m| {
+            let start = *state.mapped_micromaps.get(&info.dst_micromap)?;
+            Some((start, start.checked_add(m.size)?, i))
+        });
+        match range {
+            Some(range) => mapped.push(range),
+            None => all_mapped = false,
+        }
+    }
+    mapped.sort_unstable();
+    let mut furthest: Vec<(u64, usize)> = Vec::with_capacity(mapped.len());
+    for &(_, end, i) in &mapped {
+        let reach = match furthest.last() {
+            Some(&last) if last.0 >= end => last,
+            _ => (end, i),
+        };
+        furthest.push(reach);
+    }
+    for (j, info) in infos.iter().enumerate() {
+        let scratch = info.scratch_data;
+        let len = match state
+            .driver
+            .micromap_build_sizes(BuildType::Host, info, ctx.device)
+        {
+            Some(sizes) => sizes.build_scratch_size,
+            None => u64::from(info.usage_counts.total() > 0),
+        };
+        if scratch == 0 || len == 0 {
+            continue;
+        }
+        let scratch_end = scratch.saturating_add(len);
+        // The destinations starting before the scratch ends; the one of
+        // them reaching furthest overlaps it if any does.
+        let before = mapped.partition_point(|&(start, _, _)| start < scratch_end);
+        match before.checked_sub(1).and_then(|k| furthest.get(k)) {
+            Some(&(end, i)) if scratch < end => {
+                ctx.error(
+                    host::dstMicromap_11668,
+                    format!("pInfos[{j}].scratchData.hostAddress"),
+                    format!(
+                        "the scratch [{scratch:#x}, {scratch_end:#x}) overlaps the memory of pInfos[{i}].dstMicromap, which the application mapped at {:#x}",
+                        state.mapped_micromaps.get(&infos[i].dst_micromap).copied().unwrap_or_default()
+                    ),
+                );
+            }
+            _ if all_mapped => ctx.checked(&[host::dstMicromap_11668.into()]),
+            _ => {}
         }
     }
 }

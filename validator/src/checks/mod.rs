@@ -24,6 +24,16 @@ pub struct Coverage {
     pub not_decidable: &'static [(Vuid, &'static str)],
 }
 
+/// VUIDs decided only in the layer, with what it needs that a scene
+/// cannot state: they are enforced there (with layer tests), not in the
+/// scene corpus.
+pub fn layer_only() -> Vec<(Vuid, &'static str, &'static str)> {
+    driver_sizes::LAYER_ONLY
+        .iter()
+        .map(|&(v, needs)| (v, "driver_sizes", needs))
+        .collect()
+}
+
 /// Every module's declaration.
 pub fn coverage() -> Vec<Coverage> {
     vec![
