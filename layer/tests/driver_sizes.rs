@@ -156,7 +156,8 @@ fn host_build_with_scratch_in_the_mapping(chain: &Chain, scratch_at: usize) -> V
     let build: vk::PFN_vkBuildMicromapsEXT = device_fn(chain.device, c"vkBuildMicromapsEXT");
     // SAFETY: valid pointers for one info; the layer passes the build on
     // to the fake driver, which does not write the scratch.
-    unsafe { build(chain.device, vk::DeferredOperationKHR::null(), 1, &info) };
+    let result = unsafe { build(chain.device, vk::DeferredOperationKHR::null(), 1, &info) };
+    assert_eq!(result, vk::Result::SUCCESS);
     chain.collector.take().into_iter().map(|m| m.id).collect()
 }
 
