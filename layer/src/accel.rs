@@ -845,9 +845,10 @@ unsafe extern "system" fn write_micromaps_properties(
                 stride,
             )
         },
-        // SAFETY: the next layer's function, with the application's arguments.
+        // SAFETY: the next layer's function, with the application's
+        // arguments; then what it wrote, kept for the serialization checks.
         |next| unsafe {
-            next(
+            let result = next(
                 device,
                 micromap_count,
                 micromaps,
@@ -855,7 +856,19 @@ unsafe extern "system" fn write_micromaps_properties(
                 data_size,
                 data,
                 stride,
-            )
+            );
+            if result == vk::Result::SUCCESS {
+                crate::driver_answers::remember_serialization_sizes(
+                    device,
+                    micromap_count,
+                    micromaps,
+                    query_type,
+                    data_size,
+                    data.cast_const(),
+                    stride,
+                );
+            }
+            result
         },
     )
 }

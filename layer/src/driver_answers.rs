@@ -192,3 +192,38 @@ pub unsafe fn map_destinations(
     }
     state.validator.state_mut().mapped_micromaps = mapped;
 }
+
+/// Keeps the serialization sizes the next layer just wrote for the
+/// application's `vkWriteMicromapsPropertiesEXT` (`VUID-VkCopyMicromapToMemoryInfoEXT-dst-07541`
+/// compares serializations with them); other query types are left alone.
+///
+/// # Safety
+/// The arguments of a call the next layer just returned `VK_SUCCESS` from.
+pub unsafe fn remember_serialization_sizes(
+    device: vk::Device,
+    count: u32,
+    micromaps: *const vk::MicromapEXT,
+    query_type: vk::QueryType,
+    data_size: usize,
+    data: *const std::ffi::c_void,
+    stride: usize,
+) {
+    if query_type != vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT {
+        return;
+    }
+    let Some((data_of, _)) = device_and(device, |f| f.accel.write_micromaps_properties) else {
+        return;
+    };
+    // SAFETY: forwarded from the caller.
+    let (handles, sizes) = unsafe {
+        (
+            read::array(micromaps, count),
+            read::device_sizes(data, data_size, stride, count),
+        )
+    };
+    let mut state = data_of.state();
+    let driver = &mut state.validator.state_mut().driver;
+    for (micromap, size) in handles.iter().zip(sizes) {
+        driver.report_serialization_size(vk::Handle::as_raw(*micromap), size);
+    }
+}

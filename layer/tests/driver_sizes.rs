@@ -11,7 +11,10 @@ mod fake;
 
 use ash::vk;
 use fake::app::record_micromap_build;
-use fake::{calls, device_fn, device_micromap_build, reset_calls, Chain, TRIANGLES, USAGE};
+use fake::{
+    calls, device_fn, device_micromap_build, reset_calls, Chain, SERIALIZATION_SIZE, TRIANGLES,
+    USAGE,
+};
 
 const SIZE: &str = "VUID-vkCmdBuildMicromapsEXT-pInfos-07461";
 const SCRATCH: &str = "VUID-vkCmdBuildMicromapsEXT-pInfos-07509";
@@ -175,4 +178,59 @@ fn host_scratch_reaching_into_the_mapped_destination_is_reported() {
         host_build_with_scratch_in_the_mapping(&chain, before + 1),
         [HOST_OVERLAP]
     );
+}
+
+const SERIALIZED_SIZE: &str = "VUID-VkCopyMicromapToMemoryInfoEXT-dst-07541";
+
+/// Asks the serialization size of a micromap as the application does
+/// (`vkWriteMicromapsPropertiesEXT`), then serializes it into a buffer of
+/// `room` bytes; the ids the serialization drew.
+fn serialize_into(chain: &Chain, room: u64) -> Vec<String> {
+    let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
+    let micromap = chain.micromap(storage, 4096);
+    let write: vk::PFN_vkWriteMicromapsPropertiesEXT =
+        device_fn(chain.device, c"vkWriteMicromapsPropertiesEXT");
+    let mut size = 0u64;
+    // SAFETY: one micromap, and room for its one result.
+    let result = unsafe {
+        write(
+            chain.device,
+            1,
+            &micromap,
+            vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT,
+            8,
+            (&mut size as *mut u64).cast(),
+            8,
+        )
+    };
+    assert_eq!((result, size), (vk::Result::SUCCESS, SERIALIZATION_SIZE));
+    // What the query drew (the micromap was never built) is not this test's.
+    chain.collector.take();
+    let serialized = chain.buffer(
+        room,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        0,
+    );
+    let info = vk::CopyMicromapToMemoryInfoEXT {
+        src: micromap,
+        dst: vk::DeviceOrHostAddressKHR {
+            device_address: chain.address(serialized),
+        },
+        mode: vk::CopyMicromapModeEXT::SERIALIZE,
+        ..Default::default()
+    };
+    let copy: vk::PFN_vkCmdCopyMicromapToMemoryEXT =
+        device_fn(chain.device, c"vkCmdCopyMicromapToMemoryEXT");
+    // SAFETY: a valid info.
+    unsafe { copy(chain.command_buffer, &info) };
+    chain.collector.take().into_iter().map(|m| m.id).collect()
+}
+
+#[test]
+fn a_serialization_into_less_than_the_reported_size_is_reported() {
+    let chain = Chain::new();
+    let short = serialize_into(&chain, SERIALIZATION_SIZE - 1);
+    assert_eq!(short, [SERIALIZED_SIZE]);
+    let exact = serialize_into(&chain, SERIALIZATION_SIZE);
+    assert_eq!(exact, Vec::<String>::new());
 }

@@ -8,13 +8,14 @@
 //! layer asks the next layer and caches the answer per shape). Without
 //! either, the rules that need an answer are not decided, as before.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Debug;
 use std::sync::Arc;
 
 use crate::device::Device;
 use crate::model::micromap::{MicromapBuildInfo, MicromapUsage};
 use crate::model::values::*;
+use crate::state::Handle;
 
 /// A shape holds at most this many usage counts: a valid opacity build has
 /// at most 2 formats x 13 levels of distinct ones, a displacement build
@@ -152,6 +153,12 @@ pub struct DriverAnswers {
     /// Stated answers by shape; they hold for host and device builds alike.
     stated: HashMap<MicromapBuildShape, MicromapBuildSizes>,
     queries: Option<Arc<dyn DriverQueries>>,
+    /// Serialization sizes stated for micromaps (a scene's, a test's).
+    stated_serialization: BTreeMap<Handle, u64>,
+    /// Serialization sizes the driver reported for micromaps as they are
+    /// now (`vkWriteMicromapsPropertiesEXT` on the host); a build or the
+    /// destruction of the micromap forgets its size.
+    reported_serialization: BTreeMap<Handle, u64>,
 }
 
 impl DriverAnswers {
@@ -167,6 +174,32 @@ impl DriverAnswers {
     /// Installs the way to ask the driver for what was not stated.
     pub fn set_queries(&mut self, queries: Arc<dyn DriverQueries>) {
         self.queries = Some(queries);
+    }
+
+    /// States the serialization size of `micromap`, as
+    /// `VK_QUERY_TYPE_MICROMAP_SERIALIZATION_SIZE_EXT` queries report it.
+    pub fn state_serialization_size(&mut self, micromap: Handle, size: u64) {
+        self.stated_serialization.insert(micromap, size);
+    }
+
+    /// Keeps the serialization size the driver just reported for
+    /// `micromap`, until the micromap is built again or destroyed.
+    pub fn report_serialization_size(&mut self, micromap: Handle, size: u64) {
+        self.reported_serialization.insert(micromap, size);
+    }
+
+    /// Forgets what the driver reported of `micromap` (a build changes its
+    /// serialization size; a destroyed handle may be reused).
+    pub fn forget_micromap(&mut self, micromap: Handle) {
+        self.reported_serialization.remove(&micromap);
+    }
+
+    /// The serialization size of `micromap`, where stated or reported.
+    pub fn serialization_size(&self, micromap: Handle) -> Option<u64> {
+        self.stated_serialization
+            .get(&micromap)
+            .or_else(|| self.reported_serialization.get(&micromap))
+            .copied()
     }
 
     /// Whether any answer can come: something stated or a driver to ask.

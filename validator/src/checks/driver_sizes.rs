@@ -6,11 +6,15 @@
 //! scratch against its destinations' memory as the host sees it (11668),
 //! which only an adaptor that follows `vkMapMemory` knows.
 
-use ommcheck_vuids::vuid::{vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd};
+use ommcheck_vuids::vuid::{
+    vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd,
+    VkCopyMicromapToMemoryInfoEXT as to_memory_info,
+};
 
 use crate::checks::micromap_build::Side;
 use crate::checks::Coverage;
 use crate::driver::{BuildType, MicromapBuildSizes};
+use crate::model::micromap_objects::CopyMicromapToMemoryInfo;
 use crate::model::values::BUILD_MICROMAP_MODE_BUILD_EXT;
 use crate::model::MicromapBuildInfo;
 use crate::report::ObjectRef;
@@ -18,7 +22,12 @@ use crate::validator::Ctx;
 
 pub const COVERAGE: Coverage = Coverage {
     module: "driver_sizes",
-    enforced: &[cmd::pInfos_07461, host::pInfos_07461, cmd::pInfos_07509],
+    enforced: &[
+        cmd::pInfos_07461,
+        host::pInfos_07461,
+        cmd::pInfos_07509,
+        to_memory_info::dst_07541,
+    ],
     not_decidable: &[],
 };
 
@@ -169,6 +178,50 @@ fn scratch_range(ctx: &mut Ctx<'_>, i: usize, info: &MicromapBuildInfo, sizes: M
         || {
             format!(
                 "the buildScratchSize {len} bytes vkGetMicromapBuildSizesEXT returns for this build, from {start:#x}, run past {end:#x}, the end of the buffer holding {start:#x}"
+            )
+        },
+    );
+}
+
+/// 07541: the memory `dst` points to (to the end of the buffer holding it,
+/// or of the host memory described) holds at least the serialization size
+/// the driver reported for `src`. A `dst` in no known memory is another
+/// rule's finding.
+pub(crate) fn serialized_size_fits(
+    ctx: &mut Ctx<'_>,
+    info: &CopyMicromapToMemoryInfo,
+    host_address: bool,
+) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let Some(size) = state.driver.serialization_size(info.src) else {
+        return;
+    };
+    let dst = info.dst;
+    let room = if host_address {
+        state.host_bytes_from(dst).map(|bytes| bytes.len() as u64)
+    } else {
+        state
+            .buffers_at(dst)
+            .filter_map(|(_, b)| b.address_range().map(|(_, end)| end.saturating_sub(dst)))
+            .max()
+    };
+    let Some(room) = room else {
+        return;
+    };
+    let member = if host_address {
+        "pInfo->dst.hostAddress"
+    } else {
+        "pInfo->dst.deviceAddress"
+    };
+    ctx.require(
+        room >= size,
+        to_memory_info::dst_07541,
+        || member.to_string(),
+        || {
+            format!(
+                "{room} bytes lie from {dst:#x} to the end of the memory holding it, fewer than the serialization size {size} the driver reports for src"
             )
         },
     );

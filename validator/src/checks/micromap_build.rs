@@ -247,6 +247,7 @@ impl Validator {
         let mut contents = contents.into_iter();
         for info in infos {
             let content = contents.next().flatten();
+            self.state.driver.forget_micromap(info.dst_micromap);
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
                 micromap.built = Some(BuildRecord {
                     flags: info.flags,

@@ -30,7 +30,7 @@ use crate::validator::{Ctx, Validator};
 
 const EXECUTION: &str = "whether the micromap was built before this command executes is GPU execution order (submissions, semaphores, fences), not visible at the API boundary";
 const HOST_EXECUTION: &str = "whether the build completed before this host command runs depends on deferred operations and other threads finishing, not visible at the API boundary";
-const SERIALIZED_SIZE: &str = "the serialization size is the implementation's, returned only through a query the GPU or driver writes";
+const SERIALIZED_SOURCE: &str = "needs the micromap whose serialization src holds (the size used to serialize it): serialized data passes through application memory and storage the checker does not follow";
 const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
 pub const COVERAGE: Coverage = Coverage {
@@ -193,8 +193,7 @@ pub const COVERAGE: Coverage = Coverage {
         (to_memory_info::src_07540, EXECUTION),
         (host_copy::src_11670, HOST_EXECUTION),
         (host_write::pMicromaps_11671, HOST_EXECUTION),
-        (to_memory_info::dst_07541, SERIALIZED_SIZE),
-        (from_memory_info::dst_07550, SERIALIZED_SIZE),
+        (from_memory_info::dst_07550, SERIALIZED_SOURCE),
         (from_memory_info::src_07547, SERIALIZED_DATA),
         (from_memory_info::src_07549, "compatibility of serialized data with a device is what vkGetDeviceMicromapCompatibilityEXT reports, which only the driver decides"),
         (cmd_write::None_12417, "query availability changes when commands execute (writes, vkCmdResetQueryPool in other command buffers, vkResetQueryPool on the host), in submission order rather than recording order"),
@@ -348,6 +347,7 @@ impl Validator {
         }
         let report = ctx.finish();
         self.state.micromaps.remove(&micromap);
+        self.state.driver.forget_micromap(micromap);
         report
     }
 
@@ -407,6 +407,7 @@ impl Validator {
                 cmd_to_memory::pInfo_07537,
                 "pInfo->dst.deviceAddress",
             );
+            crate::checks::driver_sizes::serialized_size_fits(&mut ctx, info, false);
         }
         ctx.finish()
     }
@@ -513,6 +514,7 @@ impl Validator {
                 host_to_memory::pInfo_07570,
                 "pInfo->dst.hostAddress",
             );
+            crate::checks::driver_sizes::serialized_size_fits(&mut ctx, info, true);
         }
         let report = ctx.finish();
         self.defer(deferred_operation);

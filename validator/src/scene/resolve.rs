@@ -275,7 +275,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
         validator,
     };
     resolver.declare(scene)?;
-    driver::state_answers(&mut resolver.validator, &scene.driver_answers);
+    resolver.state_driver_answers(&scene.driver_answers)?;
     let mut report = Report::new();
     for (i, call) in scene.calls.iter().enumerate() {
         let at = format!("calls[{i}]");

@@ -5,6 +5,7 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::UsageDesc;
+use crate::scene::args::HandleArg;
 use crate::scene::names::{self, Value};
 
 /// What the driver answered; absent, the rules that need an answer are not
@@ -15,6 +16,20 @@ pub struct DriverAnswersDesc {
     /// `vkGetMicromapBuildSizesEXT`'s answers, one per build shape.
     #[serde(default)]
     pub micromap_build_sizes: Vec<MicromapBuildSizesDesc>,
+    /// The serialization sizes `VK_QUERY_TYPE_MICROMAP_SERIALIZATION_SIZE_EXT`
+    /// queries report, one per micromap.
+    #[serde(default)]
+    pub serialization_sizes: Vec<SerializationSizeDesc>,
+}
+
+/// A micromap's serialization size, as `vkWriteMicromapsPropertiesEXT` or
+/// `vkCmdWriteMicromapsPropertiesEXT` report it.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct SerializationSizeDesc {
+    /// The micromap, by name.
+    pub micromap: HandleArg,
+    pub size: u64,
 }
 
 /// The `VkMicromapBuildSizesInfoEXT` `vkGetMicromapBuildSizesEXT` returned
