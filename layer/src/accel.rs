@@ -858,14 +858,12 @@ unsafe extern "system" fn write_micromaps_properties(
                 stride,
             );
             if result == vk::Result::SUCCESS {
+                let written = (data.cast_const(), data_size, stride);
                 crate::driver_answers::remember_serialization_sizes(
                     device,
-                    micromap_count,
-                    micromaps,
+                    read::array(micromaps, micromap_count),
                     query_type,
-                    data_size,
-                    data.cast_const(),
-                    stride,
+                    written,
                 );
             }
             result

@@ -197,16 +197,15 @@ pub unsafe fn map_destinations(
 /// application's `vkWriteMicromapsPropertiesEXT` (`VUID-VkCopyMicromapToMemoryInfoEXT-dst-07541`
 /// compares serializations with them); other query types are left alone.
 ///
+/// `written` is `(pData, dataSize, stride)`.
+///
 /// # Safety
 /// The arguments of a call the next layer just returned `VK_SUCCESS` from.
 pub unsafe fn remember_serialization_sizes(
     device: vk::Device,
-    count: u32,
-    micromaps: *const vk::MicromapEXT,
+    micromaps: &[vk::MicromapEXT],
     query_type: vk::QueryType,
-    data_size: usize,
-    data: *const std::ffi::c_void,
-    stride: usize,
+    (data, data_size, stride): (*const std::ffi::c_void, usize, usize),
 ) {
     if query_type != vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT {
         return;
@@ -214,16 +213,12 @@ pub unsafe fn remember_serialization_sizes(
     let Some((data_of, _)) = device_and(device, |f| f.accel.write_micromaps_properties) else {
         return;
     };
+    let count = u32::try_from(micromaps.len()).unwrap_or(u32::MAX);
     // SAFETY: forwarded from the caller.
-    let (handles, sizes) = unsafe {
-        (
-            read::array(micromaps, count),
-            read::device_sizes(data, data_size, stride, count),
-        )
-    };
+    let sizes = unsafe { read::device_sizes(data, data_size, stride, count) };
     let mut state = data_of.state();
     let driver = &mut state.validator.state_mut().driver;
-    for (micromap, size) in handles.iter().zip(sizes) {
+    for (micromap, size) in micromaps.iter().zip(sizes) {
         driver.report_serialization_size(vk::Handle::as_raw(*micromap), size);
     }
 }

@@ -9,31 +9,38 @@ use super::{usage, ObjectKind, Resolver, Result};
 impl Resolver<'_> {
     /// States `answers`; the micromaps they name must be declared.
     pub(super) fn state_driver_answers(&mut self, answers: &DriverAnswersDesc) -> Result<()> {
-        for desc in &answers.micromap_build_sizes {
-            let shape = MicromapBuildShape {
-                ty: desc
-                    .ty
-                    .map_or(MICROMAP_TYPE_OPACITY_MICROMAP_EXT, |t| t.as_i32()),
-                flags: desc.flags.as_u32(),
-                usages: desc.usage_counts.iter().map(usage).collect(),
-            };
-            let sizes = MicromapBuildSizes {
-                micromap_size: desc.micromap_size,
-                build_scratch_size: desc.build_scratch_size,
-                discardable: desc.discardable,
-            };
-            self.validator
-                .state_mut()
-                .driver
-                .state_micromap_build_sizes(shape, sizes);
+        let serialization_sizes = answers
+            .serialization_sizes
+            .iter()
+            .enumerate()
+            .map(|(i, desc)| {
+                let at = format!("driverAnswers.serializationSizes[{i}].micromap");
+                let micromap = self.handle(&desc.micromap, ObjectKind::Micromap, &at)?;
+                Ok((micromap, desc.size))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let driver = &mut self.validator.state_mut().driver;
+        for (micromap, size) in serialization_sizes {
+            driver.state_serialization_size(micromap, size);
         }
-        for (i, desc) in answers.serialization_sizes.iter().enumerate() {
-            let at = format!("driverAnswers.serializationSizes[{i}].micromap");
-            let micromap = self.handle(&desc.micromap, ObjectKind::Micromap, &at)?;
-            self.validator
-                .state_mut()
-                .driver
-                .state_serialization_size(micromap, desc.size);
+        for desc in &answers.micromap_build_sizes {
+            let ty = desc
+                .ty
+                .map_or(MICROMAP_TYPE_OPACITY_MICROMAP_EXT, |t| t.as_i32());
+            let usages = desc.usage_counts.iter().map(usage).collect();
+            let shape = MicromapBuildShape {
+                ty,
+                flags: desc.flags.as_u32(),
+                usages,
+            };
+            let (micromap_size, build_scratch_size) = (desc.micromap_size, desc.build_scratch_size);
+            let discardable = desc.discardable;
+            let sizes = MicromapBuildSizes {
+                micromap_size,
+                build_scratch_size,
+                discardable,
+            };
+            driver.state_micromap_build_sizes(shape, sizes);
         }
         Ok(())
     }
