@@ -226,3 +226,21 @@ pub(crate) fn serialized_size_fits(
         },
     );
 }
+
+/// Whether a `build_type` build of `info` needs scratch memory: the
+/// driver's `buildScratchSize` for it is not 0. Where the driver did not
+/// answer, it is taken to (07512 and 07556 then read as they did before
+/// there were answers).
+pub(crate) fn needs_scratch(
+    ctx: &Ctx<'_>,
+    info: &MicromapBuildInfo,
+    build_type: BuildType,
+) -> bool {
+    ctx.state
+        .and_then(|state| {
+            state
+                .driver
+                .micromap_build_sizes(build_type, info, ctx.device)
+        })
+        .is_none_or(|sizes| sizes.build_scratch_size != 0)
+}

@@ -11,8 +11,9 @@ use crate::checks::common::{
     self, decode_entries, readable_entries, usage_counts_match_triangles, CleanRun,
     CommandBufferVuids, Tally, TriangleEntry, TriangleHistogram,
 };
-use crate::checks::hygiene;
 use crate::checks::Coverage;
+use crate::checks::{driver_sizes, hygiene};
+use crate::driver::BuildType;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
@@ -220,7 +221,10 @@ impl Validator {
                     );
                 }
             }
-            if info.usage_counts.total() > 0 && info.scratch_data == 0 {
+            if info.usage_counts.total() > 0
+                && info.scratch_data == 0
+                && driver_sizes::needs_scratch(&ctx, info, BuildType::Host)
+            {
                 ctx.error(
                     host::pInfos_07556,
                     format!("{at}.scratchData.hostAddress"),
@@ -351,7 +355,8 @@ pub(crate) fn cmd_build_micromaps_rules(
         if info.scratch_data != 0 {
             if ctx.state.is_some_and(|state| {
                 state.knows_addresses() && state.buffers_at(info.scratch_data).next().is_none()
-            }) {
+            }) && driver_sizes::needs_scratch(ctx, info, BuildType::Device)
+            {
                 ctx.error(
                     cmd::pInfos_07512,
                     format!("{at}.scratchData.deviceAddress"),

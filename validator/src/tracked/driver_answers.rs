@@ -65,6 +65,12 @@ mod tests {
     /// `created` bytes, scratch at the start of a 4096-byte buffer, after
     /// the driver answered `micromap_size` and `scratch_size` (or nothing).
     fn build(created: u64, answer: Option<(u64, u64)>) -> Report {
+        let mut v = validator(created, answer);
+        v.cmd_build_micromaps(&CommandBuffer::default(), &[info(0x3_0000)])
+    }
+
+    /// The build's objects, with the driver's answer if any.
+    fn validator(created: u64, answer: Option<(u64, u64)>) -> Validator {
         let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
         for (handle, usage, address) in [
             (1, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 0x2_0000),
@@ -96,17 +102,21 @@ mod tests {
                     .build_scratch_size(scratch_size),
             );
         }
-        let info = MicromapBuildInfo {
+        v
+    }
+
+    /// The build of [`USAGE`] into the micromap, its scratch at `scratch`.
+    fn info(scratch: u64) -> MicromapBuildInfo {
+        MicromapBuildInfo {
             dst_micromap: 9,
             usage_counts: UsageCounts::array(vec![MicromapUsage {
                 count: USAGE.count,
                 subdivision_level: USAGE.subdivision_level,
                 format: USAGE.format,
             }]),
-            scratch_data: 0x3_0000,
+            scratch_data: scratch,
             ..Default::default()
-        };
-        v.cmd_build_micromaps(&CommandBuffer::default(), &[info])
+        }
     }
 
     const SIZE: Vuid = vuid::vkCmdBuildMicromapsEXT::pInfos_07461;
@@ -135,5 +145,24 @@ mod tests {
         let unknown = build(1, None);
         assert!(!decided(&unknown, SIZE) && !decided(&unknown, SCRATCH));
         assert!(!reports(&unknown, SCRATCH));
+    }
+
+    #[test]
+    fn a_build_the_driver_gives_no_scratch_needs_no_scratch_address() {
+        let no_buffer = 0x9000_0000;
+        let device_build = |scratch_size| {
+            let mut v = validator(4096, Some((2048, scratch_size)));
+            v.cmd_build_micromaps(&CommandBuffer::default(), &[info(no_buffer)])
+        };
+        let invalid = vuid::vkCmdBuildMicromapsEXT::pInfos_07512;
+        assert!(reports(&device_build(4096), invalid));
+        assert!(!reports(&device_build(0), invalid));
+        let host_build = |scratch_size| {
+            let mut v = validator(4096, Some((2048, scratch_size)));
+            v.build_micromaps(1, 0, &[info(0)])
+        };
+        let null = vuid::vkBuildMicromapsEXT::pInfos_07556;
+        assert!(reports(&host_build(4096), null));
+        assert!(!reports(&host_build(0), null));
     }
 }
