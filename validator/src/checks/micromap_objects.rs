@@ -195,7 +195,7 @@ pub const COVERAGE: Coverage = Coverage {
         (host_write::pMicromaps_11671, HOST_EXECUTION),
         (from_memory_info::dst_07550, SERIALIZED_SOURCE),
         (from_memory_info::src_07547, SERIALIZED_DATA),
-        (from_memory_info::src_07549, "compatibility of serialized data with a device is what vkGetDeviceMicromapCompatibilityEXT reports, which only the driver decides"),
+        (from_memory_info::src_07549, "needs the serialized header in src and the driver's vkGetDeviceMicromapCompatibilityEXT answer for it: a device copy's header is device memory an earlier serialization writes on the GPU timeline, and a host copy's is application memory the layer reads only inside a mapping; ommcheck neither reads nor asks about it"),
         (cmd_write::None_12417, "query availability changes when commands execute (writes, vkCmdResetQueryPool in other command buffers, vkResetQueryPool on the host), in submission order rather than recording order"),
     ],
 };
