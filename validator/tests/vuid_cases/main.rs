@@ -6,6 +6,7 @@
 mod accel_attach;
 mod accel_build;
 mod clean_runs;
+mod driver_sizes;
 mod fixtures;
 mod micromap_build;
 mod micromap_objects;
@@ -36,6 +37,7 @@ pub fn case(rule: impl Into<RuleId>, failing: fn() -> Report, passing: fn() -> R
 fn all_cases() -> Vec<Case> {
     let mut cases = Vec::new();
     cases.extend(micromap_build::cases());
+    cases.extend(driver_sizes::cases());
     cases.extend(micromap_objects::cases());
     cases.extend(accel_build::cases());
     cases.extend(accel_attach::cases());
