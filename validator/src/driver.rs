@@ -19,8 +19,8 @@ use crate::state::Handle;
 
 /// A shape holds at most this many usage counts: a valid opacity build has
 /// at most 2 formats x 13 levels of distinct ones, a displacement build
-/// 3 x 6, so a longer list repeats entries; the driver is not asked about it
-/// and a cache keyed by shapes holds keys of bounded size.
+/// 3 x 6, so a longer list repeats entries; no answer is looked up or asked
+/// for it, and a cache keyed by shapes holds keys of bounded size.
 pub const MAX_SHAPE_USAGES: usize = 64;
 
 /// `vkGetMicromapBuildSizesEXT`'s `buildType`: which kind of build the sizes
@@ -216,7 +216,14 @@ impl DriverAnswers {
         info: &MicromapBuildInfo,
         device: &Device,
     ) -> Option<MicromapBuildSizes> {
-        if !self.any() {
+        // A longer list is no shape (see MAX_SHAPE_USAGES): nothing is
+        // copied of it.
+        let too_long = info
+            .usage_counts
+            .usages_read()
+            .nth(MAX_SHAPE_USAGES)
+            .is_some();
+        if !self.any() || too_long {
             return None;
         }
         let shape = MicromapBuildShape::of(info);
@@ -318,6 +325,13 @@ mod tests {
         assert!(MicromapBuildShape::queryable(&many, &device).is_some());
         many.usage_counts = UsageCounts::array(vec![usage; MAX_SHAPE_USAGES + 1]);
         assert!(MicromapBuildShape::queryable(&many, &device).is_none());
+        // Nor is a stated answer looked up for it.
+        let mut answers = DriverAnswers::default();
+        answers.state_micromap_build_sizes(MicromapBuildShape::of(&many), Default::default());
+        assert_eq!(
+            answers.micromap_build_sizes(BuildType::Device, &many, &device),
+            None
+        );
         let mut both = info(OPACITY_MICROMAP_FORMAT_2_STATE, 0);
         both.usage_counts.pointers = Some(vec![Some(usage)]);
         assert!(MicromapBuildShape::queryable(&both, &device).is_none());
