@@ -80,8 +80,11 @@ pub(crate) fn build_sizes(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: 
                 ctx.checked(&[dst_size.into()]);
             }
         }
-        if side == Side::Device && info.mode == BUILD_MICROMAP_MODE_BUILD_EXT {
-            scratch_range(ctx, i, info, sizes);
+        if info.mode == BUILD_MICROMAP_MODE_BUILD_EXT {
+            match side {
+                Side::Device => scratch_range(ctx, i, info, sizes),
+                _ => host_scratch_range(ctx, i, info, sizes),
+            }
         }
     }
 }
@@ -243,4 +246,32 @@ pub(crate) fn needs_scratch(
                 .micromap_build_sizes(build_type, info, ctx.device)
         })
         .is_none_or(|sizes| sizes.build_scratch_size != 0)
+}
+
+/// 07556 with the driver's answer: `[scratchData, + buildScratchSize)`
+/// inside host memory the application described, where it described all
+/// of it (a NULL scratch is `micromap_build`'s finding).
+fn host_scratch_range(
+    ctx: &mut Ctx<'_>,
+    i: usize,
+    info: &MicromapBuildInfo,
+    sizes: MicromapBuildSizes,
+) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    let (start, len) = (info.scratch_data, sizes.build_scratch_size);
+    if start == 0 || len == 0 || !state.describes_all_host_memory() {
+        return;
+    }
+    ctx.require(
+        state.read_host(start, len).is_some(),
+        host::pInfos_07556,
+        || format!("pInfos[{i}].scratchData.hostAddress"),
+        || {
+            format!(
+                "the buildScratchSize {len} bytes vkGetMicromapBuildSizesEXT returns for this build, from {start:#x}, do not lie in one block of the host memory the application described"
+            )
+        },
+    );
 }
