@@ -862,9 +862,10 @@ unsafe extern "system" fn write_micromaps_properties(
                 stride,
             )
         },
-        // SAFETY: the next layer's function, with the application's arguments.
+        // SAFETY: the next layer's function, with the application's
+        // arguments; then what it wrote, kept for the serialization checks.
         |next| unsafe {
-            next(
+            let result = next(
                 device,
                 micromap_count,
                 micromaps,
@@ -872,7 +873,17 @@ unsafe extern "system" fn write_micromaps_properties(
                 data_size,
                 data,
                 stride,
-            )
+            );
+            if result == vk::Result::SUCCESS {
+                let written = (data.cast_const(), data_size, stride);
+                crate::driver_answers::remember_serialization_sizes(
+                    device,
+                    read::array(micromaps, micromap_count),
+                    query_type,
+                    written,
+                );
+            }
+            result
         },
     )
 }
@@ -896,8 +907,12 @@ unsafe extern "system" fn get_micromap_build_sizes(
                 size_info.cast_const(),
             )
         },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, build_type, build_info, size_info) },
+        // SAFETY: the next layer's function, with the application's
+        // arguments; then what it wrote, kept for the build checks.
+        |next| unsafe {
+            next(device, build_type, build_info, size_info);
+            crate::driver_answers::remember(device, build_type, build_info, size_info);
+        },
     );
 }
 

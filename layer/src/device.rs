@@ -271,9 +271,11 @@ pub unsafe extern "system" fn create_device(
                     pipe: Default::default(),
                     shadows: Shadows::new(settings.gpu_readback_max_bytes),
                     submissions: Default::default(),
+                    driver_sizes: None,
                 }),
                 readback_arena: Default::default(),
             });
+            crate::driver_answers::install(&data);
             let messages: Vec<Message> = findings
                 .iter()
                 .map(|finding| Message::from_finding(finding, device_object(handle)))
@@ -947,6 +949,9 @@ unsafe extern "system" fn build_micromaps(
                     } else {
                         Vec::new()
                     };
+                    // SAFETY: the application's arguments, valid as the API
+                    // requires.
+                    unsafe { crate::driver_answers::map_destinations(state, info_count, infos) };
                     // SAFETY: the application's arguments, valid as the API
                     // requires; mapped ranges stay readable until unmapped.
                     unsafe {

@@ -39,6 +39,7 @@ mod commands;
 mod completion;
 mod device;
 mod dispatch;
+mod driver_answers;
 mod instance;
 mod pipe;
 mod pipelines;

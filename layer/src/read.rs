@@ -513,6 +513,37 @@ pub unsafe fn mapped_bytes(address: usize, len: usize) -> Arc<[u8]> {
 /// them. Chains are linked by hand through raw pointers: ash's `push_next`
 /// keeps a `&mut` to the chained structure, which Stacked Borrows rejects
 /// once the chain is read through the head.
+/// The `VkDeviceSize` results a size query wrote to `data`: the `k`-th
+/// at `k * stride` bytes in, for `k < count`, as far as `data_size` bytes
+/// hold them (at most [`MAX_ELEMENTS`]); empty for NULL.
+///
+/// # Safety
+/// A non-NULL `data` must point to `data_size` readable bytes, as the
+/// query's `pData` does once it returned.
+pub unsafe fn device_sizes(
+    data: *const c_void,
+    data_size: usize,
+    stride: usize,
+    count: u32,
+) -> Vec<u64> {
+    if data.is_null() {
+        return Vec::new();
+    }
+    let size = std::mem::size_of::<u64>();
+    let count = usize::try_from(count)
+        .unwrap_or(usize::MAX)
+        .min(MAX_ELEMENTS);
+    (0..count)
+        .map_while(|k| {
+            let at = k.checked_mul(stride)?;
+            (at.checked_add(size)? <= data_size).then_some(at)
+        })
+        // SAFETY: `at + 8 <= data_size`, inside what the caller guarantees
+        // readable; the results need not be aligned.
+        .map(|at| unsafe { data.cast::<u8>().add(at).cast::<u64>().read_unaligned() })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use std::ffi::{c_void, CStr};
@@ -934,5 +965,22 @@ mod tests {
         // SAFETY: bytes 4..12 of a live allocation whose provenance is exposed.
         let copy = unsafe { mapped_bytes(address + 4, 8) };
         assert_eq!(&copy[..], &memory[4..12]);
+    }
+
+    #[test]
+    fn device_sizes_stop_where_the_data_ends() {
+        let data: [u64; 3] = [10, 20, 30];
+        let bytes = std::mem::size_of_val(&data);
+        // SAFETY: `data` holds `bytes` readable bytes.
+        let read = |size, stride, count| unsafe {
+            device_sizes(data.as_ptr().cast(), size, stride, count)
+        };
+        assert_eq!(read(bytes, 8, 3), [10, 20, 30]);
+        assert_eq!(read(bytes, 16, 3), [10, 30]);
+        assert_eq!(read(bytes - 1, 8, 3), [10, 20]);
+        assert_eq!(read(bytes, 8, u32::MAX), [10, 20, 30]);
+        assert_eq!(read(bytes, usize::MAX, 2), [10]);
+        // SAFETY: NULL is never read.
+        assert!(unsafe { device_sizes(std::ptr::null(), 8, 8, 1) }.is_empty());
     }
 }

@@ -97,7 +97,12 @@ fn unreadable_reason(state: &DeviceState, buffer: Handle) -> &'static str {
 
 /// Where `[offset, offset + len)` of `buffer` lies in host memory the
 /// application has mapped, if all of it does (at most [`MAX_HOST_BYTES`]).
-fn mapped_address(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> Option<usize> {
+pub(crate) fn mapped_address(
+    state: &DeviceState,
+    buffer: Handle,
+    offset: u64,
+    len: u64,
+) -> Option<usize> {
     if len > MAX_HOST_BYTES {
         return None;
     }

@@ -782,9 +782,23 @@ fn valid_calls_reach_the_driver_and_come_back_as_without_the_layer() {
     let (through_layer, seen_through) = run(&mut app, Through::Layer);
     fake::describe_calls(false);
 
-    // The layer added, dropped and changed nothing, but for one usage bit:
-    // build inputs gain TRANSFER_SRC, so GPU readback (on by default) may
-    // copy them.
+    // The layer asks the driver for the sizes of the micromap builds'
+    // shapes (with no addresses: the query reads none), once per shape
+    // and build type: the device build's shape the application asked about
+    // itself, so only the host build's is asked.
+    let (own, through_layer): (Vec<_>, Vec<_>) = through_layer.into_iter().partition(|c| {
+        c.name == "vkGetMicromapBuildSizesEXT"
+            && c.detail
+                .contains("data=0x0 scratch=0x0 triangles=0x0 stride=0")
+    });
+    assert_eq!(
+        own.iter().map(|c| c.args[0]).collect::<Vec<_>>(),
+        [vk::AccelerationStructureBuildTypeKHR::HOST.as_raw() as u64],
+        "{own:?}"
+    );
+    // Otherwise the layer added, dropped and changed nothing, but for one
+    // usage bit: build inputs gain TRANSFER_SRC, so GPU readback (on by
+    // default) may copy them.
     assert_eq!(through_layer.len(), driver_alone.len());
     for (with, without) in through_layer.iter().zip(&driver_alone) {
         let mut with = with.clone();

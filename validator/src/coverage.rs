@@ -231,6 +231,10 @@ pub fn measured_tier(id: &str) -> Option<Tier> {
 pub enum Status {
     /// Enforced by the named check module.
     Enforced(&'static str),
+    /// Enforced by the named check module in the layer only: it needs what
+    /// only the layer has (the second member says what), which scenes and
+    /// the static API do not state.
+    LayerOnly(&'static str, &'static str),
     /// Cannot be decided at the API boundary, for the reason given.
     NotDecidable(&'static str),
     /// Not checked yet.
@@ -248,6 +252,9 @@ pub fn statuses() -> BTreeMap<Vuid, Status> {
             out.insert(*v, Status::Enforced(module.module));
         }
     }
+    for (v, module, needs) in checks::layer_only() {
+        out.insert(v, Status::LayerOnly(module, needs));
+    }
     out
 }
 
@@ -255,7 +262,10 @@ pub fn statuses() -> BTreeMap<Vuid, Status> {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Tally {
     pub total: usize,
+    /// Enforced anywhere, the layer-only ones included.
     pub enforced: usize,
+    /// Of `enforced`, those only the layer decides.
+    pub layer_only: usize,
     pub not_decidable: usize,
     pub khronos: usize,
 }
@@ -265,6 +275,10 @@ impl Tally {
         self.total += 1;
         match status {
             Status::Enforced(_) => self.enforced += 1,
+            Status::LayerOnly(..) => {
+                self.enforced += 1;
+                self.layer_only += 1;
+            }
             Status::NotDecidable(_) => self.not_decidable += 1,
             Status::NotYet => {}
         }
@@ -283,7 +297,7 @@ pub fn distinct_rules(statuses: &BTreeMap<Vuid, Status>) -> (usize, usize, usize
             }
         }
     }
-    let enforced = |s: &&Status| matches!(s, Status::Enforced(_));
+    let enforced = |s: &&Status| matches!(s, Status::Enforced(_) | Status::LayerOnly(..));
     let all = by_number
         .values()
         .filter(|s| s.iter().all(enforced))
@@ -319,15 +333,16 @@ pub fn render(tiers: &BTreeMap<String, Tier>) -> String {
     let (rules_total, rules_all, rules_some, rules_undecidable) = distinct_rules(&statuses);
     let _ = writeln!(
         w,
-        "| | total | enforced | not decidable | not yet | Khronos |"
+        "| | total | enforced | of which in the layer only | not decidable | not yet | Khronos |"
     );
-    let _ = writeln!(w, "| --- | ---: | ---: | ---: | ---: | ---: |");
+    let _ = writeln!(w, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
     for (name, t) in [("explicit VUIDs", explicit), ("implicit VUIDs", implicit)] {
         let _ = writeln!(
             w,
-            "| {name} | {} | {} | {} | {} | {} |",
+            "| {name} | {} | {} | {} | {} | {} | {} |",
             t.total,
             t.enforced,
+            t.layer_only,
             t.not_decidable,
             t.total - t.enforced - t.not_decidable,
             t.khronos
@@ -336,6 +351,10 @@ pub fn render(tiers: &BTreeMap<String, Tier>) -> String {
     let _ = writeln!(
         w,
         "\nDistinct explicit rules (by VUID number): {rules_total}; enforced on every command they apply to: {rules_all}; on some: {rules_some}; not decidable: {rules_undecidable}.\n"
+    );
+    let _ = writeln!(
+        w,
+        "\"In the layer only\": enforced by the layer, which asks the driver or follows what the application maps, but not by scenes or the static API, which cannot state what the rule needs (the status of each says what); layer tests hold them, not corpus scenes.\n"
     );
 
     let _ = writeln!(w, "## Tiers\n");
@@ -438,6 +457,9 @@ pub fn render(tiers: &BTreeMap<String, Tier>) -> String {
     for (v, status) in &statuses {
         let status = match status {
             Status::Enforced(module) => format!("enforced (`{module}`)"),
+            Status::LayerOnly(module, needs) => {
+                format!("enforced in the layer only (`{module}`): {needs}")
+            }
             Status::NotDecidable(reason) => format!("not decidable: {reason}"),
             Status::NotYet => "not yet".to_string(),
         };
@@ -514,6 +536,23 @@ mod tests {
                 assert!(
                     !seen.contains_key(v),
                     "{v} is both enforced and not decidable"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn layer_only_vuids_are_declared_nowhere_else() {
+        let layer_only = checks::layer_only();
+        assert!(!layer_only.is_empty());
+        for (v, module, needs) in layer_only {
+            assert!(!needs.is_empty(), "{v}");
+            assert_eq!(statuses()[&v], Status::LayerOnly(module, needs));
+            for declared in checks::coverage() {
+                assert!(!declared.enforced.contains(&v), "{v} is also enforced");
+                assert!(
+                    !declared.not_decidable.iter().any(|(u, _)| *u == v),
+                    "{v} is also not decidable"
                 );
             }
         }

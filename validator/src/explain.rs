@@ -89,6 +89,10 @@ fn enforcement(rule: Rule) -> (bool, String) {
         Rule::Own(_) => (true, "enforced (a rule of ours)".to_string()),
         Rule::Vuid(v) => match STATUSES.get_or_init(coverage::statuses).get(&v) {
             Some(Status::Enforced(module)) => (true, format!("enforced (checks::{module})")),
+            Some(Status::LayerOnly(module, needs)) => (
+                true,
+                format!("enforced in the layer only (checks::{module}): {needs}"),
+            ),
             Some(Status::NotDecidable(reason)) => (
                 false,
                 format!("not enforced: not decidable at the API boundary: {reason}"),

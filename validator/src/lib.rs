@@ -118,6 +118,7 @@ pub use ommcheck_vuids as vuids;
 pub mod checks;
 pub mod coverage;
 pub mod device;
+pub mod driver;
 pub mod explain;
 pub mod model;
 pub mod not_checked;

@@ -207,6 +207,15 @@ pub struct State {
     /// What recorded work does when it runs, the submissions that ran it,
     /// and what the host saw complete (`checks::execution`).
     pub execution: execution::Execution,
+    /// The driver's answers (build sizes) stated or asked for, which the
+    /// rules comparing against them read (`checks::driver_sizes`).
+    pub driver: crate::driver::DriverAnswers,
+    /// Micromap → the host address where the application has mapped the
+    /// memory backing it, all of it: what a host build's scratch may
+    /// collide with (`VUID-vkBuildMicromapsEXT-dstMicromap-11668`). An
+    /// adaptor that follows `vkMapMemory` (the layer) sets it before a host
+    /// build; scenes do not describe mappings.
+    pub mapped_micromaps: BTreeMap<Handle, u64>,
 }
 
 impl State {

@@ -19,6 +19,8 @@ use crate::report::Report;
 use crate::state::{Buffer, HostRange, MemoryBinding};
 use crate::validator::Validator;
 
+mod driver_answers;
+
 /// Memory a program holds on the host, as the checker reads it: its bytes
 /// (little-endian, as Vulkan reads them) and the address a program passes
 /// to Vulkan for it (`hostAddress`).

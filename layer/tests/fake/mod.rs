@@ -708,6 +708,54 @@ unsafe extern "system" fn cmd_copy_micromap(
     });
 }
 
+unsafe extern "system" fn cmd_copy_micromap_to_memory(
+    cb: vk::CommandBuffer,
+    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+) {
+    let i = unsafe { &*info };
+    let dst = unsafe { i.dst.device_address };
+    record(
+        "vkCmdCopyMicromapToMemoryEXT",
+        vec![cb.as_raw(), i.src.as_raw(), dst],
+    );
+}
+
+/// The serialization size the fake driver reports for every micromap.
+pub const SERIALIZATION_SIZE: u64 = 512;
+
+/// Writes [`SERIALIZATION_SIZE`] (or, for compacted sizes, 256) for each
+/// micromap at `stride` intervals.
+unsafe extern "system" fn write_micromaps_properties(
+    _: vk::Device,
+    count: u32,
+    _: *const vk::MicromapEXT,
+    query_type: vk::QueryType,
+    data_size: usize,
+    data: *mut c_void,
+    stride: usize,
+) -> vk::Result {
+    let size = if query_type == vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT {
+        SERIALIZATION_SIZE
+    } else {
+        256
+    };
+    for k in 0..count as usize {
+        if k * stride + 8 <= data_size {
+            unsafe {
+                data.cast::<u8>()
+                    .add(k * stride)
+                    .cast::<u64>()
+                    .write_unaligned(size)
+            };
+        }
+    }
+    record(
+        "vkWriteMicromapsPropertiesEXT",
+        vec![u64::from(count), query_type.as_raw() as u64],
+    );
+    vk::Result::SUCCESS
+}
+
 /// Fills the opacity micromap properties chained in `properties`.
 unsafe extern "system" fn get_properties2(
     _: vk::PhysicalDevice,
@@ -1142,7 +1190,7 @@ unsafe extern "system" fn get_micromap_build_sizes(
     let triangles: u64 = usage.iter().map(|u| u64::from(u.count)).sum();
     let out = unsafe { &mut *out };
     out.micromap_size = 1024 + 8 * triangles;
-    out.build_scratch_size = 4096 + triangles;
+    out.build_scratch_size = 2048 + triangles;
     out.discardable = vk::TRUE;
     record_with(
         "vkGetMicromapBuildSizesEXT",
@@ -1260,6 +1308,12 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkBeginCommandBuffer" => void(begin_command_buffer as vk::PFN_vkBeginCommandBuffer),
         b"vkEndCommandBuffer" => void(end_command_buffer as vk::PFN_vkEndCommandBuffer),
         b"vkCmdCopyMicromapEXT" => void(cmd_copy_micromap as vk::PFN_vkCmdCopyMicromapEXT),
+        b"vkCmdCopyMicromapToMemoryEXT" => {
+            void(cmd_copy_micromap_to_memory as vk::PFN_vkCmdCopyMicromapToMemoryEXT)
+        }
+        b"vkWriteMicromapsPropertiesEXT" => {
+            void(write_micromaps_properties as vk::PFN_vkWriteMicromapsPropertiesEXT)
+        }
         b"vkCmdBeginRenderPass" => void(cmd_begin_render_pass as vk::PFN_vkCmdBeginRenderPass),
         b"vkCmdEndRenderPass" => void(cmd_end_render_pass as vk::PFN_vkCmdEndRenderPass),
         b"vkCmdBeginRendering" => void(cmd_begin_rendering as vk::PFN_vkCmdBeginRendering),

@@ -11,8 +11,9 @@ use crate::checks::common::{
     self, decode_entries, readable_entries, usage_counts_match_triangles, CleanRun,
     CommandBufferVuids, Tally, TriangleEntry, TriangleHistogram,
 };
-use crate::checks::hygiene;
 use crate::checks::Coverage;
+use crate::checks::{driver_sizes, hygiene};
+use crate::driver::BuildType;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
@@ -84,12 +85,7 @@ pub const COVERAGE: Coverage = Coverage {
         host::dstMicromap_11667,
         host::scratchData_11669,
     ],
-    not_decidable: &[
-        (cmd::pInfos_07461, "needs the implementation's build size from vkGetMicromapBuildSizesEXT, which only the driver computes"),
-        (host::pInfos_07461, "needs the implementation's build size from vkGetMicromapBuildSizesEXT, which only the driver computes"),
-        (cmd::pInfos_07509, "needs the implementation's buildScratchSize, which only the driver computes"),
-        (host::dstMicromap_11668, "the destination is device memory the host reaches through a mapping; the scratch size is the implementation's"),
-    ],
+    not_decidable: &[],
 };
 
 /// Whether the command reads device or host memory, or (a size query) none.
@@ -235,7 +231,10 @@ impl Validator {
                     );
                 }
             }
-            if info.usage_counts.total() > 0 && info.scratch_data == 0 {
+            if info.usage_counts.total() > 0
+                && info.scratch_data == 0
+                && driver_sizes::needs_scratch(&ctx, info, BuildType::Host)
+            {
                 ctx.error(
                     host::pInfos_07556,
                     format!("{at}.scratchData.hostAddress"),
@@ -244,6 +243,8 @@ impl Validator {
             }
         }
         overlaps(&mut ctx, infos, Side::Host);
+        crate::checks::driver_sizes::build_sizes(&mut ctx, infos, Side::Host);
+        crate::checks::driver_sizes::host_scratch_overlaps(&mut ctx, infos);
         let report = ctx.finish();
         self.record_builds(infos, contents);
         self.defer(deferred_operation);
@@ -263,6 +264,7 @@ impl Validator {
         let mut contents = contents.into_iter();
         for info in infos {
             let content = contents.next().flatten();
+            self.state.driver.forget_micromap(info.dst_micromap);
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
                 micromap.built = Some(BuildRecord {
                     flags: info.flags,
@@ -366,7 +368,8 @@ pub(crate) fn cmd_build_micromaps_rules(
         if info.scratch_data != 0 {
             if ctx.state.is_some_and(|state| {
                 state.knows_addresses() && state.buffers_at(info.scratch_data).next().is_none()
-            }) {
+            }) && driver_sizes::needs_scratch(ctx, info, BuildType::Device)
+            {
                 ctx.error(
                     cmd::pInfos_07512,
                     format!("{at}.scratchData.deviceAddress"),
@@ -399,6 +402,7 @@ pub(crate) fn cmd_build_micromaps_rules(
         );
     }
     overlaps(ctx, infos, Side::Device);
+    crate::checks::driver_sizes::build_sizes(ctx, infos, Side::Device);
     contents
 }
 
@@ -461,7 +465,8 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
             cmd::scratchData_11651,
         ),
         // Host scratch is host memory; the destination is device memory
-        // reached through a mapping, so 11668 is not decided (see COVERAGE).
+        // reached through a mapping: 11668 is decided where the mapping is
+        // known (checks::driver_sizes), not here.
         Side::Host | Side::SizeQuery => (
             host::dstMicromap_11667,
             host::dstMicromap_11668,

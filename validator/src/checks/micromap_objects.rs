@@ -29,7 +29,7 @@ use crate::state::execution::{ExecEvent, ReadRule};
 use crate::state::{Handle, MemoryBinding, Micromap};
 use crate::validator::{Ctx, Validator};
 
-const SERIALIZED_SIZE: &str = "the serialization size is the implementation's, returned only through a query the GPU or driver writes";
+const SERIALIZED_SOURCE: &str = "needs the micromap whose serialization src holds (the size used to serialize it): serialized data passes through application memory and storage the checker does not follow";
 const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
 pub const COVERAGE: Coverage = Coverage {
@@ -186,10 +186,9 @@ pub const COVERAGE: Coverage = Coverage {
         host_from_memory::deferredOperation_03678,
     ],
     not_decidable: &[
-        (to_memory_info::dst_07541, SERIALIZED_SIZE),
-        (from_memory_info::dst_07550, SERIALIZED_SIZE),
+        (from_memory_info::dst_07550, SERIALIZED_SOURCE),
         (from_memory_info::src_07547, SERIALIZED_DATA),
-        (from_memory_info::src_07549, "compatibility of serialized data with a device is what vkGetDeviceMicromapCompatibilityEXT reports, which only the driver decides"),
+        (from_memory_info::src_07549, "needs the serialized header in src and the driver's vkGetDeviceMicromapCompatibilityEXT answer for it: a device copy's header is device memory an earlier serialization writes on the GPU timeline, and a host copy's is application memory the layer reads only inside a mapping; ommcheck neither reads nor asks about it"),
     ],
 };
 
@@ -356,6 +355,7 @@ impl Validator {
         }
         self.state.micromaps.remove(&micromap);
         self.state.execution.forget(micromap);
+        self.state.driver.forget_micromap(micromap);
         report
     }
 
@@ -427,6 +427,7 @@ impl Validator {
                 cmd_to_memory::pInfo_07537,
                 "pInfo->dst.deviceAddress",
             );
+            crate::checks::driver_sizes::serialized_size_fits(&mut ctx, info, false);
         }
         let report = ctx.finish();
         if let Some(info) = info {
@@ -558,6 +559,7 @@ impl Validator {
                 host_to_memory::pInfo_07570,
                 "pInfo->dst.hostAddress",
             );
+            crate::checks::driver_sizes::serialized_size_fits(&mut ctx, info, true);
         }
         let mut report = ctx.finish();
         if let Some(info) = info {

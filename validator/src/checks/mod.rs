@@ -10,6 +10,7 @@ pub mod accel_build;
 pub(crate) mod common;
 pub mod device_contents;
 pub mod execution;
+pub mod driver_sizes;
 pub(crate) mod hygiene;
 pub mod micromap_build;
 pub mod micromap_objects;
@@ -24,10 +25,21 @@ pub struct Coverage {
     pub not_decidable: &'static [(Vuid, &'static str)],
 }
 
+/// VUIDs decided only in the layer, with what it needs that a scene
+/// cannot state: they are enforced there (with layer tests), not in the
+/// scene corpus.
+pub fn layer_only() -> Vec<(Vuid, &'static str, &'static str)> {
+    driver_sizes::LAYER_ONLY
+        .iter()
+        .map(|&(v, needs)| (v, "driver_sizes", needs))
+        .collect()
+}
+
 /// Every module's declaration.
 pub fn coverage() -> Vec<Coverage> {
     vec![
         micromap_build::COVERAGE,
+        driver_sizes::COVERAGE,
         micromap_objects::COVERAGE,
         accel_build::COVERAGE,
         accel_attach::COVERAGE,

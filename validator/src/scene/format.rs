@@ -61,6 +61,10 @@ pub struct SceneFile {
     /// belong to another `VkDevice`, not the one the calls run on.
     #[serde(default)]
     pub other_device_objects: Vec<String>,
+    /// What the driver answered to size queries (`vkGetMicromapBuildSizesEXT`),
+    /// for the rules that compare against its answers.
+    #[serde(default)]
+    pub driver_answers: DriverAnswersDesc,
     /// The API calls, checked in order.
     pub calls: Vec<Call>,
     /// Candidate hits `ommcheck trace` simulates after the calls, each on a
@@ -1708,7 +1712,9 @@ impl<'de> Deserialize<'de> for Call {
 }
 
 // Device, pipeline, shader, synchronization, query and cluster calls.
+mod driver;
 mod pipeline;
+pub use driver::*;
 pub use pipeline::*;
 // Command buffer, submission, wait and query-reset calls.
 mod execution;

@@ -181,6 +181,7 @@ impl Scene {
                     deferred_operations: Vec::new(),
                     command_buffers: Vec::new(),
                     other_device_objects: Vec::new(),
+                    driver_answers: Default::default(),
                     calls: Vec::new(),
                     rays: Vec::new(),
                 },

@@ -48,6 +48,7 @@ pub struct Problem {
 type Result<T> = std::result::Result<T, Problem>;
 
 mod execution;
+mod driver;
 mod pipeline;
 
 fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {
@@ -283,6 +284,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
         validator,
     };
     resolver.declare(scene)?;
+    resolver.state_driver_answers(&scene.driver_answers)?;
     let mut report = Report::new();
     for (i, call) in scene.calls.iter().enumerate() {
         let at = format!("calls[{i}]");

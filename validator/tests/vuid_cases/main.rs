@@ -7,6 +7,7 @@ mod accel_attach;
 mod accel_build;
 mod clean_runs;
 mod execution;
+mod driver_sizes;
 mod fixtures;
 mod micromap_build;
 mod micromap_objects;
@@ -37,6 +38,7 @@ pub fn case(rule: impl Into<RuleId>, failing: fn() -> Report, passing: fn() -> R
 fn all_cases() -> Vec<Case> {
     let mut cases = Vec::new();
     cases.extend(micromap_build::cases());
+    cases.extend(driver_sizes::cases());
     cases.extend(micromap_objects::cases());
     cases.extend(accel_build::cases());
     cases.extend(accel_attach::cases());
