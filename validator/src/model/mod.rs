@@ -8,6 +8,7 @@ pub mod command;
 pub mod micromap;
 pub mod micromap_objects;
 pub mod pipeline;
+pub mod query;
 pub mod values;
 
 pub use command::CommandBuffer;

@@ -1400,6 +1400,58 @@ params!(
     }
 );
 
+params!(
+    /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`.
+    CopyAccelerationStructureToMemory {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_info: CopyAccelerationStructureToMemoryInfoDesc,
+    }
+);
+
+params!(
+    /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`.
+    CopyMemoryToAccelerationStructure {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_info: CopyMemoryToAccelerationStructureInfoDesc,
+    }
+);
+
+params!(
+    /// `vkWriteAccelerationStructuresPropertiesKHR(device,
+    /// accelerationStructureCount, pAccelerationStructures, queryType,
+    /// dataSize, pData, stride)`.
+    WriteAccelerationStructuresProperties {
+        #[serde(default)] device: HandleArg,
+        p_acceleration_structures: Vec<HandleArg>,
+        query_type: Value<names::QueryType>,
+        #[serde(default)] data_size: u64,
+        #[serde(default)] p_data: AddressArg,
+        #[serde(default)] stride: u64,
+    }
+);
+
+params!(
+    /// `vkCmdResetQueryPool(commandBuffer, queryPool, firstQuery, queryCount)`.
+    CmdResetQueryPool {
+        #[serde(default)] command_buffer: CommandBufferArg,
+        #[serde(default)] query_pool: HandleArg,
+        #[serde(default)] first_query: u32,
+        query_count: u32,
+    }
+);
+
+params!(
+    /// `vkResetQueryPool(device, queryPool, firstQuery, queryCount)`.
+    ResetQueryPool {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] query_pool: HandleArg,
+        #[serde(default)] first_query: u32,
+        query_count: u32,
+    }
+);
+
 /// One API call: `{"call": "vkCmdBuildMicromapsEXT", ...parameters}`.
 #[derive(Debug, JsonSchema)]
 #[serde(tag = "call")]
@@ -1452,6 +1504,16 @@ pub enum Call {
     CmdCopyAccelerationStructureToMemory(CmdCopyAccelerationStructureToMemory),
     #[serde(rename = "vkCmdCopyMemoryToAccelerationStructureKHR")]
     CmdCopyMemoryToAccelerationStructure(CmdCopyMemoryToAccelerationStructure),
+    #[serde(rename = "vkCopyAccelerationStructureToMemoryKHR")]
+    CopyAccelerationStructureToMemory(CopyAccelerationStructureToMemory),
+    #[serde(rename = "vkCopyMemoryToAccelerationStructureKHR")]
+    CopyMemoryToAccelerationStructure(CopyMemoryToAccelerationStructure),
+    #[serde(rename = "vkWriteAccelerationStructuresPropertiesKHR")]
+    WriteAccelerationStructuresProperties(WriteAccelerationStructuresProperties),
+    #[serde(rename = "vkCmdResetQueryPool")]
+    CmdResetQueryPool(CmdResetQueryPool),
+    #[serde(rename = "vkResetQueryPool")]
+    ResetQueryPool(ResetQueryPool),
     #[serde(rename = "vkCreateDevice")]
     CreateDevice(CreateDevice),
     #[serde(rename = "vkGetPhysicalDeviceProperties2")]
@@ -1535,7 +1597,7 @@ pub fn work_call_names() -> impl Iterator<Item = &'static str> {
 const CALL_SUGGESTIONS: usize = 3;
 
 /// Every call name a scene may use, for messages and docs.
-pub const CALL_NAMES: [&str; 45] = [
+pub const CALL_NAMES: [&str; 50] = [
     "vkCreateMicromapEXT",
     "vkDestroyMicromapEXT",
     "vkCmdBuildMicromapsEXT",
@@ -1560,6 +1622,11 @@ pub const CALL_NAMES: [&str; 45] = [
     "vkCopyAccelerationStructureKHR",
     "vkCmdCopyAccelerationStructureToMemoryKHR",
     "vkCmdCopyMemoryToAccelerationStructureKHR",
+    "vkCopyAccelerationStructureToMemoryKHR",
+    "vkCopyMemoryToAccelerationStructureKHR",
+    "vkWriteAccelerationStructuresPropertiesKHR",
+    "vkCmdResetQueryPool",
+    "vkResetQueryPool",
     "vkCreateDevice",
     "vkGetPhysicalDeviceProperties2",
     "vkCreateShaderModule",
@@ -1641,6 +1708,17 @@ impl Tagged for Call {
             "vkCmdCopyMemoryToAccelerationStructureKHR" => {
                 Call::CmdCopyMemoryToAccelerationStructure(De::deserialize(rest)?)
             }
+            "vkCopyAccelerationStructureToMemoryKHR" => {
+                Call::CopyAccelerationStructureToMemory(De::deserialize(rest)?)
+            }
+            "vkCopyMemoryToAccelerationStructureKHR" => {
+                Call::CopyMemoryToAccelerationStructure(De::deserialize(rest)?)
+            }
+            "vkWriteAccelerationStructuresPropertiesKHR" => {
+                Call::WriteAccelerationStructuresProperties(De::deserialize(rest)?)
+            }
+            "vkCmdResetQueryPool" => Call::CmdResetQueryPool(De::deserialize(rest)?),
+            "vkResetQueryPool" => Call::ResetQueryPool(De::deserialize(rest)?),
             "vkCreateDevice" => Call::CreateDevice(De::deserialize(rest)?),
             "vkGetPhysicalDeviceProperties2" => {
                 Call::GetPhysicalDeviceProperties2(De::deserialize(rest)?)
