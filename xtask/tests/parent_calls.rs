@@ -49,17 +49,7 @@ const READ_FROM_MEMORY: &[(&str, &[&str])] = &[
 ];
 
 fn registry() -> Option<PathBuf> {
-    let path = xtask::default_registry().join("vk.xml");
-    if path.exists() {
-        return Some(path);
-    }
-    assert!(
-        !xtask::testing::in_ci(),
-        "{}: missing; CI must have ../shared",
-        path.display()
-    );
-    eprintln!("skipping: {} not present", path.display());
-    None
+    xtask::testing::shared_registry().map(|dir| dir.join("vk.xml"))
 }
 
 /// For each command of vk.xml (aliases resolved to the commands they
