@@ -1163,6 +1163,19 @@ unsafe extern "system" fn copy_acceleration_structure(
     vk::Result::SUCCESS
 }
 
+unsafe extern "system" fn copy_memory_to_acceleration_structure(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+) -> vk::Result {
+    record_with(
+        "vkCopyMemoryToAccelerationStructureKHR",
+        vec![d.as_raw(), op.as_raw()],
+        || format!("dst={:#x}", unsafe { &*info }.dst.as_raw()),
+    );
+    vk::Result::SUCCESS
+}
+
 unsafe extern "system" fn free_command_buffers(
     _: vk::Device,
     pool: vk::CommandPool,
@@ -1289,6 +1302,9 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCopyAccelerationStructureKHR" => {
             void(copy_acceleration_structure as vk::PFN_vkCopyAccelerationStructureKHR)
         }
+        b"vkCopyMemoryToAccelerationStructureKHR" => void(
+            copy_memory_to_acceleration_structure as vk::PFN_vkCopyMemoryToAccelerationStructureKHR,
+        ),
         b"vkFreeCommandBuffers" => void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
         b"vkDestroyCommandPool" => void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),
         _ => gpu_command(name),
