@@ -46,6 +46,8 @@ pub struct AccelFns {
         Option<vk::PFN_vkCmdCopyAccelerationStructureToMemoryKHR>,
     pub cmd_copy_memory_to_acceleration_structure:
         Option<vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR>,
+    pub copy_memory_to_acceleration_structure:
+        Option<vk::PFN_vkCopyMemoryToAccelerationStructureKHR>,
     pub cmd_copy_micromap: Option<vk::PFN_vkCmdCopyMicromapEXT>,
     pub copy_micromap: Option<vk::PFN_vkCopyMicromapEXT>,
     pub cmd_copy_micromap_to_memory: Option<vk::PFN_vkCmdCopyMicromapToMemoryEXT>,
@@ -113,6 +115,10 @@ impl AccelFns {
             cmd_copy_memory_to_acceleration_structure: load!(
                 c"vkCmdCopyMemoryToAccelerationStructureKHR",
                 vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR
+            ),
+            copy_memory_to_acceleration_structure: load!(
+                c"vkCopyMemoryToAccelerationStructureKHR",
+                vk::PFN_vkCopyMemoryToAccelerationStructureKHR
             ),
             cmd_copy_micromap: load!(c"vkCmdCopyMicromapEXT", vk::PFN_vkCmdCopyMicromapEXT),
             copy_micromap: load!(c"vkCopyMicromapEXT", vk::PFN_vkCopyMicromapEXT),
@@ -199,6 +205,9 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdCopyMemoryToAccelerationStructureKHR" => as_void(
             cmd_copy_memory_to_acceleration_structure
                 as vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR,
+        ),
+        b"vkCopyMemoryToAccelerationStructureKHR" => as_void(
+            copy_memory_to_acceleration_structure as vk::PFN_vkCopyMemoryToAccelerationStructureKHR,
         ),
         b"vkCmdCopyMicromapEXT" => as_void(cmd_copy_micromap as vk::PFN_vkCmdCopyMicromapEXT),
         b"vkCopyMicromapEXT" => as_void(copy_micromap as vk::PFN_vkCopyMicromapEXT),
@@ -641,6 +650,27 @@ unsafe extern "system" fn cmd_copy_memory_to_acceleration_structure(
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(command_buffer, info) },
     );
+}
+
+unsafe extern "system" fn copy_memory_to_acceleration_structure(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+) -> vk::Result {
+    host_command(
+        "vkCopyMemoryToAccelerationStructureKHR",
+        device,
+        |f| f.accel.copy_memory_to_acceleration_structure,
+        // SAFETY: the application's arguments, valid as the API requires
+        // (src.hostAddress holds serialized data of the size its header states).
+        |state| unsafe {
+            state
+                .validator
+                .copy_memory_to_acceleration_structure_raw(info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
 }
 
 unsafe extern "system" fn cmd_copy_micromap(

@@ -11,18 +11,10 @@ use ommcheck::model::CommandBuffer;
 use ommcheck::raw::pipeline::{self as raw, MemoryMarkerInfoAMD};
 use ommcheck::{Report, Validator};
 
+use crate::commands;
 use crate::device::{check, device_and};
 use crate::dispatch::DeviceFns;
 use crate::guarded;
-
-/// The model of the command buffer a command is recorded in (its state is
-/// not tracked: taken to be recording).
-fn recording(command_buffer: vk::CommandBuffer) -> CommandBuffer {
-    CommandBuffer {
-        handle: command_buffer.as_raw(),
-        ..CommandBuffer::default()
-    }
-}
 
 /// Runs `body` as the check of a command recorded in `command_buffer`,
 /// then calls the next layer's function that `pick` selects with `call`
@@ -40,7 +32,7 @@ fn checked_command<F: Copy>(
         };
         let object = (vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw());
         let skip = check(&data, function, object, |state| {
-            body(&mut state.validator, &recording(command_buffer))
+            body(&mut state.validator, &commands::model(command_buffer))
         });
         if !skip {
             call(next);

@@ -589,3 +589,66 @@ fn negotiation_offers_interface_2_and_the_layer_entry_points() {
     let result = unsafe { layer::vkNegotiateLoaderLayerInterfaceVersion(&mut negotiate) };
     assert_eq!(result, vk::Result::ERROR_INITIALIZATION_FAILED);
 }
+
+/// A serialized bottom-level header of `size` bytes with one block of
+/// `block_type` holding `addresses`.
+fn serialized_header(block_type: u32, addresses: &[u64], size: usize) -> Vec<u8> {
+    let mut bytes = vec![0u8; size];
+    bytes[32..40].copy_from_slice(&(size as u64).to_le_bytes());
+    bytes[48..56].copy_from_slice(&(0xFFFF_FFFF_0000_0001u64).to_le_bytes());
+    bytes[56..60].copy_from_slice(&block_type.to_le_bytes());
+    bytes[64..72].copy_from_slice(&(addresses.len() as u64).to_le_bytes());
+    for (k, a) in addresses.iter().enumerate() {
+        bytes[72 + 8 * k..80 + 8 * k].copy_from_slice(&a.to_le_bytes());
+    }
+    bytes
+}
+
+#[test]
+fn a_host_deserialization_reads_the_blocks_of_its_header() {
+    // A device with the KHR micromap feature, which opacity-micromap blocks need.
+    let mut khr_micromap = ommcheck::vuids::khr::PhysicalDeviceOpacityMicromapFeaturesKHR {
+        micromap: vk::TRUE,
+        ..Default::default()
+    };
+    let (chain, result) = Chain::with_device_chain((&raw mut khr_micromap).cast());
+    assert_eq!(result, vk::Result::SUCCESS);
+    let blas = fake::app::AttachmentBuild::structure(&chain);
+    let copy: vk::PFN_vkCopyMemoryToAccelerationStructureKHR =
+        device_fn(chain.device, c"vkCopyMemoryToAccelerationStructureKHR");
+    let deserialize = |header: &[u8]| {
+        let info = vk::CopyMemoryToAccelerationStructureInfoKHR::default()
+            .src(vk::DeviceOrHostAddressConstKHR {
+                host_address: header.as_ptr().cast(),
+            })
+            .dst(blas)
+            .mode(vk::CopyAccelerationStructureModeKHR::DESERIALIZE);
+        // SAFETY: the header is readable for the size it states.
+        unsafe { copy(chain.device, vk::DeferredOperationKHR::null(), &info) }
+    };
+    // A block of type 7, no VkAccelerationStructureSerializedBlockTypeKHR.
+    let _ = deserialize(&serialized_header(7, &[], 128));
+    let received = chain.collector.take();
+    assert_eq!(
+        ids(&received),
+        ["VUID-VkCopyMemoryToAccelerationStructureInfoKHR-src-11583"],
+        "{received:#?}"
+    );
+    // An opacity-micromap block whose one address is NULL.
+    assert_eq!(
+        deserialize(&serialized_header(0, &[0], 128)),
+        vk::Result::SUCCESS
+    );
+    let received = chain.collector.take();
+    assert!(received.is_empty(), "{received:#?}");
+    // A block that claims more addresses than the stated size holds is read
+    // only as far as that size: the one address inside is checked.
+    let mut header = serialized_header(0, &[0x1234_0000], 80);
+    header[64..72].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let _ = deserialize(&header);
+    assert_eq!(
+        ids(&chain.collector.take()),
+        ["VUID-VkCopyMemoryToAccelerationStructureInfoKHR-dst-11585"]
+    );
+    assert_eq!(calls("vkCopyMemoryToAccelerationStructureKHR").len(), 3);
+}

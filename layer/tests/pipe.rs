@@ -143,6 +143,48 @@ fn a_micromap_write_outside_the_build_stage_reports_07457() {
     assert_eq!(calls("vkCmdPipelineBarrier2").len(), 2);
 }
 
+/// A barrier whose source side is ALL_COMMANDS with `src_access`, recorded
+/// into `command_buffer`.
+fn all_commands_barrier(chain: &Chain, command_buffer: vk::CommandBuffer, src_access: u64) {
+    let record: vk::PFN_vkCmdPipelineBarrier2 = device_fn(chain.device, c"vkCmdPipelineBarrier2");
+    let barriers = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        .src_access_mask(vk::AccessFlags2::from_raw(src_access))
+        .dst_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+        .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)];
+    let info = vk::DependencyInfo::default().memory_barriers(&barriers);
+    // SAFETY: a valid dependency info.
+    unsafe { record(command_buffer, &info) };
+}
+
+#[test]
+fn all_commands_stands_for_the_stages_of_the_pools_queue_family() {
+    let chain = Chain::new();
+    // Family 0 has compute: ALL_COMMANDS includes MICROMAP_BUILD and the
+    // shader stages.
+    let compute = chain.allocate_command_buffer();
+    all_commands_barrier(&chain, compute, ACCESS_MICROMAP_WRITE);
+    all_commands_barrier(&chain, compute, vk::AccessFlags2::SHADER_READ.as_raw());
+    let received = chain.collector.take();
+    assert!(received.is_empty(), "{received:#?}");
+    // Family 1 is transfer-only: it includes neither.
+    let transfer =
+        chain.command_buffer_from(chain.command_pool_of(1), vk::CommandBufferLevel::PRIMARY);
+    all_commands_barrier(&chain, transfer, ACCESS_MICROMAP_WRITE);
+    all_commands_barrier(&chain, transfer, vk::AccessFlags2::SHADER_READ.as_raw());
+    let received = chain.collector.take();
+    assert_eq!(
+        ids(&received),
+        [
+            "VUID-VkMemoryBarrier2-srcAccessMask-07457",
+            "OMMCHECK-sync-access-stage-on-queue"
+        ],
+        "{received:#?}"
+    );
+    assert!(received[0].text.contains("VK_QUEUE_TRANSFER_BIT"));
+    assert_eq!(calls("vkCmdPipelineBarrier2").len(), 4);
+}
+
 #[test]
 fn properties_chained_to_the_device_create_info_report_the_pnext_rule() {
     // A properties structure where features belong.

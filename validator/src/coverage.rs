@@ -67,6 +67,18 @@ pub fn corpus_tiers(corpus: &std::path::Path) -> Result<BTreeMap<String, Tier>, 
 /// [`rules::SIMULATE_TIER`].
 pub static READS_CONTENTS: &[(&str, &str)] = &[
     (
+        "VUID-VkCopyMemoryToAccelerationStructureInfoKHR-src-11583",
+        "the serialized header's blocks",
+    ),
+    (
+        "VUID-VkCopyMemoryToAccelerationStructureInfoKHR-dst-11584",
+        "the serialized header's blocks",
+    ),
+    (
+        "VUID-VkCopyMemoryToAccelerationStructureInfoKHR-dst-11585",
+        "the serialized header's blocks",
+    ),
+    (
         "OMMCHECK-build-usage-counts-match-triangles",
         "the triangle array's entries",
     ),

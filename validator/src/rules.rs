@@ -137,6 +137,16 @@ pub static CLUSTER_INDEX_OUTSIDE_CLUSTER: OwnRule = OwnRule {
     link: "https://docs.vulkan.org/spec/latest/chapters/accelstructures.html",
 };
 
+const SYNCHRONIZATION: &str = "https://docs.vulkan.org/spec/latest/chapters/synchronization.html";
+
+/// An access needs a stage able to perform it on the queue the barrier runs
+/// on; ALL_COMMANDS there is only the stages that queue supports.
+pub static ACCESS_STAGE_ON_QUEUE: OwnRule = OwnRule {
+    id: "OMMCHECK-sync-access-stage-on-queue",
+    statement: "\"An application must not specify an access flag in a synchronization command if it does not include a pipeline stage in the corresponding stage mask that is able to perform accesses of that type.\" \"VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT specifies all operations performed by all commands supported on the queue it is used with.\" (On a queue family with neither VK_QUEUE_GRAPHICS_BIT nor VK_QUEUE_COMPUTE_BIT, ALL_COMMANDS includes no stage that can perform VK_ACCESS_2_SHADER_READ_BIT: the shader stages, ACCELERATION_STRUCTURE_BUILD and MICROMAP_BUILD all need one of them. 07454 lists ALL_COMMANDS itself, so this case is reported under this id rather than 07454.)",
+    link: SYNCHRONIZATION,
+};
+
 // The not-checked information ids below are about the checker, not rules a
 // call is checked against (like the layer's own ids), so they are not in
 // `ALL`; `crate::not_checked::Cause` lists them.
@@ -190,6 +200,7 @@ pub static ALL: &[&OwnRule] = &[
     &DUPLICATE_DATA,
     &OVERLAPPING_DATA,
     &CLUSTER_INDEX_OUTSIDE_CLUSTER,
+    &ACCESS_STAGE_ON_QUEUE,
 ];
 
 /// The rules the checks decide only from the simulate tier up: the hygiene

@@ -12,6 +12,22 @@ pub fn in_ci() -> bool {
     std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0")
 }
 
+/// The registry directory (`../shared/vulkan-registry`) for the tests that
+/// read it; None (the test skips) where it is missing outside CI.
+pub fn shared_registry() -> Option<std::path::PathBuf> {
+    let dir = crate::default_registry();
+    if dir.join("vk.xml").exists() {
+        return Some(dir);
+    }
+    assert!(
+        !in_ci(),
+        "{}: missing; CI must have ../shared",
+        dir.display()
+    );
+    eprintln!("skipping: {} not present", dir.display());
+    None
+}
+
 /// A system prerequisite of the test suite.
 struct Prerequisite {
     what: &'static str,

@@ -4,17 +4,7 @@
 use std::path::{Path, PathBuf};
 
 fn registry() -> Option<PathBuf> {
-    let dir = xtask::default_registry();
-    if dir.join("vk.xml").exists() {
-        return Some(dir);
-    }
-    assert!(
-        !xtask::testing::in_ci(),
-        "{}: missing; CI must have ../shared",
-        dir.display()
-    );
-    eprintln!("skipping: {} not present", dir.display());
-    None
+    xtask::testing::shared_registry()
 }
 
 #[test]

@@ -41,8 +41,14 @@ impl Chain {
 
     /// A command pool of queue family 0 (graphics, compute and transfer).
     pub fn command_pool(&self) -> vk::CommandPool {
+        self.command_pool_of(0)
+    }
+
+    /// A command pool of `family` (0: graphics, compute and transfer; 1:
+    /// transfer only).
+    pub fn command_pool_of(&self, family: u32) -> vk::CommandPool {
         let create: vk::PFN_vkCreateCommandPool = device_fn(self.device, c"vkCreateCommandPool");
-        let info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
+        let info = vk::CommandPoolCreateInfo::default().queue_family_index(family);
         let mut pool = vk::CommandPool::null();
         // SAFETY: valid arguments.
         let result = unsafe { create(self.device, &info, std::ptr::null(), &mut pool) };

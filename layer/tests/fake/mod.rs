@@ -450,28 +450,37 @@ unsafe extern "system" fn build_micromaps(
     vk::Result::SUCCESS
 }
 
-/// One queue family with graphics, compute and transfer.
+/// The queue families: 0 with graphics, compute and transfer, 1 with
+/// transfer only (for the rules that depend on a pool's family).
+const QUEUE_FAMILIES: [vk::QueueFlags; 2] = [
+    vk::QueueFlags::from_raw(
+        vk::QueueFlags::GRAPHICS.as_raw()
+            | vk::QueueFlags::COMPUTE.as_raw()
+            | vk::QueueFlags::TRANSFER.as_raw(),
+    ),
+    vk::QueueFlags::TRANSFER,
+];
+
 unsafe extern "system" fn get_queue_family_properties(
     _: vk::PhysicalDevice,
     count: *mut u32,
     out: *mut vk::QueueFamilyProperties,
 ) {
     if out.is_null() {
-        unsafe { *count = 1 };
+        unsafe { *count = QUEUE_FAMILIES.len() as u32 };
         return;
     }
-    if unsafe { *count } >= 1 {
+    let written = (unsafe { *count } as usize).min(QUEUE_FAMILIES.len());
+    for (i, flags) in QUEUE_FAMILIES.iter().take(written).enumerate() {
         unsafe {
-            *out = vk::QueueFamilyProperties {
-                queue_flags: vk::QueueFlags::GRAPHICS
-                    | vk::QueueFlags::COMPUTE
-                    | vk::QueueFlags::TRANSFER,
+            *out.add(i) = vk::QueueFamilyProperties {
+                queue_flags: *flags,
                 queue_count: 1,
                 ..Default::default()
             };
-            *count = 1;
         }
     }
+    unsafe { *count = written as u32 };
 }
 
 unsafe extern "system" fn create_command_pool(
@@ -1234,6 +1243,19 @@ unsafe extern "system" fn copy_acceleration_structure(
     vk::Result::SUCCESS
 }
 
+unsafe extern "system" fn copy_memory_to_acceleration_structure(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+) -> vk::Result {
+    record_with(
+        "vkCopyMemoryToAccelerationStructureKHR",
+        vec![d.as_raw(), op.as_raw()],
+        || format!("dst={:#x}", unsafe { &*info }.dst.as_raw()),
+    );
+    vk::Result::SUCCESS
+}
+
 unsafe extern "system" fn free_command_buffers(
     _: vk::Device,
     pool: vk::CommandPool,
@@ -1370,6 +1392,9 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCopyAccelerationStructureKHR" => {
             void(copy_acceleration_structure as vk::PFN_vkCopyAccelerationStructureKHR)
         }
+        b"vkCopyMemoryToAccelerationStructureKHR" => void(
+            copy_memory_to_acceleration_structure as vk::PFN_vkCopyMemoryToAccelerationStructureKHR,
+        ),
         b"vkFreeCommandBuffers" => void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
         b"vkDestroyCommandPool" => void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),
         _ => gpu_command(name),

@@ -35,7 +35,7 @@ use crate::checks::common::{
     self, bytes_available, decode_entries, readable_entries, usage_counts_match_triangles,
     CleanRun, Tally, TriangleEntry, TriangleHistogram,
 };
-use crate::checks::{accel_attach, hygiene, Coverage};
+use crate::checks::{accel_attach, hygiene, serialized, Coverage};
 use crate::device::Limits;
 use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
@@ -58,8 +58,7 @@ use crate::state::{
 use crate::tier::Tier;
 use crate::validator::{Ctx, Validator};
 
-const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by device-memory contents that GPU copies write at execution time, not visible at the API boundary";
-const SERIALIZED_HEADER: &str = "the serialized header is device memory that an earlier serialization writes on the GPU timeline; its blocks exist only when the copy executes, not at the API boundary";
+const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by memory contents that serializations (GPU copies at execution time, or host copies) write in an implementation's opaque format, not visible at the API boundary";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "accel_build",
@@ -116,14 +115,14 @@ pub const COVERAGE: Coverage = Coverage {
         // The id names the other copy command; the catalog files it (like
         // the specification) under the one whose src is a device address.
         cmd_from_memory::VUID_vkCmdCopyAccelerationStructureToMemoryKHR_pInfo_11700,
+        from_memory_info::src_11583,
+        from_memory_info::dst_11584,
+        from_memory_info::dst_11585,
     ],
     not_decidable: &[
         (to_memory_info::src_11582, DESERIALIZED_MICROMAPS),
         (cmd_copy::src_11634, DESERIALIZED_MICROMAPS),
         (host_copy::src_11587, DESERIALIZED_MICROMAPS),
-        (from_memory_info::src_11583, SERIALIZED_HEADER),
-        (from_memory_info::dst_11584, SERIALIZED_HEADER),
-        (from_memory_info::dst_11585, SERIALIZED_HEADER),
     ],
 };
 
@@ -455,9 +454,10 @@ impl Validator {
     }
 
     /// `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`:
-    /// deserializing an opacity micromap needs 128-byte alignment. The rules
-    /// on the serialized header are not decidable; what the destination
-    /// holds afterwards is whatever was serialized, so its recorded build is
+    /// deserializing an opacity micromap needs 128-byte alignment, and the
+    /// blocks of a bottom-level serialized header are checked where its
+    /// contents are known (see `serialized`); what the destination holds
+    /// afterwards is whatever was serialized, so its recorded build is
     /// forgotten.
     pub fn cmd_copy_memory_to_acceleration_structure(
         &mut self,
@@ -480,12 +480,9 @@ impl Validator {
                 "pInfo->src.deviceAddress",
             );
         }
+        serialized::check(&mut ctx, false, info);
         let report = ctx.finish();
-        // The serialized source's build is not known to the checker.
-        if let Some(dst) = self.state.acceleration_structures.get_mut(&info.dst) {
-            dst.built = None;
-        }
-        self.state.original_attachments.remove(&info.dst);
+        forget_deserialized(&mut self.state, info);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
             command_buffer,
@@ -494,6 +491,58 @@ impl Validator {
         );
         report
     }
+
+    /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`:
+    /// the host serialization. Its one micromap rule (11582, on the info
+    /// structure) is not decidable, and the 128-byte alignment of serialized
+    /// opacity micromaps (11699) is stated for the device command only.
+    pub fn copy_acceleration_structure_to_memory(
+        &mut self,
+        info: &CopyAccelerationStructureToMemoryInfo,
+    ) -> Report {
+        let _ = info;
+        self.ctx("vkCopyAccelerationStructureToMemoryKHR").finish()
+    }
+
+    /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`:
+    /// the host deserialization, whose serialized header is host memory
+    /// (11583, 11584, 11585); what the destination holds afterwards is
+    /// whatever was serialized, so its recorded build is forgotten.
+    pub fn copy_memory_to_acceleration_structure(
+        &mut self,
+        info: &CopyMemoryToAccelerationStructureInfo,
+    ) -> Report {
+        let mut ctx = self.ctx("vkCopyMemoryToAccelerationStructureKHR");
+        serialized::check(&mut ctx, true, info);
+        let report = ctx.finish();
+        forget_deserialized(&mut self.state, info);
+        report
+    }
+
+    /// `vkWriteAccelerationStructuresPropertiesKHR(device,
+    /// accelerationStructureCount, pAccelerationStructures, queryType,
+    /// dataSize, pData, stride)`. No micromap rule names it: a KHR opacity
+    /// micromap's sizes are queried like any acceleration structure's.
+    pub fn write_acceleration_structures_properties(
+        &mut self,
+        structures: &[Handle],
+        query_type: i32,
+        data_size: u64,
+        stride: u64,
+    ) -> Report {
+        let _ = (structures, query_type, data_size, stride);
+        self.ctx("vkWriteAccelerationStructuresPropertiesKHR")
+            .finish()
+    }
+}
+
+/// A deserialization leaves in its destination a build the checker did not
+/// see.
+fn forget_deserialized(state: &mut State, info: &CopyMemoryToAccelerationStructureInfo) {
+    if let Some(dst) = state.acceleration_structures.get_mut(&info.dst) {
+        dst.built = None;
+    }
+    state.original_attachments.remove(&info.dst);
 }
 
 /// The type an acceleration structure was built with, or (not built through

@@ -15,6 +15,7 @@ pub(crate) mod hygiene;
 pub mod micromap_build;
 pub mod micromap_objects;
 pub mod pipeline_sync;
+mod serialized;
 
 /// A module's coverage declaration.
 pub struct Coverage {

@@ -586,10 +586,10 @@ unsafe fn host_instances(
 
 /// A host range the checks may read: where, how many bytes (None: the
 /// extent overflows), and what it is called in findings.
-struct HostRead {
-    address: u64,
-    extent: Option<u64>,
-    location: String,
+pub(super) struct HostRead {
+    pub(super) address: u64,
+    pub(super) extent: Option<u64>,
+    pub(super) location: String,
 }
 
 /// The host ranges of a host build whose extent the API describes: each
@@ -629,7 +629,7 @@ impl Validator {
     /// # Safety
     /// A non-zero `read.address` must be a host pointer readable for
     /// `read.extent` bytes.
-    unsafe fn describe_host_range(
+    pub(super) unsafe fn describe_host_range(
         &mut self,
         read: &HostRead,
         function: &'static str,

@@ -11,7 +11,9 @@
 use ash::vk;
 
 use super::accel::{address, scratch_address};
-use super::{bounded_len, chain_s_types, micromap_build_info, read_array, MAX_ELEMENTS};
+use super::{
+    bounded_len, chain_s_types, micromap_build_info, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
+};
 use crate::model::accel::{
     CopyAccelerationStructureInfo, CopyAccelerationStructureToMemoryInfo,
     CopyMemoryToAccelerationStructureInfo,
@@ -442,20 +444,56 @@ impl Validator {
         let mut findings = Vec::new();
         let function = "vkCmdCopyMemoryToAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| CopyMemoryToAccelerationStructureInfo {
-                s_type: i.s_type.as_raw(),
-                // SAFETY: forwarded from the caller.
-                next: chain_s_types(i.p_next, function, "pInfo", &mut findings),
-                src: address(&i.src),
-                dst: vk::Handle::as_raw(i.dst),
-                mode: i.mode.as_raw(),
-            })
-        };
+        let model = unsafe { copy_memory_to_as_info(info, function, &mut findings) };
         let Some(model) = model else {
             return Report::from(findings);
         };
         let report = self.cmd_copy_memory_to_acceleration_structure(command_buffer, &model);
+        with_findings(findings, report)
+    }
+
+    /// Checks `vkCopyMemoryToAccelerationStructureKHR(device,
+    /// deferredOperation, pInfo)`: the serialized header at
+    /// `pInfo->src.hostAddress` is read as far as its blocks reach, within
+    /// the serialized size it states and at most [`MAX_HOST_BYTES`].
+    ///
+    /// # Safety
+    /// A non-NULL `info` must point to a
+    /// `VkCopyMemoryToAccelerationStructureInfoKHR` with a well-formed pNext
+    /// chain whose non-NULL `src.hostAddress` points to serialized data as
+    /// the API requires: a header of at least 56 bytes, readable for the
+    /// serialized size the header states.
+    pub unsafe fn copy_memory_to_acceleration_structure_raw(
+        &mut self,
+        info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+    ) -> Report {
+        let mut findings = Vec::new();
+        let function = "vkCopyMemoryToAccelerationStructureKHR";
+        // SAFETY: forwarded from the caller.
+        let model = unsafe { copy_memory_to_as_info(info, function, &mut findings) };
+        let Some(model) = model else {
+            return Report::from(findings);
+        };
+        let described_before = self.state.host_memory.len();
+        let partial_before = self.state.host_memory_partial;
+        self.state.host_memory_partial = partial_before || described_before == 0;
+        if let Ok(src) = usize::try_from(model.src) {
+            if src != 0 {
+                let read = super::accel::HostRead {
+                    address: model.src,
+                    // SAFETY: forwarded from the caller.
+                    extent: Some(unsafe { serialized_header_extent(src) }),
+                    location: "pInfo->src.hostAddress".into(),
+                };
+                // SAFETY: the caller guarantees the header is readable for
+                // the extent, which lies within the size it states.
+                unsafe { self.describe_host_range(&read, function, &mut findings) };
+            }
+        }
+        let report = self.copy_memory_to_acceleration_structure(&model);
+        // Host memory read for this call is forgotten after it.
+        self.state.host_memory.truncate(described_before);
+        self.state.host_memory_partial = partial_before;
         with_findings(findings, report)
     }
 
@@ -598,5 +636,102 @@ unsafe fn copy_as_info(
         src: vk::Handle::as_raw(info.src),
         dst: vk::Handle::as_raw(info.dst),
         mode: info.mode.as_raw(),
+    }
+}
+
+/// The model of a `VkCopyMemoryToAccelerationStructureInfoKHR` (None for NULL).
+///
+/// # Safety
+/// A non-NULL `info` must point to the structure with a well-formed pNext chain.
+unsafe fn copy_memory_to_as_info(
+    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> Option<CopyMemoryToAccelerationStructureInfo> {
+    // SAFETY: forwarded from the caller.
+    unsafe {
+        optional(info, |i| CopyMemoryToAccelerationStructureInfo {
+            s_type: i.s_type.as_raw(),
+            // SAFETY: forwarded from the caller.
+            next: chain_s_types(i.p_next, function, "pInfo", findings),
+            src: address(&i.src),
+            dst: vk::Handle::as_raw(i.dst),
+            mode: i.mode.as_raw(),
+        })
+    }
+}
+
+/// The bytes of the serialized header at host address `src` that the
+/// checks read: the 56 bytes every header has, and for a block-based
+/// (bottom-level) header its blocks, as far as they lie inside the
+/// serialized size the header states (offset 32) and [`MAX_HOST_BYTES`].
+///
+/// # Safety
+/// `src` must point to serialized acceleration-structure data: at least 56
+/// readable bytes, and readable for the serialized size the header states.
+unsafe fn serialized_header_extent(src: usize) -> u64 {
+    const FIXED: u64 = 56;
+    let base = std::ptr::with_exposed_provenance::<u8>(src);
+    // SAFETY: only called with `offset + 8` within the readable bytes.
+    let word = |offset: u64| unsafe { base.add(offset as usize).cast::<u64>().read_unaligned() };
+    let bound = word(32).clamp(FIXED, MAX_HOST_BYTES);
+    let packed = word(48);
+    if packed >> 32 != 0xFFFF_FFFF {
+        return FIXED;
+    }
+    let mut at = FIXED;
+    for _ in 0..(packed & 0xFFFF_FFFF) {
+        let Some(header_end) = at.checked_add(16).filter(|end| *end <= bound) else {
+            return at;
+        };
+        let addresses = word(at + 8);
+        match addresses
+            .checked_mul(8)
+            .and_then(|n| header_end.checked_add(n))
+            .filter(|end| *end <= bound)
+        {
+            Some(end) => at = end,
+            None => return bound,
+        }
+    }
+    at
+}
+
+#[cfg(test)]
+mod tests {
+    use super::serialized_header_extent;
+
+    /// A header stating `size` bytes, block-based with `blocks` blocks, the
+    /// first holding `addresses` addresses (of which `present` are written).
+    fn header(size: u64, blocks: u32, addresses: u64, present: usize) -> Vec<u8> {
+        let mut bytes = vec![0u8; 72 + 8 * present];
+        bytes[32..40].copy_from_slice(&size.to_le_bytes());
+        bytes[48..56].copy_from_slice(&(0xFFFF_FFFF_0000_0000 | u64::from(blocks)).to_le_bytes());
+        bytes[64..72].copy_from_slice(&addresses.to_le_bytes());
+        bytes
+    }
+
+    fn extent(bytes: &[u8]) -> u64 {
+        // SAFETY: every header here is readable for the size it states.
+        unsafe { serialized_header_extent(bytes.as_ptr().expose_provenance()) }
+    }
+
+    #[test]
+    fn the_header_extent_ends_after_the_last_block() {
+        assert_eq!(extent(&header(88, 1, 2, 2)), 88);
+        // Not block-based: only the fixed 56 bytes.
+        let mut top_level = header(80, 1, 1, 1);
+        top_level[52..56].copy_from_slice(&[0; 4]);
+        assert_eq!(extent(&top_level), 56);
+    }
+
+    #[test]
+    fn counts_past_the_stated_size_stop_at_it() {
+        // One block claiming 2^61 addresses, and a second block past the
+        // stated size: neither is read beyond the 80 bytes.
+        assert_eq!(extent(&header(80, 2, 1 << 61, 1)), 80);
+        // A stated size below the fixed part still reads the fixed part.
+        let short = header(8, 0, 0, 0);
+        assert_eq!(extent(&short), 56);
     }
 }

@@ -1404,6 +1404,38 @@ params!(
     }
 );
 
+params!(
+    /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`.
+    CopyAccelerationStructureToMemory {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_info: CopyAccelerationStructureToMemoryInfoDesc,
+    }
+);
+
+params!(
+    /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`.
+    CopyMemoryToAccelerationStructure {
+        #[serde(default)] device: HandleArg,
+        #[serde(default)] deferred_operation: HandleArg,
+        p_info: CopyMemoryToAccelerationStructureInfoDesc,
+    }
+);
+
+params!(
+    /// `vkWriteAccelerationStructuresPropertiesKHR(device,
+    /// accelerationStructureCount, pAccelerationStructures, queryType,
+    /// dataSize, pData, stride)`.
+    WriteAccelerationStructuresProperties {
+        #[serde(default)] device: HandleArg,
+        p_acceleration_structures: Vec<HandleArg>,
+        query_type: Value<names::QueryType>,
+        #[serde(default)] data_size: u64,
+        #[serde(default)] p_data: AddressArg,
+        #[serde(default)] stride: u64,
+    }
+);
+
 /// One API call: `{"call": "vkCmdBuildMicromapsEXT", ...parameters}`.
 #[derive(Debug, JsonSchema)]
 #[serde(tag = "call")]
@@ -1456,6 +1488,12 @@ pub enum Call {
     CmdCopyAccelerationStructureToMemory(CmdCopyAccelerationStructureToMemory),
     #[serde(rename = "vkCmdCopyMemoryToAccelerationStructureKHR")]
     CmdCopyMemoryToAccelerationStructure(CmdCopyMemoryToAccelerationStructure),
+    #[serde(rename = "vkCopyAccelerationStructureToMemoryKHR")]
+    CopyAccelerationStructureToMemory(CopyAccelerationStructureToMemory),
+    #[serde(rename = "vkCopyMemoryToAccelerationStructureKHR")]
+    CopyMemoryToAccelerationStructure(CopyMemoryToAccelerationStructure),
+    #[serde(rename = "vkWriteAccelerationStructuresPropertiesKHR")]
+    WriteAccelerationStructuresProperties(WriteAccelerationStructuresProperties),
     #[serde(rename = "vkCreateDevice")]
     CreateDevice(CreateDevice),
     #[serde(rename = "vkGetPhysicalDeviceProperties2")]
@@ -1542,7 +1580,7 @@ pub fn work_call_names() -> impl Iterator<Item = &'static str> {
 const CALL_SUGGESTIONS: usize = 3;
 
 /// Every call name a scene may use, for messages and docs.
-pub const CALL_NAMES: [&str; 45] = [
+pub const CALL_NAMES: [&str; 48] = [
     "vkCreateMicromapEXT",
     "vkDestroyMicromapEXT",
     "vkCmdBuildMicromapsEXT",
@@ -1567,6 +1605,9 @@ pub const CALL_NAMES: [&str; 45] = [
     "vkCopyAccelerationStructureKHR",
     "vkCmdCopyAccelerationStructureToMemoryKHR",
     "vkCmdCopyMemoryToAccelerationStructureKHR",
+    "vkCopyAccelerationStructureToMemoryKHR",
+    "vkCopyMemoryToAccelerationStructureKHR",
+    "vkWriteAccelerationStructuresPropertiesKHR",
     "vkCreateDevice",
     "vkGetPhysicalDeviceProperties2",
     "vkCreateShaderModule",
@@ -1647,6 +1688,15 @@ impl Tagged for Call {
             }
             "vkCmdCopyMemoryToAccelerationStructureKHR" => {
                 Call::CmdCopyMemoryToAccelerationStructure(De::deserialize(rest)?)
+            }
+            "vkCopyAccelerationStructureToMemoryKHR" => {
+                Call::CopyAccelerationStructureToMemory(De::deserialize(rest)?)
+            }
+            "vkCopyMemoryToAccelerationStructureKHR" => {
+                Call::CopyMemoryToAccelerationStructure(De::deserialize(rest)?)
+            }
+            "vkWriteAccelerationStructuresPropertiesKHR" => {
+                Call::WriteAccelerationStructuresProperties(De::deserialize(rest)?)
             }
             "vkCreateDevice" => Call::CreateDevice(De::deserialize(rest)?),
             "vkGetPhysicalDeviceProperties2" => {

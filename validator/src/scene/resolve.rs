@@ -1615,6 +1615,46 @@ impl Resolver<'_> {
             .collect()
     }
 
+    /// A `VkCopyAccelerationStructureToMemoryInfoKHR` at `at`.
+    fn copy_as_to_memory_info(
+        &self,
+        d: &super::format::CopyAccelerationStructureToMemoryInfoDesc,
+        at: &str,
+    ) -> Result<CopyAccelerationStructureToMemoryInfo> {
+        let defaults = CopyAccelerationStructureToMemoryInfo::default();
+        Ok(CopyAccelerationStructureToMemoryInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            src: self.handle(
+                &d.src,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.src"),
+            )?,
+            dst: self.address(&d.dst, &format!("{at}.dst"))?,
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
+    /// A `VkCopyMemoryToAccelerationStructureInfoKHR` at `at`.
+    fn copy_memory_to_as_info(
+        &self,
+        d: &super::format::CopyMemoryToAccelerationStructureInfoDesc,
+        at: &str,
+    ) -> Result<CopyMemoryToAccelerationStructureInfo> {
+        let defaults = CopyMemoryToAccelerationStructureInfo::default();
+        Ok(CopyMemoryToAccelerationStructureInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            src: self.address(&d.src, &format!("{at}.src"))?,
+            dst: self.handle(
+                &d.dst,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.dst"),
+            )?,
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
     fn micromap_list(
         &self,
         count: Option<u32>,
@@ -1996,39 +2036,46 @@ impl Resolver<'_> {
             }
             Call::CmdCopyAccelerationStructureToMemory(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let d = &c.p_info;
-                let defaults = CopyAccelerationStructureToMemoryInfo::default();
-                let info = CopyAccelerationStructureToMemoryInfo {
-                    s_type: s_type(d.s_type, defaults.s_type),
-                    next: chain(&d.p_next),
-                    src: self.handle(
-                        &d.src,
-                        ObjectKind::AccelerationStructure,
-                        &format!("{p_info}.src"),
-                    )?,
-                    dst: self.address(&d.dst, &format!("{p_info}.dst"))?,
-                    mode: d.mode.map_or(defaults.mode, Value::as_i32),
-                };
+                let info = self.copy_as_to_memory_info(&c.p_info, &p_info)?;
                 self.validator
                     .cmd_copy_acceleration_structure_to_memory(&command_buffer, &info)
             }
             Call::CmdCopyMemoryToAccelerationStructure(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let d = &c.p_info;
-                let defaults = CopyMemoryToAccelerationStructureInfo::default();
-                let info = CopyMemoryToAccelerationStructureInfo {
-                    s_type: s_type(d.s_type, defaults.s_type),
-                    next: chain(&d.p_next),
-                    src: self.address(&d.src, &format!("{p_info}.src"))?,
-                    dst: self.handle(
-                        &d.dst,
-                        ObjectKind::AccelerationStructure,
-                        &format!("{p_info}.dst"),
-                    )?,
-                    mode: d.mode.map_or(defaults.mode, Value::as_i32),
-                };
+                let info = self.copy_memory_to_as_info(&c.p_info, &p_info)?;
                 self.validator
                     .cmd_copy_memory_to_acceleration_structure(&command_buffer, &info)
+            }
+            Call::CopyAccelerationStructureToMemory(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                self.deferred_operation(&c.deferred_operation, at)?;
+                let info = self.copy_as_to_memory_info(&c.p_info, &p_info)?;
+                self.validator.copy_acceleration_structure_to_memory(&info)
+            }
+            Call::CopyMemoryToAccelerationStructure(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                self.deferred_operation(&c.deferred_operation, at)?;
+                let info = self.copy_memory_to_as_info(&c.p_info, &p_info)?;
+                self.validator.copy_memory_to_acceleration_structure(&info)
+            }
+            Call::WriteAccelerationStructuresProperties(c) => {
+                self.device_handle(&c.device, &device_at)?;
+                let structures = c
+                    .p_acceleration_structures
+                    .iter()
+                    .enumerate()
+                    .map(|(k, h)| {
+                        let at = format!("{at}.pAccelerationStructures[{k}]");
+                        self.handle(h, ObjectKind::AccelerationStructure, &at)
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                self.address(&c.p_data, &format!("{at}.pData"))?;
+                self.validator.write_acceleration_structures_properties(
+                    &structures,
+                    c.query_type.as_i32(),
+                    c.data_size,
+                    c.stride,
+                )
             }
             other => self.pipeline_call(other, at).unwrap_or_else(|| {
                 problem(at, format!("internal: the call {other:?} has no resolver"))

@@ -3,6 +3,7 @@
 
 use ommcheck::model::accel::*;
 use ommcheck::model::{MicromapTriangle, MicromapUsage, UsageCounts};
+use ommcheck::state::HostRange;
 use ommcheck::vuids::vuid::{
     vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
     vkCmdBuildAccelerationStructuresKHR as cmd,
@@ -13,7 +14,9 @@ use ommcheck::vuids::vuid::{
     VkAccelerationStructureCreateInfo2KHR as create_info2,
     VkAccelerationStructureCreateInfoKHR as create_info,
     VkAccelerationStructureGeometryKHR as geometry,
-    VkAccelerationStructureGeometryMicromapDataKHR as micromap, VkMicromapUsageKHR as usage_vuid,
+    VkAccelerationStructureGeometryMicromapDataKHR as micromap,
+    VkCopyMemoryToAccelerationStructureInfoKHR as from_memory_info,
+    VkMicromapUsageKHR as usage_vuid,
 };
 use ommcheck::{Device, Report, Tier, Validator};
 
@@ -252,6 +255,88 @@ fn deserialize_from(src: u64) -> Report {
             ..Default::default()
         },
     )
+}
+
+/// Where the host deserializations' serialized headers lie.
+const HOST_HEADER: u64 = 0x7200_0000;
+
+/// A serialized bottom-level header with one block of `block_type` holding
+/// `addresses` (the layout of vkCmdCopyAccelerationStructureToMemoryKHR).
+fn serialized_header(block_type: u32, addresses: &[u64]) -> Vec<u8> {
+    let mut bytes = vec![0u8; 72 + 8 * addresses.len()];
+    let size = bytes.len() as u64;
+    bytes[32..40].copy_from_slice(&size.to_le_bytes());
+    bytes[48..56].copy_from_slice(&0xFFFF_FFFF_0000_0001u64.to_le_bytes());
+    bytes[56..60].copy_from_slice(&block_type.to_le_bytes());
+    bytes[64..72].copy_from_slice(&(addresses.len() as u64).to_le_bytes());
+    for (k, a) in addresses.iter().enumerate() {
+        bytes[72 + 8 * k..80 + 8 * k].copy_from_slice(&a.to_le_bytes());
+    }
+    bytes
+}
+
+/// A header naming [`OMM_AS`]'s buffer (the fixtures' storage) and a NULL.
+fn valid_header() -> Vec<u8> {
+    serialized_header(0, &[STORAGE_ADDRESS, 0])
+}
+
+/// `vkCopyMemoryToAccelerationStructureKHR` into [`BLAS`] from `header` in
+/// host memory, on `device`.
+fn host_deserialize(device: Device, header: Vec<u8>) -> Report {
+    let mut v = world_with(device, &two_triangles());
+    v.state_mut().host_memory.push(HostRange {
+        address: HOST_HEADER,
+        bytes: header.into(),
+    });
+    v.copy_memory_to_acceleration_structure(&CopyMemoryToAccelerationStructureInfo {
+        src: HOST_HEADER,
+        dst: BLAS,
+        ..Default::default()
+    })
+}
+
+/// `vkCmdCopyMemoryToAccelerationStructureKHR` into [`BLAS`] from `header`
+/// at the start of the input buffer.
+fn device_deserialize(header: Vec<u8>) -> Report {
+    let mut v = world();
+    let mut bytes = vec![0u8; INPUT_SIZE as usize];
+    bytes[..header.len()].copy_from_slice(&header);
+    if let Some(mut input) = v.state_mut().buffers.get_mut(&INPUT) {
+        input.contents = Some(bytes.into());
+    }
+    v.cmd_copy_memory_to_acceleration_structure(
+        &command_buffer(),
+        &CopyMemoryToAccelerationStructureInfo {
+            src: INPUT_ADDRESS,
+            dst: BLAS,
+            ..Default::default()
+        },
+    )
+}
+
+fn serialized_header_cases() -> Vec<Case> {
+    vec![
+        case(
+            from_memory_info::src_11583,
+            || host_deserialize(device(), serialized_header(7, &[])),
+            || host_deserialize(device(), valid_header()),
+        ),
+        case(
+            from_memory_info::dst_11584,
+            || {
+                host_deserialize(
+                    device_without(|d| d.features.micromap_khr = false),
+                    valid_header(),
+                )
+            },
+            || host_deserialize(device(), valid_header()),
+        ),
+        case(
+            from_memory_info::dst_11585,
+            || device_deserialize(serialized_header(0, &[STORAGE_ADDRESS + 0x40])),
+            || device_deserialize(valid_header()),
+        ),
+    ]
 }
 
 /// A device with neither the KHR nor the EXT micromap feature.
@@ -759,6 +844,7 @@ pub fn cases() -> Vec<Case> {
         triangle_array_cases(),
         command_cases(),
         object_cases(),
+        serialized_header_cases(),
     ]
     .into_iter()
     .flatten()

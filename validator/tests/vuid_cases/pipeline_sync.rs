@@ -117,6 +117,25 @@ macro_rules! barrier_cases {
     };
 }
 
+/// A barrier whose destination is ALL_COMMANDS with SHADER_READ, recorded
+/// in a command buffer of a family with `queue_flags`.
+fn all_commands_shader_read(queue_flags: u32) -> Report {
+    let info = DependencyInfo {
+        memory_barriers: vec![Barrier {
+            src_stage_mask: TRANSFER,
+            src_access_mask: 0,
+            dst_stage_mask: STAGE_ALL_COMMANDS,
+            dst_access_mask: ACCESS_SHADER_READ,
+        }],
+        ..Default::default()
+    };
+    let cb = ommcheck::model::CommandBuffer {
+        queue_flags,
+        ..command_buffer()
+    };
+    Validator::new(device()).cmd_pipeline_barrier2(&cb, &info)
+}
+
 fn submit(stage_mask: u64) -> Report {
     let info = SemaphoreSubmitInfo {
         semaphore: 0x5e,
@@ -746,7 +765,13 @@ fn work_cases() -> Vec<Case> {
 }
 
 pub fn cases() -> Vec<Case> {
+    use ommcheck::model::command::queue;
     let mut cases = sync_cases();
+    cases.push(case(
+        &ommcheck::rules::ACCESS_STAGE_ON_QUEUE,
+        || all_commands_shader_read(queue::TRANSFER),
+        || all_commands_shader_read(queue::COMPUTE | queue::TRANSFER),
+    ));
     cases.extend(pipeline_cases());
     cases.extend(feature_cases());
     cases.extend(work_cases());

@@ -2,6 +2,7 @@
 //! source and destination side) and every stage mask that must not name the
 //! micromap-build stage while the micromap feature is off.
 
+use ash::vk;
 use ommcheck_vuids::vuid::{
     vkCmdResetEvent2 as reset_event, vkCmdWriteBufferMarker2AMD as buffer_marker,
     vkCmdWriteTimestamp2 as timestamp, VkBufferMemoryBarrier2 as buffer_barrier,
@@ -11,9 +12,11 @@ use ommcheck_vuids::vuid::{
 };
 use ommcheck_vuids::Vuid;
 
+use crate::model::command::queue;
 use crate::model::pipeline::*;
 use crate::model::CommandBuffer;
 use crate::report::Report;
+use crate::rules;
 use crate::state::Handle;
 use crate::validator::{Ctx, Validator};
 
@@ -102,9 +105,13 @@ impl Validator {
         command_buffer: &CommandBuffer,
         dependency_info: &DependencyInfo,
     ) -> Report {
-        let _ = command_buffer;
         let mut ctx = self.ctx("vkCmdPipelineBarrier2");
-        dependency(&mut ctx, "pDependencyInfo", dependency_info);
+        dependency(
+            &mut ctx,
+            command_buffer.queue_flags,
+            "pDependencyInfo",
+            dependency_info,
+        );
         ctx.finish()
     }
 
@@ -115,9 +122,14 @@ impl Validator {
         event: Handle,
         dependency_info: &DependencyInfo,
     ) -> Report {
-        let _ = (command_buffer, event);
+        let _ = event;
         let mut ctx = self.ctx("vkCmdSetEvent2");
-        dependency(&mut ctx, "pDependencyInfo", dependency_info);
+        dependency(
+            &mut ctx,
+            command_buffer.queue_flags,
+            "pDependencyInfo",
+            dependency_info,
+        );
         ctx.finish()
     }
 
@@ -128,10 +140,11 @@ impl Validator {
         events: &[Handle],
         dependency_infos: &[DependencyInfo],
     ) -> Report {
-        let _ = (command_buffer, events);
+        let _ = events;
         let mut ctx = self.ctx("vkCmdWaitEvents2");
         for (i, info) in dependency_infos.iter().enumerate() {
-            dependency(&mut ctx, &format!("pDependencyInfos[{i}]"), info);
+            let at = format!("pDependencyInfos[{i}]");
+            dependency(&mut ctx, command_buffer.queue_flags, &at, info);
         }
         ctx.finish()
     }
@@ -236,8 +249,9 @@ impl Validator {
     }
 }
 
-/// Every barrier of a `VkDependencyInfo` at `at`.
-fn dependency(ctx: &mut Ctx<'_>, at: &str, info: &DependencyInfo) {
+/// Every barrier of a `VkDependencyInfo` at `at`, recorded in a command
+/// buffer whose pool's queue family has `queue_flags`.
+fn dependency(ctx: &mut Ctx<'_>, queue_flags: u32, at: &str, info: &DependencyInfo) {
     let lists = [
         ("pMemoryBarriers", &info.memory_barriers, &MEMORY_BARRIER),
         (
@@ -259,47 +273,85 @@ fn dependency(ctx: &mut Ctx<'_>, at: &str, info: &DependencyInfo) {
     for (member, barriers, vuids) in lists {
         for (i, barrier) in barriers.iter().enumerate() {
             let base = format!("{at}.{member}[{i}]");
-            barrier_side(
-                ctx,
-                barrier.src_stage_mask,
-                barrier.src_access_mask,
-                &vuids.src,
-                &base,
-                "src",
-            );
-            barrier_side(
-                ctx,
-                barrier.dst_stage_mask,
-                barrier.dst_access_mask,
-                &vuids.dst,
-                &base,
-                "dst",
-            );
+            let sides = [
+                (
+                    barrier.src_stage_mask,
+                    barrier.src_access_mask,
+                    &vuids.src,
+                    "src",
+                ),
+                (
+                    barrier.dst_stage_mask,
+                    barrier.dst_access_mask,
+                    &vuids.dst,
+                    "dst",
+                ),
+            ];
+            for (stage_mask, access_mask, side_vuids, side) in sides {
+                let masks = SideMasks {
+                    stage_mask,
+                    access_mask,
+                    queue_flags,
+                };
+                barrier_side(ctx, masks, side_vuids, &base, side);
+            }
         }
     }
 }
 
-/// The stage mask of one side, and the accesses it must cover.
-fn barrier_side(
-    ctx: &mut Ctx<'_>,
+/// The masks of one side of a barrier, and the queue family it runs on.
+#[derive(Clone, Copy)]
+struct SideMasks {
     stage_mask: u64,
     access_mask: u64,
-    vuids: &SideVuids,
-    base: &str,
-    side: &str,
-) {
+    queue_flags: u32,
+}
+
+/// The stages among those these rules name that a queue family with
+/// `queue_flags` supports (vk.xml's `syncsupport`): what ALL_COMMANDS
+/// stands for there. The build stages and the compute and ray-tracing
+/// shaders need VK_QUEUE_COMPUTE_BIT; the graphics shader stages need
+/// VK_QUEUE_GRAPHICS_BIT.
+fn all_commands_on(queue_flags: u32) -> u64 {
+    let compute_stages = STAGE_ACCELERATION_STRUCTURE_BUILD
+        | STAGE_MICROMAP_BUILD
+        | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
+        | vk::PipelineStageFlags2::RAY_TRACING_SHADER_KHR.as_raw();
+    let mut stages = 0;
+    if queue_flags & queue::COMPUTE != 0 {
+        stages |= compute_stages;
+    }
+    if queue_flags & queue::GRAPHICS != 0 {
+        stages |= STAGE_ALL_GRAPHICS | (STAGES_SHADER & !compute_stages);
+    }
+    stages
+}
+
+/// The stage mask of one side, and the accesses it must cover.
+fn barrier_side(ctx: &mut Ctx<'_>, masks: SideMasks, vuids: &SideVuids, base: &str, side: &str) {
+    let SideMasks {
+        stage_mask,
+        access_mask,
+        queue_flags,
+    } = masks;
     let stage_at = || format!("{base}.{side}StageMask");
     no_micromap_stage(ctx, stage_mask, vuids.micromap_stage, &stage_at());
-    // ALL_COMMANDS stands for every stage, as the Khronos layer expands it.
-    let covers = |stages: u64| stage_mask & (stages | STAGE_ALL_COMMANDS) != 0;
+    // ALL_COMMANDS stands for the stages the queue family supports: on a
+    // queue without compute it includes neither build stage.
+    let on_queue = if stage_mask & STAGE_ALL_COMMANDS != 0 {
+        all_commands_on(queue_flags)
+    } else {
+        0
+    };
+    let covers = |stages: u64| (stage_mask | on_queue) & stages != 0;
+    let shader_read_stages =
+        STAGE_ACCELERATION_STRUCTURE_BUILD | STAGE_MICROMAP_BUILD | STAGES_SHADER;
     let requirements = [
         (
             ACCESS_SHADER_READ,
             "VK_ACCESS_2_SHADER_READ_BIT",
-            STAGE_ALL_GRAPHICS
-                | STAGE_ACCELERATION_STRUCTURE_BUILD
-                | STAGE_MICROMAP_BUILD
-                | STAGES_SHADER,
+            // 07454 names ALL_GRAPHICS and ALL_COMMANDS themselves.
+            STAGE_ALL_GRAPHICS | STAGE_ALL_COMMANDS | shader_read_stages,
             "ALL_GRAPHICS, ALL_COMMANDS, ACCELERATION_STRUCTURE_BUILD, MICROMAP_BUILD or a shader stage",
             vuids.shader_read,
         ),
@@ -320,12 +372,53 @@ fn barrier_side(
     ];
     for (access, access_name, stages, stages_name, vuid) in requirements {
         if access_mask & access != 0 && !covers(stages) {
+            let on = if stage_mask & STAGE_ALL_COMMANDS != 0 {
+                format!(
+                    " (ALL_COMMANDS on a queue family with {})",
+                    queue_flag_names(queue_flags)
+                )
+            } else {
+                String::new()
+            };
             ctx.error(
                 vuid,
                 stage_at(),
-                format!("{stage_mask:#x} includes none of {stages_name}, but {side}AccessMask {access_mask:#x} includes {access_name}"),
+                format!("{stage_mask:#x} includes none of {stages_name}{on}, but {side}AccessMask {access_mask:#x} includes {access_name}"),
             );
         }
+    }
+    // A shader read whose only stage is ALL_COMMANDS satisfies 07454's
+    // letter; on a queue where no stage can read through a shader it still
+    // names an access no stage of the mask performs.
+    let literal_shader_read = STAGE_ALL_GRAPHICS | shader_read_stages;
+    if access_mask & ACCESS_SHADER_READ != 0
+        && stage_mask & STAGE_ALL_COMMANDS != 0
+        && stage_mask & literal_shader_read == 0
+        && on_queue & shader_read_stages == 0
+    {
+        ctx.error(
+            &rules::ACCESS_STAGE_ON_QUEUE,
+            stage_at(),
+            format!("{stage_mask:#x} is ALL_COMMANDS on a queue family with {}, none of whose stages can perform VK_ACCESS_2_SHADER_READ_BIT, which {side}AccessMask {access_mask:#x} includes", queue_flag_names(queue_flags)),
+        );
+    }
+}
+
+/// `VkQueueFlags` as names, for messages.
+fn queue_flag_names(queue_flags: u32) -> String {
+    let names: Vec<&str> = [
+        (queue::GRAPHICS, "VK_QUEUE_GRAPHICS_BIT"),
+        (queue::COMPUTE, "VK_QUEUE_COMPUTE_BIT"),
+        (queue::TRANSFER, "VK_QUEUE_TRANSFER_BIT"),
+    ]
+    .into_iter()
+    .filter(|(bit, _)| queue_flags & bit != 0)
+    .map(|(_, name)| name)
+    .collect();
+    if names.is_empty() {
+        format!("queueFlags {queue_flags:#x}")
+    } else {
+        names.join(" | ")
     }
 }
 
