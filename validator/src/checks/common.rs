@@ -6,9 +6,13 @@ use std::fmt::Display;
 
 use ommcheck_vuids::Vuid;
 
+use crate::device::Limits;
 use crate::model::command::queue;
-use crate::model::micromap::UsageCounts;
-use crate::model::values::FormatKind;
+use crate::model::micromap::{MicromapUsage, UsageCounts};
+use crate::model::values::{
+    FormatKind, DISPLACEMENT_MICROMAP_FORMATS_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
+    OPACITY_MICROMAP_FORMAT_4_STATE,
+};
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::not_checked::Cause;
 use crate::report::count as count_of;
@@ -274,13 +278,6 @@ impl CleanRun {
     }
 }
 
-/// The entries of a block of a tightly packed triangle array.
-pub(crate) fn decode_entries(block: &[u8]) -> impl Iterator<Item = MicromapTriangle> + '_ {
-    block
-        .chunks_exact(8)
-        .map(|entry| MicromapTriangle::from_bytes(entry.try_into().expect("8 bytes")))
-}
-
 /// How many 8-byte entries at `stride` start inside `len` bytes and end
 /// inside them too: a bound, from the bytes there are, on what a loop over
 /// an untrusted count can read (1 at stride 0).
@@ -537,6 +534,137 @@ impl Tally {
     }
 }
 
+/// The level limits of `VkMicromapUsageEXT` entries: 2-state, 4-state and
+/// displacement, as [`UsageKeys::ext`] and the per-entry rules take them.
+pub(crate) fn ext_usage_maxima(limits: &Limits) -> (u32, u32, u32) {
+    (
+        limits.max_opacity2_state_subdivision_level,
+        limits.max_opacity4_state_subdivision_level,
+        limits.max_displacement_micromap_subdivision_level,
+    )
+}
+
+/// The (format, subdivision level) keys a usage-count rule allows, as a
+/// bitmask of levels per format, so that a call's usage entries are checked
+/// in one pass of a table lookup each, with nothing formatted or allocated:
+/// a usage entry per (format, level) in use is what real builds give, and
+/// the per-entry rules (with their locations and messages) run only where
+/// an entry is outside the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct UsageKeys {
+    /// Levels allowed for formats 0 to 3 (bit L: level L); 0 for a format
+    /// the rules reject. Formats from 4 on share the last slot, always 0.
+    levels: [u64; Self::FORMATS + 1],
+}
+
+impl UsageKeys {
+    const FORMATS: usize = 4;
+
+    /// No key allowed; add formats with [`Self::allow`].
+    pub fn none() -> Self {
+        Self {
+            levels: [0; Self::FORMATS + 1],
+        }
+    }
+
+    /// The keys of `VkMicromapUsageEXT` in an opacity micromap (else a
+    /// displacement micromap): `maxima` are the 2-state, 4-state and
+    /// displacement level limits.
+    pub fn ext(opacity: bool, (max2, max4, max_nv): (u32, u32, u32)) -> Self {
+        if opacity {
+            Self::none()
+                .allow(OPACITY_MICROMAP_FORMAT_2_STATE, max2)
+                .allow(OPACITY_MICROMAP_FORMAT_4_STATE, max4)
+        } else {
+            DISPLACEMENT_MICROMAP_FORMATS_NV
+                .iter()
+                .fold(Self::none(), |keys, &format| keys.allow(format, max_nv))
+        }
+    }
+
+    /// Also allows `format` (below 4) at levels 0 to `max`.
+    pub fn allow(mut self, format: u32, max: u32) -> Self {
+        let levels = if max >= 63 {
+            u64::MAX
+        } else {
+            (2u64 << max) - 1
+        };
+        if (format as usize) < Self::FORMATS {
+            self.levels[format as usize] = levels;
+        }
+        self
+    }
+
+    /// Written without branches: a lookup, a shift and two compares.
+    #[inline]
+    fn allows(&self, format: u32, level: u32) -> bool {
+        let levels = self.levels[(format as usize).min(Self::FORMATS)];
+        (level < 64) & ((levels >> (level & 63)) & 1 == 1)
+    }
+
+    /// The usage entries of `counts` the per-entry rules must run on to
+    /// decide what running them on every entry would: the first of each
+    /// format where every entry is allowed (see [`Self::representatives`]),
+    /// else all of them, in order.
+    pub fn entries_to_check<'a>(
+        &self,
+        counts: &'a UsageCounts,
+    ) -> impl Iterator<Item = (usize, MicromapUsage)> + 'a {
+        let first = self.representatives(counts);
+        let all = first.is_none().then(|| counts.usages_read());
+        first
+            .into_iter()
+            .flatten()
+            .flatten()
+            .chain(all.into_iter().flatten())
+    }
+
+    /// When every usage entry of `counts` is an allowed key: the first
+    /// entry of each format that occurs, with its index (as
+    /// [`UsageCounts::usages_read`] numbers them). The per-entry rules decide the same rules
+    /// for every allowed entry of one format, so running them on these
+    /// representatives marks exactly what running them on every entry
+    /// would, and reports nothing. None when some entry is not allowed:
+    /// then the per-entry rules must run on every entry.
+    fn representatives(
+        &self,
+        counts: &UsageCounts,
+    ) -> Option<[Option<(usize, MicromapUsage)>; Self::FORMATS]> {
+        let mut first = [None; Self::FORMATS];
+        let Some(array) = counts.array.as_deref() else {
+            // `ppUsageCounts` (NULL elements skipped): one at a time.
+            for (k, usage) in counts.usages_read() {
+                if !self.allows(usage.format, usage.subdivision_level) {
+                    return None;
+                }
+                // Allowed, so below FORMATS.
+                first[usage.format as usize].get_or_insert((k, usage));
+            }
+            return Some(first);
+        };
+        // `pUsageCounts`: one branch-free pass, then the first entry of each
+        // format seen (most arrays show it within a few entries).
+        let mut allowed = true;
+        let mut seen = 0u32;
+        for usage in array {
+            allowed &= self.allows(usage.format, usage.subdivision_level);
+            seen |= 1 << (usage.format & 31);
+        }
+        if !allowed {
+            return None;
+        }
+        for (format, slot) in first.iter_mut().enumerate() {
+            if seen & (1 << format) != 0 {
+                *slot = array
+                    .iter()
+                    .position(|u| u.format as usize == format)
+                    .map(|k| (k, array[k]));
+            }
+        }
+        Some(first)
+    }
+}
+
 /// The usage counts summed per (format, subdivision level); duplicate keys
 /// add up (the specification allows them) and zero counts are left out.
 pub(crate) fn declared_counts(counts: &UsageCounts) -> BTreeMap<(u32, u32), u64> {
@@ -628,10 +756,10 @@ pub(crate) fn triangle_array_holds_every_entry(
     counts: &UsageCounts,
     names: FormatKind,
 ) {
-    let total = counts.total();
     let Some(state) = ctx.state else {
         return;
     };
+    let total = counts.total();
     if total == 0 {
         return;
     }
@@ -747,6 +875,49 @@ mod tests {
     }
 
     #[test]
+    fn usage_keys_check_every_entry_or_one_of_each_format() {
+        let opacity = UsageKeys::ext(true, (12, 3, 5));
+        // Format 1 up to level 12, format 2 up to 3: the first of each format.
+        let valid = usage_counts(&[(4, 12, 1), (1, 3, 2), (2, 0, 1), (9, 2, 2)]);
+        let checked: Vec<usize> = opacity.entries_to_check(&valid).map(|(k, _)| k).collect();
+        assert_eq!(checked, [0, 1]);
+        // One entry past its format's limit: every entry, in order.
+        let past = usage_counts(&[(4, 12, 1), (1, 4, 2), (2, 0, 1)]);
+        let checked: Vec<usize> = opacity.entries_to_check(&past).map(|(k, _)| k).collect();
+        assert_eq!(checked, [0, 1, 2]);
+        for bad in [
+            (1, 0, 0),
+            (1, 0, 3),
+            (1, 0, 1 << 16),
+            (1, 64, 1),
+            (1, u32::MAX, 2),
+        ] {
+            let counts = usage_counts(&[(1, 0, 1), bad]);
+            assert_eq!(opacity.entries_to_check(&counts).count(), 2, "{bad:?}");
+        }
+        // Displacement formats 1 to 3, all up to one limit.
+        let displacement = UsageKeys::ext(false, (12, 12, 5));
+        let valid = usage_counts(&[(1, 5, 3), (1, 0, 1), (1, 5, 3)]);
+        let checked: Vec<usize> = displacement
+            .entries_to_check(&valid)
+            .map(|(k, _)| k)
+            .collect();
+        assert_eq!(checked, [1, 0]);
+        // A limit of 63 or more allows every level a u64 mask holds.
+        let wide = UsageKeys::none().allow(2, 70);
+        assert_eq!(
+            wide.entries_to_check(&usage_counts(&[(1, 63, 2)])).count(),
+            1
+        );
+        assert_eq!(
+            UsageKeys::none()
+                .entries_to_check(&UsageCounts::default())
+                .count(),
+            0
+        );
+    }
+
+    #[test]
     fn formats_are_named_by_their_enum() {
         assert_eq!(
             FormatKind::OpacityExt.key(2, 3),
@@ -829,8 +1000,6 @@ mod tests {
         // No range to check: every offset is in range.
         let unchecked = CleanRun::after(&entry(0, 2, 2), None).expect("a run");
         assert!(unchecked.holds(&block(&|_| entry(u32::MAX, 2, 2))));
-        let decoded: Vec<_> = decode_entries(&block(&|i| entry(i, 2, 2))).collect();
-        assert_eq!(decoded[31], entry(31, 2, 2));
     }
 
     #[test]

@@ -10,6 +10,7 @@ pub mod accel_build;
 pub(crate) mod common;
 pub mod device_contents;
 pub(crate) mod hygiene;
+pub(crate) mod index_scan;
 pub mod micromap_build;
 pub mod micromap_objects;
 pub mod pipeline_sync;
