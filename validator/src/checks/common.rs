@@ -225,7 +225,8 @@ impl<A: Display> Display for TriangleEntry<A> {
 pub(crate) struct CleanRun {
     pub format: u32,
     pub level: u32,
-    /// The entry's upper 32 bits: `subdivisionLevel | format << 16`.
+    /// The entry's upper 32 bits, `subdivisionLevel | format << 16`, in
+    /// place: the smallest entry of the run (dataOffset 0).
     format_level: u64,
     /// The largest dataOffset whose data lies in range (at most 2^32 - 1).
     max_offset: u64,
@@ -246,7 +247,9 @@ impl CleanRun {
         Some(Self {
             format: u32::from(triangle.format),
             level: u32::from(triangle.subdivision_level),
-            format_level: u64::from(triangle.subdivision_level) | u64::from(triangle.format) << 16,
+            format_level: (u64::from(triangle.subdivision_level)
+                | u64::from(triangle.format) << 16)
+                << 32,
             max_offset,
         })
     }
@@ -263,18 +266,21 @@ impl CleanRun {
     }
 
     /// Whether every 8-byte entry of `block` has this run's format and
-    /// level and a dataOffset of at most `max_offset`. Written without
-    /// branches so that it compiles to a few vector operations: since
-    /// `max_offset` < 2^32, `max_offset - offset` wraps (setting bit 63)
-    /// exactly when the offset is larger.
+    /// level and a dataOffset of at most `max_offset`: whether the entry,
+    /// read as a number, lies in `[format_level, format_level +
+    /// max_offset]`. Written without branches so that it compiles to two
+    /// subtractions and an or per entry: with `d` the entry less
+    /// `format_level` (wrapping), `d` is in range exactly when neither `d`
+    /// nor `max_offset - d` (which wraps when `d` is larger, `max_offset`
+    /// being below 2^32) has bit 63 set.
     pub fn holds(&self, block: &[u8]) -> bool {
         let mut differs = 0u64;
         for entry in block.chunks_exact(8) {
             let bits = u64::from_le_bytes(entry.try_into().expect("8 bytes"));
-            differs |= (bits >> 32) ^ self.format_level;
-            differs |= self.max_offset.wrapping_sub(bits & 0xffff_ffff) & (1 << 63);
+            let d = bits.wrapping_sub(self.format_level);
+            differs |= self.max_offset.wrapping_sub(d) | d;
         }
-        differs == 0
+        differs & (1 << 63) == 0
     }
 }
 
@@ -995,6 +1001,14 @@ mod tests {
         assert!(!run.holds(&block(&|i| entry(u32::MAX * (i == 5) as u32, 2, 2))));
         assert!(!run.holds(&block(&|i| entry(0, 2 + (i == 7) as u16, 2))));
         assert!(!run.holds(&block(&|i| entry(0, 2, 2 - (i == 0) as u16))));
+        // Upper halves far above or below the run's, whatever the offset.
+        assert!(!run.holds(&block(&|i| entry(0, 2, 2 | 0x8000 * (i == 3) as u16))));
+        assert!(!run.holds(&block(&|i| entry(
+            u32::MAX * (i == 9) as u32,
+            2 - (i == 9) as u16,
+            2
+        ))));
+        assert!(!run.holds(&block(&|i| entry(0, 0xFFFF * (i == 30) as u16, 0xFFFF))));
         // Data shorter than a block: no entry is in range.
         assert_eq!(CleanRun::after(&entry(0, 2, 2), Some((4, 3))), None);
         // No range to check: every offset is in range.

@@ -118,24 +118,29 @@ pub(crate) fn for_each_chunk(
 /// (-1..-4), or any other but -5 whose micromap triangle, index +
 /// `baseTriangle`, lies below the micromap's triangle count (none with a
 /// NULL micromap).
+///
+/// Held in 32 bits, so that a vector register holds four indices: an index
+/// is in range when it is below `triangles - base`, which is at most
+/// `in_range_below` or, where `all_in_range`, above every 32-bit value.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct CleanIndices {
-    special_from: u64,
-    cluster: u64,
-    base: u64,
-    triangles: u64,
+    special_from: u32,
+    cluster: u32,
+    in_range_below: u32,
+    all_in_range: bool,
 }
 
 impl CleanIndices {
     /// For `size`-byte indices, `base` = `baseTriangle`, and the micromap's
     /// triangle count (None: a NULL micromap).
     pub fn new(size: u64, base: u64, triangles: Option<u64>) -> Self {
-        let max = index_max(size);
+        let max = index_max(size) as u32;
+        let below = triangles.unwrap_or(0).saturating_sub(base);
         Self {
             special_from: max - 3,
             cluster: max - 4,
-            base,
-            triangles: triangles.unwrap_or(0),
+            in_range_below: u32::try_from(below).unwrap_or(u32::MAX),
+            all_in_range: below > u64::from(u32::MAX),
         }
     }
 
@@ -144,9 +149,9 @@ impl CleanIndices {
     pub fn all(&self, values: &[u32]) -> bool {
         let mut dirty = false;
         for &value in values {
-            let value = u64::from(value);
             let special = value >= self.special_from;
-            let in_range = (value != self.cluster) & (value + self.base < self.triangles);
+            let in_range =
+                (value != self.cluster) & (self.all_in_range | (value < self.in_range_below));
             dirty |= !(special | in_range);
         }
         !dirty
@@ -311,6 +316,13 @@ mod tests {
         assert!(huge.all(&[0xFFFA]));
         assert!(!huge.all(&[0xFFFB]));
         assert!(CleanIndices::new(1, 0, Some(3)).all(&[2, 0xFF]));
+        // Bounds beyond 32 bits: a base past the count, a count past 2^32.
+        assert!(!CleanIndices::new(4, 7, Some(5)).all(&[0]));
+        let wide = CleanIndices::new(4, 1, Some(1 << 33));
+        assert!(wide.all(&[0, u32::MAX - 5]));
+        assert!(!wide.all(&[u32::MAX - 4]));
+        let edge = CleanIndices::new(4, 0, Some(u64::from(u32::MAX)));
+        assert!(edge.all(&[u32::MAX - 5]));
     }
 
     #[test]
