@@ -550,17 +550,18 @@ pub(crate) fn ext_usage_maxima(limits: &Limits) -> (u32, u32, u32) {
     )
 }
 
-/// The (format, subdivision level) keys a usage-count rule allows, as a
-/// bitmask of levels per format, so that a call's usage entries are checked
-/// in one pass of a table lookup each, with nothing formatted or allocated:
-/// a usage entry per (format, level) in use is what real builds give, and
-/// the per-entry rules (with their locations and messages) run only where
-/// an entry is outside the table.
+/// The (format, subdivision level) keys a usage-count rule allows, as the
+/// highest level allowed per format, so that a call's usage entries are
+/// checked in one pass of a few compares each, with nothing formatted or
+/// allocated: a usage entry per (format, level) in use is what real builds
+/// give, and the per-entry rules (with their locations and messages) run
+/// only where an entry is outside the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct UsageKeys {
-    /// Levels allowed for formats 0 to 3 (bit L: level L); 0 for a format
-    /// the rules reject. Formats from 4 on share the last slot, always 0.
-    levels: [u64; Self::FORMATS + 1],
+    /// Whether formats 0 to 3 are allowed, and up to which level. Formats
+    /// from 4 on are rejected everywhere.
+    allowed: [bool; Self::FORMATS],
+    max_level: [u32; Self::FORMATS],
 }
 
 impl UsageKeys {
@@ -569,7 +570,8 @@ impl UsageKeys {
     /// No key allowed; add formats with [`Self::allow`].
     pub fn none() -> Self {
         Self {
-            levels: [0; Self::FORMATS + 1],
+            allowed: [false; Self::FORMATS],
+            max_level: [0; Self::FORMATS],
         }
     }
 
@@ -590,22 +592,22 @@ impl UsageKeys {
 
     /// Also allows `format` (below 4) at levels 0 to `max`.
     pub fn allow(mut self, format: u32, max: u32) -> Self {
-        let levels = if max >= 63 {
-            u64::MAX
-        } else {
-            (2u64 << max) - 1
-        };
-        if (format as usize) < Self::FORMATS {
-            self.levels[format as usize] = levels;
+        if let Some(slot) = self.allowed.get_mut(format as usize) {
+            *slot = true;
+            self.max_level[format as usize] = max;
         }
         self
     }
 
-    /// Written without branches: a lookup, a shift and two compares.
+    /// Written without branches or lookups (a compare per format), so that
+    /// a pass over many entries compiles to vector operations.
     #[inline]
     fn allows(&self, format: u32, level: u32) -> bool {
-        let levels = self.levels[(format as usize).min(Self::FORMATS)];
-        (level < 64) & ((levels >> (level & 63)) & 1 == 1)
+        let mut allowed = false;
+        for f in 0..Self::FORMATS {
+            allowed |= (format == f as u32) & self.allowed[f] & (level <= self.max_level[f]);
+        }
+        allowed
     }
 
     /// The usage entries of `counts` the per-entry rules must run on to
@@ -651,16 +653,18 @@ impl UsageKeys {
         // `pUsageCounts`: one branch-free pass, then the first entry of each
         // format seen (most arrays show it within a few entries).
         let mut allowed = true;
-        let mut seen = 0u32;
+        let mut seen = [false; Self::FORMATS];
         for usage in array {
             allowed &= self.allows(usage.format, usage.subdivision_level);
-            seen |= 1 << (usage.format & 31);
+            for (f, seen) in seen.iter_mut().enumerate() {
+                *seen |= usage.format == f as u32;
+            }
         }
         if !allowed {
             return None;
         }
         for (format, slot) in first.iter_mut().enumerate() {
-            if seen & (1 << format) != 0 {
+            if seen[format] {
                 *slot = array
                     .iter()
                     .position(|u| u.format as usize == format)

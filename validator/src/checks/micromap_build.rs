@@ -150,13 +150,8 @@ impl Validator {
         );
         let mut contents = Vec::with_capacity(infos.len());
         for (i, info) in infos.iter().enumerate() {
-            contents.push(build_info(
-                &mut ctx,
-                &format!("pInfos[{i}]"),
-                info,
-                Side::Host,
-            ));
             let at = format!("pInfos[{i}]");
+            contents.push(build_info(&mut ctx, &at, info, Side::Host));
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
                 host::mode_07462,
