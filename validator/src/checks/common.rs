@@ -1006,7 +1006,7 @@ mod tests {
         assert!(!run.holds(&block(&|i| entry(0, 2 + (i == 7) as u16, 2))));
         assert!(!run.holds(&block(&|i| entry(0, 2, 2 - (i == 0) as u16))));
         // Upper halves far above or below the run's, whatever the offset.
-        assert!(!run.holds(&block(&|i| entry(0, 2, 2 | 0x8000 * (i == 3) as u16))));
+        assert!(!run.holds(&block(&|i| entry(0, 2, 2 | (0x8000 * (i == 3) as u16)))));
         assert!(!run.holds(&block(&|i| entry(
             u32::MAX * (i == 9) as u32,
             2 - (i == 9) as u16,
