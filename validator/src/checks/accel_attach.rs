@@ -656,14 +656,15 @@ fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     };
     let opacity = micromap.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
     let displacement = micromap.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
-    let maxima = common::ext_usage_maxima(&ctx.device.limits);
-    let keys = UsageKeys::ext(opacity, maxima);
     if !(opacity || displacement) {
         return;
     }
+    let maxima = common::ext_usage_maxima(&ctx.device.limits);
+    let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
-    // One table lookup per entry; the rules with their locations and
-    // messages run per entry only where some entry is outside the table.
+    // One pass over the entries against the allowed keys; the rules with
+    // their locations and messages run per entry only where some entry is
+    // outside the table.
     for (k, usage) in keys.entries_to_check(counts) {
         attached_usage_rules(ctx, (a, member, k), usage, opacity, maxima);
     }

@@ -632,8 +632,9 @@ pub(crate) fn build_info(
     let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
     if opacity || displacement {
-        // One table lookup per entry; the rules with their locations and
-        // messages run per entry only where some entry is outside the table.
+        // One pass over the entries against the allowed keys; the rules
+        // with their locations and messages run per entry only where some
+        // entry is outside the table.
         for (k, usage) in keys.entries_to_check(counts) {
             usage_rules(ctx, (at, member, k), usage, opacity, maxima);
         }
