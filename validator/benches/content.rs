@@ -5,7 +5,9 @@
 //! 12; and (c) the
 //! content-tier check of a bottom-level build whose opacity attachment
 //! references 1%, 10% and 100% of a 10^6-triangle micromap, whose time must
-//! follow the referenced count, not the micromap's size.
+//! follow the referenced count, not the micromap's size; and the same
+//! check per referenced index with 16- and 32-bit indices, every triangle
+//! of a micromap 16-bit indices can address referenced once.
 
 use std::hint::black_box;
 
@@ -85,5 +87,38 @@ fn referenced_fraction(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, content_throughput, referenced_fraction);
+/// The micromap of the index-width group: as many level-3 4-state
+/// triangles as 16-bit indices select (0xFFFB: -5..-1 are special), all
+/// referenced.
+const INDEX_WIDTH_MICROMAP: MicromapWorkload = MicromapWorkload {
+    triangles: 0xFFFB,
+    level: 3,
+    format: Format::FourState,
+};
+
+fn index_width(c: &mut Criterion) {
+    let mut group = c.benchmark_group("index-width");
+    group.sample_size(20);
+    let n = INDEX_WIDTH_MICROMAP.triangles;
+    for api in Api::ALL {
+        for index_bytes in [2, 4] {
+            let mut blas =
+                ReferencingBuild::with_index_bytes(&INDEX_WIDTH_MICROMAP, n, api, index_bytes);
+            blas.validator.set_tier(Tier::Content);
+            group.throughput(Throughput::Elements(u64::from(n)));
+            let id = BenchmarkId::new(api.name(), format!("{}-bit", 8 * index_bytes));
+            group.bench_with_input(id, &blas, |b, blas| {
+                time_check(b, &blas.validator, |v| blas.check(v), BatchSize::LargeInput)
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    content_throughput,
+    referenced_fraction,
+    index_width
+);
 criterion_main!(benches);

@@ -6,7 +6,10 @@
 //! (d) the per-call cost of the params tier on one small build; and the
 //! per-call cost of the state tier on one small build against the number
 //! of other buffers the application has (0 to 10^4), which resolving
-//! addresses through an index keeps from growing with that number.
+//! addresses through an index keeps from growing with that number; and
+//! the per-call cost of the params tier against the number of usage
+//! entries (1 or 64) and micromap triangles (1, 10^3, 10^5), which a table
+//! lookup per entry keeps from growing with either.
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
 use ommcheck::Tier;
@@ -75,6 +78,47 @@ fn params_per_call(c: &mut Criterion) {
     group.finish();
 }
 
+/// Usage entries and micromap triangles of the params-usage-entries group.
+const USAGE_ENTRIES: [u32; 2] = [1, 64];
+const USAGE_TRIANGLES: [u32; 3] = [1, 1_000, 100_000];
+
+fn params_usage_entries(c: &mut Criterion) {
+    let mut group = c.benchmark_group("params-usage-entries");
+    for n in USAGE_TRIANGLES {
+        let workload = MicromapWorkload::new(n, SWEEP_LEVEL, Format::FourState);
+        // The bottom-level build references one micromap triangle.
+        let one = MicromapWorkload {
+            triangles: 1,
+            ..workload
+        };
+        for entries in USAGE_ENTRIES {
+            let value = format!("N{n}-K{entries}");
+            for api in Api::ALL {
+                let mut build =
+                    MicromapBuild::new(&workload, api).with_usage_entries(&workload, entries);
+                build.validator.set_tier(Tier::Params);
+                let id = BenchmarkId::new(format!("{}-micromap", api.name()), &value);
+                group.bench_with_input(id, &build, |b, build| {
+                    time_check(
+                        b,
+                        &build.validator,
+                        |v| build.check(v),
+                        BatchSize::SmallInput,
+                    )
+                });
+            }
+            let mut blas =
+                ReferencingBuild::new(&workload, 1, Api::Ext).with_usage_entries(&one, entries);
+            blas.validator.set_tier(Tier::Params);
+            let id = BenchmarkId::new("ext-blas", &value);
+            group.bench_with_input(id, &blas, |b, blas| {
+                time_check(b, &blas.validator, |v| blas.check(v), BatchSize::SmallInput)
+            });
+        }
+    }
+    group.finish();
+}
+
 /// How many other buffers the state-per-call group tracks besides the
 /// build's own.
 const OTHER_BUFFERS: [u64; 3] = [0, 100, 10_000];
@@ -109,5 +153,11 @@ fn state_per_call(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, build_time, params_per_call, state_per_call);
+criterion_group!(
+    benches,
+    build_time,
+    params_per_call,
+    state_per_call,
+    params_usage_entries
+);
 criterion_main!(benches);

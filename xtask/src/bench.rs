@@ -628,41 +628,63 @@ const OVERHEAD_HEADING: &str = "#### Layer overhead per call";
 const KHRONOS_VALIDATION: &str = "VK_LAYER_KHRONOS_validation";
 
 /// One configuration of the overhead run: the layers enabled, in
-/// ppEnabledLayerNames order, and ommcheck's tier where it is enabled.
+/// ppEnabledLayerNames order, ommcheck's tier where it is enabled, and the
+/// usage entries of each build (`omm-app overhead --usage-entries`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct OverheadConfig {
     pub name: String,
     pub layers: Vec<&'static str>,
     pub tier: Option<&'static str>,
+    pub usage_entries: u32,
 }
+
+/// Usage entries of the builds in the rows that show their cost: real
+/// builds carry one per (format, level) in use, up to 26 distinct ones
+/// (and repeats).
+pub const OVERHEAD_MANY_USAGE_ENTRIES: u32 = 64;
 
 /// The configurations, in the table's order: no layer; ommcheck at each
 /// tier it has short of `simulate`; the Khronos validation layer alone; both
-/// stacked (ommcheck first, at its default tier, content).
+/// stacked (ommcheck first, at its default tier, content); then no layer,
+/// ommcheck at `params` and the Khronos layer with
+/// [`OVERHEAD_MANY_USAGE_ENTRIES`] usage entries per build.
 pub fn overhead_configs() -> Vec<OverheadConfig> {
     let ommcheck = VkLayer_ommcheck::LAYER_NAME;
-    let mut configs = vec![OverheadConfig {
-        name: "no layer".into(),
-        layers: vec![],
-        tier: None,
-    }];
+    let config = |name: String, layers, tier| OverheadConfig {
+        name,
+        layers,
+        tier,
+        usage_entries: 1,
+    };
+    let mut configs = vec![config("no layer".into(), vec![], None)];
     for tier in ["params", "state", "content"] {
+        configs.push(config(
+            format!("ommcheck, `{tier}`"),
+            vec![ommcheck],
+            Some(tier),
+        ));
+    }
+    configs.push(config(
+        "Khronos validation".into(),
+        vec![KHRONOS_VALIDATION],
+        None,
+    ));
+    configs.push(config(
+        "ommcheck `content` + Khronos validation".into(),
+        vec![ommcheck, KHRONOS_VALIDATION],
+        Some("content"),
+    ));
+    let many = OVERHEAD_MANY_USAGE_ENTRIES;
+    for (name, layers, tier) in [
+        ("no layer", vec![], None),
+        ("ommcheck, `params`", vec![ommcheck], Some("params")),
+        ("Khronos validation", vec![KHRONOS_VALIDATION], None),
+    ] {
         configs.push(OverheadConfig {
-            name: format!("ommcheck, `{tier}`"),
-            layers: vec![ommcheck],
-            tier: Some(tier),
+            usage_entries: many,
+            ..config(format!("{name}, {many} usage entries"), layers, tier)
         });
     }
-    configs.push(OverheadConfig {
-        name: "Khronos validation".into(),
-        layers: vec![KHRONOS_VALIDATION],
-        tier: None,
-    });
-    configs.push(OverheadConfig {
-        name: "ommcheck `content` + Khronos validation".into(),
-        layers: vec![ommcheck, KHRONOS_VALIDATION],
-        tier: Some("content"),
-    });
     configs
 }
 
@@ -846,7 +868,9 @@ fn run_overhead(root: &Path, icd: &Path, khronos: &Path) -> Result<Vec<OverheadR
             let mut command = Command::new(&app);
             command
                 .args(["overhead", "--iterations"])
-                .arg(OVERHEAD_ITERATIONS.to_string());
+                .arg(OVERHEAD_ITERATIONS.to_string())
+                .arg("--usage-entries")
+                .arg(config.usage_entries.to_string());
             for layer in &config.layers {
                 command.args(["--layer", layer]);
             }
@@ -1325,9 +1349,15 @@ Messages received (the inputs are meant to be valid):
                 "ommcheck, `state`",
                 "ommcheck, `content`",
                 "Khronos validation",
-                "ommcheck `content` + Khronos validation"
+                "ommcheck `content` + Khronos validation",
+                "no layer, 64 usage entries",
+                "ommcheck, `params`, 64 usage entries",
+                "Khronos validation, 64 usage entries"
             ]
         );
+        assert!(configs[..6].iter().all(|c| c.usage_entries == 1));
+        assert!(configs[6..].iter().all(|c| c.usage_entries == 64));
+        assert_eq!(configs[7].tier, Some("params"));
         assert_eq!(
             configs[5].layers,
             [

@@ -85,7 +85,7 @@ fn body(data: &[u8]) -> String {
         let want = slow_triangle(&content, m);
         match (&got, &want) {
             (Ok((t, b)), Ok((wt, wb))) => {
-                assert_eq!((*t, *b), (wt, &wb[..]), "triangle {m}'s data");
+                assert_eq!((*t, *b), (*wt, &wb[..]), "triangle {m}'s data");
             }
             (Err(e), Err(w)) => assert_eq!(error_kind(e), *w, "triangle {m}: {e:?}"),
             _ => panic!("triangle {m}: decoder {got:?}, slow decoder {want:?}"),
@@ -215,7 +215,7 @@ fn slow_triangle(
     } else {
         m as usize
     };
-    let t = *content.triangles.get(entry).ok_or("range")?;
+    let t = content.triangles.get(entry).ok_or("range")?;
     let bits: u128 = match t.format {
         1 => 1,
         2 => 2,

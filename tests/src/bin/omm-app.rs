@@ -41,7 +41,9 @@
 //! --layer VK_LAYER_OMMCHECK_validation`.
 //! `overhead` (Mock ICD) times `--iterations` valid calls (default 10000) of
 //! three build commands and reports nanoseconds per call; `cargo xtask
-//! bench` runs it with and without layers.
+//! bench` runs it with and without layers. `--usage-entries K` (default 1)
+//! gives each build K usage entries and `--triangles N` (default 2) N
+//! micromap triangles.
 //! Errors go to stderr with exit status 1.
 
 use std::ffi::{c_void, CStr, CString};
@@ -1555,6 +1557,43 @@ fn time_calls(iterations: u32, mut call: impl FnMut()) -> f64 {
     start.elapsed().as_nanos() as f64 / f64::from(iterations.max(1))
 }
 
+/// How large the `overhead` builds are: real builds carry one usage entry
+/// per (format, level) in use.
+#[derive(Clone, Copy, Debug)]
+struct OverheadShape {
+    /// Usage entries of each micromap build and of the attachment.
+    usage_entries: u32,
+    /// Micromap triangles (all 2-state at level 1, as [`USAGE`]'s).
+    triangles: u32,
+}
+
+impl OverheadShape {
+    /// `count` triangles of [`USAGE`]'s format and level over the usage
+    /// entries: the same key repeated (the specification allows it), the
+    /// count split as evenly as it goes.
+    fn usages(&self, count: u32) -> Vec<vk::MicromapUsageEXT> {
+        let k = self.usage_entries;
+        (0..k)
+            .map(|i| vk::MicromapUsageEXT {
+                count: count / k + u32::from(i < count % k),
+                ..USAGE[0]
+            })
+            .collect()
+    }
+
+    /// The triangle array: [`USAGE`]'s format and level, the data of
+    /// triangle m at byte m mod 2 (two data bytes serve them all).
+    fn triangle_array(&self) -> Vec<vk::MicromapTriangleEXT> {
+        (0..self.triangles)
+            .map(|m| vk::MicromapTriangleEXT {
+                data_offset: m % 2,
+                subdivision_level: 1,
+                format: 1,
+            })
+            .collect()
+    }
+}
+
 /// Stand-in device addresses of the bottom-level build's inputs over the
 /// Mock ICD (see [`STAND_IN_INPUT`]).
 const STAND_IN_VERTICES: u64 = 0x3_0000_0000;
@@ -1569,16 +1608,23 @@ const STAND_IN_BLAS_SCRATCH: u64 = 0x6_0000_0000;
 /// features, mapped host-visible buffers, a micromap, a bottom-level
 /// structure and a command buffer in the recording state. Then `iterations`
 /// calls of each, all valid (a messenger receives nothing):
-/// - `cmd_build_micromaps`: `vkCmdBuildMicromapsEXT` of the two triangles
-///   of [`USAGE`], inputs in mapped memory;
+/// - `cmd_build_micromaps`: `vkCmdBuildMicromapsEXT` of the `shape`'s
+///   triangles and usage entries (see [`OverheadShape`]), inputs in mapped
+///   memory;
 /// - `build_micromaps`: `vkBuildMicromapsEXT` (host build) of the same,
 ///   its data in mapped memory;
 /// - `cmd_build_acceleration_structures`: `vkCmdBuildAccelerationStructuresKHR`
 ///   of a bottom-level structure of two triangles whose
-///   `VkAccelerationStructureTrianglesOpacityMicromapEXT` names the micromap.
+///   `VkAccelerationStructureTrianglesOpacityMicromapEXT` names the micromap
+///   with the `shape`'s usage entries.
 ///
 /// Results: `iterations` and `ns_per_call`, one mean per command.
-fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(), String> {
+fn overhead(
+    vulkan: &Vulkan,
+    iterations: u32,
+    shape: OverheadShape,
+    results: &mut Results,
+) -> Result<(), String> {
     let physical = vulkan.physical_device()?;
     let mut structure_features =
         vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
@@ -1605,8 +1651,13 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
 
     // (a) The device build: the triangle array at the start of a mapped
     // input buffer, the data 256 bytes in, as in `device_build`.
+    let micromap_usages = shape.usages(shape.triangles);
+    let array = shape.triangle_array();
+    let array_bytes = 8 * array.len();
+    // The data after the array, 256-byte aligned.
+    let data_offset = array_bytes.div_ceil(256) * 256;
     let (input, input_map) = gpu.mapped_buffer(
-        4096,
+        data_offset as u64 + 256,
         vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT | address_usage,
     )?;
     let (scratch, _) =
@@ -1615,27 +1666,31 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
         [0, 0] => (STAND_IN_INPUT, STAND_IN_SCRATCH),
         [input, scratch] => (input, scratch),
     };
-    let device_triangles = triangles([0, 1], 1);
-    // SAFETY: the mapping is 4096 bytes long: 16 bytes of triangles at 0,
-    // two bytes of data at 256.
+    // SAFETY: the mapping is `data_offset + 256` bytes long: the array at
+    // 0, two bytes of data at `data_offset`.
     unsafe {
-        input_map.copy_from_nonoverlapping(device_triangles.as_ptr().cast(), 16);
+        input_map.copy_from_nonoverlapping(array.as_ptr().cast(), array_bytes);
         input_map
-            .add(256)
+            .add(data_offset)
             .copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2);
     }
-    let device_info = build_info(
+    let with_usages = |info: vk::MicromapBuildInfoEXT<'static>| vk::MicromapBuildInfoEXT {
+        usage_counts_count: shape.usage_entries,
+        p_usage_counts: micromap_usages.as_ptr(),
+        ..info
+    };
+    let device_info = with_usages(build_info(
         micromap,
         vk::DeviceOrHostAddressConstKHR {
             device_address: input_address,
         },
         vk::DeviceOrHostAddressConstKHR {
-            device_address: input_address + 256,
+            device_address: input_address + data_offset as u64,
         },
         vk::DeviceOrHostAddressKHR {
             device_address: scratch_address,
         },
-    );
+    ));
 
     // (b) The host build: the data in the last two bytes of a mapped
     // allocation, as in `host_build`.
@@ -1645,12 +1700,11 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
     let data = unsafe { mapped.add(62) };
     // SAFETY: as above.
     unsafe { data.copy_from_nonoverlapping([0x1u8, 0x2].as_ptr(), 2) };
-    let host_triangles = triangles([0, 1], 1);
     let mut host_scratch = vec![0u8; 4096];
-    let host_info = build_info(
+    let host_info = with_usages(build_info(
         micromap,
         vk::DeviceOrHostAddressConstKHR {
-            host_address: host_triangles.as_ptr().cast(),
+            host_address: array.as_ptr().cast(),
         },
         vk::DeviceOrHostAddressConstKHR {
             host_address: data.cast_const().cast(),
@@ -1658,7 +1712,7 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
         vk::DeviceOrHostAddressKHR {
             host_address: host_scratch.as_mut_ptr().cast(),
         },
-    );
+    ));
 
     // (c) A bottom-level structure of two triangles, indexed 0..6, whose
     // opacity-micromap indices (0 and 1, 32-bit) name the micromap's two
@@ -1671,6 +1725,8 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
     ];
     let indices: [u32; 6] = [0, 1, 2, 3, 4, 5];
     let omm_indices: [u32; 2] = [0, 1];
+    // The two geometry triangles reference micromap triangles 0 and 1.
+    let attachment_usages = shape.usages(2);
     let (vertex_buffer, vertex_map) = gpu.mapped_buffer(4 * 18, input_usage)?;
     let (index_buffer, index_map) = gpu.mapped_buffer(4 * 6, input_usage)?;
     let (omm_index_buffer, omm_index_map) = gpu.mapped_buffer(4 * 2, input_usage)?;
@@ -1704,7 +1760,7 @@ fn overhead(vulkan: &Vulkan, iterations: u32, results: &mut Results) -> Result<(
         })
         .index_stride(4)
         .base_triangle(0)
-        .usage_counts(&USAGE)
+        .usage_counts(&attachment_usages)
         .micromap(micromap);
     let blas_triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
         .vertex_format(vk::Format::R32G32B32_SFLOAT)
@@ -2116,11 +2172,16 @@ fn core_fault(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
 fn run(args: &[String]) -> Result<Value, String> {
     let usage =
         "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)] \
+         [--usage-entries K (overhead)] [--triangles N (overhead)] \
          [--way copy|update|fill|compute|mapped (tlas)] [--valid (tlas)] [--sync-fault (tlas)]";
     let (scenario, rest) = args.split_first().ok_or(usage)?;
     let mut layers = Vec::new();
     let mut with_core_fault = false;
     let mut iterations = 10_000u32;
+    let mut shape = OverheadShape {
+        usage_entries: 1,
+        triangles: 2,
+    };
     let mut tlas_options = TlasOptions {
         way: None,
         valid: false,
@@ -2141,6 +2202,18 @@ fn run(args: &[String]) -> Result<Value, String> {
                     .filter(|&n| n > 0)
                     .ok_or_else(|| format!("--iterations {n:?}: a positive integer"))?;
             }
+            "--usage-entries" | "--triangles" => {
+                let n = rest.next().ok_or(usage)?;
+                let n = n
+                    .parse()
+                    .ok()
+                    .filter(|&n| (1..=1 << 20).contains(&n))
+                    .ok_or_else(|| format!("{arg} {n:?}: an integer from 1 to 2^20"))?;
+                match arg.as_str() {
+                    "--usage-entries" => shape.usage_entries = n,
+                    _ => shape.triangles = n,
+                }
+            }
             "--core-fault" => with_core_fault = true,
             "--way" => tlas_options.way = Some(InstanceWay::parse(rest.next().ok_or(usage)?)?),
             "--valid" => tlas_options.valid = true,
@@ -2157,7 +2230,7 @@ fn run(args: &[String]) -> Result<Value, String> {
         }
         ("blas", "") => blas(&vulkan, &mut results)?,
         ("tlas", "") => tlas(&vulkan, &tlas_options, &mut results)?,
-        ("overhead", "") => overhead(&vulkan, iterations, &mut results)?,
+        ("overhead", "") => overhead(&vulkan, iterations, shape, &mut results)?,
         ("threads", "") => threads(&vulkan, &mut results)?,
         _ => return Err(format!("unknown scenario {scenario:?}")),
     }

@@ -200,11 +200,23 @@ impl MicromapWorkload {
 
     /// The usage counts that describe the triangle array.
     pub fn usage_counts(&self) -> UsageCounts {
-        UsageCounts::array(vec![MicromapUsage {
-            count: self.triangles,
-            subdivision_level: u32::from(self.level),
-            format: self.format.value(),
-        }])
+        self.usage_counts_in(1)
+    }
+
+    /// The usage counts that describe the triangle array in `entries`
+    /// entries: its one (format, level) repeated (the specification allows
+    /// it), the triangles split as evenly as they go. Real builds carry one
+    /// entry per (format, level) in use.
+    pub fn usage_counts_in(&self, entries: u32) -> UsageCounts {
+        UsageCounts::array(
+            (0..entries)
+                .map(|k| MicromapUsage {
+                    count: self.triangles / entries + u32::from(k < self.triangles % entries),
+                    subdivision_level: u32::from(self.level),
+                    format: self.format.value(),
+                })
+                .collect(),
+        )
     }
 
     /// `VkMicromapBuildInfoEXT` of the workload into [`EXT_MICROMAP`].
@@ -394,6 +406,26 @@ impl MicromapBuild {
         build
     }
 
+    /// The build with its usage counts in `entries` entries (see
+    /// [`MicromapWorkload::usage_counts_in`]), checked once at the content
+    /// tier so that it is known to be valid.
+    pub fn with_usage_entries(mut self, workload: &MicromapWorkload, entries: u32) -> Self {
+        let counts = workload.usage_counts_in(entries);
+        self.ext.usage_counts = counts.clone();
+        for geometry in self.khr.geometries.iter_mut().flatten() {
+            if let Some(micromap) = &mut geometry.micromap {
+                micromap.usage_counts = counts.clone();
+            }
+        }
+        let mut validator = self.validator.clone();
+        validator.set_tier(Tier::Content);
+        assert_clean(
+            &format!("{} build in {entries} usage entries", self.api.name()),
+            &self.check(&mut validator),
+        );
+        self
+    }
+
     /// Checks the build on `validator` (which records it).
     pub fn check(&self, validator: &mut Validator) -> Report {
         match self.api {
@@ -422,6 +454,21 @@ impl ReferencingBuild {
     /// are checked once here at the content tier so that they are known to
     /// be valid; `validator.set_tier` picks the tier the benchmark checks at.
     pub fn new(micromap: &MicromapWorkload, referenced: u32, api: Api) -> Self {
+        Self::with_index_bytes(micromap, referenced, api, 4)
+    }
+
+    /// As [`Self::new`], with `index_bytes`-byte (2 or 4) opacity indices.
+    pub fn with_index_bytes(
+        micromap: &MicromapWorkload,
+        referenced: u32,
+        api: Api,
+        index_bytes: usize,
+    ) -> Self {
+        let index_type = match index_bytes {
+            2 => INDEX_TYPE_UINT16,
+            4 => INDEX_TYPE_UINT32,
+            _ => panic!("opacity indices of 2 or 4 bytes, not {index_bytes}"),
+        };
         assert!(
             (1..=micromap.triangles).contains(&referenced),
             "a geometry references 1 to {} triangles",
@@ -433,8 +480,12 @@ impl ReferencingBuild {
 
         let spacing = micromap.triangles / referenced;
         let indices: Vec<u8> = (0..referenced)
-            .flat_map(|j| (j * spacing).to_le_bytes())
+            .flat_map(|j| (j * spacing).to_le_bytes()[..index_bytes].to_vec())
             .collect();
+        assert!(
+            index_bytes == 4 || micromap.triangles <= 0xFFFB,
+            "16-bit indices select at most 0xFFFB triangles"
+        );
         let vertex_bytes = 3 * 12 * u64::from(referenced);
         let state = validator.state_mut();
         state.buffers.insert(
@@ -454,6 +505,8 @@ impl ReferencingBuild {
         let triangles = match api {
             Api::Ext => TrianglesData {
                 opacity_ext: Some(TrianglesOpacityMicromapExt {
+                    index_type,
+                    index_stride: index_bytes as u64,
                     index_buffer: INDICES_ADDRESS,
                     usage_counts: MicromapWorkload {
                         triangles: referenced,
@@ -467,6 +520,8 @@ impl ReferencingBuild {
             },
             Api::Khr => TrianglesData {
                 opacity_khr: Some(TrianglesOpacityMicromapKhr {
+                    index_type,
+                    index_stride: index_bytes as u64,
                     index_buffer: INDICES_ADDRESS,
                     micromap: KHR_MICROMAP,
                     ..Default::default()
@@ -498,6 +553,26 @@ impl ReferencingBuild {
         let mut check = prepared.validator.clone();
         assert_clean("the bottom-level build", &prepared.check(&mut check));
         prepared
+    }
+
+    /// The EXT attachment's usage counts in `entries` entries (see
+    /// [`MicromapWorkload::usage_counts_in`]; KHR attachments have none),
+    /// checked once at the content tier so that it is known to be valid.
+    pub fn with_usage_entries(mut self, referenced: &MicromapWorkload, entries: u32) -> Self {
+        for geometry in self.build.geometries.iter_mut().flatten() {
+            if let GeometryData::Triangles(t) = &mut geometry.geometry {
+                if let Some(ext) = &mut t.opacity_ext {
+                    ext.usage_counts = referenced.usage_counts_in(entries);
+                }
+            }
+        }
+        let mut validator = self.validator.clone();
+        validator.set_tier(Tier::Content);
+        assert_clean(
+            &format!("the bottom-level build in {entries} usage entries"),
+            &self.check(&mut validator),
+        );
+        self
     }
 
     pub fn check(&self, validator: &mut Validator) -> Report {

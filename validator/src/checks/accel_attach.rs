@@ -21,10 +21,14 @@ use std::fmt::{self, Display};
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
-use crate::checks::common::{self, Tally, TriangleHistogram};
+use crate::checks::common::{self, Tally, TriangleHistogram, UsageKeys};
+use crate::checks::index_scan::{
+    for_each_chunk, is_cluster_skip_index, is_special_index, read_indices, CleanIndices,
+    ReferenceTally,
+};
 use crate::checks::Coverage;
 use crate::model::accel::*;
-use crate::model::micromap::UsageCounts;
+use crate::model::micromap::{MicromapUsage, UsageCounts};
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::not_checked::Cause;
@@ -153,54 +157,6 @@ fn index_size(index_type: i32) -> Option<u64> {
         INDEX_TYPE_UINT32 => Some(4),
         _ => None,
     }
-}
-
-/// Whether the `size`-byte index `value` is the unsigned cast of one of the
-/// four `VkOpacityMicromapSpecialIndexKHR` values -1..-4 (0xFFFF..0xFFFC for
-/// 16-bit indices). The cluster-only -5 is no special index in the
-/// geometries checked here: it reads as an ordinary (huge) index.
-fn is_special_index(value: u32, size: u64) -> bool {
-    u64::from(value) + 3 >= index_max(size)
-}
-
-/// The largest value an index of `size` bytes holds (-1 cast to its width).
-fn index_max(size: u64) -> u64 {
-    match size {
-        1 => u64::from(u8::MAX),
-        2 => u64::from(u16::MAX),
-        _ => u64::from(u32::MAX),
-    }
-}
-
-/// Whether `value` is -5 cast to the index width (0xFFFB for 16-bit).
-fn is_cluster_skip_index(value: u32, size: u64) -> bool {
-    u64::from(value) + 4 == index_max(size)
-}
-
-/// The indices of `count` triangles in `bytes` (an index buffer read from
-/// its start), as `(triangle, index)`, as far as `bytes` reaches. A stride of
-/// 0 reads one index for every triangle, so it is yielded once.
-fn read_indices(
-    bytes: &[u8],
-    size: u64,
-    stride: u64,
-    count: u64,
-) -> impl Iterator<Item = (u64, u32)> + '_ {
-    let distinct = if stride == 0 { count.min(1) } else { count };
-    (0..distinct).map_while(move |j| {
-        let start = usize::try_from(j.checked_mul(stride)?).ok()?;
-        let end = start.checked_add(usize::try_from(size).ok()?)?;
-        let index = match *bytes.get(start..end)? {
-            [a] => u32::from(a),
-            [a, b] => u32::from(u16::from_le_bytes([a, b])),
-            [a, b, c, d] => u32::from_le_bytes([a, b, c, d]),
-            ref other => other
-                .iter()
-                .rev()
-                .fold(0u32, |v, b| (v << 8) | u32::from(*b)),
-        };
-        Some((j, index))
-    })
 }
 
 /// Which attachment a check looks at.
@@ -450,8 +406,8 @@ pub(crate) fn triangles(
         }
         if let Some(count) = primitive_count {
             index_buffer_holds_every_index(ctx, command, &attachment, count);
-            index_contents(ctx, command, &attachment, count);
-            usage_counts_match_indices(ctx, command, &attachment, count);
+            let references = index_contents(ctx, command, &attachment, count);
+            usage_counts_match_indices(ctx, command, &attachment, count, references);
         }
     }
 }
@@ -696,59 +652,70 @@ fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     };
     let opacity = micromap.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
     let displacement = micromap.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
-    let limits = ctx.device.limits.clone();
+    if !(opacity || displacement) {
+        return;
+    }
+    let maxima = common::ext_usage_maxima(&ctx.device.limits);
+    let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
-    for (k, usage) in counts.usages_read() {
-        // Written out only for a finding.
-        let loc = format_args!("{}.{member}[{k}]", a.at);
-        let level = usage.subdivision_level;
-        let exceeds =
-            |max: u32, name: &'static str| move || format!("{level} exceeds {name} = {max}");
-        if opacity {
-            match usage.format {
-                OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
-                    level <= limits.max_opacity2_state_subdivision_level,
-                    ext::subdivisionLevel_11680,
-                    || format!("{loc}.subdivisionLevel"),
-                    exceeds(
-                        limits.max_opacity2_state_subdivision_level,
-                        "maxOpacity2StateSubdivisionLevel",
-                    ),
-                ),
-                OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
-                    level <= limits.max_opacity4_state_subdivision_level,
-                    ext::subdivisionLevel_11681,
-                    || format!("{loc}.subdivisionLevel"),
-                    exceeds(
-                        limits.max_opacity4_state_subdivision_level,
-                        "maxOpacity4StateSubdivisionLevel",
-                    ),
-                ),
-                other => {
-                    ctx.error(
-                        ext::format_11679,
-                        format!("{loc}.format"),
-                        format!("{other} is not a VkOpacityMicromapFormatEXT value (micromap is an opacity micromap)"),
-                    );
-                }
-            }
-        } else if displacement {
-            ctx.require(
-                DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
-                ext::format_11682,
-                || format!("{loc}.format"),
-                || format!("{} is not a VkDisplacementMicromapFormatNV value (micromap is a displacement micromap)", usage.format),
-            );
-            ctx.require(
-                level <= limits.max_displacement_micromap_subdivision_level,
-                ext::subdivisionLevel_11683,
+    // One pass over the entries against the allowed keys; the rules with
+    // their locations and messages run per entry only where some entry is
+    // outside the table.
+    for (k, usage) in keys.entries_to_check(counts) {
+        attached_usage_rules(ctx, (a, member, k), usage, opacity, maxima);
+    }
+}
+
+/// One usage entry's format and subdivision level against the attached
+/// micromap's type (11679-11683), at `{a.at}.{member}[{k}]`, of an opacity
+/// (else a displacement) micromap; `maxima` are the 2-state, 4-state and
+/// displacement level limits.
+fn attached_usage_rules(
+    ctx: &mut Ctx<'_>,
+    (a, member, k): (&Attachment<'_>, &str, usize),
+    usage: MicromapUsage,
+    opacity: bool,
+    (max2, max4, max_nv): (u32, u32, u32),
+) {
+    // Written out only for a finding.
+    let loc = format_args!("{}.{member}[{k}]", a.at);
+    let level = usage.subdivision_level;
+    let exceeds = |max: u32, name: &'static str| move || format!("{level} exceeds {name} = {max}");
+    if opacity {
+        match usage.format {
+            OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
+                level <= max2,
+                ext::subdivisionLevel_11680,
                 || format!("{loc}.subdivisionLevel"),
-                exceeds(
-                    limits.max_displacement_micromap_subdivision_level,
-                    "maxDisplacementMicromapSubdivisionLevel",
-                ),
-            );
+                exceeds(max2, "maxOpacity2StateSubdivisionLevel"),
+            ),
+            OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
+                level <= max4,
+                ext::subdivisionLevel_11681,
+                || format!("{loc}.subdivisionLevel"),
+                exceeds(max4, "maxOpacity4StateSubdivisionLevel"),
+            ),
+            other => {
+                ctx.error(
+                    ext::format_11679,
+                    format!("{loc}.format"),
+                    format!("{other} is not a VkOpacityMicromapFormatEXT value (micromap is an opacity micromap)"),
+                );
+            }
         }
+    } else {
+        ctx.require(
+            DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
+            ext::format_11682,
+            || format!("{loc}.format"),
+            || format!("{} is not a VkDisplacementMicromapFormatNV value (micromap is a displacement micromap)", usage.format),
+        );
+        ctx.require(
+            level <= max_nv,
+            ext::subdivisionLevel_11683,
+            || format!("{loc}.subdivisionLevel"),
+            exceeds(max_nv, "maxDisplacementMicromapSubdivisionLevel"),
+        );
     }
 }
 
@@ -1001,14 +968,23 @@ fn micromap_triangle_count(state: &State, a: &Attachment<'_>) -> Option<u64> {
 /// no index buffer, the triangle indices themselves, against the micromap:
 /// without a micromap only special indices (11578 / our rule); with one,
 /// `index + baseTriangle` inside its triangles (11575, 11576 / our rule).
-fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, count: u64) {
+///
+/// Returns the EXT usage counts' tally of the micromap triangles the
+/// indices select, where this pass made it (see [`ReferenceTally`]): None
+/// where it did not, Some(None) where it is undecided.
+fn index_contents(
+    ctx: &mut Ctx<'_>,
+    command: BuildCommand,
+    a: &Attachment<'_>,
+    count: u64,
+) -> Option<Option<TriangleHistogram>> {
     // Host builds take no KHR micromap (11705 says so); nothing to compare with.
     let khr_host_micromap = a.kind == Kind::Khr && command == BuildCommand::Host && a.micromap != 0;
     if a.kind == Kind::Nv || count == 0 || khr_host_micromap {
-        return;
+        return None;
     }
     let Some(state) = ctx.state else {
-        return; // Below the state tier neither the micromap nor the buffer is known.
+        return None; // Below the state tier neither the micromap nor the buffer is known.
     };
     // The EXT usage counts are held against the indices too.
     let usage_counts_rule = (a.kind == Kind::Ext && a.usage_counts.is_some())
@@ -1028,7 +1004,7 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
                 };
                 skipped.extend(usage_counts_rule);
                 build_not_seen(ctx, a, &skipped);
-                return;
+                return None;
             }
         }
     };
@@ -1059,10 +1035,10 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
                 }
             }
         }
-        return;
+        return None;
     };
     let Some(state) = ctx.contents() else {
-        return; // Below the content tier no index is read.
+        return None; // Below the content tier no index is read.
     };
     let bytes = match command {
         BuildCommand::Host => state.host_bytes_from(a.index_buffer),
@@ -1088,47 +1064,47 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
             &index_rules,
             a.member("indexBuffer"),
         );
-        return;
+        return None;
     };
     ctx.checked(&index_rules);
     // A stride of 0 reads one index for every triangle.
-    let distinct = if a.index_stride == 0 { 1 } else { count };
-    let mut read = 0u64;
+    let (distinct, weight) = if a.index_stride == 0 {
+        (1, count)
+    } else {
+        (count, 1)
+    };
+    // The EXT usage counts' tally rides on this pass where their rule
+    // reaches the indices: a NULL micromap, or one whose content was read.
+    let referenced = match a.micromap {
+        0 => Some(None),
+        micromap => state
+            .micromaps
+            .get(&micromap)
+            .and_then(|m| m.built.as_ref()?.content.as_deref())
+            .map(Some),
+    };
+    let mut references = referenced
+        .filter(|_| usage_counts_rule.is_some())
+        .map(|content| ReferenceTally::new(content.map(|c| &c.triangles), size, base, weight));
+    let clean = CleanIndices::new(size, base, triangles);
     let mut tally = Tally::new();
-    for (j, index) in read_indices(bytes, size, a.index_stride, count) {
-        read += 1;
-        if is_special_index(index, size) {
-            continue;
+    let read = for_each_chunk(bytes, size, a.index_stride, count, |first, values| {
+        if let Some(references) = &mut references {
+            references.add(values);
         }
-        // Built only for a finding: most indices have none.
-        let location = || format!("{array}[{j}]");
-        if is_cluster_skip_index(index, size) {
-            tally.error(
+        if clean.all(values) {
+            return;
+        }
+        for (j, &index) in (first..).zip(values) {
+            index_rules_one_by_one(
                 ctx,
-                &rules::CLUSTER_INDEX_OUTSIDE_CLUSTER,
-                location(),
-                || format!("index {index:#x} is -5 (CLUSTER_GEOMETRY_DISABLE_OPACITY_MICROMAP_NV), which only cluster geometry may use"),
-                &array,
+                &mut tally,
+                (a, &array, not_special_rule),
+                (j, index),
+                (size, base, triangles),
             );
-            continue;
         }
-        match triangles {
-            None => tally.error(
-                ctx,
-                not_special_rule,
-                location(),
-                || format!("micromap is VK_NULL_HANDLE, but index {index:#x} is no VkOpacityMicromapSpecialIndexKHR value"),
-                &array,
-            ),
-            Some(n) => {
-                if let Some((rule, message)) =
-                    index_past_end(a.kind, u64::from(index), base, n, false)
-                {
-                    tally.error(ctx, rule, location(), || format!("index {message}"), &array);
-                }
-            }
-        }
-    }
+    });
     tally.finish(ctx);
     if read < distinct {
         // The indices past the readable bytes are not guessed at.
@@ -1159,6 +1135,53 @@ fn index_contents(ctx: &mut Ctx<'_>, command: BuildCommand, a: &Attachment<'_>, 
                 }
             ),
         );
+    }
+    // Indices past the readable bytes leave the tally undecided.
+    references.map(|references| references.finish().filter(|_| read == distinct))
+}
+
+/// The index rules for one index, `index` of triangle `j`, in the chunks
+/// of [`index_contents`] that hold a finding: special indices pass; -5 is
+/// for cluster geometry only; any other index selects a micromap triangle
+/// below the count (`triangles`, None with a NULL micromap, where only
+/// special indices may be used).
+fn index_rules_one_by_one(
+    ctx: &mut Ctx<'_>,
+    tally: &mut Tally,
+    (a, array, not_special_rule): (&Attachment<'_>, &str, RuleId),
+    (j, index): (u64, u32),
+    (size, base, triangles): (u64, u64, Option<u64>),
+) {
+    if is_special_index(index, size) {
+        return;
+    }
+    // Built only for a finding: most indices have none.
+    let location = || format!("{array}[{j}]");
+    if is_cluster_skip_index(index, size) {
+        tally.error(
+            ctx,
+            &rules::CLUSTER_INDEX_OUTSIDE_CLUSTER,
+            location(),
+            || format!("index {index:#x} is -5 (CLUSTER_GEOMETRY_DISABLE_OPACITY_MICROMAP_NV), which only cluster geometry may use"),
+            array,
+        );
+        return;
+    }
+    match triangles {
+        None => tally.error(
+            ctx,
+            not_special_rule,
+            location(),
+            || format!("micromap is VK_NULL_HANDLE, but index {index:#x} is no VkOpacityMicromapSpecialIndexKHR value"),
+            array,
+        ),
+        Some(n) => {
+            if let Some((rule, message)) =
+                index_past_end(a.kind, u64::from(index), base, n, false)
+            {
+                tally.error(ctx, rule, location(), || format!("index {message}"), array);
+            }
+        }
     }
 }
 
@@ -1256,11 +1279,16 @@ fn index_past_end(
 /// is the index rules' finding). A NULL micromap has no triangles: every
 /// index must be special (11578 or our rule says so otherwise), so every
 /// count must be zero.
+///
+/// `from_index_pass` is the tally [`index_contents`] made in its pass over
+/// the index buffer (Some(None): undecided); where it made none (NV
+/// attachments), the indices are read here.
 fn usage_counts_match_indices(
     ctx: &mut Ctx<'_>,
     command: BuildCommand,
     a: &Attachment<'_>,
     count: u64,
+    from_index_pass: Option<Option<TriangleHistogram>>,
 ) {
     let Some(state) = ctx.contents() else {
         return; // Below the content tier neither indices nor micromap data are read.
@@ -1329,6 +1357,10 @@ fn usage_counts_match_indices(
             }
         }
         None => return,
+        Some(_) if from_index_pass.is_some() => match from_index_pass.flatten() {
+            Some(tallied) => found = tallied,
+            None => return,
+        },
         Some(size) => {
             let bytes = match command {
                 BuildCommand::Host => state.host_bytes_from(a.index_buffer),

@@ -32,8 +32,8 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{
-    self, bytes_available, decode_entries, readable_entries, usage_counts_match_triangles,
-    CleanRun, Tally, TriangleEntry, TriangleHistogram,
+    self, bytes_available, readable_entries, usage_counts_match_triangles, CleanRun, Tally,
+    TriangleEntry, TriangleHistogram, UsageKeys,
 };
 use crate::checks::{accel_attach, hygiene, serialized, Coverage};
 use crate::device::Limits;
@@ -50,7 +50,7 @@ use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
 use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
-use crate::sim::decode::MicromapContent;
+use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::state::{
     AccelerationStructure, BuildRecord, Handle, OpacityAttachmentRecord, State,
     TriangleGeometryRecord,
@@ -636,29 +636,14 @@ pub(crate) fn micromap_content(
     if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
         return None;
     }
-    let array = bytes_from(state, host, data.triangle_array)?;
+    let (memory, array_start) = contents_from(state, host, data.triangle_array)?;
+    let array_len = memory.get(array_start..)?.len();
     // As many entries as the array's bytes hold, never more than the counts
-    // say: allocated once, from the bound.
-    let readable = readable_entries(array.len() as u64, stride).min(total);
-    let mut triangles = Vec::with_capacity(usize::try_from(readable).ok()?);
-    if stride == MicromapTriangle::SIZE {
-        let bytes = usize::try_from(readable.checked_mul(MicromapTriangle::SIZE)?).ok()?;
-        triangles.extend(decode_entries(array.get(..bytes)?));
-    } else {
-        triangles.extend((0..readable).map_while(|m| {
-            let offset = usize::try_from(m.checked_mul(stride)?).ok()?;
-            let bytes = array.get(offset..offset.checked_add(8)?)?;
-            Some(MicromapTriangle::from_bytes(
-                <[u8; 8]>::try_from(bytes).ok()?,
-            ))
-        }));
-    }
-    let shared = if host {
-        state.host_contents_from(data.data)
-    } else {
-        state.device_contents_from(data.data)
-    };
-    let (bytes, start) = shared.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
+    // say: a view of the bytes, not a copy.
+    let readable = readable_entries(array_len as u64, stride).min(total);
+    let triangles = TriangleEntries::shared(memory, array_start, stride, readable)?;
+    let (bytes, start) =
+        contents_from(state, host, data.data).unwrap_or_else(|| (Arc::from(Vec::new()), 0));
     Some(MicromapContent::at(triangles, bytes, start))
 }
 
@@ -1083,7 +1068,26 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || format!("the counts sum to {total}, more than maxMicromapTriangles = {max_triangles}"),
     );
     let limits = ctx.device.limits.clone();
-    for (k, usage) in data.usage_counts.usages_read() {
+    // Every rule of `usage_rules` runs for every entry, so where each entry
+    // is a key the table allows, running them on one entry decides them as
+    // running them on all would (see `UsageKeys::entries_to_check`).
+    let keys = if lossy {
+        UsageKeys::none().allow(
+            OPACITY_MICROMAP_FORMAT_4_STATE,
+            limits.max_opacity_lossy4_state_subdivision_level,
+        )
+    } else {
+        UsageKeys::none()
+            .allow(
+                OPACITY_MICROMAP_FORMAT_2_STATE,
+                limits.max_opacity2_state_subdivision_level,
+            )
+            .allow(
+                OPACITY_MICROMAP_FORMAT_4_STATE,
+                limits.max_opacity4_state_subdivision_level,
+            )
+    };
+    for (k, usage) in keys.entries_to_check(&data.usage_counts) {
         let loc = UsageAt {
             micromap: at,
             member,
@@ -1276,11 +1280,11 @@ fn micromap_inputs(
 /// buffer `triangleArray` lies in (addresses inside no buffer are 11550's;
 /// with no buffer address known, 11554 is reported not checked).
 fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData) {
-    let total = data.usage_counts.total();
     let start = data.triangle_array;
     let Some(state) = ctx.state else {
         return;
     };
+    let total = data.usage_counts.total();
     if total == 0 {
         return;
     }
@@ -1316,6 +1320,15 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
     );
 }
 
+/// The memory holding `address`, shared, and the offset of `address` in it.
+fn contents_from(state: &State, host: bool, address: u64) -> Option<(Arc<[u8]>, usize)> {
+    if host {
+        state.host_contents_from(address)
+    } else {
+        state.device_contents_from(address)
+    }
+}
+
 /// The bytes from `address` to the end of the memory holding it.
 fn bytes_from(state: &State, host: bool, address: u64) -> Option<&[u8]> {
     if host {
@@ -1339,6 +1352,11 @@ struct TriangleArrayCheck {
 
 impl TriangleArrayCheck {
     fn run(&self, ctx: &mut Ctx<'_>, data: &GeometryMicromapData) {
+        // The bytes borrow the tracked state, not the context, so findings
+        // can be reported while reading. Below the content tier nothing is read.
+        let Some(state) = ctx.contents() else {
+            return;
+        };
         let total = data.usage_counts.total();
         let stride = data.triangle_array_stride;
         // A stride that breaks 11646/11647 is reported there; its entries
@@ -1346,11 +1364,6 @@ impl TriangleArrayCheck {
         if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
             return;
         }
-        // The bytes borrow the tracked state, not the context, so findings
-        // can be reported while reading. Below the content tier nothing is read.
-        let Some(state) = ctx.contents() else {
-            return;
-        };
         let host = self.command.reads_host_memory();
         let data_available = bytes_available(state, host, data.data);
         let data_rule: RuleId = if self.command == BuildCommand::Cmd {
@@ -1386,12 +1399,6 @@ impl TriangleArrayCheck {
         let mut tally = Tally::new();
         let mut histogram = TriangleHistogram::new();
         let mut read = 0u64;
-        // The entries, kept for the hygiene information only (the simulate
-        // tier): room for as many as the array's bytes hold, never more.
-        let mut entries = Vec::new();
-        if ctx.hygiene {
-            entries.reserve(readable_entries(array.len() as u64, stride).min(total) as usize);
-        }
         // The run of the last entry without a finding, in a tightly packed
         // array; blocks that leave it go one by one to their end.
         let mut run: Option<CleanRun> = None;
@@ -1403,9 +1410,6 @@ impl TriangleArrayCheck {
                 match CleanRun::block(array, next, total) {
                     Some(block) if clean.holds(block) => {
                         histogram.add(clean.format, clean.level, CleanRun::ENTRIES as u64);
-                        if ctx.hygiene {
-                            entries.extend(decode_entries(block));
-                        }
                         read += CleanRun::ENTRIES as u64;
                         next += CleanRun::ENTRIES as u64;
                         continue;
@@ -1437,9 +1441,6 @@ impl TriangleArrayCheck {
             if let Some(available) = data_available {
                 self.data_in_range(ctx, &mut tally, m, &triangle, available);
             }
-            if ctx.hygiene {
-                entries.push(triangle);
-            }
             if stride == MicromapTriangle::SIZE
                 && findings_before == (ctx.report.findings.len(), tally.failures())
             {
@@ -1455,7 +1456,11 @@ impl TriangleArrayCheck {
         // and the tier asks for it (blocks with a bad format or range are
         // skipped there).
         if ctx.hygiene {
-            if let Some(data_bytes) = bytes_from(state, host, data.data) {
+            // The entries read, as a view of the array's bytes.
+            let entries = contents_from(state, host, data.triangle_array)
+                .and_then(|(memory, start)| TriangleEntries::shared(memory, start, stride, read));
+            if let (Some(data_bytes), Some(entries)) = (bytes_from(state, host, data.data), entries)
+            {
                 hygiene::opacity_blocks(ctx, &self.at.to_string(), data_bytes, &entries);
             }
         }

@@ -6,9 +6,13 @@ use std::fmt::Display;
 
 use ommcheck_vuids::Vuid;
 
+use crate::device::Limits;
 use crate::model::command::queue;
-use crate::model::micromap::UsageCounts;
-use crate::model::values::FormatKind;
+use crate::model::micromap::{MicromapUsage, UsageCounts};
+use crate::model::values::{
+    FormatKind, DISPLACEMENT_MICROMAP_FORMATS_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
+    OPACITY_MICROMAP_FORMAT_4_STATE,
+};
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::not_checked::Cause;
 use crate::report::count as count_of;
@@ -221,7 +225,8 @@ impl<A: Display> Display for TriangleEntry<A> {
 pub(crate) struct CleanRun {
     pub format: u32,
     pub level: u32,
-    /// The entry's upper 32 bits: `subdivisionLevel | format << 16`.
+    /// The entry's upper 32 bits, `subdivisionLevel | format << 16`, in
+    /// place: the smallest entry of the run (dataOffset 0).
     format_level: u64,
     /// The largest dataOffset whose data lies in range (at most 2^32 - 1).
     max_offset: u64,
@@ -242,7 +247,9 @@ impl CleanRun {
         Some(Self {
             format: u32::from(triangle.format),
             level: u32::from(triangle.subdivision_level),
-            format_level: u64::from(triangle.subdivision_level) | u64::from(triangle.format) << 16,
+            format_level: (u64::from(triangle.subdivision_level)
+                | u64::from(triangle.format) << 16)
+                << 32,
             max_offset,
         })
     }
@@ -259,26 +266,22 @@ impl CleanRun {
     }
 
     /// Whether every 8-byte entry of `block` has this run's format and
-    /// level and a dataOffset of at most `max_offset`. Written without
-    /// branches so that it compiles to a few vector operations: since
-    /// `max_offset` < 2^32, `max_offset - offset` wraps (setting bit 63)
-    /// exactly when the offset is larger.
+    /// level and a dataOffset of at most `max_offset`: whether the entry,
+    /// read as a number, lies in `[format_level, format_level +
+    /// max_offset]`. Written without branches so that it compiles to two
+    /// subtractions and an or per entry: with `d` the entry less
+    /// `format_level` (wrapping), `d` is in range exactly when neither `d`
+    /// nor `max_offset - d` (which wraps when `d` is larger, `max_offset`
+    /// being below 2^32) has bit 63 set.
     pub fn holds(&self, block: &[u8]) -> bool {
         let mut differs = 0u64;
         for entry in block.chunks_exact(8) {
             let bits = u64::from_le_bytes(entry.try_into().expect("8 bytes"));
-            differs |= (bits >> 32) ^ self.format_level;
-            differs |= self.max_offset.wrapping_sub(bits & 0xffff_ffff) & (1 << 63);
+            let d = bits.wrapping_sub(self.format_level);
+            differs |= self.max_offset.wrapping_sub(d) | d;
         }
-        differs == 0
+        differs & (1 << 63) == 0
     }
-}
-
-/// The entries of a block of a tightly packed triangle array.
-pub(crate) fn decode_entries(block: &[u8]) -> impl Iterator<Item = MicromapTriangle> + '_ {
-    block
-        .chunks_exact(8)
-        .map(|entry| MicromapTriangle::from_bytes(entry.try_into().expect("8 bytes")))
 }
 
 /// How many 8-byte entries at `stride` start inside `len` bytes and end
@@ -537,6 +540,141 @@ impl Tally {
     }
 }
 
+/// The level limits of `VkMicromapUsageEXT` entries: 2-state, 4-state and
+/// displacement, as [`UsageKeys::ext`] and the per-entry rules take them.
+pub(crate) fn ext_usage_maxima(limits: &Limits) -> (u32, u32, u32) {
+    (
+        limits.max_opacity2_state_subdivision_level,
+        limits.max_opacity4_state_subdivision_level,
+        limits.max_displacement_micromap_subdivision_level,
+    )
+}
+
+/// The (format, subdivision level) keys a usage-count rule allows, as the
+/// highest level allowed per format, so that a call's usage entries are
+/// checked in one pass of a few compares each, with nothing formatted or
+/// allocated: a usage entry per (format, level) in use is what real builds
+/// give, and the per-entry rules (with their locations and messages) run
+/// only where an entry is outside the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct UsageKeys {
+    /// Whether formats 0 to 3 are allowed, and up to which level. Formats
+    /// from 4 on are rejected everywhere.
+    allowed: [bool; Self::FORMATS],
+    max_level: [u32; Self::FORMATS],
+}
+
+impl UsageKeys {
+    const FORMATS: usize = 4;
+
+    /// No key allowed; add formats with [`Self::allow`].
+    pub fn none() -> Self {
+        Self {
+            allowed: [false; Self::FORMATS],
+            max_level: [0; Self::FORMATS],
+        }
+    }
+
+    /// The keys of `VkMicromapUsageEXT` in an opacity micromap (else a
+    /// displacement micromap): `maxima` are the 2-state, 4-state and
+    /// displacement level limits.
+    pub fn ext(opacity: bool, (max2, max4, max_nv): (u32, u32, u32)) -> Self {
+        if opacity {
+            Self::none()
+                .allow(OPACITY_MICROMAP_FORMAT_2_STATE, max2)
+                .allow(OPACITY_MICROMAP_FORMAT_4_STATE, max4)
+        } else {
+            DISPLACEMENT_MICROMAP_FORMATS_NV
+                .iter()
+                .fold(Self::none(), |keys, &format| keys.allow(format, max_nv))
+        }
+    }
+
+    /// Also allows `format` (below 4) at levels 0 to `max`.
+    pub fn allow(mut self, format: u32, max: u32) -> Self {
+        if let Some(slot) = self.allowed.get_mut(format as usize) {
+            *slot = true;
+            self.max_level[format as usize] = max;
+        }
+        self
+    }
+
+    /// Written without branches or lookups (a compare per format), so that
+    /// a pass over many entries compiles to vector operations.
+    #[inline]
+    fn allows(&self, format: u32, level: u32) -> bool {
+        let mut allowed = false;
+        for f in 0..Self::FORMATS {
+            allowed |= (format == f as u32) & self.allowed[f] & (level <= self.max_level[f]);
+        }
+        allowed
+    }
+
+    /// The usage entries of `counts` the per-entry rules must run on to
+    /// decide what running them on every entry would: the first of each
+    /// format where every entry is allowed (see [`Self::representatives`]),
+    /// else all of them, in order.
+    pub fn entries_to_check<'a>(
+        &self,
+        counts: &'a UsageCounts,
+    ) -> impl Iterator<Item = (usize, MicromapUsage)> + 'a {
+        let first = self.representatives(counts);
+        let all = first.is_none().then(|| counts.usages_read());
+        first
+            .into_iter()
+            .flatten()
+            .flatten()
+            .chain(all.into_iter().flatten())
+    }
+
+    /// When every usage entry of `counts` is an allowed key: the first
+    /// entry of each format that occurs, with its index (as
+    /// [`UsageCounts::usages_read`] numbers them). The per-entry rules decide the same rules
+    /// for every allowed entry of one format, so running them on these
+    /// representatives marks exactly what running them on every entry
+    /// would, and reports nothing. None when some entry is not allowed:
+    /// then the per-entry rules must run on every entry.
+    fn representatives(
+        &self,
+        counts: &UsageCounts,
+    ) -> Option<[Option<(usize, MicromapUsage)>; Self::FORMATS]> {
+        let mut first = [None; Self::FORMATS];
+        let Some(array) = counts.array.as_deref() else {
+            // `ppUsageCounts` (NULL elements skipped): one at a time.
+            for (k, usage) in counts.usages_read() {
+                if !self.allows(usage.format, usage.subdivision_level) {
+                    return None;
+                }
+                // Allowed, so below FORMATS.
+                first[usage.format as usize].get_or_insert((k, usage));
+            }
+            return Some(first);
+        };
+        // `pUsageCounts`: one branch-free pass, then the first entry of each
+        // format seen (most arrays show it within a few entries).
+        let mut allowed = true;
+        let mut seen = [false; Self::FORMATS];
+        for usage in array {
+            allowed &= self.allows(usage.format, usage.subdivision_level);
+            for (f, seen) in seen.iter_mut().enumerate() {
+                *seen |= usage.format == f as u32;
+            }
+        }
+        if !allowed {
+            return None;
+        }
+        for (format, slot) in first.iter_mut().enumerate() {
+            if seen[format] {
+                *slot = array
+                    .iter()
+                    .position(|u| u.format as usize == format)
+                    .map(|k| (k, array[k]));
+            }
+        }
+        Some(first)
+    }
+}
+
 /// The usage counts summed per (format, subdivision level); duplicate keys
 /// add up (the specification allows them) and zero counts are left out.
 pub(crate) fn declared_counts(counts: &UsageCounts) -> BTreeMap<(u32, u32), u64> {
@@ -628,10 +766,10 @@ pub(crate) fn triangle_array_holds_every_entry(
     counts: &UsageCounts,
     names: FormatKind,
 ) {
-    let total = counts.total();
     let Some(state) = ctx.state else {
         return;
     };
+    let total = counts.total();
     if total == 0 {
         return;
     }
@@ -747,6 +885,49 @@ mod tests {
     }
 
     #[test]
+    fn usage_keys_check_every_entry_or_one_of_each_format() {
+        let opacity = UsageKeys::ext(true, (12, 3, 5));
+        // Format 1 up to level 12, format 2 up to 3: the first of each format.
+        let valid = usage_counts(&[(4, 12, 1), (1, 3, 2), (2, 0, 1), (9, 2, 2)]);
+        let checked: Vec<usize> = opacity.entries_to_check(&valid).map(|(k, _)| k).collect();
+        assert_eq!(checked, [0, 1]);
+        // One entry past its format's limit: every entry, in order.
+        let past = usage_counts(&[(4, 12, 1), (1, 4, 2), (2, 0, 1)]);
+        let checked: Vec<usize> = opacity.entries_to_check(&past).map(|(k, _)| k).collect();
+        assert_eq!(checked, [0, 1, 2]);
+        for bad in [
+            (1, 0, 0),
+            (1, 0, 3),
+            (1, 0, 1 << 16),
+            (1, 64, 1),
+            (1, u32::MAX, 2),
+        ] {
+            let counts = usage_counts(&[(1, 0, 1), bad]);
+            assert_eq!(opacity.entries_to_check(&counts).count(), 2, "{bad:?}");
+        }
+        // Displacement formats 1 to 3, all up to one limit.
+        let displacement = UsageKeys::ext(false, (12, 12, 5));
+        let valid = usage_counts(&[(1, 5, 3), (1, 0, 1), (1, 5, 3)]);
+        let checked: Vec<usize> = displacement
+            .entries_to_check(&valid)
+            .map(|(k, _)| k)
+            .collect();
+        assert_eq!(checked, [1, 0]);
+        // A limit of 63 or more allows every level a u64 mask holds.
+        let wide = UsageKeys::none().allow(2, 70);
+        assert_eq!(
+            wide.entries_to_check(&usage_counts(&[(1, 63, 2)])).count(),
+            1
+        );
+        assert_eq!(
+            UsageKeys::none()
+                .entries_to_check(&UsageCounts::default())
+                .count(),
+            0
+        );
+    }
+
+    #[test]
     fn formats_are_named_by_their_enum() {
         assert_eq!(
             FormatKind::OpacityExt.key(2, 3),
@@ -824,13 +1005,19 @@ mod tests {
         assert!(!run.holds(&block(&|i| entry(u32::MAX * (i == 5) as u32, 2, 2))));
         assert!(!run.holds(&block(&|i| entry(0, 2 + (i == 7) as u16, 2))));
         assert!(!run.holds(&block(&|i| entry(0, 2, 2 - (i == 0) as u16))));
+        // Upper halves far above or below the run's, whatever the offset.
+        assert!(!run.holds(&block(&|i| entry(0, 2, 2 | (0x8000 * (i == 3) as u16)))));
+        assert!(!run.holds(&block(&|i| entry(
+            u32::MAX * (i == 9) as u32,
+            2 - (i == 9) as u16,
+            2
+        ))));
+        assert!(!run.holds(&block(&|i| entry(0, 0xFFFF * (i == 30) as u16, 0xFFFF))));
         // Data shorter than a block: no entry is in range.
         assert_eq!(CleanRun::after(&entry(0, 2, 2), Some((4, 3))), None);
         // No range to check: every offset is in range.
         let unchecked = CleanRun::after(&entry(0, 2, 2), None).expect("a run");
         assert!(unchecked.holds(&block(&|_| entry(u32::MAX, 2, 2))));
-        let decoded: Vec<_> = decode_entries(&block(&|i| entry(i, 2, 2))).collect();
-        assert_eq!(decoded[31], entry(31, 2, 2));
     }
 
     #[test]

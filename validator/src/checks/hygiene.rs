@@ -11,9 +11,9 @@ use std::hash::{BuildHasherDefault, Hash, Hasher};
 
 use crate::checks::common::{Tally, TriangleEntry};
 use crate::model::micromap::opacity_triangle_bytes;
-use crate::model::MicromapTriangle;
 use crate::report::Severity;
 use crate::rules;
+use crate::sim::decode::TriangleEntries;
 use crate::sim::opacity::bits_per_state;
 use crate::validator::Ctx;
 
@@ -59,7 +59,7 @@ pub(crate) fn opacity_blocks(
     ctx: &mut Ctx<'_>,
     at: &str,
     data: &[u8],
-    triangles: &[MicromapTriangle],
+    triangles: &TriangleEntries,
 ) {
     let mut tally = Tally::new();
     let mut ranges: Vec<(u64, u64, u64)> = Vec::with_capacity(triangles.len());
@@ -68,7 +68,7 @@ pub(crate) fn opacity_blocks(
         (u64, u64),
         BuildHasherDefault<DigestHasher>,
     > = HashMap::default();
-    for (m, triangle) in (0u64..).zip(triangles) {
+    for (m, triangle) in (0u64..).zip(triangles.iter()) {
         let (format, level) = (
             u32::from(triangle.format),
             u32::from(triangle.subdivision_level),

@@ -8,8 +8,8 @@ use ommcheck_vuids::vuid::{
 };
 
 use crate::checks::common::{
-    self, decode_entries, readable_entries, usage_counts_match_triangles, CleanRun,
-    CommandBufferVuids, Tally, TriangleEntry, TriangleHistogram,
+    self, readable_entries, usage_counts_match_triangles, CleanRun, CommandBufferVuids, Tally,
+    TriangleEntry, TriangleHistogram, UsageKeys,
 };
 use crate::checks::Coverage;
 use crate::checks::{driver_sizes, hygiene};
@@ -17,11 +17,11 @@ use crate::driver::BuildType;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
-use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
+use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle, MicromapUsage};
 use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
-use crate::sim::decode::MicromapContent;
+use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::state::{BuildRecord, Handle};
 use crate::validator::{Ctx, Validator};
 
@@ -156,13 +156,8 @@ impl Validator {
         );
         let mut contents = Vec::with_capacity(infos.len());
         for (i, info) in infos.iter().enumerate() {
-            contents.push(build_info(
-                &mut ctx,
-                &format!("pInfos[{i}]"),
-                info,
-                Side::Host,
-            ));
             let at = format!("pInfos[{i}]");
+            contents.push(build_info(&mut ctx, &at, info, Side::Host));
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
                 host::mode_07462,
@@ -194,11 +189,11 @@ impl Validator {
                     || format!("the buffer VkBuffer {buffer:#x} of dstMicromap is bound to memory allocated with multiple instances"),
                 );
             }
+            let needed = info.usage_counts.has_triangles();
             for (address, member, vuid) in [
                 (info.data, "data", host::pInfos_07553),
                 (info.triangle_array, "triangleArray", host::pInfos_07554),
             ] {
-                let needed = info.usage_counts.total() > 0;
                 // Decided where the address is NULL, inside described host
                 // memory, or outside all of it; otherwise the triangle-array
                 // check says it was not checked (from the content tier on).
@@ -231,7 +226,7 @@ impl Validator {
                     );
                 }
             }
-            if info.usage_counts.total() > 0
+            if needed
                 && info.scratch_data == 0
                 && driver_sizes::needs_scratch(&ctx, info, BuildType::Host)
             {
@@ -536,7 +531,7 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
     // The first info using each scratch start.
     let mut first_with: HashMap<u64, usize> = HashMap::new();
     for (j, b) in infos.iter().enumerate() {
-        if b.scratch_data == 0 || b.usage_counts.total() == 0 {
+        if b.scratch_data == 0 || !b.usage_counts.has_triangles() {
             continue;
         }
         match first_with.entry(b.scratch_data) {
@@ -651,71 +646,15 @@ pub(crate) fn build_info(
         }
     }
 
-    let limits = &ctx.device.limits;
-    let (max2, max4, max_nv) = (
-        limits.max_opacity2_state_subdivision_level,
-        limits.max_opacity4_state_subdivision_level,
-        limits.max_displacement_micromap_subdivision_level,
-    );
+    let maxima = common::ext_usage_maxima(&ctx.device.limits);
+    let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
-    for (k, usage) in counts.usages_read() {
-        // Built only for a finding.
-        let loc = || format!("{at}.{member}[{k}]");
-        if opacity {
-            match usage.format {
-                OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
-                    usage.subdivision_level <= max2,
-                    info_vuid::subdivisionLevel_11654,
-                    || format!("{}.subdivisionLevel", loc()),
-                    || {
-                        format!(
-                            "{} exceeds maxOpacity2StateSubdivisionLevel = {max2}",
-                            usage.subdivision_level
-                        )
-                    },
-                ),
-                OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
-                    usage.subdivision_level <= max4,
-                    info_vuid::subdivisionLevel_11655,
-                    || format!("{}.subdivisionLevel", loc()),
-                    || {
-                        format!(
-                            "{} exceeds maxOpacity4StateSubdivisionLevel = {max4}",
-                            usage.subdivision_level
-                        )
-                    },
-                ),
-                other => {
-                    ctx.error(
-                        info_vuid::format_11652,
-                        format!("{}.format", loc()),
-                        format!("{other} is not a VkOpacityMicromapFormatEXT value"),
-                    );
-                }
-            }
-        } else if displacement {
-            ctx.require(
-                DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
-                info_vuid::format_11653,
-                || format!("{}.format", loc()),
-                || {
-                    format!(
-                        "{} is not a VkDisplacementMicromapFormatNV value",
-                        usage.format
-                    )
-                },
-            );
-            ctx.require(
-                usage.subdivision_level <= max_nv,
-                info_vuid::subdivisionLevel_11656,
-                || format!("{}.subdivisionLevel", loc()),
-                || {
-                    format!(
-                        "{} exceeds maxDisplacementMicromapSubdivisionLevel = {max_nv}",
-                        usage.subdivision_level
-                    )
-                },
-            );
+    if opacity || displacement {
+        // One pass over the entries against the allowed keys; the rules
+        // with their locations and messages run per entry only where some
+        // entry is outside the table.
+        for (k, usage) in keys.entries_to_check(counts) {
+            usage_rules(ctx, (at, member, k), usage, opacity, maxima);
         }
     }
     if (opacity || displacement) && side != Side::SizeQuery {
@@ -733,12 +672,85 @@ pub(crate) fn build_info(
     None
 }
 
+/// One usage entry's format and subdivision level (11652-11656), at
+/// `{at}.{member}[{k}]`, of an opacity (else a displacement) micromap;
+/// `maxima` are the 2-state, 4-state and displacement level limits.
+fn usage_rules(
+    ctx: &mut Ctx<'_>,
+    (at, member, k): (&str, &str, usize),
+    usage: MicromapUsage,
+    opacity: bool,
+    (max2, max4, max_nv): (u32, u32, u32),
+) {
+    // Built only for a finding.
+    let loc = || format!("{at}.{member}[{k}]");
+    if opacity {
+        match usage.format {
+            OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
+                usage.subdivision_level <= max2,
+                info_vuid::subdivisionLevel_11654,
+                || format!("{}.subdivisionLevel", loc()),
+                || {
+                    format!(
+                        "{} exceeds maxOpacity2StateSubdivisionLevel = {max2}",
+                        usage.subdivision_level
+                    )
+                },
+            ),
+            OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
+                usage.subdivision_level <= max4,
+                info_vuid::subdivisionLevel_11655,
+                || format!("{}.subdivisionLevel", loc()),
+                || {
+                    format!(
+                        "{} exceeds maxOpacity4StateSubdivisionLevel = {max4}",
+                        usage.subdivision_level
+                    )
+                },
+            ),
+            other => {
+                ctx.error(
+                    info_vuid::format_11652,
+                    format!("{}.format", loc()),
+                    format!("{other} is not a VkOpacityMicromapFormatEXT value"),
+                );
+            }
+        }
+    } else {
+        ctx.require(
+            DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
+            info_vuid::format_11653,
+            || format!("{}.format", loc()),
+            || {
+                format!(
+                    "{} is not a VkDisplacementMicromapFormatNV value",
+                    usage.format
+                )
+            },
+        );
+        ctx.require(
+            usage.subdivision_level <= max_nv,
+            info_vuid::subdivisionLevel_11656,
+            || format!("{}.subdivisionLevel", loc()),
+            || {
+                format!(
+                    "{} exceeds maxDisplacementMicromapSubdivisionLevel = {max_nv}",
+                    usage.subdivision_level
+                )
+            },
+        );
+    }
+}
+
 /// The triangle array's stride against the entries' 8 bytes: decided by the
 /// parameters alone (KHR states it as 11646/11647).
 fn triangle_array_stride(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo) {
-    let triangles = info.usage_counts.total();
     let stride = info.triangle_array_stride;
-    if triangles > 1 && (stride < MicromapTriangle::SIZE || stride % 4 != 0) {
+    if stride >= MicromapTriangle::SIZE && stride % 4 == 0 {
+        return;
+    }
+    let triangles = info.usage_counts.total();
+    if triangles > 1 {
         ctx.report(
             &rules::EXT_TRIANGLE_ARRAY_STRIDE,
             crate::report::Severity::Warning,
@@ -797,26 +809,34 @@ fn triangle_array(
     side: Side,
     opacity: bool,
 ) -> Option<MicromapContent> {
+    // The bytes borrow the tracked state, not the context, so findings can
+    // be reported while reading. Below the content tier nothing is read.
+    let state = ctx.contents()?;
     let triangles = info.usage_counts.total();
     if triangles == 0 {
         return None;
     }
-    // The bytes borrow the tracked state, not the context, so findings can
-    // be reported while reading. Below the content tier nothing is read.
-    let state = ctx.contents()?;
-    let read_from = |address: u64| match side {
-        Side::Device => state.device_bytes_from(address),
-        Side::Host => state.host_bytes_from(address),
+    // The memory holding an address, shared, and the address's offset in it.
+    let shared_from = |address: u64| match side {
+        Side::Device => state.device_contents_from(address),
+        Side::Host => state.host_contents_from(address),
         Side::SizeQuery => None,
     };
     let host = side == Side::Host;
-    let data = read_from(info.data);
+    let shared_data = shared_from(info.data);
+    let data = shared_data
+        .as_ref()
+        .and_then(|(memory, start)| memory.get(*start..));
     // Where a host build's address rules are not decided (the memory was
     // not described), this finding names them with the content rules.
     let host_address = |vuid: ommcheck_vuids::Vuid, readable: bool| {
         (host && !readable && !state.describes_all_host_memory()).then_some(RuleId::from(vuid))
     };
-    let Some(array) = read_from(info.triangle_array) else {
+    let shared_array = shared_from(info.triangle_array);
+    let Some(array) = shared_array
+        .as_ref()
+        .and_then(|(memory, start)| memory.get(*start..))
+    else {
         let mut skipped = entry_rules(opacity);
         skipped.extend(host_address(host::pInfos_07554, false));
         skipped.extend(host_address(host::pInfos_07553, data.is_some()));
@@ -840,10 +860,6 @@ fn triangle_array(
     } else {
         ctx.checked(&data_rules);
     }
-    // The entries kept for the record: at most one per byte of the array
-    // (a stride of 0 repeats one entry), so never more than was readable.
-    let mut entries = Vec::new();
-    let entry_cap = array.len() as u64;
     let stride = info.triangle_array_stride;
     let names = format_names(opacity);
     // The device outlives the context's borrow, so the limits are read in
@@ -859,9 +875,9 @@ fn triangle_array(
     } else {
         (triangles, 1)
     };
-    // Room for the entries the array can hold (bounded by its bytes, never
-    // by the untrusted counts).
-    entries.reserve(readable_entries(array.len() as u64, stride).min(entries_to_read) as usize);
+    // The entries the record keeps: those read, up to the first past the
+    // array's bytes (where the loop below stops).
+    let entries_read = readable_entries(array.len() as u64, stride).min(entries_to_read);
     let data_len = data.map(|data| data.len() as u64);
     // The run of the last entry without a finding, in a tightly packed
     // opacity array; blocks that leave it go one by one to their end.
@@ -873,8 +889,6 @@ fn triangle_array(
             match CleanRun::block(array, next, entries_to_read) {
                 Some(block) if clean.holds(block) => {
                     histogram.add(clean.format, clean.level, CleanRun::ENTRIES as u64);
-                    // Within the array's bytes, so under `entry_cap`.
-                    entries.extend(decode_entries(block));
                     next += CleanRun::ENTRIES as u64;
                     continue;
                 }
@@ -897,9 +911,6 @@ fn triangle_array(
             break;
         };
         let triangle = MicromapTriangle::from_bytes(bytes.try_into().expect("8 bytes"));
-        if (entries.len() as u64) < entry_cap {
-            entries.push(triangle);
-        }
         let (format, level) = (
             u32::from(triangle.format),
             u32::from(triangle.subdivision_level),
@@ -995,6 +1006,13 @@ fn triangle_array(
         }
     }
     tally.finish(ctx);
+    // A view of the array's bytes, not a copy of its entries.
+    let entries = shared_array
+        .and_then(|(memory, start)| {
+            let stride = stride.max(MicromapTriangle::SIZE);
+            TriangleEntries::shared(memory, start, stride, entries_read)
+        })
+        .unwrap_or_else(|| Vec::new().into());
     // Information about the data blocks themselves reads every byte of
     // them; it is no validity rule, so it runs from the simulate tier up.
     if let (true, true, Some(data)) = (opacity, ctx.hygiene, data) {
@@ -1008,12 +1026,7 @@ fn triangle_array(
         let location = format!("{at}.{}", info.usage_counts.member());
         usage_counts_match_triangles(ctx, &location, &info.usage_counts, &histogram, names);
     }
-    let shared = match side {
-        Side::Device => state.device_contents_from(info.data),
-        Side::Host => state.host_contents_from(info.data),
-        Side::SizeQuery => None,
-    };
-    let (data, data_start) = shared.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
+    let (data, data_start) = shared_data.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
     let content = MicromapContent::at(entries, data, data_start);
     Some(if stride == 0 {
         content.repeating(triangles)

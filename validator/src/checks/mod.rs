@@ -12,6 +12,7 @@ pub mod device_contents;
 pub mod execution;
 pub mod driver_sizes;
 pub(crate) mod hygiene;
+pub(crate) mod index_scan;
 pub mod micromap_build;
 pub mod micromap_objects;
 pub mod pipeline_sync;

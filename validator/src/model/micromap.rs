@@ -74,12 +74,24 @@ impl UsageCounts {
         }
     }
 
+    /// Whether some entry read has a count other than 0 (Σ count > 0),
+    /// without summing them all: most arrays answer at their first entry.
+    pub fn has_triangles(&self) -> bool {
+        self.usages_read().any(|(_, u)| u.count != 0)
+    }
+
     /// Σ count over the entries, in 64 bits (it cannot overflow: at most
     /// 2^32 entries of at most 2^32 - 1 each do not fit what we hold).
     /// Checks call it several times per build, so it sums without
     /// collecting the entries.
     pub fn total(&self) -> u64 {
-        self.usages_read().map(|(_, u)| u64::from(u.count)).sum()
+        // The slice the entries are read from, summed directly: a vector
+        // loop rather than a step of the two-slice iterator per entry.
+        match (&self.array, &self.pointers) {
+            (Some(array), _) => array.iter().map(|u| u64::from(u.count)).sum(),
+            (None, Some(pointers)) => pointers.iter().flatten().map(|u| u64::from(u.count)).sum(),
+            (None, None) => 0,
+        }
     }
 }
 
@@ -293,5 +305,17 @@ mod tests {
         assert_eq!(both.total(), 7);
         assert_eq!(UsageCounts::default().member(), "pUsageCounts");
         assert_eq!(UsageCounts::default().usages_read().count(), 0);
+        // Triangles: some entry read with a count, as Σ count > 0 says.
+        assert!(both.has_triangles());
+        assert!(!UsageCounts::default().has_triangles());
+        let zeros = UsageCounts::array(vec![u(0), u(0)]);
+        assert!(!zeros.has_triangles());
+        assert_eq!(zeros.total(), 0);
+        let null_first = UsageCounts {
+            count: 2,
+            array: None,
+            pointers: Some(vec![None, Some(u(3))]),
+        };
+        assert!(null_first.has_triangles());
     }
 }

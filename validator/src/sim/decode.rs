@@ -18,8 +18,8 @@ use crate::sim::opacity::{bits_per_state, state_at, OpacityState, Slot};
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct MicromapContent {
     /// `triangleArray`, one entry per micromap triangle (as far as the
-    /// checker could read it).
-    pub triangles: Vec<MicromapTriangle>,
+    /// checker could read it): a view of the bytes, not a copy.
+    pub triangles: TriangleEntries,
     /// The memory holding the bytes `data` points to.
     pub data: Arc<[u8]>,
     /// The offset of the build's `data` address in [`Self::data`].
@@ -27,6 +27,128 @@ pub struct MicromapContent {
     /// A build with `triangleArrayStride` 0: all this many triangles read
     /// the one entry in [`Self::triangles`].
     pub repeated: Option<u64>,
+}
+
+/// A build's triangle array as the checker read it: a shared view of the
+/// memory holding it (a buffer's contents or a host range) with the
+/// array's start and stride, its entries decoded when asked for. Recording
+/// a build shares the bytes rather than copying every entry, so the content
+/// tier reads the array once.
+#[derive(Clone)]
+pub struct TriangleEntries {
+    bytes: Arc<[u8]>,
+    start: usize,
+    stride: usize,
+    len: usize,
+}
+
+impl TriangleEntries {
+    /// The `len` entries at `stride` from `start` in `bytes`; None unless
+    /// every one of them lies inside `bytes`.
+    pub fn shared(bytes: Arc<[u8]>, start: usize, stride: u64, len: u64) -> Option<Self> {
+        let stride = usize::try_from(stride).ok()?;
+        let len = usize::try_from(len).ok()?;
+        if let Some(last) = len.checked_sub(1) {
+            let end = last
+                .checked_mul(stride)?
+                .checked_add(start)?
+                .checked_add(MicromapTriangle::SIZE as usize)?;
+            if end > bytes.len() {
+                return None;
+            }
+        }
+        Some(Self {
+            bytes,
+            start,
+            stride,
+            len,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The 8 bytes of entry `m`.
+    fn entry_bytes(&self, m: usize) -> Option<[u8; 8]> {
+        if m >= self.len {
+            return None;
+        }
+        // Inside `bytes`: `shared` checked the last entry's end.
+        let offset = self.start + m * self.stride;
+        self.bytes.get(offset..offset + 8)?.try_into().ok()
+    }
+
+    /// Entry `m`.
+    pub fn get(&self, m: usize) -> Option<MicromapTriangle> {
+        self.entry_bytes(m).map(MicromapTriangle::from_bytes)
+    }
+
+    /// Entry `m`'s upper 32 bits, `subdivisionLevel | format << 16`: its
+    /// (format, level) key in one load.
+    #[inline]
+    pub fn format_level(&self, m: usize) -> Option<u32> {
+        let bytes = self.entry_bytes(m)?;
+        Some(u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]))
+    }
+
+    /// The array's bytes from its first entry, its stride and its entries:
+    /// for loops that read one member of many entries.
+    pub fn raw(&self) -> (&[u8], usize, usize) {
+        (
+            self.bytes.get(self.start..).unwrap_or(&[]),
+            self.stride,
+            self.len,
+        )
+    }
+
+    /// The entries in order.
+    pub fn iter(&self) -> impl Iterator<Item = MicromapTriangle> + '_ {
+        (0..self.len).filter_map(|m| self.get(m))
+    }
+
+    /// Keeps the first `len` entries.
+    pub fn truncate(&mut self, len: usize) {
+        self.len = self.len.min(len);
+    }
+}
+
+impl From<Vec<MicromapTriangle>> for TriangleEntries {
+    /// The entries of a tightly packed array holding `triangles`.
+    fn from(triangles: Vec<MicromapTriangle>) -> Self {
+        let bytes: Vec<u8> = triangles.iter().flat_map(|t| t.to_bytes()).collect();
+        Self {
+            bytes: Arc::from(bytes),
+            start: 0,
+            stride: MicromapTriangle::SIZE as usize,
+            len: triangles.len(),
+        }
+    }
+}
+
+impl PartialEq for TriangleEntries {
+    /// Alike when the entries are, wherever their bytes lie.
+    fn eq(&self, other: &Self) -> bool {
+        self.len == other.len && self.iter().eq(other.iter())
+    }
+}
+
+impl Eq for TriangleEntries {}
+
+impl PartialEq<Vec<MicromapTriangle>> for TriangleEntries {
+    fn eq(&self, other: &Vec<MicromapTriangle>) -> bool {
+        self.len == other.len() && self.iter().eq(other.iter().copied())
+    }
+}
+
+impl std::fmt::Debug for TriangleEntries {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
 }
 
 /// The work a simulation did: micromap triangles whose states were read
@@ -63,16 +185,16 @@ pub enum LookupError {
 
 impl MicromapContent {
     /// Content whose data starts at the beginning of `data`.
-    pub fn new(triangles: Vec<MicromapTriangle>, data: Arc<[u8]>) -> Self {
+    pub fn new(triangles: impl Into<TriangleEntries>, data: Arc<[u8]>) -> Self {
         Self::at(triangles, data, 0)
     }
 
     /// Content whose data starts `data_start` bytes into `data` (clamped to
     /// its length: past the end there is no data).
-    pub fn at(triangles: Vec<MicromapTriangle>, data: Arc<[u8]>, data_start: usize) -> Self {
+    pub fn at(triangles: impl Into<TriangleEntries>, data: Arc<[u8]>, data_start: usize) -> Self {
         let data_start = data_start.min(data.len());
         Self {
-            triangles,
+            triangles: triangles.into(),
             data,
             data_start,
             repeated: None,
@@ -93,7 +215,7 @@ impl MicromapContent {
     }
 
     /// The bytes of triangle `m`'s states.
-    pub fn triangle_data(&self, m: u64) -> Result<(&MicromapTriangle, &[u8]), LookupError> {
+    pub fn triangle_data(&self, m: u64) -> Result<(MicromapTriangle, &[u8]), LookupError> {
         let count = self.repeated.unwrap_or(self.triangles.len() as u64);
         let entry = if self.repeated.is_some() {
             (m < count).then_some(0)
@@ -304,6 +426,34 @@ mod tests {
             past.all_states(0, &mut work),
             Err(LookupError::DataOutOfRange { m: 0 })
         );
+    }
+
+    #[test]
+    fn triangle_entries_view_the_bytes_at_their_stride() {
+        let t = |data_offset, subdivision_level, format| MicromapTriangle {
+            data_offset,
+            subdivision_level,
+            format,
+        };
+        // Two entries at stride 12, four bytes in: 4 + 12 + 8 = 24 bytes.
+        let mut bytes = vec![0xEEu8; 24];
+        bytes[4..12].copy_from_slice(&t(7, 3, 2).to_bytes());
+        bytes[16..24].copy_from_slice(&t(9, 1, 1).to_bytes());
+        let memory: Arc<[u8]> = Arc::from(bytes);
+        let view = TriangleEntries::shared(Arc::clone(&memory), 4, 12, 2).expect("inside");
+        assert_eq!(view.len(), 2);
+        assert_eq!(view.get(0), Some(t(7, 3, 2)));
+        assert_eq!(view.get(1), Some(t(9, 1, 1)));
+        assert_eq!(view.get(2), None);
+        assert_eq!(view.format_level(0), Some(3 | 2 << 16));
+        assert_eq!(view, vec![t(7, 3, 2), t(9, 1, 1)]);
+        assert_eq!(view, TriangleEntries::from(vec![t(7, 3, 2), t(9, 1, 1)]));
+        // A third entry would end at byte 36, past the 24 there are.
+        assert!(TriangleEntries::shared(Arc::clone(&memory), 4, 12, 3).is_none());
+        assert!(TriangleEntries::shared(memory, 0, u64::MAX, 2).is_none());
+        let mut first = view.clone();
+        first.truncate(1);
+        assert_eq!(first, vec![t(7, 3, 2)]);
     }
 
     #[test]

@@ -7,6 +7,7 @@
 use ommcheck_vuids::vuid;
 use ommcheck_vuids::Vuid;
 
+use crate::checks::index_scan::{for_each_chunk, index_max};
 use crate::device::ext;
 use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData, TrianglesData};
 use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
@@ -279,27 +280,19 @@ pub(crate) fn index_mix(
     let bytes = state
         .read_device(address, span)
         .or_else(|| state.read_host(address, span))?;
+    // One branch-free pass, a chunk of indices at a time (see index_scan):
+    // special indices are -1..-4 cast to the index width; -5 (cluster
+    // geometry's) is neither.
+    let width_max = index_max(size);
     let (mut special, mut real) = (false, false);
-    for k in 0..entries {
-        let at = usize::try_from(k.checked_mul(stride)?).ok()?;
-        let raw = bytes.get(at..at.checked_add(size as usize)?)?;
-        let value = match *raw {
-            [byte] => u64::from(byte),
-            [a, b] => u64::from(u16::from_le_bytes([a, b])),
-            [a, b, c, d] => u64::from(u32::from_le_bytes([a, b, c, d])),
-            _ => return None,
-        };
-        // Special indices are -1..-4 cast to the index width.
-        let width_max = (1u64 << (size * 8)) - 1;
-        if value + 4 > width_max {
-            special = true;
-        } else if value + 5 != width_max + 1 {
-            real = true;
+    for_each_chunk(bytes, size, stride, entries, |_, values| {
+        for &value in values {
+            let value = u64::from(value);
+            let is_special = value + 3 >= width_max;
+            special |= is_special;
+            real |= !is_special & (value + 4 != width_max);
         }
-        if special && real {
-            break; // All `span` bytes were read above: the rest cannot fail.
-        }
-    }
+    });
     Some((special, real))
 }
 
