@@ -22,6 +22,7 @@ pub mod args;
 pub mod format;
 pub mod names;
 mod resolve;
+pub mod stats;
 pub mod trace;
 
 use std::fmt;
@@ -33,6 +34,7 @@ pub use resolve::{
     read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay,
     DEVICE_HANDLE, MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,
 };
+pub use stats::{StatsReport, StatsSummary};
 pub use trace::{RayReport, TraceReport, TraceSummary};
 
 pub use crate::report::count;

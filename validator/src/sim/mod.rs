@@ -8,4 +8,5 @@ pub mod index;
 pub mod intersect;
 pub mod opacity;
 pub mod simulate;
+pub mod stats;
 pub mod trace;
