@@ -21,7 +21,7 @@ use crate::sim::decode::MicromapContent;
 use crate::sim::index::MAX_LEVEL;
 use crate::sim::opacity::{OpacityState, Slot};
 use crate::sim::simulate::{micromap_content, trace_attachment};
-use crate::sim::trace::{fetch_slot, TraceError};
+use crate::sim::trace::fetch_slot;
 use crate::state::{BuildRecord, Handle, OpacityAttachmentRecord, State};
 use crate::validator::Validator;
 
@@ -491,12 +491,10 @@ fn attachment_references(
                 Some(state) => *refs.references.special.get_mut(state) += weight,
                 None => refs.references.cluster_skip += weight,
             },
-            Err(TraceError::IndexOutOfRange { .. }) => {
-                refs.references.unread += (distinct - t) * weight;
-                return;
-            }
+            // Past the known index buffer (and so are the later indices),
+            // or an index type no attachment may use.
             Err(_) => {
-                refs.references.unread += count;
+                refs.references.unread += (distinct - t) * weight;
                 return;
             }
         }
