@@ -63,14 +63,19 @@ impl StateCounts {
     /// The one state every counted micro-triangle holds, if they all hold
     /// the same one (None when none was counted).
     pub fn uniform(&self) -> Option<OpacityState> {
-        let mut held = STATES.iter().filter(|s| self.get(**s) != 0);
-        let first = held.next()?;
-        held.next().is_none().then_some(*first)
+        let counts = self.to_array();
+        let held = counts.iter().filter(|n| **n != 0).count();
+        let first = counts.iter().position(|n| *n != 0)?;
+        (held == 1).then_some(STATES[first])
     }
 
     /// Each count times `weight` (saturating: counts of references can
     /// exceed 64 bits only for inputs far beyond any real scene).
+    #[inline]
     pub fn times(self, weight: u64) -> Self {
+        if weight == 1 {
+            return self;
+        }
         self.map(|n| n.saturating_mul(weight))
     }
 
@@ -86,10 +91,12 @@ impl StateCounts {
 
 impl std::ops::AddAssign for StateCounts {
     fn add_assign(&mut self, other: Self) {
-        for state in STATES {
-            let sum = self.get(state).saturating_add(other.get(state));
-            *self.get_mut(state) = sum;
-        }
+        self.transparent = self.transparent.saturating_add(other.transparent);
+        self.opaque = self.opaque.saturating_add(other.opaque);
+        self.unknown_transparent = self
+            .unknown_transparent
+            .saturating_add(other.unknown_transparent);
+        self.unknown_opaque = self.unknown_opaque.saturating_add(other.unknown_opaque);
     }
 }
 
@@ -111,34 +118,71 @@ const LOW_BITS: u64 = 0x5555_5555_5555_5555;
 /// triangle's data are not read, nor the unused high bits of a triangle
 /// smaller than a byte (2-state levels 0 and 1, 4-state level 0).
 pub fn block_counts(block: &[u8], format: u32, level: u32) -> Option<StateCounts> {
-    let bits = bits_per_state(format)?;
-    let states = 1u64.checked_shl(level.checked_mul(2)?)?;
-    let used_bits = states.checked_mul(u64::from(bits))?;
-    let bytes = usize::try_from(used_bits.div_ceil(8)).ok()?;
-    let block = block.get(..bytes)?;
-    let sums = if used_bits < 8 {
-        // One byte, of which only the low `used_bits` hold states.
-        BitSums::of_word(u64::from(block[0]) & ((1u64 << used_bits) - 1))
-    } else if bits == 1 {
-        BitSums {
-            ones: ones(block),
-            ..BitSums::default()
-        }
-    } else if block.len() < 8 * VECTOR_BYTES {
-        // Too few words for the carry-save counter to pay (levels up to 3).
-        words(block).fold(BitSums::default(), |sums, w| sums + BitSums::of_word(w))
-    } else {
-        BitSums::of_four_state(block)
-    };
-    Some(if bits == 1 {
-        StateCounts {
-            transparent: states - sums.ones,
-            opaque: sums.ones,
-            ..StateCounts::default()
-        }
-    } else {
-        sums.four_state(states)
-    })
+    Shape::new(format, level)?.counts(block)
+}
+
+/// What counting a triangle of one format and level needs to know, worked
+/// out once for all the triangles that share them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// Bits per state: 1 or 2.
+    bits: u32,
+    /// Micro-triangles: `4^level`.
+    states: u64,
+    /// Bits of data used: `states · bits`.
+    used_bits: u64,
+    /// Bytes of data: `ceil(used_bits / 8)`.
+    bytes: usize,
+}
+
+impl Shape {
+    /// The shape of an opacity `format` (raw value) at `level`; None for
+    /// another format or a level whose `4^level` does not fit 64 bits.
+    pub fn new(format: u32, level: u32) -> Option<Self> {
+        let bits = bits_per_state(format)?;
+        let states = 1u64.checked_shl(level.checked_mul(2)?)?;
+        let used_bits = states.checked_mul(u64::from(bits))?;
+        let bytes = usize::try_from(used_bits.div_ceil(8)).ok()?;
+        Some(Self {
+            bits,
+            states,
+            used_bits,
+            bytes,
+        })
+    }
+
+    /// The state counts of the triangle whose data starts `block`; None
+    /// when `block` is shorter than its data.
+    // Inlined into the census loop: most triangles of a large micromap are
+    // a few words, where a call costs as much as the counting.
+    #[inline(always)]
+    pub fn counts(self, block: &[u8]) -> Option<StateCounts> {
+        let block = block.get(..self.bytes)?;
+        let sums = match (block, self.bits) {
+            // One byte, of which only the low `used_bits` hold states.
+            ([byte], _) if self.used_bits < 8 => {
+                BitSums::of_word(u64::from(*byte) & ((1u64 << self.used_bits) - 1))
+            }
+            (_, 1) => BitSums {
+                ones: ones(block),
+                ..BitSums::default()
+            },
+            // Too few words for the carry-save counter to pay (up to level 3).
+            _ if block.len() < 8 * VECTOR_BYTES => words(block)
+                .map(BitSums::of_word)
+                .fold(BitSums::default(), |sums, word| sums + word),
+            _ => BitSums::of_four_state(block),
+        };
+        Some(if self.bits == 1 {
+            StateCounts {
+                transparent: self.states - sums.ones,
+                opaque: sums.ones,
+                ..StateCounts::default()
+            }
+        } else {
+            sums.four_state(self.states)
+        })
+    }
 }
 
 /// Popcounts over a triangle's data, read as little-endian 64-bit words
@@ -181,6 +225,16 @@ impl BitSums {
     /// into one (the second shifted onto the odd bits), so each needs half
     /// as many words counted.
     fn of_four_state(block: &[u8]) -> Self {
+        // Piece by piece, so the three passes over a piece find it in the
+        // first-level cache.
+        block
+            .chunks(FOUR_STATE_PIECE)
+            .fold(Self::default(), |sums, piece| {
+                sums + Self::of_four_state_piece(piece)
+            })
+    }
+
+    fn of_four_state_piece(block: &[u8]) -> Self {
         let pairs = block.len() / (2 * VECTOR_BYTES);
         let low = |w: u64| w & LOW_BITS;
         let both = |w: u64| w & (w >> 1) & LOW_BITS;
@@ -219,6 +273,8 @@ impl BitSums {
 const LANES: usize = 4;
 type Lanes = [u64; LANES];
 const VECTOR_BYTES: usize = 8 * LANES;
+/// 4-state data is counted in pieces of this many bytes.
+const FOUR_STATE_PIECE: usize = 8 << 10;
 
 /// Vector `i` of `bytes` (its words `LANES·i` to `LANES·i + LANES - 1`),
 /// zeros when it is not whole.
@@ -245,6 +301,7 @@ fn folded(bytes: &[u8], i: usize, even: impl Fn(u64) -> u64) -> Lanes {
 }
 
 /// A little-endian word of up to 8 bytes.
+#[inline(always)]
 fn word(bytes: &[u8]) -> u64 {
     match <[u8; 8]>::try_from(bytes) {
         Ok(whole) => u64::from_le_bytes(whole),
@@ -256,16 +313,25 @@ fn word(bytes: &[u8]) -> u64 {
 }
 
 /// The words of `bytes`, a last partial one zero-extended.
+#[inline(always)]
 fn words(bytes: &[u8]) -> impl Iterator<Item = u64> + '_ {
-    bytes.chunks(8).map(word)
+    let whole = bytes.chunks_exact(8);
+    let last = whole.remainder();
+    whole
+        .map(word)
+        .chain((!last.is_empty()).then(|| word(last)))
 }
 
 /// The bits set in `bytes`.
+#[inline(always)]
 fn ones(bytes: &[u8]) -> u64 {
     let vectors = bytes.len() / VECTOR_BYTES;
     let tail = bytes.get(vectors * VECTOR_BYTES..).unwrap_or_default();
-    count_vectors(vectors, |i| vector(bytes, i))
-        + words(tail).map(|w| u64::from(w.count_ones())).sum::<u64>()
+    let tail: u64 = words(tail).map(|w| u64::from(w.count_ones())).sum();
+    if vectors == 0 {
+        return tail;
+    }
+    count_vectors(vectors, |i| vector(bytes, i)) + tail
 }
 
 /// The bits set in vectors `vector(0)` to `vector(n - 1)`: a Harley-Seal

@@ -16,7 +16,7 @@ use crate::model::values::{
     OPACITY_MICROMAP_FORMAT_4_STATE,
 };
 use crate::model::MicromapTriangle;
-use crate::sim::census::{block_counts, StateCounts};
+use crate::sim::census::{Shape, StateCounts};
 use crate::sim::decode::MicromapContent;
 use crate::sim::index::MAX_LEVEL;
 use crate::sim::opacity::{OpacityState, Slot};
@@ -204,10 +204,13 @@ const LEVELS: usize = MAX_LEVEL as usize + 1;
 
 /// The census of `content` whose entry `i` is referenced `weights[i]` times
 /// (missing weights are 0). Each triangle's data is counted by
-/// [`block_counts`]; a stride-0 build's one entry is counted once and
+/// [`Shape::counts`]; a stride-0 build's one entry is counted once and
 /// multiplied by the triangles that read it.
 pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
     let mut levels = [[LevelStats::default(); LEVELS]; 2];
+    let shapes: [[Option<Shape>; LEVELS]; 2] = std::array::from_fn(|f| {
+        std::array::from_fn(|level| Shape::new(FORMATS[f].0, level as u32))
+    });
     let mut out = Census::default();
     let (count, per_entry) = triangle_count(content);
     out.triangles = count;
@@ -221,7 +224,10 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
             out.references.not_counted += weight;
             continue;
         };
-        let Some(at_level) = levels[f].get_mut(level as usize) else {
+        let (Some(at_level), Some(Some(shape))) = (
+            levels[f].get_mut(level as usize),
+            shapes[f].get(level as usize),
+        ) else {
             out.not_counted.level += per_entry;
             out.not_counted.note(i, per_entry);
             out.references.not_counted += weight;
@@ -230,7 +236,7 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
         let block = usize::try_from(entry.data_offset)
             .ok()
             .and_then(|offset| data.get(offset..));
-        let Some(counts) = block.and_then(|block| block_counts(block, format, level)) else {
+        let Some(counts) = block.and_then(|block| shape.counts(block)) else {
             out.not_counted.data_past_end += per_entry;
             out.not_counted.note(i, per_entry);
             out.references.not_counted += weight;
@@ -238,8 +244,10 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
         };
         at_level.triangles += per_entry;
         at_level.stored += counts.times(per_entry);
-        at_level.references += weight;
-        at_level.referenced += counts.times(weight);
+        if weight != 0 {
+            at_level.references += weight;
+            at_level.referenced += counts.times(weight);
+        }
         if let Some(state) = counts.uniform() {
             out.uniform.note(i, per_entry, state);
         }
