@@ -219,11 +219,11 @@ impl BitSums {
         }
     }
 
-    /// The sums over 4-state data: the bits set, through the carry-save
-    /// counter; the low bits and the both-set fields, which use only the
-    /// even bits of a word, through the same counter with two words folded
-    /// into one (the second shifted onto the odd bits), so each needs half
-    /// as many words counted.
+    /// The sums over 4-state data: the bits set and the low bits (those at
+    /// even positions), through one pass of the carry-save counter; the
+    /// both-set fields, which use only the even bits of a word, through a
+    /// second with two words folded into one (the second shifted onto the
+    /// odd bits), so it counts half as many words.
     fn of_four_state(block: &[u8]) -> Self {
         // Piece by piece, so the three passes over a piece find it in the
         // first-level cache.
@@ -235,19 +235,26 @@ impl BitSums {
     }
 
     fn of_four_state_piece(block: &[u8]) -> Self {
-        let pairs = block.len() / (2 * VECTOR_BYTES);
-        let low = |w: u64| w & LOW_BITS;
+        let vectors = block.len() / VECTOR_BYTES;
+        let (ones, low) = count_vectors::<true>(vectors, |i| vector(block, i));
+        let pairs = vectors / 2;
         let both = |w: u64| w & (w >> 1) & LOW_BITS;
+        let (both_sum, _) = count_vectors::<false>(pairs, |i| folded(block, i, both));
         let mut sums = Self {
-            ones: ones(block),
-            low: count_vectors(pairs, |i| folded(block, i, low)),
-            both: count_vectors(pairs, |i| folded(block, i, both)),
+            ones,
+            low,
+            both: both_sum,
         };
-        // The words past the last whole pair of vectors (and a last partial word).
-        let tail = block.get(pairs * 2 * VECTOR_BYTES..).unwrap_or_default();
-        let tail = words(tail).fold(Self::default(), |sums, w| sums + Self::of_word(w));
-        sums.low += tail.low;
-        sums.both += tail.both;
+        // The words past the last whole vector, and past the last whole
+        // pair of vectors (and a last partial word).
+        let after = |at: usize| words(block.get(at..).unwrap_or_default());
+        for w in after(vectors * VECTOR_BYTES) {
+            sums.ones += u64::from(w.count_ones());
+            sums.low += u64::from((w & LOW_BITS).count_ones());
+        }
+        for w in after(pairs * 2 * VECTOR_BYTES) {
+            sums.both += u64::from(both(w).count_ones());
+        }
         sums
     }
 
@@ -331,16 +338,27 @@ fn ones(bytes: &[u8]) -> u64 {
     if vectors == 0 {
         return tail;
     }
-    count_vectors(vectors, |i| vector(bytes, i)) + tail
+    count_vectors::<false>(vectors, |i| vector(bytes, i)).0 + tail
 }
 
-/// The bits set in vectors `vector(0)` to `vector(n - 1)`: a Harley-Seal
-/// carry-save counter adds eight vectors at a time bitwise (the ones, twos
-/// and fours of each bit position kept in three vectors), so only one
-/// vector in eight (the eights) is popcounted as it goes.
-fn count_vectors(n: usize, vector: impl Fn(usize) -> Lanes) -> u64 {
+/// The bits set in vectors `vector(0)` to `vector(n - 1)`, and with
+/// `EVEN`, those of them at even positions (4-state low bits; 0 without):
+/// a Harley-Seal carry-save counter adds eight vectors at a time bitwise
+/// (the ones, twos and fours of each bit position kept in three vectors),
+/// so only one vector in eight (the eights) is popcounted as it goes. The
+/// counter keeps bit positions apart, so masking what is popcounted splits
+/// the count by position at no other cost.
+fn count_vectors<const EVEN: bool>(n: usize, vector: impl Fn(usize) -> Lanes) -> (u64, u64) {
     let (mut ones, mut twos, mut fours) = ([0u64; LANES], [0u64; LANES], [0u64; LANES]);
-    let mut eights = 0u64;
+    let count = |v: Lanes| {
+        let even = if EVEN {
+            popcount(v.map(|w| w & LOW_BITS))
+        } else {
+            0
+        };
+        (popcount(v), even)
+    };
+    let (mut eights, mut eights_even) = (0u64, 0u64);
     let mut i = 0;
     while i + 8 <= n {
         let (twos_a, o) = add(ones, vector(i), vector(i + 1));
@@ -351,12 +369,22 @@ fn count_vectors(n: usize, vector: impl Fn(usize) -> Lanes) -> u64 {
         let (fours_b, t) = add(t, twos_a, twos_b);
         let (eights_v, f) = add(fours, fours_a, fours_b);
         (ones, twos, fours) = (o, t, f);
-        eights += popcount(eights_v);
+        let (all, even) = count(eights_v);
+        eights += all;
+        eights_even += even;
         i += 8;
     }
     // Fewer than eight vectors left: counted one by one.
-    let rest: u64 = (i..n).map(|i| popcount(vector(i))).sum();
-    8 * eights + 4 * popcount(fours) + 2 * popcount(twos) + popcount(ones) + rest
+    let mut total = (8 * eights, 8 * eights_even);
+    for (weight, v) in [(4, fours), (2, twos), (1, ones)]
+        .into_iter()
+        .chain((i..n).map(|i| (1, vector(i))))
+    {
+        let (all, even) = count(v);
+        total.0 += weight * all;
+        total.1 += weight * even;
+    }
+    total
 }
 
 /// A carry-save adder on each lane: (carries, sums) of a + b + c.
