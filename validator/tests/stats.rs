@@ -5,7 +5,6 @@
 //! every geometry triangle; and the census of scenes as users see it.
 
 use std::collections::BTreeMap;
-use std::process::Command;
 use std::sync::Arc;
 
 use ommcheck::model::accel::{
@@ -547,43 +546,4 @@ fn the_census_counts_what_the_scene_holds() {
     assert_eq!(census.references.special.to_array(), [1, 1, 1, 1]);
     assert_eq!(census.uniform.triangles, 1);
     assert_eq!(census.uniform.listed[0].index, 0);
-}
-
-fn ommcheck(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_ommcheck"))
-        .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
-        .args(args)
-        .output()
-        .expect("ommcheck runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-#[test]
-fn the_command_prints_text_and_json_and_refuses_unreadable_scenes() {
-    let scene = "tests/scenes/ext-4state-mixed-levels-valid.json";
-    let (code, text, _) = ommcheck(&["stats", scene]);
-    assert_eq!(code, 0);
-    assert!(
-        text.starts_with(&format!(
-            "== {scene} (4 calls, 1 micromap)\nmicromap 'foliage-omm'"
-        )),
-        "{text}"
-    );
-    assert!(
-        text.ends_with("1 scene, 1 micromap: 4 of 4 triangles counted, 1 uniform\n"),
-        "{text}"
-    );
-    let (code, json, stderr) = ommcheck(&["stats", scene, "--format", "json"]);
-    assert_eq!(code, 0, "{stderr}");
-    let json: serde_json::Value = serde_json::from_str(&json).unwrap();
-    assert_eq!(json["scenes"][0]["micromaps"][0]["name"], "foliage-omm");
-    assert_eq!(json["scenes"][0]["micromaps"][0]["stored"]["opaque"], 27);
-    assert_eq!(json["summary"]["counted"], 4);
-    let (code, _, stderr) = ommcheck(&["stats", "tests/scenes/no-such-scene.json"]);
-    assert_eq!(code, 2);
-    assert!(stderr.contains("no-such-scene.json"), "{stderr}");
 }

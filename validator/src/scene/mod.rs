@@ -233,6 +233,12 @@ impl SceneReport {
     }
 }
 
+/// The first line of a scene's text output: `== path (4 calls, 2 rays)`,
+/// `what` saying what else the command found in it.
+pub(crate) fn header(path: &str, calls: usize, what: String) -> String {
+    format!("== {path} ({}, {what})\n", count(calls, "call", "calls"))
+}
+
 fn syntax(path: &str, error: &serde_json::Error) -> SceneError {
     let (line, column) = (error.line(), error.column());
     let text = error.to_string();

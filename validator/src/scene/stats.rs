@@ -136,14 +136,8 @@ impl StatsReport {
     /// The text form: a header, then one block per micromap and one for
     /// the total (the summary line is the caller's, after the last scene).
     pub fn text(&self) -> String {
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "== {} ({}, {})",
-            self.path,
-            count(self.calls, "call", "calls"),
-            count(self.micromaps.len(), "micromap", "micromaps")
-        );
+        let micromaps = count(self.micromaps.len(), "micromap", "micromaps");
+        let mut out = super::header(&self.path, self.calls, micromaps);
         for micromap in &self.micromaps {
             let stats = &micromap.stats;
             let name = micromap
