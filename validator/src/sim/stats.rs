@@ -195,6 +195,12 @@ fn entry_of(content: &MicromapContent, m: u64) -> Option<usize> {
     }
 }
 
+/// Adds `n` to a count, saturating: weights multiply counts, and a
+/// census must not fail on a scene however large its numbers.
+fn bump(sum: &mut u64, n: u64) {
+    *sum = sum.saturating_add(n);
+}
+
 /// The opacity formats in [`LevelStats::format`] order, with their names.
 const FORMATS: [(u32, &str); 2] = [
     (OPACITY_MICROMAP_FORMAT_2_STATE, "2-state"),
@@ -218,34 +224,34 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
     for (i, entry) in entries(content).iter().enumerate() {
         let weight = weights.get(i).copied().unwrap_or(0);
         let (format, level) = (u32::from(entry.format), u32::from(entry.subdivision_level));
-        let Some(f) = FORMATS.iter().position(|(value, _)| *value == format) else {
-            out.not_counted.format += per_entry;
+        // Entry `i` not counted, for the reason whose count `reason` picks.
+        let skip = |out: &mut Census, reason: fn(&mut NotCounted) -> &mut u64| {
+            bump(reason(&mut out.not_counted), per_entry);
             out.not_counted.note(i, per_entry);
-            out.references.not_counted += weight;
+            bump(&mut out.references.not_counted, weight);
+        };
+        let Some(f) = FORMATS.iter().position(|(value, _)| *value == format) else {
+            skip(&mut out, |n| &mut n.format);
             continue;
         };
         let (Some(at_level), Some(Some(shape))) = (
             levels[f].get_mut(level as usize),
             shapes[f].get(level as usize),
         ) else {
-            out.not_counted.level += per_entry;
-            out.not_counted.note(i, per_entry);
-            out.references.not_counted += weight;
+            skip(&mut out, |n| &mut n.level);
             continue;
         };
         let block = usize::try_from(entry.data_offset)
             .ok()
             .and_then(|offset| data.get(offset..));
         let Some(counts) = block.and_then(|block| shape.counts(block)) else {
-            out.not_counted.data_past_end += per_entry;
-            out.not_counted.note(i, per_entry);
-            out.references.not_counted += weight;
+            skip(&mut out, |n| &mut n.data_past_end);
             continue;
         };
-        at_level.triangles += per_entry;
+        bump(&mut at_level.triangles, per_entry);
         at_level.stored += counts.times(per_entry);
         if weight != 0 {
-            at_level.references += weight;
+            bump(&mut at_level.references, weight);
             at_level.referenced += counts.times(weight);
         }
         if let Some(state) = counts.uniform() {
@@ -268,8 +274,8 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
 impl UniformTriangles {
     /// Entry `i`, standing for `per_entry` triangles, is uniformly `state`.
     fn note(&mut self, i: usize, per_entry: u64, state: OpacityState) {
-        self.triangles += per_entry;
-        *self.by_state.get_mut(state) += per_entry;
+        bump(&mut self.triangles, per_entry);
+        bump(self.by_state.get_mut(state), per_entry);
         let first = if per_entry == 1 { i as u64 } else { 0 };
         let room = LISTED.saturating_sub(self.listed.len()) as u64;
         self.listed.extend(
@@ -281,7 +287,7 @@ impl UniformTriangles {
 impl NotCounted {
     /// Entry `i`, standing for `per_entry` triangles, was not counted.
     fn note(&mut self, i: usize, per_entry: u64) {
-        self.triangles += per_entry;
+        bump(&mut self.triangles, per_entry);
         let first = if per_entry == 1 { i as u64 } else { 0 };
         let room = LISTED.saturating_sub(self.listed.len()) as u64;
         self.listed.extend(first..first + per_entry.min(room));
@@ -291,19 +297,19 @@ impl NotCounted {
 impl Census {
     /// Adds one level's counts to the levels and the totals.
     fn add_level(&mut self, stats: &LevelStats) {
-        self.counted += stats.triangles;
+        bump(&mut self.counted, stats.triangles);
         self.stored += stats.stored;
         self.referenced += stats.referenced;
-        self.references.counted += stats.references;
+        bump(&mut self.references.counted, stats.references);
         match self
             .levels
             .iter_mut()
             .find(|l| (l.format, l.level) == (stats.format, stats.level))
         {
             Some(level) => {
-                level.triangles += stats.triangles;
+                bump(&mut level.triangles, stats.triangles);
                 level.stored += stats.stored;
-                level.references += stats.references;
+                bump(&mut level.references, stats.references);
                 level.referenced += stats.referenced;
             }
             None => {
@@ -315,14 +321,17 @@ impl Census {
 
     /// Adds `other` (another micromap) to this total; lists stay per micromap.
     fn add(&mut self, other: &Census) {
-        self.triangles += other.triangles;
-        self.uniform.triangles += other.uniform.triangles;
+        bump(&mut self.triangles, other.triangles);
+        bump(&mut self.uniform.triangles, other.uniform.triangles);
         self.uniform.by_state += other.uniform.by_state;
         let not_counted = &mut self.not_counted;
-        not_counted.triangles += other.not_counted.triangles;
-        not_counted.format += other.not_counted.format;
-        not_counted.level += other.not_counted.level;
-        not_counted.data_past_end += other.not_counted.data_past_end;
+        bump(&mut not_counted.triangles, other.not_counted.triangles);
+        bump(&mut not_counted.format, other.not_counted.format);
+        bump(&mut not_counted.level, other.not_counted.level);
+        bump(
+            &mut not_counted.data_past_end,
+            other.not_counted.data_past_end,
+        );
         // `add_level` adds each level's references to `counted`.
         let counted = self.references.counted;
         self.references.add(&other.references);
@@ -353,7 +362,7 @@ impl Referenced {
                     *w = w.saturating_add(weight);
                 }
             }
-            None => self.references.not_counted += weight,
+            None => bump(&mut self.references.not_counted, weight),
         }
     }
 
@@ -365,12 +374,12 @@ impl Referenced {
     fn select_range(&mut self, content: Option<&MicromapContent>, base: u64, count: u64) {
         let end = base.saturating_add(count);
         let Some(content) = content else {
-            self.references.not_counted += count;
+            bump(&mut self.references.not_counted, count);
             return;
         };
         let (triangles, _) = triangle_count(content);
         let inside = end.min(triangles).saturating_sub(base);
-        self.references.not_counted += count - inside;
+        bump(&mut self.references.not_counted, count - inside);
         match content.repeated {
             Some(_) => self.select(Some(content), base, inside),
             None => (base..base + inside).for_each(|m| self.select(Some(content), m, 1)),
@@ -449,8 +458,8 @@ fn micromap_census(
     let counted = census.references.counted;
     let not_counted = census.references.not_counted;
     census.references = refs.references;
-    census.references.counted += counted;
-    census.references.not_counted += not_counted;
+    bump(&mut census.references.counted, counted);
+    bump(&mut census.references.not_counted, not_counted);
     MicromapStats {
         handle,
         kind: if khr {
@@ -472,12 +481,12 @@ fn attachment_references(
     count: Option<u64>,
     refs: &mut Referenced,
 ) {
-    refs.references.attachments += 1;
+    bump(&mut refs.references.attachments, 1);
     let Some(count) = count else {
-        refs.references.without_range += 1;
+        bump(&mut refs.references.without_range, 1);
         return;
     };
-    refs.references.geometry_triangles += count;
+    bump(&mut refs.references.geometry_triangles, count);
     let (content, lossy) = micromap_content(state, opacity);
     if opacity.index_type == INDEX_TYPE_NONE {
         refs.select_range(content, u64::from(opacity.base_triangle), count);
@@ -496,13 +505,16 @@ fn attachment_references(
         match fetch_slot(&attachment, t) {
             Ok(Slot::Micromap(m)) => refs.select(content, m, weight),
             Ok(Slot::Special(special)) => match special.state() {
-                Some(state) => *refs.references.special.get_mut(state) += weight,
-                None => refs.references.cluster_skip += weight,
+                Some(state) => bump(refs.references.special.get_mut(state), weight),
+                None => bump(&mut refs.references.cluster_skip, weight),
             },
             // Past the known index buffer (and so are the later indices),
             // or an index type no attachment may use.
             Err(_) => {
-                refs.references.unread += (distinct - t) * weight;
+                bump(
+                    &mut refs.references.unread,
+                    (distinct - t).saturating_mul(weight),
+                );
                 return;
             }
         }
