@@ -547,3 +547,131 @@ fn the_census_counts_what_the_scene_holds() {
     assert_eq!(census.uniform.triangles, 1);
     assert_eq!(census.uniform.listed[0].index, 0);
 }
+
+#[test]
+fn the_total_adds_every_micromap_and_attachments_naming_none() {
+    let opaque_level_1 = |format: u16, byte: u8| {
+        MicromapContent::new(
+            vec![MicromapTriangle {
+                data_offset: 0,
+                subdivision_level: 1,
+                format,
+            }],
+            Arc::from(vec![byte]),
+        )
+    };
+    let built = |content: Option<MicromapContent>, triangle_count: u64| BuildRecord {
+        ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
+        triangle_count,
+        content: content.map(Arc::new),
+        ..Default::default()
+    };
+    let mut v = Validator::new(Device::default());
+    let state = v.state_mut();
+    // EXT micromap 7: one 2-state level-1 triangle, 3 opaque of 4.
+    state.micromaps.insert(
+        7,
+        Micromap {
+            built: Some(built(Some(opaque_level_1(1, 0b0111)), 1)),
+            ..Default::default()
+        },
+    );
+    // EXT micromap 8: built, its contents unknown to the checker.
+    state.micromaps.insert(
+        8,
+        Micromap {
+            built: Some(built(None, 5)),
+            ..Default::default()
+        },
+    );
+    // KHR micromap 10: one 4-state level-1 triangle, all unknown-opaque.
+    state.acceleration_structures.insert(
+        10,
+        AccelerationStructure {
+            built: Some(built(Some(opaque_level_1(2, 0xff)), 1)),
+            ..Default::default()
+        },
+    );
+    // Index buffer of the attachment naming no micromap: -1, -2 (8-bit).
+    state.buffers.insert(
+        100,
+        Buffer {
+            size: 2,
+            device_address: Some(0x1000),
+            contents: Some(Arc::from(vec![0xffu8, 0xfe])),
+            ..Default::default()
+        },
+    );
+    let attach = |khr, micromap, index_type, count| {
+        Some(TriangleGeometryRecord {
+            range: Some(BuildRangeInfo {
+                primitive_count: count,
+                ..Default::default()
+            }),
+            opacity: Some(OpacityAttachmentRecord {
+                khr,
+                index_type,
+                index_buffer: 0x1000,
+                index_stride: 1,
+                base_triangle: 0,
+                micromap,
+            }),
+            ..Default::default()
+        })
+    };
+    state.acceleration_structures.insert(
+        BLAS,
+        AccelerationStructure {
+            built: Some(BuildRecord {
+                geometries: vec![
+                    // Geometry triangles 0 and 1 select micromap triangles 0 and 1: 1 is past the end.
+                    attach(false, 7, INDEX_TYPE_NONE, 2),
+                    attach(true, 10, INDEX_TYPE_NONE, 1),
+                    attach(false, 0, INDEX_TYPE_UINT8, 2),
+                    attach(false, 8, INDEX_TYPE_NONE, 3),
+                ],
+                ..Default::default()
+            }),
+            ..Default::default()
+        },
+    );
+    let report = v.micromap_stats();
+    let kinds: Vec<_> = report
+        .micromaps
+        .iter()
+        .map(|m| (m.handle, m.kind, m.content_known))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            (7, "VkMicromapEXT", true),
+            (8, "VkMicromapEXT", false),
+            (10, "VkAccelerationStructureKHR", true)
+        ]
+    );
+    let [ext, unknown, khr] = &report.micromaps[..] else {
+        panic!("three micromaps");
+    };
+    assert_eq!(ext.census.stored.to_array(), [1, 3, 0, 0]);
+    assert_eq!(ext.census.references.counted, 1);
+    assert_eq!(ext.census.references.not_counted, 1);
+    assert_eq!((unknown.census.triangles, unknown.census.counted), (5, 0));
+    assert_eq!(unknown.census.references.not_counted, 3);
+    assert_eq!(khr.census.referenced.to_array(), [0, 0, 0, 4]);
+    assert_eq!(
+        khr.census.uniform.listed[0].state,
+        OpacityState::UnknownOpaque
+    );
+
+    let total = &report.total;
+    assert_eq!((total.triangles, total.counted), (7, 2));
+    assert_eq!(total.stored.to_array(), [1, 3, 0, 4]);
+    assert_eq!(total.referenced, total.stored);
+    assert_eq!(total.levels.len(), 2);
+    assert_eq!(total.uniform.triangles, 1);
+    assert!(total.uniform.listed.is_empty());
+    let refs = &total.references;
+    assert_eq!((refs.attachments, refs.geometry_triangles), (4, 8));
+    assert_eq!(refs.special.to_array(), [1, 1, 0, 0]);
+    assert_eq!((refs.counted, refs.not_counted), (2, 4));
+}
