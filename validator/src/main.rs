@@ -6,7 +6,8 @@ mod progress;
 
 use clap::{Parser, Subcommand};
 use ommcheck::scene::{
-    CheckOptions, LimitsOverride, Output, Scene, SceneReport, Summary, TraceReport, TraceSummary,
+    CheckOptions, LimitsOverride, Output, Scene, SceneReport, StatsReport, StatsSummary, Summary,
+    TraceReport, TraceSummary,
 };
 
 /// A checker for Vulkan opacity-micromap API usage.
@@ -72,6 +73,21 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
+    /// Count the micro-triangles of each micromap the scene builds, by state.
+    ///
+    /// Runs each scene's calls, then for each opacity micromap built and in
+    /// total: by format and level, the micro-triangles in each state, stored
+    /// (each micromap triangle once) and referenced (once per geometry
+    /// triangle whose opacity index selects it); the triangles whose states
+    /// are all alike, which a special index could replace; and the special
+    /// indices used. Exit status: 0, or 2 when a scene could not be read.
+    Stats {
+        /// Scene files (JSON; see docs/scene-format.md).
+        #[arg(required = true)]
+        scenes: Vec<std::path::PathBuf>,
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+    },
     /// Map barycentrics to a micro-triangle index, or an index to its micro-triangle.
     Index {
         /// Subdivision level, 0 to 12.
@@ -121,6 +137,7 @@ fn main() -> ExitCode {
             tier,
         } => check_command(example, &scenes, format, profile.as_deref(), deny, tier),
         Command::Trace { scenes, format } => trace_command(&scenes, format),
+        Command::Stats { scenes, format } => stats_command(&scenes, format),
         Command::Index {
             level,
             uv,
@@ -284,6 +301,33 @@ fn trace_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
+    }
+}
+
+/// `ommcheck stats`: reads and runs every scene first (status 2 before
+/// anything is printed when one cannot be read or resolved), then prints
+/// each one's census.
+fn stats_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
+    let mut reports = Vec::with_capacity(paths.len());
+    for path in paths {
+        match Scene::load(path).and_then(|scene| scene.stats()) {
+            Ok(report) => reports.push(report),
+            Err(error) => {
+                eprintln!("ommcheck: {error}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let summary = StatsSummary::of(&reports);
+    match print_reports(
+        format,
+        &reports,
+        &summary,
+        StatsReport::text,
+        summary.line(),
+    ) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(status) => status,
     }
 }
 

@@ -398,3 +398,30 @@ fn cli_text_summary_counts_rules_checked_and_not() {
         "{last}"
     );
 }
+
+/// `ommcheck stats` (its census is tested in `tests/stats.rs`).
+#[test]
+fn the_command_prints_text_and_json_and_refuses_unreadable_scenes() {
+    let scene = "tests/scenes/ext-4state-mixed-levels-valid.json";
+    let (code, text, _) = ommcheck(&["stats", scene]);
+    assert_eq!(code, 0);
+    assert!(
+        text.starts_with(&format!(
+            "== {scene} (4 calls, 1 micromap)\nmicromap 'foliage-omm'"
+        )),
+        "{text}"
+    );
+    assert!(
+        text.ends_with("1 scene, 1 micromap: 4 of 4 triangles counted, 1 uniform\n"),
+        "{text}"
+    );
+    let (code, json, stderr) = ommcheck(&["stats", scene, "--format", "json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(json["scenes"][0]["micromaps"][0]["name"], "foliage-omm");
+    assert_eq!(json["scenes"][0]["micromaps"][0]["stored"]["opaque"], 27);
+    assert_eq!(json["summary"]["counted"], 4);
+    let (code, _, stderr) = ommcheck(&["stats", "tests/scenes/no-such-scene.json"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("no-such-scene.json"), "{stderr}");
+}

@@ -22,6 +22,7 @@ pub mod args;
 pub mod format;
 pub mod names;
 mod resolve;
+pub mod stats;
 pub mod trace;
 
 use std::fmt;
@@ -33,6 +34,7 @@ pub use resolve::{
     read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay,
     DEVICE_HANDLE, MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,
 };
+pub use stats::{StatsReport, StatsSummary};
 pub use trace::{RayReport, TraceReport, TraceSummary};
 
 pub use crate::report::count;
@@ -230,6 +232,12 @@ impl SceneReport {
             format!("{header}\n{}", self.named_findings())
         }
     }
+}
+
+/// The first line of a scene's text output: `== path (4 calls, 2 rays)`,
+/// `what` saying what else the command found in it.
+pub(crate) fn header(path: &str, calls: usize, what: String) -> String {
+    format!("== {path} ({}, {what})\n", count(calls, "call", "calls"))
 }
 
 fn syntax(path: &str, error: &serde_json::Error) -> SceneError {

@@ -218,14 +218,8 @@ impl TraceReport {
     /// then one block per ray (the summary line is the caller's, after the
     /// last scene).
     pub fn text(&self) -> String {
-        let mut out = String::new();
-        let _ = writeln!(
-            out,
-            "== {} ({}, {})",
-            self.path,
-            count(self.calls, "call", "calls"),
-            count(self.rays.len(), "ray", "rays")
-        );
+        let rays = count(self.rays.len(), "ray", "rays");
+        let mut out = super::header(&self.path, self.calls, rays);
         if self.findings.is_empty() {
             out.push_str("no findings\n\n");
         } else {

@@ -2,9 +2,11 @@
 //! specification defines it and decides what traversal makes of a hit.
 //! Pure functions over bytes and numbers; the checks feed them.
 
+pub mod census;
 pub mod decode;
 pub mod index;
 pub mod intersect;
 pub mod opacity;
 pub mod simulate;
+pub mod stats;
 pub mod trace;

@@ -464,7 +464,7 @@ fn geometry(
 
 /// The attachment's micromap content (EXT: a `VkMicromapEXT`'s build; KHR:
 /// an OPACITY_MICROMAP acceleration structure's) and whether it was built lossy.
-fn micromap_content<'a>(
+pub(crate) fn micromap_content<'a>(
     state: &'a State,
     opacity: &OpacityAttachmentRecord,
 ) -> (Option<&'a MicromapContent>, bool) {
@@ -483,7 +483,7 @@ fn micromap_content<'a>(
     (record.and_then(|r| r.content.as_deref()), lossy)
 }
 
-fn trace_attachment<'a>(
+pub(crate) fn trace_attachment<'a>(
     state: &'a State,
     host: bool,
     opacity: &OpacityAttachmentRecord,

@@ -1,0 +1,480 @@
+//! Counting the states of one micromap triangle's packed data without
+//! decoding them one by one: 2-state data is counted by the ones it holds,
+//! 4-state data by popcounts over its low bits, its high bits and the
+//! fields with both set, 64 bits at a time.
+
+use serde::Serialize;
+
+use crate::sim::opacity::{bits_per_state, OpacityState};
+
+/// How many micro-triangles hold each state.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct StateCounts {
+    pub transparent: u64,
+    pub opaque: u64,
+    pub unknown_transparent: u64,
+    pub unknown_opaque: u64,
+}
+
+impl StateCounts {
+    /// `count` micro-triangles, all in `state`.
+    pub fn all(state: OpacityState, count: u64) -> Self {
+        let mut counts = Self::default();
+        *counts.get_mut(state) = count;
+        counts
+    }
+
+    pub fn get(&self, state: OpacityState) -> u64 {
+        match state {
+            OpacityState::Transparent => self.transparent,
+            OpacityState::Opaque => self.opaque,
+            OpacityState::UnknownTransparent => self.unknown_transparent,
+            OpacityState::UnknownOpaque => self.unknown_opaque,
+        }
+    }
+
+    pub fn get_mut(&mut self, state: OpacityState) -> &mut u64 {
+        match state {
+            OpacityState::Transparent => &mut self.transparent,
+            OpacityState::Opaque => &mut self.opaque,
+            OpacityState::UnknownTransparent => &mut self.unknown_transparent,
+            OpacityState::UnknownOpaque => &mut self.unknown_opaque,
+        }
+    }
+
+    /// The four counts in state order (transparent, opaque,
+    /// unknown-transparent, unknown-opaque).
+    pub fn to_array(self) -> [u64; 4] {
+        [
+            self.transparent,
+            self.opaque,
+            self.unknown_transparent,
+            self.unknown_opaque,
+        ]
+    }
+
+    pub fn total(&self) -> u64 {
+        self.to_array()
+            .iter()
+            .fold(0u64, |sum, n| sum.saturating_add(*n))
+    }
+
+    /// The one state every counted micro-triangle holds, if they all hold
+    /// the same one (None when none was counted).
+    pub fn uniform(&self) -> Option<OpacityState> {
+        let counts = self.to_array();
+        let held = counts.iter().filter(|n| **n != 0).count();
+        let first = counts.iter().position(|n| *n != 0)?;
+        (held == 1).then_some(STATES[first])
+    }
+
+    /// Each count times `weight` (saturating: counts of references can
+    /// exceed 64 bits only for inputs far beyond any real scene).
+    #[inline]
+    pub fn times(self, weight: u64) -> Self {
+        if weight == 1 {
+            return self;
+        }
+        self.map(|n| n.saturating_mul(weight))
+    }
+
+    fn map(self, f: impl Fn(u64) -> u64) -> Self {
+        Self {
+            transparent: f(self.transparent),
+            opaque: f(self.opaque),
+            unknown_transparent: f(self.unknown_transparent),
+            unknown_opaque: f(self.unknown_opaque),
+        }
+    }
+}
+
+impl std::ops::AddAssign for StateCounts {
+    fn add_assign(&mut self, other: Self) {
+        self.transparent = self.transparent.saturating_add(other.transparent);
+        self.opaque = self.opaque.saturating_add(other.opaque);
+        self.unknown_transparent = self
+            .unknown_transparent
+            .saturating_add(other.unknown_transparent);
+        self.unknown_opaque = self.unknown_opaque.saturating_add(other.unknown_opaque);
+    }
+}
+
+/// The four states, in value order.
+pub const STATES: [OpacityState; 4] = [
+    OpacityState::Transparent,
+    OpacityState::Opaque,
+    OpacityState::UnknownTransparent,
+    OpacityState::UnknownOpaque,
+];
+
+/// The low bit of every 2-bit field of a word.
+const LOW_BITS: u64 = 0x5555_5555_5555_5555;
+
+/// The state counts of one micromap triangle of `format` (raw value) at
+/// subdivision `level`, from `block`, the bytes from its `dataOffset` on.
+/// None when the format is not an opacity format, `4^level` does not fit 64
+/// bits, or `block` is shorter than the triangle's data. Bytes past the
+/// triangle's data are not read, nor the unused high bits of a triangle
+/// smaller than a byte (2-state levels 0 and 1, 4-state level 0).
+pub fn block_counts(block: &[u8], format: u32, level: u32) -> Option<StateCounts> {
+    Shape::new(format, level)?.counts(block)
+}
+
+/// What counting a triangle of one format and level needs to know, worked
+/// out once for all the triangles that share them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// Bits per state: 1 or 2.
+    bits: u32,
+    /// Micro-triangles: `4^level`.
+    states: u64,
+    /// Bits of data used: `states · bits`.
+    used_bits: u64,
+    /// Bytes of data: `ceil(used_bits / 8)`.
+    bytes: usize,
+}
+
+impl Shape {
+    /// The shape of an opacity `format` (raw value) at `level`; None for
+    /// another format or a level whose `4^level` does not fit 64 bits.
+    pub fn new(format: u32, level: u32) -> Option<Self> {
+        let bits = bits_per_state(format)?;
+        let states = 1u64.checked_shl(level.checked_mul(2)?)?;
+        let used_bits = states.checked_mul(u64::from(bits))?;
+        let bytes = usize::try_from(used_bits.div_ceil(8)).ok()?;
+        Some(Self {
+            bits,
+            states,
+            used_bits,
+            bytes,
+        })
+    }
+
+    /// The state counts of the triangle whose data starts `block`; None
+    /// when `block` is shorter than its data.
+    // Inlined into the census loop: most triangles of a large micromap are
+    // a few words, where a call costs as much as the counting.
+    #[inline(always)]
+    pub fn counts(self, block: &[u8]) -> Option<StateCounts> {
+        let block = block.get(..self.bytes)?;
+        let sums = match (block, self.bits) {
+            // One byte, of which only the low `used_bits` hold states.
+            ([byte], _) if self.used_bits < 8 => {
+                BitSums::of_word(u64::from(*byte) & ((1u64 << self.used_bits) - 1))
+            }
+            (_, 1) => BitSums {
+                ones: ones(block),
+                ..BitSums::default()
+            },
+            // Too few words for the carry-save counter to pay (up to level 3).
+            _ if block.len() < 8 * VECTOR_BYTES => words(block)
+                .map(BitSums::of_word)
+                .fold(BitSums::default(), |sums, word| sums + word),
+            _ => BitSums::of_four_state(block),
+        };
+        Some(if self.bits == 1 {
+            StateCounts {
+                transparent: self.states - sums.ones,
+                opaque: sums.ones,
+                ..StateCounts::default()
+            }
+        } else {
+            sums.four_state(self.states)
+        })
+    }
+}
+
+/// Popcounts over a triangle's data, read as little-endian 64-bit words
+/// (a last partial word zero-extended: zero bits are transparent states,
+/// which the counts derive from the total, so padding changes nothing).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct BitSums {
+    /// Bits set.
+    ones: u64,
+    /// Bits set among the low bits of the 2-bit fields.
+    low: u64,
+    /// 2-bit fields with both bits set.
+    both: u64,
+}
+
+impl std::ops::Add for BitSums {
+    type Output = Self;
+
+    fn add(self, other: Self) -> Self {
+        Self {
+            ones: self.ones + other.ones,
+            low: self.low + other.low,
+            both: self.both + other.both,
+        }
+    }
+}
+
+impl BitSums {
+    fn of_word(w: u64) -> Self {
+        Self {
+            ones: u64::from(w.count_ones()),
+            low: u64::from((w & LOW_BITS).count_ones()),
+            both: u64::from((w & (w >> 1) & LOW_BITS).count_ones()),
+        }
+    }
+
+    /// The sums over 4-state data: the bits set and the low bits (those at
+    /// even positions), through one pass of the carry-save counter; the
+    /// both-set fields, which use only the even bits of a word, through a
+    /// second with two words folded into one (the second shifted onto the
+    /// odd bits), so it counts half as many words.
+    fn of_four_state(block: &[u8]) -> Self {
+        // Piece by piece, so the three passes over a piece find it in the
+        // first-level cache.
+        block
+            .chunks(FOUR_STATE_PIECE)
+            .fold(Self::default(), |sums, piece| {
+                sums + Self::of_four_state_piece(piece)
+            })
+    }
+
+    fn of_four_state_piece(block: &[u8]) -> Self {
+        let vectors = block.len() / VECTOR_BYTES;
+        let (ones, low) = count_vectors::<true>(vectors, |i| vector(block, i));
+        let pairs = vectors / 2;
+        let both = |w: u64| w & (w >> 1) & LOW_BITS;
+        let (both_sum, _) = count_vectors::<false>(pairs, |i| folded(block, i, both));
+        let mut sums = Self {
+            ones,
+            low,
+            both: both_sum,
+        };
+        // The words past the last whole vector, and past the last whole
+        // pair of vectors (and a last partial word).
+        let after = |at: usize| words(block.get(at..).unwrap_or_default());
+        for w in after(vectors * VECTOR_BYTES) {
+            sums.ones += u64::from(w.count_ones());
+            sums.low += u64::from((w & LOW_BITS).count_ones());
+        }
+        for w in after(pairs * 2 * VECTOR_BYTES) {
+            sums.both += u64::from(both(w).count_ones());
+        }
+        sums
+    }
+
+    /// A 4-state field's low bit is set for opaque (1) and unknown-opaque
+    /// (3), its high bit for the two unknown states (2, 3): with L the
+    /// fields with the low bit set, H those with the high bit and B those
+    /// with both, opaque = L - B, unknown-transparent = H - B and
+    /// unknown-opaque = B, of `states` fields.
+    fn four_state(self, states: u64) -> StateCounts {
+        let high = self.ones - self.low;
+        let (opaque, unknown_transparent) = (self.low - self.both, high - self.both);
+        StateCounts {
+            transparent: states - opaque - unknown_transparent - self.both,
+            opaque,
+            unknown_transparent,
+            unknown_opaque: self.both,
+        }
+    }
+}
+
+/// Words counted side by side: the carry-save counter works on four
+/// independent lanes, which the compiler keeps in vector registers.
+const LANES: usize = 4;
+type Lanes = [u64; LANES];
+const VECTOR_BYTES: usize = 8 * LANES;
+/// 4-state data is counted in pieces of this many bytes.
+const FOUR_STATE_PIECE: usize = 8 << 10;
+
+/// Vector `i` of `bytes` (its words `LANES·i` to `LANES·i + LANES - 1`),
+/// zeros when it is not whole.
+fn vector(bytes: &[u8], i: usize) -> Lanes {
+    let at = i * VECTOR_BYTES;
+    let whole = bytes
+        .get(at..at + VECTOR_BYTES)
+        .and_then(|b| <&[u8; VECTOR_BYTES]>::try_from(b).ok());
+    let Some(whole) = whole else {
+        return [0; LANES];
+    };
+    std::array::from_fn(|k| {
+        let mut word = [0u8; 8];
+        word.copy_from_slice(&whole[8 * k..8 * k + 8]);
+        u64::from_le_bytes(word)
+    })
+}
+
+/// Pair `i` of vectors of `bytes` folded into one vector: `even` keeps
+/// only even bits of a word, so the pair's second vector fits on the odd bits.
+fn folded(bytes: &[u8], i: usize, even: impl Fn(u64) -> u64) -> Lanes {
+    let (a, b) = (vector(bytes, 2 * i), vector(bytes, 2 * i + 1));
+    std::array::from_fn(|k| even(a[k]) | (even(b[k]) << 1))
+}
+
+/// A little-endian word of up to 8 bytes.
+#[inline(always)]
+fn word(bytes: &[u8]) -> u64 {
+    match <[u8; 8]>::try_from(bytes) {
+        Ok(whole) => u64::from_le_bytes(whole),
+        Err(_) => bytes
+            .iter()
+            .rev()
+            .fold(0u64, |word, byte| (word << 8) | u64::from(*byte)),
+    }
+}
+
+/// The words of `bytes`, a last partial one zero-extended.
+#[inline(always)]
+fn words(bytes: &[u8]) -> impl Iterator<Item = u64> + '_ {
+    let whole = bytes.chunks_exact(8);
+    let last = whole.remainder();
+    whole
+        .map(word)
+        .chain((!last.is_empty()).then(|| word(last)))
+}
+
+/// The bits set in `bytes`.
+#[inline(always)]
+fn ones(bytes: &[u8]) -> u64 {
+    let vectors = bytes.len() / VECTOR_BYTES;
+    let tail = bytes.get(vectors * VECTOR_BYTES..).unwrap_or_default();
+    let tail: u64 = words(tail).map(|w| u64::from(w.count_ones())).sum();
+    if vectors == 0 {
+        return tail;
+    }
+    count_vectors::<false>(vectors, |i| vector(bytes, i)).0 + tail
+}
+
+/// The bits set in vectors `vector(0)` to `vector(n - 1)`, and with
+/// `EVEN`, those of them at even positions (4-state low bits; 0 without):
+/// a Harley-Seal carry-save counter adds eight vectors at a time bitwise
+/// (the ones, twos and fours of each bit position kept in three vectors),
+/// so only one vector in eight (the eights) is popcounted as it goes. The
+/// counter keeps bit positions apart, so masking what is popcounted splits
+/// the count by position at no other cost.
+fn count_vectors<const EVEN: bool>(n: usize, vector: impl Fn(usize) -> Lanes) -> (u64, u64) {
+    let (mut ones, mut twos, mut fours) = ([0u64; LANES], [0u64; LANES], [0u64; LANES]);
+    let count = |v: Lanes| {
+        let even = if EVEN {
+            popcount(v.map(|w| w & LOW_BITS))
+        } else {
+            0
+        };
+        (popcount(v), even)
+    };
+    let (mut eights, mut eights_even) = (0u64, 0u64);
+    let mut i = 0;
+    while i + 8 <= n {
+        let (twos_a, o) = add(ones, vector(i), vector(i + 1));
+        let (twos_b, o) = add(o, vector(i + 2), vector(i + 3));
+        let (fours_a, t) = add(twos, twos_a, twos_b);
+        let (twos_a, o) = add(o, vector(i + 4), vector(i + 5));
+        let (twos_b, o) = add(o, vector(i + 6), vector(i + 7));
+        let (fours_b, t) = add(t, twos_a, twos_b);
+        let (eights_v, f) = add(fours, fours_a, fours_b);
+        (ones, twos, fours) = (o, t, f);
+        let (all, even) = count(eights_v);
+        eights += all;
+        eights_even += even;
+        i += 8;
+    }
+    // Fewer than eight vectors left: counted one by one.
+    let mut total = (8 * eights, 8 * eights_even);
+    for (weight, v) in [(4, fours), (2, twos), (1, ones)]
+        .into_iter()
+        .chain((i..n).map(|i| (1, vector(i))))
+    {
+        let (all, even) = count(v);
+        total.0 += weight * all;
+        total.1 += weight * even;
+    }
+    total
+}
+
+/// A carry-save adder on each lane: (carries, sums) of a + b + c.
+fn add(a: Lanes, b: Lanes, c: Lanes) -> (Lanes, Lanes) {
+    let mut carry = [0u64; LANES];
+    let mut sum = [0u64; LANES];
+    for k in 0..LANES {
+        let partial = a[k] ^ b[k];
+        carry[k] = (a[k] & b[k]) | (partial & c[k]);
+        sum[k] = partial ^ c[k];
+    }
+    (carry, sum)
+}
+
+fn popcount(v: Lanes) -> u64 {
+    v.iter().map(|w| u64::from(w.count_ones())).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::values::{OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE};
+
+    const TWO: u32 = OPACITY_MICROMAP_FORMAT_2_STATE;
+    const FOUR: u32 = OPACITY_MICROMAP_FORMAT_4_STATE;
+
+    fn counts(t: u64, o: u64, ut: u64, uo: u64) -> StateCounts {
+        StateCounts {
+            transparent: t,
+            opaque: o,
+            unknown_transparent: ut,
+            unknown_opaque: uo,
+        }
+    }
+
+    #[test]
+    fn the_design_notes_baker_examples_count_as_their_states() {
+        // 2-state level 3 from the SDK baker: states 0-31 opaque, 32-47
+        // transparent, 48-63 opaque.
+        let bytes = [0xff, 0xff, 0xff, 0xff, 0x00, 0x00, 0xff, 0xff];
+        assert_eq!(block_counts(&bytes, TWO, 3), Some(counts(16, 48, 0, 0)));
+        // 4-state 0x55: four opaque states (level 1).
+        assert_eq!(block_counts(&[0x55], FOUR, 1), Some(counts(0, 4, 0, 0)));
+        // 0b11_10_01_00: one of each.
+        assert_eq!(
+            block_counts(&[0b1110_0100], FOUR, 1),
+            Some(counts(1, 1, 1, 1))
+        );
+    }
+
+    #[test]
+    fn unused_high_bits_and_bytes_past_the_block_are_not_counted() {
+        // 2-state level 0 uses bit 0; level 1 bits 0-3; 4-state level 0 bits 0-1.
+        assert_eq!(
+            block_counts(&[0xfe, 0xff], TWO, 0),
+            Some(counts(1, 0, 0, 0))
+        );
+        assert_eq!(block_counts(&[0xf3], TWO, 1), Some(counts(2, 2, 0, 0)));
+        assert_eq!(block_counts(&[0xfe], FOUR, 0), Some(counts(0, 0, 1, 0)));
+        // Level 2 4-state is 4 bytes; the fifth is another triangle's.
+        assert_eq!(
+            block_counts(&[0xff, 0xff, 0xff, 0xff, 0x55], FOUR, 2),
+            Some(counts(0, 0, 0, 16))
+        );
+    }
+
+    #[test]
+    fn short_data_unknown_formats_and_huge_levels_are_none() {
+        assert_eq!(block_counts(&[0; 15], FOUR, 3), None);
+        assert_eq!(block_counts(&[], TWO, 0), None);
+        assert_eq!(block_counts(&[0; 8], 3, 1), None);
+        assert_eq!(block_counts(&[0; 8], TWO, 32), None);
+        assert_eq!(block_counts(&[0; 8], FOUR, u32::MAX), None);
+    }
+
+    #[test]
+    fn uniform_counts_name_their_state() {
+        assert_eq!(
+            counts(0, 0, 7, 0).uniform(),
+            Some(OpacityState::UnknownTransparent)
+        );
+        assert_eq!(counts(1, 0, 7, 0).uniform(), None);
+        assert_eq!(StateCounts::default().uniform(), None);
+        assert_eq!(
+            StateCounts::all(OpacityState::Opaque, 3).times(u64::MAX),
+            counts(0, u64::MAX, 0, 0)
+        );
+        let mut sum = counts(1, 2, 3, 4);
+        sum += counts(1, 1, 1, u64::MAX);
+        assert_eq!(sum, counts(2, 3, 4, u64::MAX));
+        assert_eq!(sum.total(), u64::MAX);
+    }
+}
