@@ -39,6 +39,15 @@ impl Chain {
         with_settings(settings, Self::with_instance_next)
     }
 
+    /// As [`Chain::with_settings`], with the micromap features on or off.
+    pub fn with_settings_and_micromap_feature(settings: &[(&CStr, &CStr)], micromap: bool) -> Self {
+        let (chain, result) = with_settings(settings, |next| {
+            Self::with_chains(next, std::ptr::null_mut(), micromap)
+        });
+        assert_eq!(result, vk::Result::SUCCESS);
+        chain
+    }
+
     /// A command pool of queue family 0 (graphics, compute and transfer).
     pub fn command_pool(&self) -> vk::CommandPool {
         let create: vk::PFN_vkCreateCommandPool = device_fn(self.device, c"vkCreateCommandPool");

@@ -1533,7 +1533,7 @@ impl Chain {
     /// As [`Chain::new`], with `next` (the application's structures, such
     /// as a `VkLayerSettingsCreateInfoEXT`) chained to `VkInstanceCreateInfo`.
     pub fn with_instance_next(next: *const std::ffi::c_void) -> Self {
-        let chain = Self::with_chains(next, std::ptr::null_mut());
+        let chain = Self::with_chains(next, std::ptr::null_mut(), true);
         assert_eq!(chain.1, vk::Result::SUCCESS);
         chain.0
     }
@@ -1542,14 +1542,16 @@ impl Chain {
     /// pNext) chained to the device create info too; returns what
     /// vkCreateDevice returned.
     pub fn with_device_chain(extra: *mut vk::BaseOutStructure<'_>) -> (Self, vk::Result) {
-        Self::with_chains(std::ptr::null(), extra)
+        Self::with_chains(std::ptr::null(), extra, true)
     }
 
     /// The chain with `next` after the instance's link info and `extra` in
-    /// the device create info.
+    /// the device create info; `micromap` false leaves the micromap
+    /// features off.
     fn with_chains(
         next: *const std::ffi::c_void,
         extra: *mut vk::BaseOutStructure<'_>,
+        micromap: bool,
     ) -> (Self, vk::Result) {
         let (result, instance, advanced) = create_instance_with(true, next);
         assert_eq!(result, vk::Result::SUCCESS);
@@ -1568,8 +1570,8 @@ impl Chain {
             pfn_next_get_device_proc_addr: Some(fake_gdpa),
         };
         let mut micromap = vk::PhysicalDeviceOpacityMicromapFeaturesEXT {
-            micromap: vk::TRUE,
-            micromap_host_commands: vk::TRUE,
+            micromap: micromap.into(),
+            micromap_host_commands: micromap.into(),
             ..Default::default()
         };
         let mut address = vk::PhysicalDeviceBufferDeviceAddressFeatures {
