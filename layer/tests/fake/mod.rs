@@ -667,6 +667,20 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
     );
 }
 
+unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
+    cb: vk::CommandBuffer,
+    count: u32,
+    _: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    _: *const vk::DeviceAddress,
+    _: *const u32,
+    _: *const *const u32,
+) {
+    record(
+        "vkCmdBuildAccelerationStructuresIndirectKHR",
+        vec![cb.as_raw(), u64::from(count)],
+    );
+}
+
 unsafe extern "system" fn cmd_copy_micromap(
     cb: vk::CommandBuffer,
     info: *const vk::CopyMicromapInfoEXT<'_>,
@@ -1235,6 +1249,10 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdBuildAccelerationStructuresKHR" => {
             void(cmd_build_acceleration_structures as vk::PFN_vkCmdBuildAccelerationStructuresKHR)
         }
+        b"vkCmdBuildAccelerationStructuresIndirectKHR" => void(
+            cmd_build_acceleration_structures_indirect
+                as vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR,
+        ),
         b"vkCreateShaderModule" => void(create_shader_module as vk::PFN_vkCreateShaderModule),
         b"vkCreateComputePipelines" => {
             void(create_compute_pipelines as vk::PFN_vkCreateComputePipelines)

@@ -14,15 +14,14 @@
 #![allow(unsafe_code)]
 
 use std::collections::HashMap;
-use std::ffi::CStr;
 
 use ash::vk;
 use ommcheck::scene::names::{self, Kind};
 use serde_json::Value;
 
-use crate::fake::app::record_micromap_build;
+use crate::fake::app::{record_micromap_build, REPORT_EVERYTHING};
 use crate::fake::gpu::fake_gpu_write;
-use crate::fake::{add_messenger, device_fn, Chain, Collector, Received};
+use crate::fake::{device_fn, Chain, Collector, Received};
 
 /// How the scene's buffer contents reach device-local memory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -182,22 +181,16 @@ impl<'s> Player<'s> {
         } else {
             c"false"
         };
-        let settings: [(&CStr, &CStr); 4] = [
-            (c"tier", c"content"),
-            (c"report_flags", c"error,warning,info"),
-            (c"duplicate_message_limit", c"0"),
-            (c"gpu_readback", readback),
-        ];
+        let settings = [
+            REPORT_EVERYTHING.as_slice(),
+            &[(c"tier", c"content"), (c"gpu_readback", readback)],
+        ]
+        .concat();
         let features = &scene["device"]["features"];
         let micromap = features.is_null()
             || features["VkPhysicalDeviceOpacityMicromapFeaturesEXT"]["micromap"] == true;
         let chain = Chain::with_settings_and_micromap_feature(&settings, micromap);
-        let info = Box::<Collector>::default();
-        add_messenger(
-            chain.instance,
-            vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
-            &info,
-        );
+        let info = chain.info_collector();
         let mut player = Self {
             chain,
             info,

@@ -879,7 +879,7 @@ impl Validator {
         let build = DeviceBuild::AccelerationStructures {
             infos: model,
             ranges,
-            indirect: false,
+            indirect: true,
         };
         (report, build)
     }
