@@ -290,7 +290,7 @@ pub fn unplaced_messages(
         (
             "instance-pointers",
             unplaced.behind_pointers,
-            "with arrayOfPointers the instances are wherever the pointers point, which the layer learns only from the pointers' bytes: transfers and GPU readback follow the array of pointers, not the instances, so the rules over those instances are not checked; pass the instances themselves (arrayOfPointers VK_FALSE) to have them checked",
+            "with arrayOfPointers the instances are wherever the pointers point: the layer reads the array of pointers (from mapped memory, followed transfers or GPU readback) but not the instances it points to, so the rules over those instances are not checked; pass the instances themselves (arrayOfPointers VK_FALSE) to have them checked",
         ),
     ];
     let function = build.function();
