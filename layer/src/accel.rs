@@ -12,6 +12,7 @@ use std::ffi::{c_void, CStr};
 
 use ash::vk;
 use ash::vk::Handle as _;
+use ommcheck::checks::device_contents::DeviceBuild;
 use ommcheck::model::CommandBuffer;
 use ommcheck::vuids::khr;
 use ommcheck::Report;
@@ -421,33 +422,24 @@ unsafe extern "system" fn destroy_acceleration_structure(
     })
 }
 
-/// `vkCmdBuildAccelerationStructuresKHR`: checked at recording; at the
-/// content tier and above its contents (index buffers, micromap inputs)
-/// when the command buffer is submitted.
-unsafe extern "system" fn cmd_build_acceleration_structures(
+/// A device build command: as [`recorded`], and from the content tier
+/// (see `DeviceState::reads_contents`) the build as read is kept for the
+/// checks of its contents at submission or completion, with what GPU
+/// readback needs recorded before it ([`commands::keep_build`]).
+fn recorded_build<F: Copy>(
+    function: &'static str,
     command_buffer: vk::CommandBuffer,
-    info_count: u32,
-    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
-    build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+    pick: fn(&DeviceFns) -> Option<F>,
+    checks: impl FnOnce(&mut DeviceState, &CommandBuffer) -> (Report, DeviceBuild),
+    call_down: impl FnOnce(F),
 ) {
-    // The build as read and the command buffer as checked, kept for the
-    // content checks at submission once the command is recorded below
-    // (at the content tier and above: see `DeviceState::reads_contents`).
     let kept = std::cell::Cell::new(None);
     recorded(
-        "vkCmdBuildAccelerationStructuresKHR",
+        function,
         command_buffer,
-        |f| f.accel.cmd_build_acceleration_structures,
+        pick,
         |state, model| {
-            // SAFETY: the application's arguments, valid as the API requires.
-            let (report, build) = unsafe {
-                state.validator.cmd_build_acceleration_structures_raw_kept(
-                    model,
-                    info_count,
-                    infos,
-                    build_range_infos,
-                )
-            };
+            let (report, build) = checks(state, model);
             if state.reads_contents() {
                 kept.set(Some((build, model.clone())));
             }
@@ -459,14 +451,43 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
                     commands::keep_build(&data, command_buffer, &model, build);
                 }
             }
-            // SAFETY: the next layer's function, with the application's arguments.
-            unsafe { next(command_buffer, info_count, infos, build_range_infos) }
+            call_down(next);
         },
     );
 }
 
+/// `vkCmdBuildAccelerationStructuresKHR`: checked at recording; at the
+/// content tier and above its contents (index buffers, micromap inputs,
+/// instances) when the command buffer is submitted or completes.
+unsafe extern "system" fn cmd_build_acceleration_structures(
+    command_buffer: vk::CommandBuffer,
+    info_count: u32,
+    infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    build_range_infos: *const *const vk::AccelerationStructureBuildRangeInfoKHR,
+) {
+    recorded_build(
+        "vkCmdBuildAccelerationStructuresKHR",
+        command_buffer,
+        |f| f.accel.cmd_build_acceleration_structures,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state, model| unsafe {
+            state.validator.cmd_build_acceleration_structures_raw_kept(
+                model,
+                info_count,
+                infos,
+                build_range_infos,
+            )
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(command_buffer, info_count, infos, build_range_infos) },
+    );
+}
+
 /// `vkCmdBuildAccelerationStructuresIndirectKHR`: its build ranges are in
-/// device memory, so only what the parameters decide is checked.
+/// device memory, so at recording only what the parameters decide is
+/// checked; from the content tier its micromap geometries' inputs are read
+/// as a direct build's, and the inputs whose extent the ranges give are
+/// reported not checked ([`crate::readback::unplaced_messages`]).
 unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
     command_buffer: vk::CommandBuffer,
     info_count: u32,
@@ -475,7 +496,7 @@ unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
     strides: *const u32,
     max_primitive_counts: *const *const u32,
 ) {
-    recorded(
+    recorded_build(
         "vkCmdBuildAccelerationStructuresIndirectKHR",
         command_buffer,
         |f| f.accel.cmd_build_acceleration_structures_indirect,
@@ -483,7 +504,7 @@ unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
         |state, model| unsafe {
             state
                 .validator
-                .cmd_build_acceleration_structures_indirect_raw(
+                .cmd_build_acceleration_structures_indirect_raw_kept(
                     model,
                     info_count,
                     infos,

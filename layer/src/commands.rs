@@ -274,8 +274,18 @@ pub fn keep_build(
     recorded_in: &CommandBuffer,
     build: DeviceBuild,
 ) {
-    let plan = crate::device::track_with(data, build.function(), |state| {
-        crate::readback::plan(data, state, command_buffer, &build)
+    let planned = crate::device::track_with(data, build.function(), |state| {
+        let unplaced = crate::readback::unplaced_messages(state, command_buffer, &build);
+        (
+            crate::readback::plan(data, state, command_buffer, &build),
+            unplaced,
+        )
+    });
+    let plan = planned.map(|(plan, unplaced)| {
+        if !unplaced.is_empty() {
+            data.instance.reporter.deliver(&unplaced, false);
+        }
+        plan
     });
     let (readback, not_read_back) = match plan {
         Some(Plan::ReadBack(readback)) => (Some(readback), None),

@@ -25,9 +25,11 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use ash::vk;
 use ash::vk::Handle as _;
 use ommcheck::checks::device_contents::{DeviceBuild, Extent, KnownBytes};
+use ommcheck::Severity;
 
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::read;
+use crate::report::{Message, CONTENTS_NOT_CHECKED};
 use crate::settings::{GPU_READBACK, GPU_READBACK_MAX_BYTES};
 
 /// One window of an application buffer a build reads, and where its copy
@@ -133,6 +135,13 @@ pub fn windows(state: &DeviceState, build: &DeviceBuild) -> Result<Vec<Window>, 
             .buffers_at(read.address)
             .find_map(|(handle, b)| Some((handle, b.address_range()?.0, b.size)));
         let Some((buffer, start, size)) = found else {
+            // A micromap build's triangle array or data inside no buffer
+            // whose address is known is an error its recording reported
+            // (VUID-vkCmdBuildMicromapsEXT-pInfos-10896, -10897): there
+            // are no bytes to check, and nothing more to say.
+            if matches!(build, DeviceBuild::Micromaps(_)) && tracked.knows_addresses() {
+                continue;
+            }
             return Err(format!(
                 "no buffer whose device address the layer knows (from vkGetBufferDeviceAddress) holds {} ({:#x})",
                 read.location, read.address
@@ -257,6 +266,52 @@ pub fn plan(
             format!("the layer could not set up GPU readback: {reason}"),
         ),
     }
+}
+
+/// The information that inputs of `build` (recorded in `command_buffer`)
+/// whose place is known only when the GPU runs it are not checked: once
+/// per device and cause ([`CONTENTS_NOT_CHECKED`]), said at recording.
+/// Neither route reads them: transfers and readback follow the windows
+/// the build's parameters give, and these depend on bytes in device
+/// memory (an indirect build's range infos, an array of instance
+/// pointers).
+pub fn unplaced_messages(
+    state: &mut DeviceState,
+    command_buffer: vk::CommandBuffer,
+    build: &DeviceBuild,
+) -> Vec<Message> {
+    let unplaced = build.unplaced_reads();
+    let causes = [
+        (
+            "indirect-ranges",
+            unplaced.without_ranges,
+            "their extent comes from the build range infos (primitiveCount, primitiveOffset) the GPU reads from pIndirectDeviceAddresses when it runs the build, which the layer neither reads nor reads back, so the rules over them (opacity indices, instances) are not checked; build with vkCmdBuildAccelerationStructuresKHR to have them checked",
+        ),
+        (
+            "instance-pointers",
+            unplaced.behind_pointers,
+            "with arrayOfPointers the instances are wherever the pointers point: the layer reads the array of pointers (from mapped memory, followed transfers or GPU readback) but not the instances it points to, so the rules over those instances are not checked; pass the instances themselves (arrayOfPointers VK_FALSE) to have them checked",
+        ),
+    ];
+    let function = build.function();
+    let mut messages = Vec::new();
+    for (cause, locations, why) in causes {
+        if locations.is_empty() || !state.memory_layout.first_report(cause) {
+            continue;
+        }
+        let text = format!(
+            "the inputs at {} of a build recorded in VkCommandBuffer {:#x} are not checked: {why}. This is reported once per device and reason.",
+            locations.join(", "),
+            command_buffer.as_raw()
+        );
+        let mut message =
+            Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Info, function, &text);
+        message
+            .objects
+            .push((vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw()));
+        messages.push(message);
+    }
+    messages
 }
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {

@@ -55,6 +55,12 @@ impl MemoryLayout {
         self.mapped_at.remove(&memory);
     }
 
+    /// Whether [`CONTENTS_NOT_CHECKED`] is still to be reported for
+    /// `cause` on this device (it is once per device and cause); true once.
+    pub fn first_report(&mut self, cause: &'static str) -> bool {
+        self.reported_unreadable.insert(cause)
+    }
+
     /// Whether `buffer`'s memory is mapped now.
     pub fn is_mapped(&self, buffer: u64) -> bool {
         self.bound
@@ -204,7 +210,7 @@ fn check_kept(
                 ),
                 |(key, why)| (*key, why.as_str()),
             );
-            if state.memory_layout.reported_unreadable.insert(key) {
+            if state.memory_layout.first_report(key) {
                 let text = format!(
                     "the inputs of a build recorded in VkCommandBuffer {command_buffer:#x} could not be read at {submit_function} ({reason}), nor read back on the GPU: {why_not_read_back}; the build's content rules are not checked. This is reported once per device and reason."
                 );

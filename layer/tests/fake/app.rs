@@ -6,7 +6,7 @@ use std::ffi::CStr;
 
 use ash::vk;
 
-use super::{device_fn, Chain};
+use super::{add_messenger, device_fn, Chain, Collector};
 
 /// The layer's settings as VK_EXT_layer_settings strings, kept alive while
 /// the instance is created.
@@ -31,12 +31,63 @@ pub fn with_settings<T>(
     create((&info as *const vk::LayerSettingsCreateInfoEXT<'_>).cast())
 }
 
+/// Settings that report every severity, with no duplicate limit.
+pub const REPORT_EVERYTHING: [(&CStr, &CStr); 2] = [
+    (c"report_flags", c"error,warning,info"),
+    (c"duplicate_message_limit", c"0"),
+];
+
 impl Chain {
+    /// A messenger collecting the information messages (the chain's own
+    /// collects errors and warnings).
+    pub fn info_collector(&self) -> Box<Collector> {
+        let info = Box::<Collector>::default();
+        add_messenger(
+            self.instance,
+            vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            &info,
+        );
+        info
+    }
+
+    /// An acceleration structure of `ty` in 64 KiB of device-local storage.
+    pub fn acceleration_structure(
+        &self,
+        ty: vk::AccelerationStructureTypeKHR,
+    ) -> vk::AccelerationStructureKHR {
+        let storage = self.buffer(
+            1 << 16,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            0,
+        );
+        let create: vk::PFN_vkCreateAccelerationStructureKHR =
+            device_fn(self.device, c"vkCreateAccelerationStructureKHR");
+        let info = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(storage)
+            .size(1 << 16)
+            .ty(ty);
+        let mut structure = vk::AccelerationStructureKHR::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut structure) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        structure
+    }
+
     /// The chain with `settings` (name, value) given through
     /// VK_EXT_layer_settings, so tests in one process do not share them
     /// through the environment.
     pub fn with_settings(settings: &[(&CStr, &CStr)]) -> Self {
         with_settings(settings, Self::with_instance_next)
+    }
+
+    /// As [`Chain::with_settings`], with the micromap features on or off.
+    pub fn with_settings_and_micromap_feature(settings: &[(&CStr, &CStr)], micromap: bool) -> Self {
+        let (chain, result) = with_settings(settings, |next| {
+            Self::with_chains(next, std::ptr::null_mut(), micromap)
+        });
+        assert_eq!(result, vk::Result::SUCCESS);
+        chain
     }
 
     /// A command pool of queue family 0 (graphics, compute and transfer).
@@ -202,27 +253,29 @@ impl AttachmentBuild<'_> {
     /// A bottom-level acceleration structure for the build, in 64 KiB of
     /// device-local storage.
     pub fn structure(chain: &Chain) -> vk::AccelerationStructureKHR {
-        let storage = chain.buffer(
-            1 << 16,
-            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
-            0,
-        );
-        let create: vk::PFN_vkCreateAccelerationStructureKHR =
-            device_fn(chain.device, c"vkCreateAccelerationStructureKHR");
-        let info = vk::AccelerationStructureCreateInfoKHR::default()
-            .buffer(storage)
-            .size(1 << 16)
-            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL);
-        let mut blas = vk::AccelerationStructureKHR::null();
-        // SAFETY: valid arguments.
-        let result = unsafe { create(chain.device, &info, std::ptr::null(), &mut blas) };
-        assert_eq!(result, vk::Result::SUCCESS);
-        blas
+        chain.acceleration_structure(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
     }
 
     /// Records the build with vkCmdBuildAccelerationStructuresKHR.
     pub fn record(&self, chain: &Chain, command_buffer: vk::CommandBuffer) {
+        self.with_info(|info| {
+            let range = vk::AccelerationStructureBuildRangeInfoKHR {
+                primitive_count: 2,
+                ..Default::default()
+            };
+            let ranges = [&range as *const vk::AccelerationStructureBuildRangeInfoKHR];
+            let build: vk::PFN_vkCmdBuildAccelerationStructuresKHR =
+                device_fn(chain.device, c"vkCmdBuildAccelerationStructuresKHR");
+            // SAFETY: valid pointers for one info and its one range.
+            unsafe { build(command_buffer, 1, info, ranges.as_ptr()) };
+        });
+    }
+
+    /// Calls `record` with the build's info (one geometry of two triangles).
+    pub fn with_info(
+        &self,
+        record: impl FnOnce(&vk::AccelerationStructureBuildGeometryInfoKHR<'_>),
+    ) {
         let attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT {
             index_type: vk::IndexType::UINT32,
             index_buffer: vk::DeviceOrHostAddressConstKHR {
@@ -262,15 +315,7 @@ impl AttachmentBuild<'_> {
             },
             ..Default::default()
         };
-        let range = vk::AccelerationStructureBuildRangeInfoKHR {
-            primitive_count: 2,
-            ..Default::default()
-        };
-        let ranges = [&range as *const vk::AccelerationStructureBuildRangeInfoKHR];
-        let build: vk::PFN_vkCmdBuildAccelerationStructuresKHR =
-            device_fn(chain.device, c"vkCmdBuildAccelerationStructuresKHR");
-        // SAFETY: valid pointers for one info and its one range.
-        unsafe { build(command_buffer, 1, &info, ranges.as_ptr()) };
+        record(&info);
     }
 }
 

@@ -708,6 +708,20 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
     );
 }
 
+unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
+    cb: vk::CommandBuffer,
+    count: u32,
+    _: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    _: *const vk::DeviceAddress,
+    _: *const u32,
+    _: *const *const u32,
+) {
+    record(
+        "vkCmdBuildAccelerationStructuresIndirectKHR",
+        vec![cb.as_raw(), u64::from(count)],
+    );
+}
+
 unsafe extern "system" fn cmd_copy_micromap(
     cb: vk::CommandBuffer,
     info: *const vk::CopyMicromapInfoEXT<'_>,
@@ -1347,6 +1361,10 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdBuildAccelerationStructuresKHR" => {
             void(cmd_build_acceleration_structures as vk::PFN_vkCmdBuildAccelerationStructuresKHR)
         }
+        b"vkCmdBuildAccelerationStructuresIndirectKHR" => void(
+            cmd_build_acceleration_structures_indirect
+                as vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR,
+        ),
         b"vkCreateShaderModule" => void(create_shader_module as vk::PFN_vkCreateShaderModule),
         b"vkCreateComputePipelines" => {
             void(create_compute_pipelines as vk::PFN_vkCreateComputePipelines)
@@ -1648,7 +1666,7 @@ impl Chain {
     /// As [`Chain::new`], with `next` (the application's structures, such
     /// as a `VkLayerSettingsCreateInfoEXT`) chained to `VkInstanceCreateInfo`.
     pub fn with_instance_next(next: *const std::ffi::c_void) -> Self {
-        let chain = Self::with_chains(next, std::ptr::null_mut());
+        let chain = Self::with_chains(next, std::ptr::null_mut(), true);
         assert_eq!(chain.1, vk::Result::SUCCESS);
         chain.0
     }
@@ -1657,14 +1675,16 @@ impl Chain {
     /// pNext) chained to the device create info too; returns what
     /// vkCreateDevice returned.
     pub fn with_device_chain(extra: *mut vk::BaseOutStructure<'_>) -> (Self, vk::Result) {
-        Self::with_chains(std::ptr::null(), extra)
+        Self::with_chains(std::ptr::null(), extra, true)
     }
 
     /// The chain with `next` after the instance's link info and `extra` in
-    /// the device create info.
+    /// the device create info; `micromap` false leaves the micromap
+    /// features off.
     fn with_chains(
         next: *const std::ffi::c_void,
         extra: *mut vk::BaseOutStructure<'_>,
+        micromap: bool,
     ) -> (Self, vk::Result) {
         let (result, instance, advanced) = create_instance_with(true, next);
         assert_eq!(result, vk::Result::SUCCESS);
@@ -1683,8 +1703,8 @@ impl Chain {
             pfn_next_get_device_proc_addr: Some(fake_gdpa),
         };
         let mut micromap = vk::PhysicalDeviceOpacityMicromapFeaturesEXT {
-            micromap: vk::TRUE,
-            micromap_host_commands: vk::TRUE,
+            micromap: micromap.into(),
+            micromap_host_commands: micromap.into(),
             ..Default::default()
         };
         let mut address = vk::PhysicalDeviceBufferDeviceAddressFeatures {

@@ -26,10 +26,13 @@ use crate::validator::Validator;
 pub enum DeviceBuild {
     /// `vkCmdBuildMicromapsEXT`'s `pInfos`.
     Micromaps(Vec<MicromapBuildInfo>),
-    /// `vkCmdBuildAccelerationStructuresKHR`'s `pInfos` and `ppBuildRangeInfos`.
+    /// `vkCmdBuildAccelerationStructuresKHR`'s `pInfos` and `ppBuildRangeInfos`,
+    /// or (`indirect`) `vkCmdBuildAccelerationStructuresIndirectKHR`'s
+    /// `pInfos`, whose ranges are in device memory (None each).
     AccelerationStructures {
         infos: Vec<BuildGeometryInfo>,
         ranges: Vec<Option<Vec<BuildRangeInfo>>>,
+        indirect: bool,
     },
 }
 
@@ -203,15 +206,63 @@ pub fn geometry_reads(
 }
 
 impl DeviceBuild {
+    fn command(indirect: bool) -> BuildCommand {
+        if indirect {
+            BuildCommand::Indirect
+        } else {
+            BuildCommand::Cmd
+        }
+    }
+
     /// The command that recorded the build.
     pub fn function(&self) -> &'static str {
         match self {
             DeviceBuild::Micromaps(_) => "vkCmdBuildMicromapsEXT",
-            DeviceBuild::AccelerationStructures { .. } => BuildCommand::Cmd.function(),
+            DeviceBuild::AccelerationStructures { indirect, .. } => {
+                Self::command(*indirect).function()
+            }
         }
     }
 
-    /// The device memory the build's content rules read: micromap triangle
+    /// The inputs whose place the build's parameters do not give (see
+    /// [`UnplacedReads`]), by location.
+    pub fn unplaced_reads(&self) -> UnplacedReads {
+        let mut unplaced = UnplacedReads::default();
+        let DeviceBuild::AccelerationStructures { infos, ranges, .. } = self else {
+            return unplaced;
+        };
+        for (i, info) in infos.iter().enumerate() {
+            let has_ranges = ranges.get(i).is_some_and(Option::is_some);
+            let (member, geometries) = info.geometry_entries();
+            for (g, geometry) in geometries {
+                let at = format!("pInfos[{i}].{member}[{g}].geometry");
+                match &geometry.geometry {
+                    GeometryData::Triangles(triangles) if !has_ranges => {
+                        unplaced.without_ranges.extend(
+                            triangles
+                                .opacity_index_buffers()
+                                .iter()
+                                .filter(|b| b.address != 0 && index_size(b.index_type).is_some())
+                                .map(|b| {
+                                    format!("{at}.triangles.pNext<{}>.indexBuffer", b.structure)
+                                }),
+                        );
+                    }
+                    GeometryData::Instances(instances) if instances.data != 0 => {
+                        let data = format!("{at}.instances.data");
+                        if !has_ranges {
+                            unplaced.without_ranges.push(data);
+                        } else if instances.array_of_pointers {
+                            unplaced.behind_pointers.push(data);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        unplaced
+    }
+
     /// arrays and data, opacity attachments' index buffers (an index type
     /// of NONE reads none) and top-level builds' instances. NULL addresses
     /// and empty reads are left out: the recording's rules report them.
@@ -229,7 +280,7 @@ impl DeviceBuild {
                     ));
                 }
             }
-            DeviceBuild::AccelerationStructures { infos, ranges } => {
+            DeviceBuild::AccelerationStructures { infos, ranges, .. } => {
                 for (i, info) in infos.iter().enumerate() {
                     let info_ranges = ranges.get(i).and_then(Option::as_ref);
                     reads.extend(geometry_reads(i, info, info_ranges));
@@ -238,6 +289,25 @@ impl DeviceBuild {
         }
         reads.retain(|read| read.address != 0 && read.extent != Extent::Bytes(0));
         reads
+    }
+}
+
+/// Inputs of a device build that the layer cannot learn the place of when
+/// the build is recorded, by why.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct UnplacedReads {
+    /// Inputs whose extent the build ranges decide, in infos that have no
+    /// ranges (an indirect build's are in device memory): opacity
+    /// attachments' index buffers and instances geometries' instances.
+    pub without_ranges: Vec<String>,
+    /// Instances geometries with `arrayOfPointers`: the instances are
+    /// wherever the pointers in device memory point.
+    pub behind_pointers: Vec<String>,
+}
+
+impl UnplacedReads {
+    pub fn is_empty(&self) -> bool {
+        self.without_ranges.is_empty() && self.behind_pointers.is_empty()
     }
 }
 
@@ -325,8 +395,14 @@ impl Validator {
             DeviceBuild::Micromaps(infos) => {
                 micromap_build::cmd_build_micromaps_rules(&mut ctx, command_buffer, infos)
             }
-            DeviceBuild::AccelerationStructures { infos, ranges } => {
-                accel_build::builds(&mut ctx, BuildCommand::Cmd, infos, Some(ranges));
+            DeviceBuild::AccelerationStructures {
+                infos,
+                ranges,
+                indirect,
+            } => {
+                // An indirect build's ranges are the GPU's to read.
+                let ranges = (!indirect).then_some(ranges.as_slice());
+                accel_build::builds(&mut ctx, DeviceBuild::command(*indirect), infos, ranges);
                 Vec::new()
             }
         };
@@ -371,9 +447,7 @@ impl Validator {
         contents: Vec<KnownBytes>,
         name_unread: bool,
     ) -> Report {
-        // The recording's findings: no unread memory is named there.
-        let (without, _) = self.device_build_rules(command_buffer, build, false);
-        let mut previous = Vec::new();
+        let mut previous = Vec::with_capacity(contents.len());
         for known in contents {
             if let Some(mut buffer) = self.state.buffers.get_mut(&known.buffer) {
                 let old_offset = std::mem::replace(&mut buffer.contents_offset, known.offset);
@@ -384,21 +458,38 @@ impl Validator {
                 ));
             }
         }
+        // Only instances geometries read their instances from the contents:
+        // other builds are checked as recorded, without a copy.
+        let reads_instances = match build {
+            DeviceBuild::AccelerationStructures { infos, .. } => infos.iter().any(|info| {
+                info.geometries
+                    .iter()
+                    .flatten()
+                    .any(|g| matches!(g.geometry, GeometryData::Instances(_)))
+            }),
+            DeviceBuild::Micromaps(_) => false,
+        };
+        let recorded = build;
         let with_instances;
         let build = match build {
-            DeviceBuild::AccelerationStructures { infos, ranges } => {
+            DeviceBuild::AccelerationStructures {
+                infos,
+                ranges,
+                indirect,
+            } if reads_instances => {
                 let mut infos = infos.clone();
                 read_instances(&self.state, &mut infos, ranges, false);
                 with_instances = DeviceBuild::AccelerationStructures {
                     infos,
                     ranges: ranges.clone(),
+                    indirect: *indirect,
                 };
                 &with_instances
             }
-            DeviceBuild::Micromaps(_) => build,
+            _ => build,
         };
         let (with, micromap_contents) = self.device_build_rules(command_buffer, build, name_unread);
-        self.record_built_contents(build, micromap_contents);
+        let built = self.built_contents(build, micromap_contents);
         // Restored in reverse, so a buffer named twice gets its first value back.
         for (handle, old, old_offset) in previous.into_iter().rev() {
             if let Some(mut buffer) = self.state.buffers.get_mut(&handle) {
@@ -406,56 +497,84 @@ impl Validator {
                 buffer.contents_offset = old_offset;
             }
         }
-        Report {
-            findings: with
-                .findings
+        // The findings of the recording (the rules without the contents,
+        // which name no unread memory) were reported then. Most builds
+        // checked here have no finding at all; only where there are some
+        // do the rules run again without the contents to leave those out.
+        let findings = if with.findings.is_empty() {
+            with.findings
+        } else {
+            let (without, _) = self.device_build_rules(command_buffer, recorded, false);
+            with.findings
                 .into_iter()
                 .filter(|finding| !without.findings.contains(finding))
-                .collect(),
+                .collect()
+        };
+        self.record_built_contents(built);
+        Report {
+            findings,
             checked: with.checked,
         }
     }
 
-    /// Replaces the recorded content of each destination the build made,
-    /// where its content could be read now.
-    fn record_built_contents(
-        &mut self,
+    /// The content of each destination the build made, where it could be
+    /// read from the contents known now: by micromap or acceleration
+    /// structure handle.
+    fn built_contents(
+        &self,
         build: &DeviceBuild,
         micromap_contents: Vec<Option<MicromapContent>>,
-    ) {
+    ) -> Vec<(Built, MicromapContent)> {
         match build {
-            DeviceBuild::Micromaps(infos) => {
-                for (info, content) in infos.iter().zip(micromap_contents) {
-                    let built = self
-                        .state
-                        .micromaps
-                        .get_mut(&info.dst_micromap)
-                        .and_then(|m| m.built.as_mut());
-                    if let (Some(built), Some(content)) = (built, content) {
-                        built.content = Some(Arc::new(content));
-                    }
-                }
-            }
-            DeviceBuild::AccelerationStructures { infos, .. } => {
-                for info in infos {
+            DeviceBuild::Micromaps(infos) => infos
+                .iter()
+                .zip(micromap_contents)
+                .filter_map(|(info, content)| Some((Built::Micromap(info.dst_micromap), content?)))
+                .collect(),
+            DeviceBuild::AccelerationStructures { infos, .. } => infos
+                .iter()
+                .filter_map(|info| {
                     let content = info
                         .geometry_entries()
                         .1
                         .iter()
                         .find_map(|(_, g)| g.micromap.as_ref())
-                        .and_then(|data| accel_build::micromap_content(&self.state, false, data));
-                    let built = self
-                        .state
-                        .acceleration_structures
-                        .get_mut(&info.dst_acceleration_structure)
-                        .and_then(|s| s.built.as_mut());
-                    if let (Some(built), Some(content)) = (built, content) {
-                        built.content = Some(Arc::new(content));
-                    }
-                }
+                        .and_then(|data| accel_build::micromap_content(&self.state, false, data))?;
+                    Some((Built::Structure(info.dst_acceleration_structure), content))
+                })
+                .collect(),
+        }
+    }
+
+    /// Replaces the recorded content of each destination the build made
+    /// with what [`Validator::built_contents`] read, so later builds that
+    /// attach it see what the GPU built.
+    fn record_built_contents(&mut self, built: Vec<(Built, MicromapContent)>) {
+        for (destination, content) in built {
+            let record = match destination {
+                Built::Micromap(handle) => self
+                    .state
+                    .micromaps
+                    .get_mut(&handle)
+                    .and_then(|m| m.built.as_mut()),
+                Built::Structure(handle) => self
+                    .state
+                    .acceleration_structures
+                    .get_mut(&handle)
+                    .and_then(|s| s.built.as_mut()),
+            };
+            if let Some(record) = record {
+                record.content = Some(Arc::new(content));
             }
         }
     }
+}
+
+/// A destination a device build made.
+#[derive(Clone, Copy, Debug)]
+enum Built {
+    Micromap(Handle),
+    Structure(Handle),
 }
 
 #[cfg(test)]
@@ -513,6 +632,7 @@ mod tests {
         let build = DeviceBuild::AccelerationStructures {
             infos: vec![info],
             ranges,
+            indirect: false,
         };
         (validator, build)
     }
@@ -592,6 +712,7 @@ mod tests {
                 primitive_offset: 64,
                 ..BuildRangeInfo::default()
             }])],
+            indirect: false,
         }
     }
 
@@ -697,6 +818,41 @@ mod tests {
         let valid =
             validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 1])));
         assert!(valid.findings.is_empty(), "{valid:#?}");
+    }
+
+    /// A parameter fault the recording reported is not reported again
+    /// beside what the contents bring, and not at all when they bring
+    /// nothing.
+    #[test]
+    fn the_recordings_findings_are_not_reported_again() {
+        let (mut validator, mut build) = validator_and_build();
+        // Both usage-count pointers set (07335), each with no element.
+        if let DeviceBuild::AccelerationStructures { infos, .. } = &mut build {
+            for geometry in infos[0].geometries.iter_mut().flatten() {
+                if let GeometryData::Triangles(t) = &mut geometry.geometry {
+                    let counts = &mut t.opacity_ext.as_mut().expect("attached").usage_counts;
+                    counts.array = Some(Vec::new());
+                    counts.pointers = Some(Vec::new());
+                }
+            }
+        }
+        let cb = CommandBuffer::default();
+        let recorded = validator.check_device_build_contents(&cb, &build, Vec::new());
+        assert!(recorded.findings.is_empty(), "{recorded:#?}");
+        let report =
+            validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 2])));
+        let ids: Vec<&str> = report.findings.iter().map(|f| f.rule.as_str()).collect();
+        assert_eq!(ids, ["OMMCHECK-attach-index-in-range"], "{report:#?}");
+        let valid =
+            validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 1])));
+        assert!(valid.findings.is_empty(), "{valid:#?}");
+        // The fault is there: the rules report it where nothing filters it.
+        let (all, _) = validator.device_build_rules(&cb, &build, false);
+        assert!(
+            all.findings.iter().any(|f| f.rule.as_str()
+                == "VUID-VkAccelerationStructureTrianglesOpacityMicromapEXT-pUsageCounts-07335"),
+            "{all:#?}"
+        );
     }
 
     #[test]

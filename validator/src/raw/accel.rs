@@ -773,6 +773,7 @@ impl Validator {
         let build = DeviceBuild::AccelerationStructures {
             infos: model,
             ranges,
+            indirect: false,
         };
         (report, build)
     }
@@ -825,6 +826,37 @@ impl Validator {
         indirect_strides: &[u32],
         max_primitive_counts: &[&[u32]],
     ) -> Report {
+        // SAFETY: forwarded from the caller.
+        unsafe {
+            self.cmd_build_acceleration_structures_indirect_ash_kept(
+                command_buffer,
+                infos,
+                indirect_device_addresses,
+                indirect_strides,
+                max_primitive_counts,
+            )
+        }
+        .0
+    }
+
+    /// As [`Self::cmd_build_acceleration_structures_indirect_ash`], and the
+    /// build as read, for an adaptor that checks what it reads in device
+    /// memory later: its build ranges are in device memory, so the build
+    /// has none (what they decide, the opacity indices and instances read,
+    /// is left out of [`DeviceBuild::content_reads`]; micromap geometries
+    /// are read as in a direct build). Device memory it cannot read now is
+    /// the caller's to report.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_build_acceleration_structures_indirect_ash`].
+    pub unsafe fn cmd_build_acceleration_structures_indirect_ash_kept(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[vk::AccelerationStructureBuildGeometryInfoKHR<'_>],
+        indirect_device_addresses: &[vk::DeviceAddress],
+        indirect_strides: &[u32],
+        max_primitive_counts: &[&[u32]],
+    ) -> (Report, DeviceBuild) {
         let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
         let model = unsafe { build_geometry_infos(infos, CMD_BUILD_INDIRECT, &mut findings) };
@@ -834,6 +866,7 @@ impl Validator {
             .map(|counts| Some(counts.iter().take(MAX_ELEMENTS).copied().collect()))
             .collect();
         let mut report = Report::from(findings);
+        let later = std::mem::replace(&mut self.device_contents_later, true);
         report.extend(self.cmd_build_acceleration_structures_indirect(
             command_buffer,
             &model,
@@ -841,7 +874,14 @@ impl Validator {
             indirect_strides,
             &max_counts,
         ));
-        report
+        self.device_contents_later = later;
+        let ranges = vec![None; model.len()];
+        let build = DeviceBuild::AccelerationStructures {
+            infos: model,
+            ranges,
+            indirect: true,
+        };
+        (report, build)
     }
 
     /// Checks `vkBuildAccelerationStructuresKHR(device, deferredOperation,

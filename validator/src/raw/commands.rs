@@ -516,6 +516,35 @@ impl Validator {
         indirect_strides: *const u32,
         max_primitive_counts: *const *const u32,
     ) -> Report {
+        // SAFETY: forwarded from the caller.
+        unsafe {
+            self.cmd_build_acceleration_structures_indirect_raw_kept(
+                command_buffer,
+                info_count,
+                infos,
+                indirect_device_addresses,
+                indirect_strides,
+                max_primitive_counts,
+            )
+        }
+        .0
+    }
+
+    /// As [`Self::cmd_build_acceleration_structures_indirect_raw`], and the
+    /// build as read (see
+    /// [`Self::cmd_build_acceleration_structures_indirect_ash_kept`]).
+    ///
+    /// # Safety
+    /// As [`Self::cmd_build_acceleration_structures_indirect_raw`].
+    pub unsafe fn cmd_build_acceleration_structures_indirect_raw_kept(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info_count: u32,
+        infos: *const vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+        indirect_device_addresses: *const vk::DeviceAddress,
+        indirect_strides: *const u32,
+        max_primitive_counts: *const *const u32,
+    ) -> (Report, crate::checks::device_contents::DeviceBuild) {
         let function = "vkCmdBuildAccelerationStructuresIndirectKHR";
         let mut findings = Vec::new();
         let len = bounded_len(info_count, function, "pInfos", &mut findings);
@@ -551,8 +580,8 @@ impl Validator {
             })
             .collect();
         // SAFETY: forwarded from the caller.
-        let report = unsafe {
-            self.cmd_build_acceleration_structures_indirect_ash(
+        let (report, build) = unsafe {
+            self.cmd_build_acceleration_structures_indirect_ash_kept(
                 command_buffer,
                 infos,
                 addresses,
@@ -560,7 +589,7 @@ impl Validator {
                 &max_counts,
             )
         };
-        with_findings(findings, report)
+        (with_findings(findings, report), build)
     }
 }
 
