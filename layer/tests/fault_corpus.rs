@@ -32,11 +32,39 @@ const CONTENTS_NOT_CHECKED: &str = "OMMCHECK-layer-contents-not-checked";
 /// The largest workload replayed.
 const MAX_TRIANGLES: usize = 64;
 
+/// `scene` as the player runs it: its commands recorded into one command
+/// buffer that is then submitted, so that the checker decides what the
+/// layer decides at submission (a micromap a build attaches must have been
+/// built by work that ran before, 11632).
+fn as_submitted(scene: &Value) -> Value {
+    const RECORDED: &str = "replayed";
+    let mut scene = scene.clone();
+    scene["commandBuffers"] = serde_json::json!([{ "name": RECORDED }]);
+    let calls = scene["calls"]
+        .as_array_mut()
+        .expect("a corpus scene has calls");
+    for call in calls.iter_mut() {
+        let name = call["call"].as_str().unwrap_or_default();
+        if name.starts_with("vkCmd") && call.get("commandBuffer").is_none() {
+            call["commandBuffer"] = RECORDED.into();
+        }
+    }
+    calls.push(serde_json::json!({
+        "call": "vkQueueSubmit",
+        "pSubmits": [{ "pCommandBuffers": [RECORDED] }]
+    }));
+    scene
+}
+
 /// The rule ids of the errors and warnings the static checker reports for
-/// `scene` at `tier`.
+/// `scene`, recorded and submitted (`as_submitted`), at `tier`.
 fn checker_ids(scene: &Value, tier: Tier) -> BTreeSet<String> {
-    let scene = Scene::parse(&scene.to_string(), "fault corpus", Path::new("."))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let scene = Scene::parse(
+        &as_submitted(scene).to_string(),
+        "fault corpus",
+        Path::new("."),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let options = CheckOptions {
         tier,
         ..CheckOptions::default()

@@ -56,7 +56,16 @@ fn run(
     );
     assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
     let later = info.take();
-    let findings = chain.collector.take();
+    // The attached micromap is created, never built: its build's inputs
+    // would be read and checked too, which is not what these tests are
+    // about. So the one error expected is that it was not built before the
+    // attachment ran (11632, decided at submission); nothing else.
+    let findings: Vec<Received> = chain
+        .collector
+        .take()
+        .into_iter()
+        .filter(|m| !m.id.ends_with("-micromap-11632"))
+        .collect();
     assert!(findings.is_empty(), "{findings:#?}");
     (at_recording, later)
 }

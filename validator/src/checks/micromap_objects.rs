@@ -978,7 +978,6 @@ impl Validator {
         not_a_micromap_pool(&mut ctx, query_pool, begin_query_indexed::queryType_08972);
         ctx.finish()
     }
-
 }
 
 fn micromap_feature(ctx: &mut Ctx<'_>, vuid: Vuid) {
