@@ -47,8 +47,8 @@ pub struct Problem {
 
 type Result<T> = std::result::Result<T, Problem>;
 
-mod execution;
 mod driver;
+mod execution;
 mod pipeline;
 
 fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {

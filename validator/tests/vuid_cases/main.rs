@@ -6,8 +6,8 @@
 mod accel_attach;
 mod accel_build;
 mod clean_runs;
-mod execution;
 mod driver_sizes;
+mod execution;
 mod fixtures;
 mod micromap_build;
 mod micromap_objects;
