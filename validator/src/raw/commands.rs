@@ -772,6 +772,44 @@ unsafe fn serialized_header_extent(src: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::serialized_header_extent;
+    use crate::{Device, Profile, Validator};
+    use ash::vk;
+    use ommcheck_vuids::vuid::VkCopyMemoryToMicromapInfoEXT as from_memory_info;
+
+    /// Deserializes, on the host, 40 bytes whose first 32 (the version) are
+    /// `version`, after the driver answered incompatible for `[1; 32]`;
+    /// whether 07549 was reported, and whether the bytes were forgotten.
+    fn host_deserialization(version: u8) -> (bool, bool) {
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        v.set_micromap_compatibility(
+            &[1; 32],
+            vk::AccelerationStructureCompatibilityKHR::INCOMPATIBLE,
+        );
+        let data = [version; 40];
+        let info = vk::CopyMemoryToMicromapInfoEXT {
+            src: vk::DeviceOrHostAddressConstKHR {
+                host_address: data.as_ptr().cast(),
+            },
+            mode: vk::CopyMicromapModeEXT::DESERIALIZE,
+            ..Default::default()
+        };
+        // SAFETY: a valid info whose source holds more than the 32 version bytes.
+        let report = unsafe {
+            v.copy_memory_to_micromap_raw(
+                vk::Device::null(),
+                vk::DeferredOperationKHR::null(),
+                &info,
+            )
+        };
+        let reported = report.contains(from_memory_info::src_07549);
+        (reported, v.state().host_memory.is_empty())
+    }
+
+    #[test]
+    fn a_host_deserialization_reads_the_version_for_that_call() {
+        assert_eq!(host_deserialization(1), (true, true));
+        assert_eq!(host_deserialization(2), (false, true));
+    }
 
     /// A header stating `size` bytes, block-based with `blocks` blocks, the
     /// first holding `addresses` addresses (of which `present` are written).
