@@ -796,7 +796,8 @@ unsafe extern "system" fn copy_memory_to_micromap(
         "vkCopyMemoryToMicromapEXT",
         device,
         |f| f.accel.copy_memory_to_micromap,
-        // SAFETY: the application's arguments, valid as the API requires.
+        // SAFETY: the application's arguments, valid as the API requires
+        // (src.hostAddress holds serialized data, its 32-byte version first).
         |state| unsafe {
             state
                 .validator
@@ -984,8 +985,16 @@ unsafe extern "system" fn get_device_micromap_compatibility(
                 compatibility.cast_const(),
             )
         },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, version_info, compatibility) },
+        // SAFETY: the next layer's function, with the application's
+        // arguments; then what it wrote, kept for the deserialization checks.
+        |next| unsafe {
+            next(device, version_info, compatibility);
+            crate::driver_answers::remember_compatibility(
+                device,
+                version_info,
+                compatibility.cast_const(),
+            );
+        },
     );
 }
 

@@ -271,7 +271,7 @@ pub unsafe extern "system" fn create_device(
                     pipe: Default::default(),
                     shadows: Shadows::new(settings.gpu_readback_max_bytes),
                     submissions: Default::default(),
-                    driver_sizes: None,
+                    driver_answers: None,
                 }),
                 readback_arena: Default::default(),
             });

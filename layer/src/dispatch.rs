@@ -294,9 +294,9 @@ pub struct DeviceState {
     pub shadows: crate::shadow::Shadows,
     /// Submitted builds whose read-back inputs are checked at completion.
     pub submissions: crate::completion::Submissions,
-    /// The next layer's build-size answers the checks use, where the
+    /// The next layer's answers (build sizes, compatibility) the checks use, where the
     /// device can be asked (`driver_answers`).
-    pub driver_sizes: Option<std::sync::Arc<crate::driver_answers::NextLayerSizes>>,
+    pub driver_answers: Option<std::sync::Arc<crate::driver_answers::NextLayerAnswers>>,
 }
 
 /// What the layer keeps of a `VkDevice`.

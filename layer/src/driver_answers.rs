@@ -1,9 +1,11 @@
 //! The driver's answers the checks compare against: the sizes
-//! `vkGetMicromapBuildSizesEXT` returns for a micromap build's shape
-//! (`ommcheck::driver`). The layer asks the next layer once per distinct
-//! shape and build type and keeps the answer; an answer the application's
-//! own size query got is kept too, so a shape it asked about costs the
-//! layer no call at all.
+//! `vkGetMicromapBuildSizesEXT` returns for a micromap build's shape, and
+//! the compatibility `vkGetDeviceMicromapCompatibilityEXT` answers for a
+//! version of serialized micromap data (`ommcheck::driver`). The layer asks
+//! the next layer once per distinct shape and build type, and once per
+//! distinct version, and keeps the answer; an answer the application's own
+//! query got is kept too, so what it asked about costs the layer no call
+//! at all.
 
 #![allow(unsafe_code)]
 
@@ -11,44 +13,66 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use ash::vk;
 use foldhash::HashMap;
-use ommcheck::driver::{BuildType, DriverQueries, MicromapBuildShape, MicromapBuildSizes};
+use ommcheck::driver::{
+    BuildType, DriverQueries, MicromapBuildShape, MicromapBuildSizes, MicromapVersion,
+};
 
 use crate::device::device_and;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::{read, submit};
 
-/// At most this many answers are kept per device; past it the driver is
-/// asked each time for a new shape (an application builds few shapes;
-/// shape keys are small, [`ommcheck::driver::MAX_SHAPE_USAGES`] usage
-/// counts at most).
+/// At most this many answers of each kind are kept per device; past it the
+/// driver is asked each time for a new shape or version (an application
+/// builds few shapes and deserializes data of few versions; shape keys are
+/// small, [`ommcheck::driver::MAX_SHAPE_USAGES`] usage counts at most).
 pub const MAX_KEPT_ANSWERS: usize = 4096;
 
 type Key = (BuildType, MicromapBuildShape);
 
-/// Asks the next layer's `vkGetMicromapBuildSizesEXT`, keeping its answers.
+/// Answers kept by what they answer, at most [`MAX_KEPT_ANSWERS`].
 #[derive(Debug)]
-pub struct NextLayerSizes {
-    device: vk::Device,
-    get: vk::PFN_vkGetMicromapBuildSizesEXT,
-    kept: Mutex<HashMap<Key, MicromapBuildSizes>>,
-}
+struct Kept<K, V>(Mutex<HashMap<K, V>>);
 
-impl NextLayerSizes {
-    fn kept(&self) -> std::sync::MutexGuard<'_, HashMap<Key, MicromapBuildSizes>> {
-        self.kept.lock().unwrap_or_else(PoisonError::into_inner)
+impl<K: std::hash::Hash + Eq, V: Copy> Kept<K, V> {
+    fn new() -> Self {
+        Self(Mutex::default())
     }
 
-    /// Keeps `sizes` as the answer for `key`, within [`MAX_KEPT_ANSWERS`].
-    fn keep(&self, key: Key, sizes: MicromapBuildSizes) {
-        let mut kept = self.kept();
+    fn get(&self, key: &K) -> Option<V> {
+        let kept = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        kept.get(key).copied()
+    }
+
+    /// Keeps `value` as the answer for `key`, within [`MAX_KEPT_ANSWERS`].
+    fn keep(&self, key: K, value: V) {
+        let mut kept = self.0.lock().unwrap_or_else(PoisonError::into_inner);
         if kept.len() < MAX_KEPT_ANSWERS || kept.contains_key(&key) {
-            kept.insert(key, sizes);
+            kept.insert(key, value);
         }
     }
+}
 
+/// Asks the next layer's `vkGetMicromapBuildSizesEXT` and
+/// `vkGetDeviceMicromapCompatibilityEXT` (those it has), keeping their
+/// answers.
+#[derive(Debug)]
+pub struct NextLayerAnswers {
+    device: vk::Device,
+    get_sizes: Option<vk::PFN_vkGetMicromapBuildSizesEXT>,
+    get_compatibility: Option<vk::PFN_vkGetDeviceMicromapCompatibilityEXT>,
+    sizes: Kept<Key, MicromapBuildSizes>,
+    compatibility: Kept<MicromapVersion, bool>,
+}
+
+impl NextLayerAnswers {
     /// Calls the next layer with a structure made from `shape` alone (no
     /// addresses, no destination: the query reads neither).
-    fn ask(&self, build_type: BuildType, shape: &MicromapBuildShape) -> MicromapBuildSizes {
+    fn ask_sizes(
+        &self,
+        get: vk::PFN_vkGetMicromapBuildSizesEXT,
+        build_type: BuildType,
+        shape: &MicromapBuildShape,
+    ) -> MicromapBuildSizes {
         let usages: Vec<vk::MicromapUsageEXT> = shape
             .usages
             .iter()
@@ -71,7 +95,7 @@ impl NextLayerSizes {
         // info valid in every member the query reads (`queryable` shapes
         // only; `usages` lives across the call) and a structure to fill.
         unsafe {
-            (self.get)(
+            get(
                 self.device,
                 vk::AccelerationStructureBuildTypeKHR::from_raw(build_type.as_raw()),
                 &info,
@@ -80,42 +104,74 @@ impl NextLayerSizes {
         };
         MicromapBuildSizes::from(sizes)
     }
+
+    /// Calls the next layer with `version` as the version data.
+    fn ask_compatibility(
+        &self,
+        get: vk::PFN_vkGetDeviceMicromapCompatibilityEXT,
+        version: &MicromapVersion,
+    ) -> bool {
+        let info = vk::MicromapVersionInfoEXT {
+            p_version_data: version,
+            ..Default::default()
+        };
+        let mut compatibility = vk::AccelerationStructureCompatibilityKHR::INCOMPATIBLE;
+        // SAFETY: the next layer's function with its own device, a version
+        // info whose data (2 × VK_UUID_SIZE bytes) lives across the call,
+        // and a value to fill.
+        unsafe { get(self.device, &info, &mut compatibility) };
+        compatibility == vk::AccelerationStructureCompatibilityKHR::COMPATIBLE
+    }
 }
 
-impl DriverQueries for NextLayerSizes {
+impl DriverQueries for NextLayerAnswers {
     fn micromap_build_sizes(
         &self,
         build_type: BuildType,
         shape: &MicromapBuildShape,
     ) -> Option<MicromapBuildSizes> {
         let key = (build_type, shape.clone());
-        if let Some(sizes) = self.kept().get(&key) {
-            return Some(*sizes);
+        if let Some(sizes) = self.sizes.get(&key) {
+            return Some(sizes);
         }
         // Asked without the lock held: the next layer may take its time.
-        let sizes = self.ask(build_type, shape);
-        self.keep(key, sizes);
+        let sizes = self.ask_sizes(self.get_sizes?, build_type, shape);
+        self.sizes.keep(key, sizes);
         Some(sizes)
+    }
+
+    fn micromap_compatibility(&self, version: &MicromapVersion) -> Option<bool> {
+        if let Some(compatible) = self.compatibility.get(version) {
+            return Some(compatible);
+        }
+        let compatible = self.ask_compatibility(self.get_compatibility?, version);
+        self.compatibility.keep(*version, compatible);
+        Some(compatible)
     }
 }
 
 /// Lets the checks ask the next layer, where the device enabled the
-/// micromap feature and the next layer has `vkGetMicromapBuildSizesEXT`.
+/// micromap feature and the next layer has `vkGetMicromapBuildSizesEXT` or
+/// `vkGetDeviceMicromapCompatibilityEXT`.
 pub fn install(data: &DeviceData) {
-    let Some(get) = data.fns.accel.get_micromap_build_sizes else {
+    let get_sizes = data.fns.accel.get_micromap_build_sizes;
+    let get_compatibility = data.fns.accel.get_device_micromap_compatibility;
+    if get_sizes.is_none() && get_compatibility.is_none() {
         return;
-    };
+    }
     let mut state = data.state();
     if !state.validator.device().features.micromap_ext {
         return;
     }
-    let sizes = Arc::new(NextLayerSizes {
+    let answers = Arc::new(NextLayerAnswers {
         device: data.handle,
-        get,
-        kept: Mutex::default(),
+        get_sizes,
+        get_compatibility,
+        sizes: Kept::new(),
+        compatibility: Kept::new(),
     });
-    state.validator.set_driver_queries(sizes.clone());
-    state.driver_sizes = Some(sizes);
+    state.validator.set_driver_queries(answers.clone());
+    state.driver_answers = Some(answers);
 }
 
 /// Keeps what the next layer answered the application's own
@@ -157,11 +213,44 @@ pub unsafe fn remember(
         )
     };
     let state = data.state();
-    let Some(kept) = state.driver_sizes.as_ref() else {
+    let Some(kept) = state.driver_answers.as_ref() else {
         return;
     };
     if let Some(shape) = MicromapBuildShape::queryable(&model, state.validator.device()) {
-        kept.keep((build_type, shape), MicromapBuildSizes::from(sizes));
+        kept.sizes
+            .keep((build_type, shape), MicromapBuildSizes::from(sizes));
+    }
+}
+
+/// Keeps what the next layer answered the application's own
+/// `vkGetDeviceMicromapCompatibilityEXT(device, version_info, compatibility)`.
+///
+/// # Safety
+/// The arguments of a call the next layer just returned from: a non-NULL
+/// `version_info` valid as the API requires (its `pVersionData` readable
+/// for 2 × `VK_UUID_SIZE` bytes), `compatibility` written.
+pub unsafe fn remember_compatibility(
+    device: vk::Device,
+    version_info: *const vk::MicromapVersionInfoEXT<'_>,
+    compatibility: *const vk::AccelerationStructureCompatibilityKHR,
+) {
+    let Some((data, _)) = device_and(device, |f| f.accel.get_device_micromap_compatibility) else {
+        return;
+    };
+    // SAFETY: forwarded from the caller.
+    let (Some(info), Some(answer)) = (unsafe { read::value(version_info) }, unsafe {
+        read::value(compatibility)
+    }) else {
+        return;
+    };
+    // SAFETY: forwarded from the caller: pVersionData holds the version.
+    let Some(version) = (unsafe { read::value(info.p_version_data) }) else {
+        return;
+    };
+    let state = data.state();
+    if let Some(kept) = state.driver_answers.as_ref() {
+        let compatible = answer == vk::AccelerationStructureCompatibilityKHR::COMPATIBLE;
+        kept.compatibility.keep(version, compatible);
     }
 }
 

@@ -3,7 +3,10 @@
 //! build's shape, keeps the answer per shape, and checks the destination
 //! micromap's size (07461) and the scratch range (07509) against it. The
 //! fake driver answers `micromapSize` = 1024 + 8 x triangles and
-//! `buildScratchSize` = 2048 + triangles.
+//! `buildScratchSize` = 2048 + triangles. At `vkCopyMemoryToMicromapEXT`
+//! the layer reads the serialized data's version and asks the next layer's
+//! `vkGetDeviceMicromapCompatibilityEXT` once per version (07549); the fake
+//! driver accepts data that starts with its `DRIVER_UUID`.
 
 #![allow(non_snake_case, unsafe_code)]
 
@@ -12,8 +15,8 @@ mod fake;
 use ash::vk;
 use fake::app::record_micromap_build;
 use fake::{
-    calls, device_fn, device_micromap_build, reset_calls, Chain, SERIALIZATION_SIZE, TRIANGLES,
-    USAGE,
+    calls, device_fn, device_micromap_build, reset_calls, Chain, DRIVER_UUID, SERIALIZATION_SIZE,
+    TRIANGLES, USAGE,
 };
 
 const SIZE: &str = "VUID-vkCmdBuildMicromapsEXT-pInfos-07461";
@@ -233,4 +236,87 @@ fn a_serialization_into_less_than_the_reported_size_is_reported() {
     assert_eq!(short, [SERIALIZED_SIZE]);
     let exact = serialize_into(&chain, SERIALIZATION_SIZE);
     assert_eq!(exact, Vec::<String>::new());
+}
+
+const INCOMPATIBLE: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-src-07549";
+const COMPATIBILITY: &str = "vkGetDeviceMicromapCompatibilityEXT";
+
+/// Serialized micromap data at a host address aligned as
+/// `vkCopyMemoryToMicromapEXT` requires (16 bytes).
+#[repr(C, align(16))]
+struct Serialized([u8; 64]);
+
+/// Deserializes, on the host, data whose version is `driver_uuid` then 16
+/// bytes of `compatibility`, into a micromap in host-visible memory; the
+/// ids the deserialization drew.
+fn deserialize(chain: &Chain, driver_uuid: [u8; 16], compatibility: u8) -> Vec<String> {
+    let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
+    let micromap = chain.micromap(storage, 4096);
+    let mut data = Serialized([0; 64]);
+    data.0[..16].copy_from_slice(&driver_uuid);
+    data.0[16..32].fill(compatibility);
+    let info = vk::CopyMemoryToMicromapInfoEXT {
+        src: vk::DeviceOrHostAddressConstKHR {
+            host_address: data.0.as_ptr().cast(),
+        },
+        dst: micromap,
+        mode: vk::CopyMicromapModeEXT::DESERIALIZE,
+        ..Default::default()
+    };
+    let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
+        device_fn(chain.device, c"vkCopyMemoryToMicromapEXT");
+    // SAFETY: a valid info whose source holds a 64-byte serialized header.
+    let result = unsafe { copy(chain.device, vk::DeferredOperationKHR::null(), &info) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    chain.collector.take().into_iter().map(|m| m.id).collect()
+}
+
+#[test]
+fn data_the_driver_does_not_accept_is_reported_and_accepted_data_is_not() {
+    let chain = Chain::new();
+    assert_eq!(deserialize(&chain, DRIVER_UUID, 0), Vec::<String>::new());
+    let mut other_driver = DRIVER_UUID;
+    other_driver[0] ^= 1;
+    assert_eq!(deserialize(&chain, other_driver, 0), [INCOMPATIBLE]);
+}
+
+#[test]
+fn the_driver_is_asked_once_per_version() {
+    let chain = Chain::new();
+    reset_calls();
+    for _ in 0..3 {
+        assert!(deserialize(&chain, DRIVER_UUID, 7).is_empty());
+    }
+    let asked = calls(COMPATIBILITY);
+    assert_eq!(asked.len(), 1, "{asked:?}");
+    assert_eq!(asked[0].args, [1]);
+    // Other compatibility data is another version: asked once more.
+    assert!(deserialize(&chain, DRIVER_UUID, 8).is_empty());
+    assert_eq!(calls(COMPATIBILITY).len(), 2);
+}
+
+#[test]
+fn a_version_the_application_asked_about_costs_no_call() {
+    let chain = Chain::new();
+    let mut other_driver = DRIVER_UUID;
+    other_driver[15] ^= 1;
+    let mut version = [9u8; 32];
+    version[..16].copy_from_slice(&other_driver);
+    let get: vk::PFN_vkGetDeviceMicromapCompatibilityEXT =
+        device_fn(chain.device, c"vkGetDeviceMicromapCompatibilityEXT");
+    let info = vk::MicromapVersionInfoEXT {
+        p_version_data: &version,
+        ..Default::default()
+    };
+    let mut answer = vk::AccelerationStructureCompatibilityKHR::COMPATIBLE;
+    // SAFETY: a valid version info and a value to fill.
+    unsafe { get(chain.device, &info, &mut answer) };
+    assert_eq!(
+        answer,
+        vk::AccelerationStructureCompatibilityKHR::INCOMPATIBLE
+    );
+    chain.collector.take();
+    reset_calls();
+    assert_eq!(deserialize(&chain, other_driver, 9), [INCOMPATIBLE]);
+    assert_eq!(calls(COMPATIBILITY), []);
 }

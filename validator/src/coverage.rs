@@ -79,6 +79,10 @@ pub static READS_CONTENTS: &[(&str, &str)] = &[
         "the serialized header's blocks",
     ),
     (
+        "VUID-VkCopyMemoryToMicromapInfoEXT-src-07549",
+        "the serialized data's version (its first 32 bytes)",
+    ),
+    (
         "OMMCHECK-build-usage-counts-match-triangles",
         "the triangle array's entries",
     ),

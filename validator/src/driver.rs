@@ -1,6 +1,8 @@
 //! The driver's answers: sizes only the implementation computes
 //! (`vkGetMicromapBuildSizesEXT`'s `micromapSize` and `buildScratchSize`),
-//! which some rules compare the application's objects against.
+//! and whether it accepts serialized micromap data
+//! (`vkGetDeviceMicromapCompatibilityEXT`), which some rules compare the
+//! application's objects against.
 //!
 //! Answers come from two places: stated ones (a scene's `driverAnswers`, or
 //! [`crate::Validator::set_micromap_build_sizes`] in a unit test), and a
@@ -22,6 +24,11 @@ use crate::state::Handle;
 /// 3 x 6, so a longer list repeats entries; no answer is looked up or asked
 /// for it, and a cache keyed by shapes holds keys of bounded size.
 pub const MAX_SHAPE_USAGES: usize = 64;
+
+/// The version of serialized micromap data: its first 2 × `VK_UUID_SIZE`
+/// bytes (the driver UUID, then the compatibility data), what
+/// `VkMicromapVersionInfoEXT::pVersionData` points to.
+pub type MicromapVersion = [u8; 32];
 
 /// `vkGetMicromapBuildSizesEXT`'s `buildType`: which kind of build the sizes
 /// are for (`VkAccelerationStructureBuildTypeKHR`).
@@ -144,6 +151,14 @@ pub trait DriverQueries: Send + Sync + Debug {
         build_type: BuildType,
         shape: &MicromapBuildShape,
     ) -> Option<MicromapBuildSizes>;
+
+    /// `vkGetDeviceMicromapCompatibilityEXT(device, version)`: whether the
+    /// driver answers `VK_ACCELERATION_STRUCTURE_COMPATIBILITY_COMPATIBLE_KHR`.
+    /// None where it cannot be asked (the default).
+    fn micromap_compatibility(&self, version: &MicromapVersion) -> Option<bool> {
+        let _ = version;
+        None
+    }
 }
 
 /// The driver's answers the checks use: those stated, then those the
@@ -159,6 +174,9 @@ pub struct DriverAnswers {
     /// now (`vkWriteMicromapsPropertiesEXT` on the host); a build or the
     /// destruction of the micromap forgets its size.
     reported_serialization: BTreeMap<Handle, u64>,
+    /// Stated compatibility answers by version: true for
+    /// `VK_ACCELERATION_STRUCTURE_COMPATIBILITY_COMPATIBLE_KHR`.
+    stated_compatibility: HashMap<MicromapVersion, bool>,
 }
 
 impl DriverAnswers {
@@ -200,6 +218,26 @@ impl DriverAnswers {
             .get(&micromap)
             .or_else(|| self.reported_serialization.get(&micromap))
             .copied()
+    }
+
+    /// States the driver's compatibility answer for serialized data of
+    /// `version`.
+    pub fn state_micromap_compatibility(&mut self, version: MicromapVersion, compatible: bool) {
+        self.stated_compatibility.insert(version, compatible);
+    }
+
+    /// Whether the driver accepts serialized data of `version`: a stated
+    /// answer, else the driver's.
+    pub fn micromap_compatibility(&self, version: &MicromapVersion) -> Option<bool> {
+        if let Some(compatible) = self.stated_compatibility.get(version) {
+            return Some(*compatible);
+        }
+        self.queries.as_ref()?.micromap_compatibility(version)
+    }
+
+    /// Whether a compatibility answer can come: one stated or a driver to ask.
+    pub fn any_compatibility(&self) -> bool {
+        !self.stated_compatibility.is_empty() || self.queries.is_some()
     }
 
     /// Whether any answer can come: something stated or a driver to ask.

@@ -1222,6 +1222,41 @@ unsafe extern "system" fn get_micromap_build_sizes(
     );
 }
 
+/// The driver UUID of the fake driver: serialized micromap data whose
+/// first 16 bytes are these is compatible with it, other data is not.
+pub const DRIVER_UUID: [u8; 16] = *b"ommcheck-fake-dr";
+
+/// Answers compatible iff the version data starts with [`DRIVER_UUID`];
+/// records the answer (1 compatible, 0 not).
+unsafe extern "system" fn get_device_micromap_compatibility(
+    _: vk::Device,
+    info: *const vk::MicromapVersionInfoEXT<'_>,
+    out: *mut vk::AccelerationStructureCompatibilityKHR,
+) {
+    let version = unsafe { &*(*info).p_version_data };
+    let compatible = version[..16] == DRIVER_UUID;
+    unsafe {
+        *out = if compatible {
+            vk::AccelerationStructureCompatibilityKHR::COMPATIBLE
+        } else {
+            vk::AccelerationStructureCompatibilityKHR::INCOMPATIBLE
+        }
+    };
+    record(
+        "vkGetDeviceMicromapCompatibilityEXT",
+        vec![u64::from(compatible)],
+    );
+}
+
+unsafe extern "system" fn copy_memory_to_micromap(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    _: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
+) -> vk::Result {
+    record("vkCopyMemoryToMicromapEXT", vec![d.as_raw(), op.as_raw()]);
+    vk::Result::SUCCESS
+}
+
 unsafe extern "system" fn copy_micromap(
     d: vk::Device,
     op: vk::DeferredOperationKHR,
@@ -1404,6 +1439,12 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
             void(get_micromap_build_sizes as vk::PFN_vkGetMicromapBuildSizesEXT)
         }
         b"vkCopyMicromapEXT" => void(copy_micromap as vk::PFN_vkCopyMicromapEXT),
+        b"vkGetDeviceMicromapCompatibilityEXT" => {
+            void(get_device_micromap_compatibility as vk::PFN_vkGetDeviceMicromapCompatibilityEXT)
+        }
+        b"vkCopyMemoryToMicromapEXT" => {
+            void(copy_memory_to_micromap as vk::PFN_vkCopyMemoryToMicromapEXT)
+        }
         b"vkCmdCopyAccelerationStructureKHR" => {
             void(cmd_copy_acceleration_structure as vk::PFN_vkCmdCopyAccelerationStructureKHR)
         }

@@ -4,17 +4,20 @@
 //! where an answer is stated or the driver can be asked; otherwise nothing
 //! is reported, as no other information decides them. And a host build's
 //! scratch against its destinations' memory as the host sees it (11668),
-//! which only an adaptor that follows `vkMapMemory` knows.
+//! which only an adaptor that follows `vkMapMemory` knows. And whether the
+//! driver accepts the serialized data a deserialization reads (07549).
 
 use ommcheck_vuids::vuid::{
     vkBuildMicromapsEXT as host, vkCmdBuildMicromapsEXT as cmd,
+    VkCopyMemoryToMicromapInfoEXT as from_memory_info,
     VkCopyMicromapToMemoryInfoEXT as to_memory_info,
 };
 
+use crate::checks::common;
 use crate::checks::micromap_build::Side;
 use crate::checks::Coverage;
-use crate::driver::{BuildType, MicromapBuildSizes};
-use crate::model::micromap_objects::CopyMicromapToMemoryInfo;
+use crate::driver::{BuildType, MicromapBuildSizes, MicromapVersion};
+use crate::model::micromap_objects::{CopyMemoryToMicromapInfo, CopyMicromapToMemoryInfo};
 use crate::model::values::BUILD_MICROMAP_MODE_BUILD_EXT;
 use crate::model::MicromapBuildInfo;
 use crate::report::ObjectRef;
@@ -27,6 +30,7 @@ pub const COVERAGE: Coverage = Coverage {
         host::pInfos_07461,
         cmd::pInfos_07509,
         to_memory_info::dst_07541,
+        from_memory_info::src_07549,
     ],
     not_decidable: &[],
 };
@@ -225,6 +229,49 @@ pub(crate) fn serialized_size_fits(
         || {
             format!(
                 "{room} bytes lie from {dst:#x} to the end of the memory holding it, fewer than the serialization size {size} the driver reports for src"
+            )
+        },
+    );
+}
+
+/// 07549: the driver accepts the serialized data at `src` (host memory when
+/// `host`): its answer for the data's version, the first 2 × `VK_UUID_SIZE`
+/// bytes, is `VK_ACCELERATION_STRUCTURE_COMPATIBILITY_COMPATIBLE_KHR`.
+/// Decided where those bytes are known (described host memory, stated
+/// buffer contents) and the driver answered for them.
+pub(crate) fn compatible_source(ctx: &mut Ctx<'_>, info: &CopyMemoryToMicromapInfo, host: bool) {
+    let Some(state) = ctx.state else {
+        return;
+    };
+    if !ctx.contents || !state.driver.any_compatibility() || info.src == 0 {
+        return;
+    }
+    let bytes = if host {
+        state.host_bytes_from(info.src)
+    } else {
+        state.device_bytes_from(info.src)
+    };
+    let version: Option<MicromapVersion> = bytes
+        .and_then(|b| b.get(..32))
+        .and_then(|b| b.try_into().ok());
+    let Some(version) = version else {
+        let rule = [from_memory_info::src_07549.into()];
+        common::unreadable(ctx, host, info.src, &rule, "pInfo->src");
+        return;
+    };
+    let Some(compatible) = state.driver.micromap_compatibility(&version) else {
+        return;
+    };
+    let hex = |bytes: &[u8]| bytes.iter().map(|b| format!("{b:02x}")).collect::<String>();
+    ctx.require(
+        compatible,
+        from_memory_info::src_07549,
+        || "pInfo->src".to_string(),
+        || {
+            format!(
+                "vkGetDeviceMicromapCompatibilityEXT answers VK_ACCELERATION_STRUCTURE_COMPATIBILITY_INCOMPATIBLE_KHR for the serialized data's version (driver UUID {}, compatibility data {})",
+                hex(&version[..16]),
+                hex(&version[16..])
             )
         },
     );

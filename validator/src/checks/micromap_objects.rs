@@ -188,7 +188,6 @@ pub const COVERAGE: Coverage = Coverage {
     not_decidable: &[
         (from_memory_info::dst_07550, SERIALIZED_SOURCE),
         (from_memory_info::src_07547, SERIALIZED_DATA),
-        (from_memory_info::src_07549, "needs the serialized header in src and the driver's vkGetDeviceMicromapCompatibilityEXT answer for it: a device copy's header is device memory an earlier serialization writes on the GPU timeline, and a host copy's is application memory the layer reads only inside a mapping; ommcheck neither reads nor asks about it"),
     ],
 };
 
@@ -463,6 +462,7 @@ impl Validator {
         if let Some(info) = required_info(&mut ctx, info, cmd_from_memory::pInfo_parameter) {
             let dst = copy_memory_to_micromap_info(&mut ctx, info);
             bound_to_device_memory(&mut ctx, dst, cmd_from_memory::buffer_07546, "pInfo->dst");
+            crate::checks::driver_sizes::compatible_source(&mut ctx, info, false);
             serialized_device_address(
                 &mut ctx,
                 info.src,
@@ -600,6 +600,7 @@ impl Validator {
                 single_instance: host_from_memory::buffer_07567,
             };
             host_accessible(&mut ctx, dst, &dst_vuids, "pInfo->dst");
+            crate::checks::driver_sizes::compatible_source(&mut ctx, info, true);
             serialized_host_address(
                 &mut ctx,
                 info.src,

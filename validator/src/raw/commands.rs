@@ -6,11 +6,12 @@
 //!
 //! The bounds of [`crate::raw`] hold: arrays up to [`MAX_ELEMENTS`]
 //! elements, pNext chains walked as [`super::chain`] walks them. Device
-//! addresses stay numbers; no memory at an address is read here.
+//! addresses stay numbers; the host memory read here is a deserialization's
+//! serialized header at its host address, for that call alone.
 
 use ash::vk;
 
-use super::accel::{address, scratch_address};
+use super::accel::{address, scratch_address, HostRead};
 use super::{
     bounded_len, chain_s_types, micromap_build_info, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
 };
@@ -26,6 +27,10 @@ use crate::model::CommandBuffer;
 use crate::report::{Finding, Report};
 use crate::state::{Handle, QueryPool};
 use crate::Validator;
+
+/// The bytes of serialized micromap data that say its version: the driver
+/// UUID and the compatibility data, 2 × `VK_UUID_SIZE`.
+const MICROMAP_VERSION_SIZE: u64 = 32;
 
 /// Reads the structure at `info` with `read`; None for NULL.
 ///
@@ -170,10 +175,15 @@ impl Validator {
         with_findings(findings, report)
     }
 
-    /// Checks `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`.
+    /// Checks `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`:
+    /// the serialized data's version, its first [`MICROMAP_VERSION_SIZE`]
+    /// bytes at `pInfo->src.hostAddress`, is read for this call.
     ///
     /// # Safety
-    /// As [`Self::cmd_copy_memory_to_micromap_raw`].
+    /// As [`Self::cmd_copy_memory_to_micromap_raw`], and a non-NULL
+    /// `src.hostAddress` must point to serialized micromap data as the API
+    /// requires, whose header is at least [`MICROMAP_VERSION_SIZE`]
+    /// readable bytes.
     pub unsafe fn copy_memory_to_micromap_raw(
         &mut self,
         device: vk::Device,
@@ -181,18 +191,55 @@ impl Validator {
         info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
     ) -> Report {
         let mut findings = Vec::new();
+        let function = "vkCopyMemoryToMicromapEXT";
         // SAFETY: forwarded from the caller.
         let model = unsafe {
             optional(info, |i| {
-                copy_memory_to_micromap_info(i, "vkCopyMemoryToMicromapEXT", &mut findings)
+                copy_memory_to_micromap_info(i, function, &mut findings)
             })
         };
-        let report = self.copy_memory_to_micromap(
-            vk::Handle::as_raw(device),
-            vk::Handle::as_raw(deferred_operation),
-            model.as_ref(),
-        );
+        let read = model.as_ref().map(|m| HostRead {
+            address: m.src,
+            extent: Some(MICROMAP_VERSION_SIZE),
+            location: "pInfo->src.hostAddress".into(),
+        });
+        // SAFETY: the caller guarantees the version bytes are readable.
+        let report = unsafe {
+            self.with_host_read(read, function, &mut findings, |v| {
+                v.copy_memory_to_micromap(
+                    vk::Handle::as_raw(device),
+                    vk::Handle::as_raw(deferred_operation),
+                    model.as_ref(),
+                )
+            })
+        };
         with_findings(findings, report)
+    }
+
+    /// Runs `check` with `read` (where given) described as host memory for
+    /// it alone: the bytes are forgotten after it, and while it runs, host
+    /// memory the application never described stays of unknown extent.
+    ///
+    /// # Safety
+    /// As [`Self::describe_host_range`] for `read`.
+    unsafe fn with_host_read(
+        &mut self,
+        read: Option<HostRead>,
+        function: &'static str,
+        findings: &mut Vec<Finding>,
+        check: impl FnOnce(&mut Self) -> Report,
+    ) -> Report {
+        let described_before = self.state.host_memory.len();
+        let partial_before = self.state.host_memory_partial;
+        self.state.host_memory_partial = partial_before || described_before == 0;
+        if let Some(read) = read {
+            // SAFETY: forwarded from the caller.
+            unsafe { self.describe_host_range(&read, function, findings) };
+        }
+        let report = check(self);
+        self.state.host_memory.truncate(described_before);
+        self.state.host_memory_partial = partial_before;
+        report
     }
 
     /// Checks `vkCmdWriteMicromapsPropertiesEXT(commandBuffer,
@@ -474,26 +521,22 @@ impl Validator {
         let Some(model) = model else {
             return Report::from(findings);
         };
-        let described_before = self.state.host_memory.len();
-        let partial_before = self.state.host_memory_partial;
-        self.state.host_memory_partial = partial_before || described_before == 0;
-        if let Ok(src) = usize::try_from(model.src) {
-            if src != 0 {
-                let read = super::accel::HostRead {
-                    address: model.src,
-                    // SAFETY: forwarded from the caller.
-                    extent: Some(unsafe { serialized_header_extent(src) }),
-                    location: "pInfo->src.hostAddress".into(),
-                };
-                // SAFETY: the caller guarantees the header is readable for
-                // the extent, which lies within the size it states.
-                unsafe { self.describe_host_range(&read, function, &mut findings) };
-            }
-        }
-        let report = self.copy_memory_to_acceleration_structure(&model);
-        // Host memory read for this call is forgotten after it.
-        self.state.host_memory.truncate(described_before);
-        self.state.host_memory_partial = partial_before;
+        let read = usize::try_from(model.src)
+            .ok()
+            .filter(|&src| src != 0)
+            .map(|src| HostRead {
+                address: model.src,
+                // SAFETY: forwarded from the caller.
+                extent: Some(unsafe { serialized_header_extent(src) }),
+                location: "pInfo->src.hostAddress".into(),
+            });
+        // SAFETY: the caller guarantees the header is readable for the
+        // extent, which lies within the size it states.
+        let report = unsafe {
+            self.with_host_read(read, function, &mut findings, |v| {
+                v.copy_memory_to_acceleration_structure(&model)
+            })
+        };
         with_findings(findings, report)
     }
 
@@ -729,6 +772,44 @@ unsafe fn serialized_header_extent(src: usize) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::serialized_header_extent;
+    use crate::{Device, Profile, Validator};
+    use ash::vk;
+    use ommcheck_vuids::vuid::VkCopyMemoryToMicromapInfoEXT as from_memory_info;
+
+    /// Deserializes, on the host, 40 bytes whose first 32 (the version) are
+    /// `version`, after the driver answered incompatible for `[1; 32]`;
+    /// whether 07549 was reported, and whether the bytes were forgotten.
+    fn host_deserialization(version: u8) -> (bool, bool) {
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        v.set_micromap_compatibility(
+            &[1; 32],
+            vk::AccelerationStructureCompatibilityKHR::INCOMPATIBLE,
+        );
+        let data = [version; 40];
+        let info = vk::CopyMemoryToMicromapInfoEXT {
+            src: vk::DeviceOrHostAddressConstKHR {
+                host_address: data.as_ptr().cast(),
+            },
+            mode: vk::CopyMicromapModeEXT::DESERIALIZE,
+            ..Default::default()
+        };
+        // SAFETY: a valid info whose source holds more than the 32 version bytes.
+        let report = unsafe {
+            v.copy_memory_to_micromap_raw(
+                vk::Device::null(),
+                vk::DeferredOperationKHR::null(),
+                &info,
+            )
+        };
+        let reported = report.contains(from_memory_info::src_07549);
+        (reported, v.state().host_memory.is_empty())
+    }
+
+    #[test]
+    fn a_host_deserialization_reads_the_version_for_that_call() {
+        assert_eq!(host_deserialization(1), (true, true));
+        assert_eq!(host_deserialization(2), (false, true));
+    }
 
     /// A header stating `size` bytes, block-based with `blocks` blocks, the
     /// first holding `addresses` addresses (of which `present` are written).

@@ -1,12 +1,14 @@
 //! Telling the checker what the driver answered: the
 //! `VkMicromapBuildSizesInfoEXT` `vkGetMicromapBuildSizesEXT` returned for
-//! a build's shape, which the build rules 07461 and 07509 compare against.
+//! a build's shape, which the build rules 07461 and 07509 compare against,
+//! and the compatibility `vkGetDeviceMicromapCompatibilityEXT` answered for
+//! serialized data (07549).
 
 use std::sync::Arc;
 
 use ash::vk;
 
-use crate::driver::{DriverQueries, MicromapBuildShape, MicromapBuildSizes};
+use crate::driver::{DriverQueries, MicromapBuildShape, MicromapBuildSizes, MicromapVersion};
 use crate::model::micromap::MicromapUsage;
 use crate::validator::Validator;
 
@@ -37,6 +39,20 @@ impl Validator {
         self.state
             .driver
             .state_micromap_build_sizes(shape, MicromapBuildSizes::from(*sizes));
+    }
+
+    /// `vkGetDeviceMicromapCompatibilityEXT` answered `compatibility` for
+    /// serialized micromap data whose first 32 bytes are `version_data`:
+    /// later deserializations of such data are checked against it.
+    pub fn set_micromap_compatibility(
+        &mut self,
+        version_data: &MicromapVersion,
+        compatibility: vk::AccelerationStructureCompatibilityKHR,
+    ) {
+        let compatible = compatibility == vk::AccelerationStructureCompatibilityKHR::COMPATIBLE;
+        self.state
+            .driver
+            .state_micromap_compatibility(*version_data, compatible);
     }
 
     /// Asks `queries` for the sizes of builds no stated answer covers (an

@@ -20,6 +20,22 @@ pub struct DriverAnswersDesc {
     /// queries report, one per micromap.
     #[serde(default)]
     pub serialization_sizes: Vec<SerializationSizeDesc>,
+    /// `vkGetDeviceMicromapCompatibilityEXT`'s answers, one per version of
+    /// serialized data.
+    #[serde(default)]
+    pub micromap_compatibility: Vec<MicromapCompatibilityDesc>,
+}
+
+/// What `vkGetDeviceMicromapCompatibilityEXT` answers for serialized data
+/// whose first 2 × VK_UUID_SIZE bytes are `versionData`.
+#[derive(Debug, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct MicromapCompatibilityDesc {
+    /// The 32 bytes (driver UUID, then compatibility data), as 64 hex digits.
+    pub version_data: String,
+    /// True: VK_ACCELERATION_STRUCTURE_COMPATIBILITY_COMPATIBLE_KHR; false:
+    /// VK_ACCELERATION_STRUCTURE_COMPATIBILITY_INCOMPATIBLE_KHR.
+    pub compatible: bool,
 }
 
 /// A micromap's serialization size, as `vkWriteMicromapsPropertiesEXT` or

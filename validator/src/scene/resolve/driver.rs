@@ -1,10 +1,10 @@
 //! States a scene's `driverAnswers` to the checker.
 
-use crate::driver::{MicromapBuildShape, MicromapBuildSizes};
+use crate::driver::{MicromapBuildShape, MicromapBuildSizes, MicromapVersion};
 use crate::model::values::MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
 use crate::scene::format::DriverAnswersDesc;
 
-use super::{usage, ObjectKind, Resolver, Result};
+use super::{decode_hex, problem, usage, ObjectKind, Resolver, Result};
 
 impl Resolver<'_> {
     /// States `answers`; the micromaps they name must be declared.
@@ -19,9 +19,28 @@ impl Resolver<'_> {
                 Ok((micromap, desc.size))
             })
             .collect::<Result<Vec<_>>>()?;
+        let compatibility = answers
+            .micromap_compatibility
+            .iter()
+            .enumerate()
+            .map(|(i, desc)| {
+                let at = format!("driverAnswers.micromapCompatibility[{i}].versionData");
+                let bytes = decode_hex(&desc.version_data, &at)?;
+                let version = MicromapVersion::try_from(bytes.as_slice()).or_else(|_| {
+                    problem(
+                        &at,
+                        format!("{} bytes, not 2 × VK_UUID_SIZE (32)", bytes.len()),
+                    )
+                })?;
+                Ok((version, desc.compatible))
+            })
+            .collect::<Result<Vec<_>>>()?;
         let driver = &mut self.validator.state_mut().driver;
         for (micromap, size) in serialization_sizes {
             driver.state_serialization_size(micromap, size);
+        }
+        for (version, compatible) in compatibility {
+            driver.state_micromap_compatibility(version, compatible);
         }
         for desc in &answers.micromap_build_sizes {
             let ty = desc
