@@ -191,6 +191,23 @@ pub const COVERAGE: Coverage = Coverage {
     ],
 };
 
+impl Validator {
+    /// A host copy's read of micromap `pInfo->src` (absent without an
+    /// info): it must be constructed by work the host has seen complete.
+    fn host_src_constructed(
+        &self,
+        function: &'static str,
+        vuid: Vuid,
+        src: Option<Handle>,
+    ) -> Report {
+        let reads: Vec<_> = src
+            .map(|src| ("pInfo->src".to_string(), src))
+            .into_iter()
+            .collect();
+        self.host_reads_constructed(function, vuid, &reads)
+    }
+}
+
 /// The non-NULL micromaps of `pMicromaps` within `micromapCount`, with their indices.
 fn listed_handles(list: &MicromapList) -> impl Iterator<Item = (usize, Handle)> + '_ {
     let count = usize::try_from(list.count).unwrap_or(usize::MAX);
@@ -511,14 +528,11 @@ impl Validator {
             host_accessible(&mut ctx, dst, &dst_vuids, "pInfo->dst");
         }
         let mut report = ctx.finish();
-        if let Some(info) = info {
-            let reads = [("pInfo->src".to_string(), info.src)];
-            report.extend(self.host_reads_constructed(
-                "vkCopyMicromapEXT",
-                host_copy::src_11670,
-                &reads,
-            ));
-        }
+        report.extend(self.host_src_constructed(
+            "vkCopyMicromapEXT",
+            host_copy::src_11670,
+            info.map(|i| i.src),
+        ));
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
@@ -562,14 +576,11 @@ impl Validator {
             crate::checks::driver_sizes::serialized_size_fits(&mut ctx, info, true);
         }
         let mut report = ctx.finish();
-        if let Some(info) = info {
-            let reads = [("pInfo->src".to_string(), info.src)];
-            report.extend(self.host_reads_constructed(
-                "vkCopyMicromapToMemoryEXT",
-                to_memory_info::src_07540,
-                &reads,
-            ));
-        }
+        report.extend(self.host_src_constructed(
+            "vkCopyMicromapToMemoryEXT",
+            to_memory_info::src_07540,
+            info.map(|i| i.src),
+        ));
         self.defer(deferred_operation);
         report
     }
