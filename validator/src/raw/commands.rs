@@ -10,6 +10,7 @@
 //! serialized header at its host address, for that call alone.
 
 use ash::vk;
+use ash::vk::Handle as _;
 
 use super::accel::{address, scratch_address, HostRead};
 use super::{
@@ -41,6 +42,29 @@ unsafe fn optional<T, M>(info: *const T, read: impl FnOnce(&T) -> M) -> Option<M
     unsafe { info.as_ref() }.map(read)
 }
 
+/// Reads one command's info structure into the model; what it cannot
+/// read goes to the findings.
+type ReadInfo<T, M> = unsafe fn(&T, &'static str, &mut Vec<Finding>) -> M;
+
+/// Reads the info at `info` (None for NULL) with `read` and runs `check`
+/// on the model; the reading's findings come first. `check` is given the
+/// findings too, for what it reads itself (a deserialization's header).
+///
+/// # Safety
+/// A non-NULL `info` must be valid as `read` requires.
+unsafe fn read_then_check<T, M>(
+    info: *const T,
+    function: &'static str,
+    read: ReadInfo<T, M>,
+    check: impl FnOnce(Option<&M>, &mut Vec<Finding>) -> Report,
+) -> Report {
+    let mut findings = Vec::new();
+    // SAFETY: forwarded from the caller.
+    let model = unsafe { optional(info, |i| read(i, function, &mut findings)) };
+    let report = check(model.as_ref(), &mut findings);
+    with_findings(findings, report)
+}
+
 /// Reads `micromapCount` handles at `micromaps` (at most [`MAX_ELEMENTS`]).
 ///
 /// # Safety
@@ -70,17 +94,13 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: *const vk::CopyMicromapInfoEXT<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
+        let function = "vkCmdCopyMicromapEXT";
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| {
-                copy_micromap_info(i, "vkCmdCopyMicromapEXT", &mut findings)
+        unsafe {
+            read_then_check(info, function, copy_micromap_info, |model, _| {
+                self.cmd_copy_micromap(command_buffer, model)
             })
-        };
-        with_findings(
-            findings,
-            self.cmd_copy_micromap(command_buffer, model.as_ref()),
-        )
+        }
     }
 
     /// Checks `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
@@ -93,19 +113,13 @@ impl Validator {
         deferred_operation: vk::DeferredOperationKHR,
         info: *const vk::CopyMicromapInfoEXT<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
+        let (device, deferred) = (device.as_raw(), deferred_operation.as_raw());
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| {
-                copy_micromap_info(i, "vkCopyMicromapEXT", &mut findings)
+        unsafe {
+            read_then_check(info, "vkCopyMicromapEXT", copy_micromap_info, |model, _| {
+                self.copy_micromap(device, deferred, model)
             })
-        };
-        let report = self.copy_micromap(
-            vk::Handle::as_raw(device),
-            vk::Handle::as_raw(deferred_operation),
-            model.as_ref(),
-        );
-        with_findings(findings, report)
+        }
     }
 
     /// Checks `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`.
@@ -118,15 +132,13 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
+        let function = "vkCmdCopyMicromapToMemoryEXT";
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| {
-                copy_micromap_to_memory_info(i, "vkCmdCopyMicromapToMemoryEXT", &mut findings)
+        unsafe {
+            read_then_check(info, function, copy_micromap_to_memory_info, |model, _| {
+                self.cmd_copy_micromap_to_memory(command_buffer, model)
             })
-        };
-        let report = self.cmd_copy_micromap_to_memory(command_buffer, model.as_ref());
-        with_findings(findings, report)
+        }
     }
 
     /// Checks `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`.
@@ -139,19 +151,14 @@ impl Validator {
         deferred_operation: vk::DeferredOperationKHR,
         info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
+        let (device, deferred) = (device.as_raw(), deferred_operation.as_raw());
+        let function = "vkCopyMicromapToMemoryEXT";
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| {
-                copy_micromap_to_memory_info(i, "vkCopyMicromapToMemoryEXT", &mut findings)
+        unsafe {
+            read_then_check(info, function, copy_micromap_to_memory_info, |model, _| {
+                self.copy_micromap_to_memory(device, deferred, model)
             })
-        };
-        let report = self.copy_micromap_to_memory(
-            vk::Handle::as_raw(device),
-            vk::Handle::as_raw(deferred_operation),
-            model.as_ref(),
-        );
-        with_findings(findings, report)
+        }
     }
 
     /// Checks `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`.
@@ -164,15 +171,13 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
+        let function = "vkCmdCopyMemoryToMicromapEXT";
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| {
-                copy_memory_to_micromap_info(i, "vkCmdCopyMemoryToMicromapEXT", &mut findings)
+        unsafe {
+            read_then_check(info, function, copy_memory_to_micromap_info, |model, _| {
+                self.cmd_copy_memory_to_micromap(command_buffer, model)
             })
-        };
-        let report = self.cmd_copy_memory_to_micromap(command_buffer, model.as_ref());
-        with_findings(findings, report)
+        }
     }
 
     /// Checks `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`:
@@ -190,30 +195,23 @@ impl Validator {
         deferred_operation: vk::DeferredOperationKHR,
         info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
+        let (device, deferred) = (device.as_raw(), deferred_operation.as_raw());
         let function = "vkCopyMemoryToMicromapEXT";
+        let check = |model: Option<&CopyMemoryToMicromapInfo>, findings: &mut Vec<Finding>| {
+            let read = model.map(|m| HostRead {
+                address: m.src,
+                extent: Some(MICROMAP_VERSION_SIZE),
+                location: "pInfo->src.hostAddress".into(),
+            });
+            // SAFETY: the caller guarantees the version bytes are readable.
+            unsafe {
+                self.with_host_read(read, function, findings, |v| {
+                    v.copy_memory_to_micromap(device, deferred, model)
+                })
+            }
+        };
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| {
-                copy_memory_to_micromap_info(i, function, &mut findings)
-            })
-        };
-        let read = model.as_ref().map(|m| HostRead {
-            address: m.src,
-            extent: Some(MICROMAP_VERSION_SIZE),
-            location: "pInfo->src.hostAddress".into(),
-        });
-        // SAFETY: the caller guarantees the version bytes are readable.
-        let report = unsafe {
-            self.with_host_read(read, function, &mut findings, |v| {
-                v.copy_memory_to_micromap(
-                    vk::Handle::as_raw(device),
-                    vk::Handle::as_raw(deferred_operation),
-                    model.as_ref(),
-                )
-            })
-        };
-        with_findings(findings, report)
+        unsafe { read_then_check(info, function, copy_memory_to_micromap_info, check) }
     }
 
     /// Runs `check` with `read` (where given) described as host memory for
@@ -417,17 +415,15 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
         let function = "vkCmdCopyAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
-        let model = unsafe { optional(info, |i| copy_as_info(i, function, &mut findings)) };
-        let Some(model) = model else {
-            return Report::from(findings);
-        };
-        with_findings(
-            findings,
-            self.cmd_copy_acceleration_structure(command_buffer, &model),
-        )
+        unsafe {
+            read_then_check(info, function, copy_as_info, |model, _| {
+                unchecked_if_none(model, |m| {
+                    self.cmd_copy_acceleration_structure(command_buffer, m)
+                })
+            })
+        }
     }
 
     /// Checks `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`.
@@ -438,14 +434,13 @@ impl Validator {
         &mut self,
         info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
         let function = "vkCopyAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
-        let model = unsafe { optional(info, |i| copy_as_info(i, function, &mut findings)) };
-        let Some(model) = model else {
-            return Report::from(findings);
-        };
-        with_findings(findings, self.copy_acceleration_structure(&model))
+        unsafe {
+            read_then_check(info, function, copy_as_info, |model, _| {
+                unchecked_if_none(model, |m| self.copy_acceleration_structure(m))
+            })
+        }
     }
 
     /// Checks `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`.
@@ -458,24 +453,15 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
         let function = "vkCmdCopyAccelerationStructureToMemoryKHR";
         // SAFETY: forwarded from the caller.
-        let model = unsafe {
-            optional(info, |i| CopyAccelerationStructureToMemoryInfo {
-                s_type: i.s_type.as_raw(),
-                // SAFETY: forwarded from the caller.
-                next: chain_s_types(i.p_next, function, "pInfo", &mut findings),
-                src: vk::Handle::as_raw(i.src),
-                dst: scratch_address(&i.dst),
-                mode: i.mode.as_raw(),
+        unsafe {
+            read_then_check(info, function, copy_as_to_memory_info, |model, _| {
+                unchecked_if_none(model, |m| {
+                    self.cmd_copy_acceleration_structure_to_memory(command_buffer, m)
+                })
             })
-        };
-        let Some(model) = model else {
-            return Report::from(findings);
-        };
-        let report = self.cmd_copy_acceleration_structure_to_memory(command_buffer, &model);
-        with_findings(findings, report)
+        }
     }
 
     /// Checks `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`.
@@ -488,15 +474,15 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
         let function = "vkCmdCopyMemoryToAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
-        let model = unsafe { copy_memory_to_as_info(info, function, &mut findings) };
-        let Some(model) = model else {
-            return Report::from(findings);
-        };
-        let report = self.cmd_copy_memory_to_acceleration_structure(command_buffer, &model);
-        with_findings(findings, report)
+        unsafe {
+            read_then_check(info, function, copy_memory_to_as_info, |model, _| {
+                unchecked_if_none(model, |m| {
+                    self.cmd_copy_memory_to_acceleration_structure(command_buffer, m)
+                })
+            })
+        }
     }
 
     /// Checks `vkCopyMemoryToAccelerationStructureKHR(device,
@@ -514,30 +500,31 @@ impl Validator {
         &mut self,
         info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
     ) -> Report {
-        let mut findings = Vec::new();
         let function = "vkCopyMemoryToAccelerationStructureKHR";
+        let check = |model: Option<&CopyMemoryToAccelerationStructureInfo>,
+                     findings: &mut Vec<Finding>| {
+            let Some(model) = model else {
+                return Report::default();
+            };
+            let read = usize::try_from(model.src)
+                .ok()
+                .filter(|&src| src != 0)
+                .map(|src| HostRead {
+                    address: model.src,
+                    // SAFETY: forwarded from the caller.
+                    extent: Some(unsafe { serialized_header_extent(src) }),
+                    location: "pInfo->src.hostAddress".into(),
+                });
+            // SAFETY: the caller guarantees the header is readable for the
+            // extent, which lies within the size it states.
+            unsafe {
+                self.with_host_read(read, function, findings, |v| {
+                    v.copy_memory_to_acceleration_structure(model)
+                })
+            }
+        };
         // SAFETY: forwarded from the caller.
-        let model = unsafe { copy_memory_to_as_info(info, function, &mut findings) };
-        let Some(model) = model else {
-            return Report::from(findings);
-        };
-        let read = usize::try_from(model.src)
-            .ok()
-            .filter(|&src| src != 0)
-            .map(|src| HostRead {
-                address: model.src,
-                // SAFETY: forwarded from the caller.
-                extent: Some(unsafe { serialized_header_extent(src) }),
-                location: "pInfo->src.hostAddress".into(),
-            });
-        // SAFETY: the caller guarantees the header is readable for the
-        // extent, which lies within the size it states.
-        let report = unsafe {
-            self.with_host_read(read, function, &mut findings, |v| {
-                v.copy_memory_to_acceleration_structure(&model)
-            })
-        };
-        with_findings(findings, report)
+        unsafe { read_then_check(info, function, copy_memory_to_as_info, check) }
     }
 
     /// Checks `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer,
@@ -636,6 +623,12 @@ impl Validator {
     }
 }
 
+/// `check` of a model that was read; nothing for a NULL info (no micromap
+/// rule concerns these commands' NULL `pInfo`).
+fn unchecked_if_none<M>(model: Option<&M>, check: impl FnOnce(&M) -> Report) -> Report {
+    model.map_or_else(Report::default, check)
+}
+
 /// The reader's findings first, then the check's.
 fn with_findings(findings: Vec<Finding>, report: Report) -> Report {
     let mut out = Report::from(findings);
@@ -711,25 +704,37 @@ unsafe fn copy_as_info(
     }
 }
 
-/// The model of a `VkCopyMemoryToAccelerationStructureInfoKHR` (None for NULL).
-///
 /// # Safety
-/// A non-NULL `info` must point to the structure with a well-formed pNext chain.
-unsafe fn copy_memory_to_as_info(
-    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+/// `info`'s pNext chain must be well formed.
+unsafe fn copy_as_to_memory_info(
+    info: &vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
     function: &'static str,
     findings: &mut Vec<Finding>,
-) -> Option<CopyMemoryToAccelerationStructureInfo> {
-    // SAFETY: forwarded from the caller.
-    unsafe {
-        optional(info, |i| CopyMemoryToAccelerationStructureInfo {
-            s_type: i.s_type.as_raw(),
-            // SAFETY: forwarded from the caller.
-            next: chain_s_types(i.p_next, function, "pInfo", findings),
-            src: address(&i.src),
-            dst: vk::Handle::as_raw(i.dst),
-            mode: i.mode.as_raw(),
-        })
+) -> CopyAccelerationStructureToMemoryInfo {
+    CopyAccelerationStructureToMemoryInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
+        src: vk::Handle::as_raw(info.src),
+        dst: scratch_address(&info.dst),
+        mode: info.mode.as_raw(),
+    }
+}
+
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+unsafe fn copy_memory_to_as_info(
+    info: &vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+    function: &'static str,
+    findings: &mut Vec<Finding>,
+) -> CopyMemoryToAccelerationStructureInfo {
+    CopyMemoryToAccelerationStructureInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
+        src: address(&info.src),
+        dst: vk::Handle::as_raw(info.dst),
+        mode: info.mode.as_raw(),
     }
 }
 
