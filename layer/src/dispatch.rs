@@ -32,23 +32,27 @@ pub(crate) use next_fn;
 
 /// A command and its alias (the KHR or EXT spelling of a promoted
 /// command): two intercepts that share one body, `$with(name, pick, args)`,
-/// each with its own name and next-layer function.
+/// each with its own name and next-layer function, found in the
+/// [`DeviceFns`] table named after `in` (`memory` where none is named).
 macro_rules! aliased_intercepts {
-    ($(
+    (in $table:ident; $(
         $with:ident($($arg:ident: $ty:ty),*) -> $ret:ty;
         $ours:ident = $name:literal, $field:ident;
         $alias:ident = $alias_name:literal, $alias_field:ident;
     )*) => {$(
         pub unsafe extern "system" fn $ours($($arg: $ty),*) -> $ret {
             // SAFETY: forwarded from the application.
-            unsafe { $with($name, |f| f.memory.$field, $($arg),*) }
+            unsafe { $with($name, |f| f.$table.$field, $($arg),*) }
         }
 
         pub unsafe extern "system" fn $alias($($arg: $ty),*) -> $ret {
             // SAFETY: forwarded from the application.
-            unsafe { $with($alias_name, |f| f.memory.$alias_field, $($arg),*) }
+            unsafe { $with($alias_name, |f| f.$table.$alias_field, $($arg),*) }
         }
     )*};
+    ($($intercepts:tt)*) => {
+        $crate::dispatch::aliased_intercepts! { in memory; $($intercepts)* }
+    };
 }
 pub(crate) use aliased_intercepts;
 

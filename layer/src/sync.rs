@@ -13,7 +13,7 @@ use ommcheck::{Report, Validator};
 
 use crate::commands;
 use crate::device::{check, device_and};
-use crate::dispatch::DeviceFns;
+use crate::dispatch::{aliased_intercepts, DeviceFns};
 use crate::guarded;
 
 /// Runs `body` as the check of a command recorded in `command_buffer`,
@@ -277,7 +277,10 @@ pub unsafe extern "system" fn cmd_reset_query_pool(
 
 /// `vkResetQueryPool` (or its EXT alias, `function`): the queries are
 /// unavailable once it returns.
-fn reset_query_pool_with(
+///
+/// # Safety
+/// The arguments are the application's, forwarded as the command received them.
+unsafe fn reset_query_pool_with(
     function: &'static str,
     pick: fn(&DeviceFns) -> Option<vk::PFN_vkResetQueryPool>,
     device: vk::Device,
@@ -299,22 +302,9 @@ fn reset_query_pool_with(
     })
 }
 
-pub unsafe extern "system" fn reset_query_pool(
-    device: vk::Device,
-    pool: vk::QueryPool,
-    first: u32,
-    count: u32,
-) {
-    let pick = |f: &DeviceFns| f.pipe.reset_query_pool;
-    reset_query_pool_with("vkResetQueryPool", pick, device, pool, first, count);
-}
-
-pub unsafe extern "system" fn reset_query_pool_ext(
-    device: vk::Device,
-    pool: vk::QueryPool,
-    first: u32,
-    count: u32,
-) {
-    let pick = |f: &DeviceFns| f.pipe.reset_query_pool_ext;
-    reset_query_pool_with("vkResetQueryPoolEXT", pick, device, pool, first, count);
+aliased_intercepts! {
+    in pipe;
+    reset_query_pool_with(device: vk::Device, pool: vk::QueryPool, first: u32, count: u32) -> ();
+    reset_query_pool = "vkResetQueryPool", reset_query_pool;
+    reset_query_pool_ext = "vkResetQueryPoolEXT", reset_query_pool_ext;
 }
