@@ -596,257 +596,122 @@ unsafe extern "system" fn get_acceleration_structure_build_sizes(
     );
 }
 
-unsafe extern "system" fn cmd_copy_acceleration_structure(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
-) {
-    recorded(
-        "vkCmdCopyAccelerationStructureKHR",
-        command_buffer,
-        |f| f.accel.cmd_copy_acceleration_structure,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe {
-            state
-                .validator
-                .cmd_copy_acceleration_structure_raw(model, info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn copy_acceleration_structure(
-    device: vk::Device,
-    deferred_operation: vk::DeferredOperationKHR,
-    info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
-) -> vk::Result {
-    host_command(
-        "vkCopyAccelerationStructureKHR",
-        device,
-        |f| f.accel.copy_acceleration_structure,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state| unsafe { state.validator.copy_acceleration_structure_raw(info) },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| {
-            deferrable(device, deferred_operation, || unsafe {
-                next(device, deferred_operation, info)
-            })
-        },
-    )
-}
-
-unsafe extern "system" fn cmd_copy_acceleration_structure_to_memory(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
-) {
-    recorded(
-        "vkCmdCopyAccelerationStructureToMemoryKHR",
-        command_buffer,
-        |f| f.accel.cmd_copy_acceleration_structure_to_memory,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe {
-            state
-                .validator
-                .cmd_copy_acceleration_structure_to_memory_raw(model, info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn cmd_copy_memory_to_acceleration_structure(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
-) {
-    recorded(
-        "vkCmdCopyMemoryToAccelerationStructureKHR",
-        command_buffer,
-        |f| f.accel.cmd_copy_memory_to_acceleration_structure,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe {
-            state
-                .validator
-                .cmd_copy_memory_to_acceleration_structure_raw(model, info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn copy_memory_to_acceleration_structure(
-    device: vk::Device,
-    deferred_operation: vk::DeferredOperationKHR,
-    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
-) -> vk::Result {
-    host_command(
-        "vkCopyMemoryToAccelerationStructureKHR",
-        device,
-        |f| f.accel.copy_memory_to_acceleration_structure,
-        // SAFETY: the application's arguments, valid as the API requires
-        // (src.hostAddress holds serialized data of the size its header states).
-        |state| unsafe {
-            state
-                .validator
-                .copy_memory_to_acceleration_structure_raw(info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(device, deferred_operation, info) },
-    )
-}
-
-unsafe extern "system" fn cmd_copy_micromap(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyMicromapInfoEXT<'_>,
-) {
-    recorded(
-        "vkCmdCopyMicromapEXT",
-        command_buffer,
-        |f| f.accel.cmd_copy_micromap,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe { state.validator.cmd_copy_micromap_raw(model, info) },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn copy_micromap(
-    device: vk::Device,
-    deferred_operation: vk::DeferredOperationKHR,
-    info: *const vk::CopyMicromapInfoEXT<'_>,
-) -> vk::Result {
-    host_command(
-        "vkCopyMicromapEXT",
-        device,
-        |f| f.accel.copy_micromap,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state| unsafe {
-            state
-                .validator
-                .copy_micromap_raw(device, deferred_operation, info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| {
-            deferrable(device, deferred_operation, || unsafe {
-                next(device, deferred_operation, info)
-            })
-        },
-    )
-}
-
-unsafe extern "system" fn cmd_copy_micromap_to_memory(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
-) {
-    recorded(
-        "vkCmdCopyMicromapToMemoryEXT",
-        command_buffer,
-        |f| f.accel.cmd_copy_micromap_to_memory,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe { state.validator.cmd_copy_micromap_to_memory_raw(model, info) },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn copy_micromap_to_memory(
-    device: vk::Device,
-    deferred_operation: vk::DeferredOperationKHR,
-    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
-) -> vk::Result {
-    host_command(
-        "vkCopyMicromapToMemoryEXT",
-        device,
-        |f| f.accel.copy_micromap_to_memory,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state| unsafe {
-            state
-                .validator
-                .copy_micromap_to_memory_raw(device, deferred_operation, info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| {
-            deferrable(device, deferred_operation, || unsafe {
-                next(device, deferred_operation, info)
-            })
-        },
-    )
-}
-
-unsafe extern "system" fn cmd_copy_memory_to_micromap(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
-) {
-    recorded(
-        "vkCmdCopyMemoryToMicromapEXT",
-        command_buffer,
-        |f| f.accel.cmd_copy_memory_to_micromap,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe { state.validator.cmd_copy_memory_to_micromap_raw(model, info) },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn copy_memory_to_micromap(
-    device: vk::Device,
-    deferred_operation: vk::DeferredOperationKHR,
-    info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
-) -> vk::Result {
-    host_command(
-        "vkCopyMemoryToMicromapEXT",
-        device,
-        |f| f.accel.copy_memory_to_micromap,
-        // SAFETY: the application's arguments, valid as the API requires
-        // (src.hostAddress holds serialized data, its 32-byte version first).
-        |state| unsafe {
-            state
-                .validator
-                .copy_memory_to_micromap_raw(device, deferred_operation, info)
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| {
-            deferrable(device, deferred_operation, || unsafe {
-                next(device, deferred_operation, info)
-            })
-        },
-    )
-}
-
-unsafe extern "system" fn cmd_write_micromaps_properties(
-    command_buffer: vk::CommandBuffer,
-    micromap_count: u32,
-    micromaps: *const vk::MicromapEXT,
-    query_type: vk::QueryType,
-    query_pool: vk::QueryPool,
-    first_query: u32,
-) {
-    recorded(
-        "vkCmdWriteMicromapsPropertiesEXT",
-        command_buffer,
-        |f| f.accel.cmd_write_micromaps_properties,
-        // SAFETY: the application's arguments, valid as the API requires.
-        |state, model| unsafe {
-            state.validator.cmd_write_micromaps_properties_raw(
-                model,
-                micromap_count,
-                micromaps,
-                query_type,
-                query_pool,
-                first_query,
-            )
-        },
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe {
-            next(
+/// `vkCmd*` commands checked by the core entry point named after `=>`,
+/// given the command buffer's model and the command's arguments after
+/// the command buffer; the next layer's function is the field of the
+/// intercept's name.
+macro_rules! recorded_commands {
+    ($(
+        $ours:ident($($arg:ident: $ty:ty),*) = $name:literal => $entry:ident;
+    )*) => {$(
+        unsafe extern "system" fn $ours(command_buffer: vk::CommandBuffer, $($arg: $ty),*) {
+            recorded(
+                $name,
                 command_buffer,
-                micromap_count,
-                micromaps,
-                query_type,
-                query_pool,
-                first_query,
+                |f| f.accel.$ours,
+                // SAFETY: the application's arguments, valid as the API requires.
+                |state, model| unsafe { state.validator.$entry(model, $($arg),*) },
+                // SAFETY: the next layer's function, with the application's arguments.
+                |next| unsafe { next(command_buffer, $($arg),*) },
+            );
+        }
+    )*};
+}
+
+/// Host commands given a deferred operation, checked by the core call
+/// after `=>` and passed on through [`deferrable`]; the next layer's
+/// function is the field of the intercept's name.
+macro_rules! host_copy_commands {
+    ($(
+        $ours:ident($device:ident, $deferred:ident, $($arg:ident: $ty:ty),*) = $name:literal
+            => $entry:ident($($entry_arg:ident),*);
+    )*) => {$(
+        unsafe extern "system" fn $ours(
+            $device: vk::Device,
+            $deferred: vk::DeferredOperationKHR,
+            $($arg: $ty),*
+        ) -> vk::Result {
+            host_command(
+                $name,
+                $device,
+                |f| f.accel.$ours,
+                // SAFETY: the application's arguments, valid as the API
+                // requires (a deserialization's src.hostAddress holds
+                // serialized data, its header first).
+                |state| unsafe { state.validator.$entry($($entry_arg),*) },
+                // SAFETY: the next layer's function, with the application's arguments.
+                |next| {
+                    deferrable($device, $deferred, || unsafe {
+                        next($device, $deferred, $($arg),*)
+                    })
+                },
             )
-        },
-    );
+        }
+    )*};
+}
+
+recorded_commands! {
+    cmd_copy_acceleration_structure(info: *const vk::CopyAccelerationStructureInfoKHR<'_>)
+        = "vkCmdCopyAccelerationStructureKHR" => cmd_copy_acceleration_structure_raw;
+    cmd_copy_acceleration_structure_to_memory(
+        info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>
+    )
+        = "vkCmdCopyAccelerationStructureToMemoryKHR"
+        => cmd_copy_acceleration_structure_to_memory_raw;
+    cmd_copy_memory_to_acceleration_structure(
+        info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>
+    )
+        = "vkCmdCopyMemoryToAccelerationStructureKHR"
+        => cmd_copy_memory_to_acceleration_structure_raw;
+    cmd_copy_micromap(info: *const vk::CopyMicromapInfoEXT<'_>)
+        = "vkCmdCopyMicromapEXT" => cmd_copy_micromap_raw;
+    cmd_copy_micromap_to_memory(info: *const vk::CopyMicromapToMemoryInfoEXT<'_>)
+        = "vkCmdCopyMicromapToMemoryEXT" => cmd_copy_micromap_to_memory_raw;
+    cmd_copy_memory_to_micromap(info: *const vk::CopyMemoryToMicromapInfoEXT<'_>)
+        = "vkCmdCopyMemoryToMicromapEXT" => cmd_copy_memory_to_micromap_raw;
+    cmd_write_micromaps_properties(
+        micromap_count: u32,
+        micromaps: *const vk::MicromapEXT,
+        query_type: vk::QueryType,
+        query_pool: vk::QueryPool,
+        first_query: u32
+    ) = "vkCmdWriteMicromapsPropertiesEXT" => cmd_write_micromaps_properties_raw;
+}
+
+host_copy_commands! {
+    copy_acceleration_structure(
+        device,
+        deferred_operation,
+        info: *const vk::CopyAccelerationStructureInfoKHR<'_>
+    )
+        = "vkCopyAccelerationStructureKHR" => copy_acceleration_structure_raw(info);
+    copy_memory_to_acceleration_structure(
+        device,
+        deferred_operation,
+        info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>
+    )
+        = "vkCopyMemoryToAccelerationStructureKHR"
+        => copy_memory_to_acceleration_structure_raw(info);
+    copy_micromap(
+        device,
+        deferred_operation,
+        info: *const vk::CopyMicromapInfoEXT<'_>
+    )
+        = "vkCopyMicromapEXT" => copy_micromap_raw(device, deferred_operation, info);
+    copy_micromap_to_memory(
+        device,
+        deferred_operation,
+        info: *const vk::CopyMicromapToMemoryInfoEXT<'_>
+    )
+        = "vkCopyMicromapToMemoryEXT"
+        => copy_micromap_to_memory_raw(device, deferred_operation, info);
+    copy_memory_to_micromap(
+        device,
+        deferred_operation,
+        info: *const vk::CopyMemoryToMicromapInfoEXT<'_>
+    )
+        = "vkCopyMemoryToMicromapEXT"
+        => copy_memory_to_micromap_raw(device, deferred_operation, info);
 }
 
 /// `vkCmdBeginQuery`: the micromap rule only (the pool must not be a
