@@ -384,12 +384,14 @@ unsafe fn wait_semaphores_with(
 }
 
 aliased_intercepts! {
-    wait_semaphores_with(device: vk::Device, info: *const vk::SemaphoreWaitInfo<'_>, timeout: u64) -> vk::Result;
-    wait_semaphores = "vkWaitSemaphores", wait_semaphores;
-    wait_semaphores_khr = "vkWaitSemaphoresKHR", wait_semaphores_khr;
-    counter_value_with(device: vk::Device, semaphore: vk::Semaphore, value: *mut u64) -> vk::Result;
-    get_semaphore_counter_value = "vkGetSemaphoreCounterValue", get_semaphore_counter_value;
-    get_semaphore_counter_value_khr = "vkGetSemaphoreCounterValueKHR", get_semaphore_counter_value_khr;
+    wait_semaphores_with(device: vk::Device, info: *const vk::SemaphoreWaitInfo<'_>, timeout: u64) -> vk::Result {
+        wait_semaphores = "vkWaitSemaphores", memory.wait_semaphores;
+        wait_semaphores_khr = "vkWaitSemaphoresKHR", memory.wait_semaphores_khr;
+    }
+    counter_value_with(device: vk::Device, semaphore: vk::Semaphore, value: *mut u64) -> vk::Result {
+        get_semaphore_counter_value = "vkGetSemaphoreCounterValue", memory.get_semaphore_counter_value;
+        get_semaphore_counter_value_khr = "vkGetSemaphoreCounterValueKHR", memory.get_semaphore_counter_value_khr;
+    }
 }
 
 /// `vkGetSemaphoreCounterValue(KHR)`: the counter reached the value written.

@@ -16,7 +16,7 @@ use ommcheck::raw::{objects, ReadableHost};
 use ommcheck::{Report, Validator};
 
 use crate::dispatch::{
-    next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
+    aliased_intercepts, next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
 };
 use crate::report::Message;
 use crate::shadow::Shadows;
@@ -587,37 +587,22 @@ unsafe fn bind_buffer_memory2_with(
     })
 }
 
-unsafe extern "system" fn bind_buffer_memory2(
-    device: vk::Device,
-    bind_info_count: u32,
-    bind_infos: *const vk::BindBufferMemoryInfo<'_>,
-) -> vk::Result {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        bind_buffer_memory2_with(
-            "vkBindBufferMemory2",
-            |f| f.bind_buffer_memory2,
-            device,
-            bind_info_count,
-            bind_infos,
-        )
+aliased_intercepts! {
+    bind_buffer_memory2_with(
+        device: vk::Device,
+        bind_info_count: u32,
+        bind_infos: *const vk::BindBufferMemoryInfo<'_>
+    ) -> vk::Result {
+        bind_buffer_memory2 = "vkBindBufferMemory2", bind_buffer_memory2;
+        bind_buffer_memory2_khr = "vkBindBufferMemory2KHR", bind_buffer_memory2_khr;
     }
-}
-
-unsafe extern "system" fn bind_buffer_memory2_khr(
-    device: vk::Device,
-    bind_info_count: u32,
-    bind_infos: *const vk::BindBufferMemoryInfo<'_>,
-) -> vk::Result {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        bind_buffer_memory2_with(
-            "vkBindBufferMemory2KHR",
-            |f| f.bind_buffer_memory2_khr,
-            device,
-            bind_info_count,
-            bind_infos,
-        )
+    get_buffer_device_address_with(
+        device: vk::Device,
+        info: *const vk::BufferDeviceAddressInfo<'_>
+    ) -> vk::DeviceAddress {
+        get_buffer_device_address = "vkGetBufferDeviceAddress", get_buffer_device_address;
+        get_buffer_device_address_khr = "vkGetBufferDeviceAddressKHR", get_buffer_device_address_khr;
+        get_buffer_device_address_ext = "vkGetBufferDeviceAddressEXT", get_buffer_device_address_ext;
     }
 }
 
@@ -646,51 +631,6 @@ unsafe fn get_buffer_device_address_with(
         }
         address
     })
-}
-
-unsafe extern "system" fn get_buffer_device_address(
-    device: vk::Device,
-    info: *const vk::BufferDeviceAddressInfo<'_>,
-) -> vk::DeviceAddress {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        get_buffer_device_address_with(
-            "vkGetBufferDeviceAddress",
-            |f| f.get_buffer_device_address,
-            device,
-            info,
-        )
-    }
-}
-
-unsafe extern "system" fn get_buffer_device_address_khr(
-    device: vk::Device,
-    info: *const vk::BufferDeviceAddressInfo<'_>,
-) -> vk::DeviceAddress {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        get_buffer_device_address_with(
-            "vkGetBufferDeviceAddressKHR",
-            |f| f.get_buffer_device_address_khr,
-            device,
-            info,
-        )
-    }
-}
-
-unsafe extern "system" fn get_buffer_device_address_ext(
-    device: vk::Device,
-    info: *const vk::BufferDeviceAddressInfo<'_>,
-) -> vk::DeviceAddress {
-    // SAFETY: forwarded from the application.
-    unsafe {
-        get_buffer_device_address_with(
-            "vkGetBufferDeviceAddressEXT",
-            |f| f.get_buffer_device_address_ext,
-            device,
-            info,
-        )
-    }
 }
 
 /// `vkCreateDeferredOperationKHR`: host builds may name the operation.

@@ -30,29 +30,23 @@ macro_rules! next_fn {
 }
 pub(crate) use next_fn;
 
-/// A command and its alias (the KHR or EXT spelling of a promoted
-/// command): two intercepts that share one body, `$with(name, pick, args)`,
-/// each with its own name and next-layer function, found in the
-/// [`DeviceFns`] table named after `in` (`memory` where none is named).
+/// A command and its aliases (its KHR or EXT spellings): intercepts
+/// that share one body, `$with(name, pick, args)`, each with its own name
+/// and the next layer's function at its path in [`DeviceFns`].
 macro_rules! aliased_intercepts {
-    (in $table:ident; $(
-        $with:ident($($arg:ident: $ty:ty),*) -> $ret:ty;
-        $ours:ident = $name:literal, $field:ident;
-        $alias:ident = $alias_name:literal, $alias_field:ident;
-    )*) => {$(
+    (@alias $with:ident $params:tt $ret:ty;) => {};
+    (@alias $with:ident ($($arg:ident: $ty:ty),*) $ret:ty;
+        $ours:ident = $name:literal, $($field:ident).+; $($rest:tt)*
+    ) => {
         pub unsafe extern "system" fn $ours($($arg: $ty),*) -> $ret {
             // SAFETY: forwarded from the application.
-            unsafe { $with($name, |f| f.$table.$field, $($arg),*) }
+            unsafe { $with($name, |f| f.$($field).+, $($arg),*) }
         }
-
-        pub unsafe extern "system" fn $alias($($arg: $ty),*) -> $ret {
-            // SAFETY: forwarded from the application.
-            unsafe { $with($alias_name, |f| f.$table.$alias_field, $($arg),*) }
-        }
-    )*};
-    ($($intercepts:tt)*) => {
-        $crate::dispatch::aliased_intercepts! { in memory; $($intercepts)* }
+        $crate::dispatch::aliased_intercepts!(@alias $with ($($arg: $ty),*) $ret; $($rest)*);
     };
+    ($($with:ident $params:tt -> $ret:ty { $($aliases:tt)* })*) => {$(
+        $crate::dispatch::aliased_intercepts!(@alias $with $params $ret; $($aliases)*);
+    )*};
 }
 pub(crate) use aliased_intercepts;
 

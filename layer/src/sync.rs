@@ -303,8 +303,8 @@ unsafe fn reset_query_pool_with(
 }
 
 aliased_intercepts! {
-    in pipe;
-    reset_query_pool_with(device: vk::Device, pool: vk::QueryPool, first: u32, count: u32) -> ();
-    reset_query_pool = "vkResetQueryPool", reset_query_pool;
-    reset_query_pool_ext = "vkResetQueryPoolEXT", reset_query_pool_ext;
+    reset_query_pool_with(device: vk::Device, pool: vk::QueryPool, first: u32, count: u32) -> () {
+        reset_query_pool = "vkResetQueryPool", pipe.reset_query_pool;
+        reset_query_pool_ext = "vkResetQueryPoolEXT", pipe.reset_query_pool_ext;
+    }
 }

@@ -208,12 +208,14 @@ unsafe fn copy_image_to_buffer2_with(
 }
 
 aliased_intercepts! {
-    copy_buffer2_with(command_buffer: vk::CommandBuffer, info: *const vk::CopyBufferInfo2<'_>) -> ();
-    cmd_copy_buffer2 = "vkCmdCopyBuffer2", cmd_copy_buffer2;
-    cmd_copy_buffer2_khr = "vkCmdCopyBuffer2KHR", cmd_copy_buffer2_khr;
-    copy_image_to_buffer2_with(command_buffer: vk::CommandBuffer, info: *const vk::CopyImageToBufferInfo2<'_>) -> ();
-    cmd_copy_image_to_buffer2 = "vkCmdCopyImageToBuffer2", cmd_copy_image_to_buffer2;
-    cmd_copy_image_to_buffer2_khr = "vkCmdCopyImageToBuffer2KHR", cmd_copy_image_to_buffer2_khr;
+    copy_buffer2_with(command_buffer: vk::CommandBuffer, info: *const vk::CopyBufferInfo2<'_>) -> () {
+        cmd_copy_buffer2 = "vkCmdCopyBuffer2", memory.cmd_copy_buffer2;
+        cmd_copy_buffer2_khr = "vkCmdCopyBuffer2KHR", memory.cmd_copy_buffer2_khr;
+    }
+    copy_image_to_buffer2_with(command_buffer: vk::CommandBuffer, info: *const vk::CopyImageToBufferInfo2<'_>) -> () {
+        cmd_copy_image_to_buffer2 = "vkCmdCopyImageToBuffer2", memory.cmd_copy_image_to_buffer2;
+        cmd_copy_image_to_buffer2_khr = "vkCmdCopyImageToBuffer2KHR", memory.cmd_copy_image_to_buffer2_khr;
+    }
 }
 
 /// The most bytes `vkCmdUpdateBuffer` may write (its `dataSize` limit).
