@@ -645,90 +645,6 @@ fn leave_render_pass(tracked: &mut Tracked) {
     tracked.model.in_render_pass = false;
 }
 
-unsafe extern "system" fn cmd_begin_render_pass(
-    command_buffer: vk::CommandBuffer,
-    begin: *const vk::RenderPassBeginInfo<'_>,
-    contents: vk::SubpassContents,
-) {
-    state_command(
-        "vkCmdBeginRenderPass",
-        command_buffer,
-        |f| f.commands.cmd_begin_render_pass,
-        enter_render_pass,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, begin, contents) },
-    );
-}
-
-unsafe extern "system" fn cmd_begin_render_pass2(
-    command_buffer: vk::CommandBuffer,
-    begin: *const vk::RenderPassBeginInfo<'_>,
-    subpass: *const vk::SubpassBeginInfo<'_>,
-) {
-    state_command(
-        "vkCmdBeginRenderPass2",
-        command_buffer,
-        |f| f.commands.cmd_begin_render_pass2,
-        enter_render_pass,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, begin, subpass) },
-    );
-}
-
-unsafe extern "system" fn cmd_begin_render_pass2_khr(
-    command_buffer: vk::CommandBuffer,
-    begin: *const vk::RenderPassBeginInfo<'_>,
-    subpass: *const vk::SubpassBeginInfo<'_>,
-) {
-    state_command(
-        "vkCmdBeginRenderPass2KHR",
-        command_buffer,
-        |f| f.commands.cmd_begin_render_pass2_khr,
-        enter_render_pass,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, begin, subpass) },
-    );
-}
-
-unsafe extern "system" fn cmd_end_render_pass(command_buffer: vk::CommandBuffer) {
-    state_command(
-        "vkCmdEndRenderPass",
-        command_buffer,
-        |f| f.commands.cmd_end_render_pass,
-        leave_render_pass,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer) },
-    );
-}
-
-unsafe extern "system" fn cmd_end_render_pass2(
-    command_buffer: vk::CommandBuffer,
-    end: *const vk::SubpassEndInfo<'_>,
-) {
-    state_command(
-        "vkCmdEndRenderPass2",
-        command_buffer,
-        |f| f.commands.cmd_end_render_pass2,
-        leave_render_pass,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, end) },
-    );
-}
-
-unsafe extern "system" fn cmd_end_render_pass2_khr(
-    command_buffer: vk::CommandBuffer,
-    end: *const vk::SubpassEndInfo<'_>,
-) {
-    state_command(
-        "vkCmdEndRenderPass2KHR",
-        command_buffer,
-        |f| f.commands.cmd_end_render_pass2_khr,
-        leave_render_pass,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, end) },
-    );
-}
-
 /// vkCmdBeginRendering starts a render pass instance (resuming a suspended
 /// one, if it was suspended); whether its end suspends it is in its flags.
 fn begin_rendering(tracked: &mut Tracked, flags: vk::RenderingFlags) {
@@ -745,95 +661,65 @@ fn end_rendering(tracked: &mut Tracked) {
     tracked.rendering_suspends = false;
 }
 
-/// The flags of a `VkRenderingInfo`.
+/// What `vkCmdBeginRendering(info)` does to the tracked command buffer.
 ///
 /// # Safety
 /// A non-NULL `info` must point to a `VkRenderingInfo`, as the API requires.
-unsafe fn rendering_flags(info: *const vk::RenderingInfo<'_>) -> vk::RenderingFlags {
+unsafe fn rendering_begun(info: *const vk::RenderingInfo<'_>) -> impl FnOnce(&mut Tracked) {
     // SAFETY: forwarded from the caller.
-    unsafe { info.as_ref() }.map_or(vk::RenderingFlags::empty(), |info| info.flags)
+    let flags = unsafe { info.as_ref() }.map_or(vk::RenderingFlags::empty(), |info| info.flags);
+    move |tracked| begin_rendering(tracked, flags)
 }
 
-unsafe extern "system" fn cmd_begin_rendering(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::RenderingInfo<'_>,
-) {
-    // SAFETY: the application's rendering info.
-    let flags = unsafe { rendering_flags(info) };
-    state_command(
-        "vkCmdBeginRendering",
-        command_buffer,
-        |f| f.commands.cmd_begin_rendering,
-        |tracked| begin_rendering(tracked, flags),
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
+/// State commands: `ours(arguments after the command buffer) = "vkName"
+/// => update`, where `update` (an expression over the arguments) changes
+/// the tracked command buffer; the next layer's function is the field of
+/// the intercept's name.
+macro_rules! state_commands {
+    ($($ours:ident($($arg:ident: $ty:ty),*) = $name:literal => $update:expr;)*) => {$(
+        unsafe extern "system" fn $ours(command_buffer: vk::CommandBuffer, $($arg: $ty),*) {
+            state_command(
+                $name,
+                command_buffer,
+                |f| f.commands.$ours,
+                $update,
+                // SAFETY: the next layer's function, with the application's arguments.
+                |next| unsafe { next(command_buffer, $($arg),*) },
+            );
+        }
+    )*};
 }
 
-unsafe extern "system" fn cmd_begin_rendering_khr(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::RenderingInfo<'_>,
-) {
-    // SAFETY: the application's rendering info.
-    let flags = unsafe { rendering_flags(info) };
-    state_command(
-        "vkCmdBeginRenderingKHR",
-        command_buffer,
-        |f| f.commands.cmd_begin_rendering_khr,
-        |tracked| begin_rendering(tracked, flags),
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn cmd_end_rendering(command_buffer: vk::CommandBuffer) {
-    state_command(
-        "vkCmdEndRendering",
-        command_buffer,
-        |f| f.commands.cmd_end_rendering,
-        end_rendering,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer) },
-    );
-}
-
-unsafe extern "system" fn cmd_end_rendering_khr(command_buffer: vk::CommandBuffer) {
-    state_command(
-        "vkCmdEndRenderingKHR",
-        command_buffer,
-        |f| f.commands.cmd_end_rendering_khr,
-        end_rendering,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer) },
-    );
-}
-
-unsafe extern "system" fn cmd_begin_video_coding(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::VideoBeginCodingInfoKHR<'_>,
-) {
-    state_command(
-        "vkCmdBeginVideoCodingKHR",
-        command_buffer,
-        |f| f.commands.cmd_begin_video_coding,
-        |tracked| tracked.model.in_video_coding = true,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
-}
-
-unsafe extern "system" fn cmd_end_video_coding(
-    command_buffer: vk::CommandBuffer,
-    info: *const vk::VideoEndCodingInfoKHR<'_>,
-) {
-    state_command(
-        "vkCmdEndVideoCodingKHR",
-        command_buffer,
-        |f| f.commands.cmd_end_video_coding,
-        |tracked| tracked.model.in_video_coding = false,
-        // SAFETY: the next layer's function, with the application's arguments.
-        |next| unsafe { next(command_buffer, info) },
-    );
+state_commands! {
+    cmd_begin_render_pass(
+        begin: *const vk::RenderPassBeginInfo<'_>,
+        contents: vk::SubpassContents
+    ) = "vkCmdBeginRenderPass" => enter_render_pass;
+    cmd_begin_render_pass2(
+        begin: *const vk::RenderPassBeginInfo<'_>,
+        subpass: *const vk::SubpassBeginInfo<'_>
+    ) = "vkCmdBeginRenderPass2" => enter_render_pass;
+    cmd_begin_render_pass2_khr(
+        begin: *const vk::RenderPassBeginInfo<'_>,
+        subpass: *const vk::SubpassBeginInfo<'_>
+    ) = "vkCmdBeginRenderPass2KHR" => enter_render_pass;
+    cmd_end_render_pass() = "vkCmdEndRenderPass" => leave_render_pass;
+    cmd_end_render_pass2(end: *const vk::SubpassEndInfo<'_>)
+        = "vkCmdEndRenderPass2" => leave_render_pass;
+    cmd_end_render_pass2_khr(end: *const vk::SubpassEndInfo<'_>)
+        = "vkCmdEndRenderPass2KHR" => leave_render_pass;
+    cmd_begin_rendering(info: *const vk::RenderingInfo<'_>)
+        // SAFETY: the application's rendering info, valid as the API requires.
+        = "vkCmdBeginRendering" => unsafe { rendering_begun(info) };
+    cmd_begin_rendering_khr(info: *const vk::RenderingInfo<'_>)
+        // SAFETY: the application's rendering info, valid as the API requires.
+        = "vkCmdBeginRenderingKHR" => unsafe { rendering_begun(info) };
+    cmd_end_rendering() = "vkCmdEndRendering" => end_rendering;
+    cmd_end_rendering_khr() = "vkCmdEndRenderingKHR" => end_rendering;
+    cmd_begin_video_coding(info: *const vk::VideoBeginCodingInfoKHR<'_>)
+        = "vkCmdBeginVideoCodingKHR" => |tracked| tracked.model.in_video_coding = true;
+    cmd_end_video_coding(info: *const vk::VideoEndCodingInfoKHR<'_>)
+        = "vkCmdEndVideoCodingKHR" => |tracked| tracked.model.in_video_coding = false;
 }
 
 /// `vkCmdExecuteCommands`: a submission of the primary runs the builds the
