@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N]
-//!         [--way copy|update|fill|compute|mapped] [--valid] [--sync-fault] [--indirect]
+//!         [--way copy|update|fill|compute|mapped] [--valid] [--sync-fault]
 //! {"scenario": ..., "messages": [{"id", "severity", "phase", "text"}],
 //!  "device_layers": [...], "results": {...}}
 //! ```
@@ -34,10 +34,7 @@
 //! `--valid`), the instance written into memory the app never maps by
 //! vkCmdCopyBuffer, vkCmdUpdateBuffer, vkCmdFillBuffer or a compute shader,
 //! or into memory it keeps mapped; `--sync-fault` plants a hazard for the
-//! Khronos layer's synchronization validation; `--indirect` builds it with
-//! vkCmdBuildAccelerationStructuresIndirectKHR (a device with
-//! accelerationStructureIndirectBuild), its range in device-local memory
-//! written by vkCmdUpdateBuffer. On a machine with a GPU,
+//! Khronos layer's synchronization validation. On a machine with a GPU,
 //! after `cargo xtask layer` (which writes target/layer/VkLayer_ommcheck.json)
 //! and `cargo build -p ommcheck-tests --bin omm-app`:
 //! `VK_ADD_LAYER_PATH=target/layer target/debug/omm-app tlas --way compute
@@ -721,32 +718,8 @@ fn scratch_alignment(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> u64 {
 /// the specification), and stacked under ommcheck it must report nothing
 /// of the app's.
 fn structure_device(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> Result<Gpu<'_>, String> {
-    structure_device_with(vulkan, physical, false)
-}
-
-/// As [`structure_device`], with accelerationStructureIndirectBuild too
-/// where `indirect` (an error where the device lacks it).
-fn structure_device_with(
-    vulkan: &Vulkan,
-    physical: vk::PhysicalDevice,
-    indirect: bool,
-) -> Result<Gpu<'_>, String> {
-    if indirect {
-        let mut supported = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
-        let mut query = vk::PhysicalDeviceFeatures2::default().push_next(&mut supported);
-        // SAFETY: a physical device of this instance; a well-formed chain.
-        unsafe {
-            vulkan
-                .instance
-                .get_physical_device_features2(physical, &mut query)
-        };
-        if supported.acceleration_structure_indirect_build == vk::FALSE {
-            return Err("--indirect: the device lacks accelerationStructureIndirectBuild".into());
-        }
-    }
-    let mut structure_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
-        .acceleration_structure(true)
-        .acceleration_structure_indirect_build(indirect);
+    let mut structure_features =
+        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
     let mut ray_query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
     let mut pipeline =
         vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
@@ -1106,13 +1079,7 @@ struct TlasOptions {
     /// hazard, which the Khronos layer's synchronization validation reports
     /// and ommcheck does not, to show the former is on.
     sync_fault: bool,
-    /// The top-level build is vkCmdBuildAccelerationStructuresIndirectKHR,
-    /// its range in device-local memory written by vkCmdUpdateBuffer.
-    indirect: bool,
 }
-
-/// The bytes of a VkAccelerationStructureBuildRangeInfoKHR.
-const RANGE_SIZE: u64 = 16;
 
 /// The bytes of a VkAccelerationStructureInstanceKHR.
 const INSTANCE_SIZE: u64 = std::mem::size_of::<vk::AccelerationStructureInstanceKHR>() as u64;
@@ -1345,7 +1312,7 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
         .map_or_else(|_| "?".into(), |n| n.to_string_lossy().into_owned());
     results.insert("device".into(), json!(name));
     let scratch_alignment = scratch_alignment(vulkan, physical);
-    let gpu = structure_device_with(vulkan, physical, options.indirect)?;
+    let gpu = structure_device(vulkan, physical)?;
     let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
     let mut buffers = Buffers::default();
     let blas = TriangleBlas::new(&gpu, &accel, &mut buffers, scratch_alignment)?;
@@ -1450,21 +1417,6 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
         &gpu,
         vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
     )?;
-    // With --indirect, the build range (one instance) in a device-local
-    // buffer the app never maps, written by vkCmdUpdateBuffer.
-    let range = vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1);
-    let range_buffer = if options.indirect {
-        buffers.unmapped(
-            &gpu,
-            RANGE_SIZE,
-            vk::BufferUsageFlags::INDIRECT_BUFFER
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
-                | vk::BufferUsageFlags::TRANSFER_DST,
-            vk::MemoryPropertyFlags::DEVICE_LOCAL,
-        )?
-    } else {
-        vk::Buffer::null()
-    };
 
     let command_buffer = gpu.begin()?;
     vulkan.phase("record");
@@ -1511,45 +1463,11 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
         InstanceWay::Compute => copy_words.record(&gpu, command_buffer, 1),
         InstanceWay::Mapped => {}
     }
-    if options.indirect {
-        let words = [
-            range.primitive_count,
-            range.primitive_offset,
-            range.first_vertex,
-            0,
-        ];
-        // SAFETY: as above.
-        unsafe { device.cmd_update_buffer(command_buffer, range_buffer, 0, &word_bytes(&words)) };
-    }
     blas.record_build(&accel, command_buffer);
     memory_barrier(&gpu, command_buffer, INSTANCE_WRITES, INSTANCE_READS);
-    if options.indirect {
-        memory_barrier(
-            &gpu,
-            command_buffer,
-            TRANSFER_WRITE,
-            (
-                vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-                vk::AccessFlags::INDIRECT_COMMAND_READ,
-            ),
-        );
-        let max_counts: &[u32] = &[1];
-        // SAFETY: as above; the range buffer holds one range at its address.
-        unsafe {
-            accel.cmd_build_acceleration_structures_indirect(
-                command_buffer,
-                &[tlas_info],
-                &[gpu.address(range_buffer)],
-                &[RANGE_SIZE as u32],
-                &[max_counts],
-            )
-        };
-    } else {
-        // SAFETY: as above.
-        unsafe {
-            accel.cmd_build_acceleration_structures(command_buffer, &[tlas_info], &[&[range]])
-        };
-    }
+    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(1)];
+    // SAFETY: as above.
+    unsafe { accel.cmd_build_acceleration_structures(command_buffer, &[tlas_info], &[&ranges]) };
     memory_barrier(&gpu, command_buffer, STRUCTURE_WRITE, STRUCTURE_READ);
     // SAFETY: as above.
     unsafe {
@@ -2255,7 +2173,7 @@ fn run(args: &[String]) -> Result<Value, String> {
     let usage =
         "usage: omm-app SCENARIO [--layer NAME]... [--core-fault] [--iterations N (overhead)] \
          [--usage-entries K (overhead)] [--triangles N (overhead)] \
-         [--way copy|update|fill|compute|mapped (tlas)] [--valid (tlas)] [--sync-fault (tlas)] [--indirect (tlas)]";
+         [--way copy|update|fill|compute|mapped (tlas)] [--valid (tlas)] [--sync-fault (tlas)]";
     let (scenario, rest) = args.split_first().ok_or(usage)?;
     let mut layers = Vec::new();
     let mut with_core_fault = false;
@@ -2268,7 +2186,6 @@ fn run(args: &[String]) -> Result<Value, String> {
         way: None,
         valid: false,
         sync_fault: false,
-        indirect: false,
     };
     let mut rest = rest.iter();
     while let Some(arg) = rest.next() {
@@ -2301,7 +2218,6 @@ fn run(args: &[String]) -> Result<Value, String> {
             "--way" => tlas_options.way = Some(InstanceWay::parse(rest.next().ok_or(usage)?)?),
             "--valid" => tlas_options.valid = true,
             "--sync-fault" => tlas_options.sync_fault = true,
-            "--indirect" => tlas_options.indirect = true,
             _ => return Err(format!("unexpected argument {arg:?}; {usage}")),
         }
     }
