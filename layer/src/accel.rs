@@ -18,8 +18,8 @@ use ommcheck::vuids::khr;
 use ommcheck::Report;
 
 use crate::commands;
-use crate::device::{as_void, check, deferrable, device_and, device_object, track};
 use crate::dispatch::{next_fn, DeviceFns, DeviceState};
+use crate::intercept::{as_void, check, deferrable, device_and, device_object, track};
 use crate::{guarded, read};
 
 /// `vkCreateAccelerationStructure2KHR` (VK_KHR_opacity_micromap), newer than ash 0.38.

@@ -21,11 +21,11 @@ use ommcheck::checks::device_contents::DeviceBuild;
 use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;
-use crate::device::{as_void, device_and};
 use crate::dispatch::{next_fn, DeviceData, DeviceFns};
+use crate::intercept::{as_void, device_and};
 use crate::readback::{Plan, Readback};
 use crate::shadow::Transfer;
-use crate::{guarded, read, submit};
+use crate::{guarded, read};
 
 /// The next layer's command pool, command buffer and submission functions.
 pub struct CommandFns {
@@ -139,7 +139,7 @@ pub fn intercept(name: &std::ffi::CStr) -> vk::PFN_vkVoidFunction {
             as_void(cmd_end_video_coding as vk::PFN_vkCmdEndVideoCodingKHR)
         }
         b"vkCmdExecuteCommands" => as_void(cmd_execute_commands as vk::PFN_vkCmdExecuteCommands),
-        _ => submit::intercept(name),
+        _ => None,
     }
 }
 
@@ -274,7 +274,7 @@ pub fn keep_build(
     recorded_in: &CommandBuffer,
     build: DeviceBuild,
 ) {
-    let planned = crate::device::track_with(data, build.function(), |state| {
+    let planned = crate::intercept::track_with(data, build.function(), |state| {
         let unplaced = crate::readback::unplaced_messages(state, command_buffer, &build);
         (
             crate::readback::plan(data, state, command_buffer, &build),
@@ -568,7 +568,7 @@ unsafe extern "system" fn begin_command_buffer(
 /// The core forgets what `command_buffer` recorded for execution order
 /// (it begins anew, is reset or freed).
 fn forget_recording(data: &DeviceData, command_buffer: u64) {
-    crate::device::track(data, "vkBeginCommandBuffer", |state| {
+    crate::intercept::track(data, "vkBeginCommandBuffer", |state| {
         state.validator.begin_command_buffer(command_buffer);
     });
 }
@@ -735,7 +735,7 @@ unsafe extern "system" fn cmd_execute_commands(
         .map(|cb| cb.as_raw())
         .collect();
     if let Some(data) = crate::dispatch::DEVICES.get(command_buffer) {
-        crate::device::track(&data, "vkCmdExecuteCommands", |state| {
+        crate::intercept::track(&data, "vkCmdExecuteCommands", |state| {
             state
                 .validator
                 .cmd_execute_commands(command_buffer.as_raw(), &handles);

@@ -18,8 +18,8 @@ use ash::vk::Handle as _;
 use foldhash::HashMap;
 
 use crate::commands::KeptBuild;
-use crate::device::device_and;
 use crate::dispatch::{aliased_intercepts, DeviceData, DeviceFns};
+use crate::intercept::device_and;
 use crate::report::Message;
 use crate::{guarded, panic_message, read};
 

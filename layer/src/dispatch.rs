@@ -285,7 +285,7 @@ pub struct DeviceState {
     pub mappings: HashMap<u64, ReadableHost>,
     /// Where buffers lie in memory and where memory is mapped, for reading
     /// device builds' contents at submission.
-    pub memory_layout: crate::submit::MemoryLayout,
+    pub memory_layout: crate::memory_layout::MemoryLayout,
     /// Bound pipelines, shaders and descriptor sets, and what pipelines' stages use.
     pub pipe: crate::work::PipeState,
     /// What transfers wrote into the windows builds read (route 1).

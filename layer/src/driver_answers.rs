@@ -17,9 +17,9 @@ use ommcheck::driver::{
     BuildType, DriverQueries, MicromapBuildShape, MicromapBuildSizes, MicromapVersion,
 };
 
-use crate::device::device_and;
 use crate::dispatch::{DeviceData, DeviceState};
-use crate::{read, submit};
+use crate::intercept::device_and;
+use crate::read;
 
 /// At most this many answers of each kind are kept per device; past it the
 /// driver is asked each time for a new shape or version (an application
@@ -275,7 +275,7 @@ pub unsafe fn map_destinations(
             continue;
         };
         let (buffer, offset, size) = (micromap.buffer, micromap.offset, micromap.size);
-        if let Some(address) = submit::mapped_address(state, buffer, offset, size) {
+        if let Some(address) = crate::memory_layout::mapped_address(state, buffer, offset, size) {
             mapped.insert(handle, address as u64);
         }
     }

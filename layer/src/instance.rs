@@ -9,6 +9,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::dispatch::{next_fn, InstanceData, InstanceFns, INSTANCES};
+use crate::intercept::as_void;
 use crate::report::Reporter;
 use crate::{abi, device, guarded, read, settings};
 
@@ -16,26 +17,26 @@ use crate::{abi, device, guarded, read, settings};
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
     match name.to_bytes() {
         b"vkGetInstanceProcAddr" => {
-            device::as_void(crate::vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr)
+            as_void(crate::vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr)
         }
         b"vkGetDeviceProcAddr" => {
-            device::as_void(crate::vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr)
+            as_void(crate::vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr)
         }
-        b"vkCreateInstance" => device::as_void(create_instance as vk::PFN_vkCreateInstance),
-        b"vkDestroyInstance" => device::as_void(destroy_instance as vk::PFN_vkDestroyInstance),
-        b"vkCreateDevice" => device::as_void(device::create_device as vk::PFN_vkCreateDevice),
+        b"vkCreateInstance" => as_void(create_instance as vk::PFN_vkCreateInstance),
+        b"vkDestroyInstance" => as_void(destroy_instance as vk::PFN_vkDestroyInstance),
+        b"vkCreateDevice" => as_void(device::create_device as vk::PFN_vkCreateDevice),
         b"vkCreateDebugUtilsMessengerEXT" => {
-            device::as_void(create_debug_utils_messenger as vk::PFN_vkCreateDebugUtilsMessengerEXT)
+            as_void(create_debug_utils_messenger as vk::PFN_vkCreateDebugUtilsMessengerEXT)
         }
-        b"vkDestroyDebugUtilsMessengerEXT" => device::as_void(
-            destroy_debug_utils_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT,
-        ),
+        b"vkDestroyDebugUtilsMessengerEXT" => {
+            as_void(destroy_debug_utils_messenger as vk::PFN_vkDestroyDebugUtilsMessengerEXT)
+        }
         b"vkCreateDebugReportCallbackEXT" => {
-            device::as_void(create_debug_report_callback as vk::PFN_vkCreateDebugReportCallbackEXT)
+            as_void(create_debug_report_callback as vk::PFN_vkCreateDebugReportCallbackEXT)
         }
-        b"vkDestroyDebugReportCallbackEXT" => device::as_void(
-            destroy_debug_report_callback as vk::PFN_vkDestroyDebugReportCallbackEXT,
-        ),
+        b"vkDestroyDebugReportCallbackEXT" => {
+            as_void(destroy_debug_report_callback as vk::PFN_vkDestroyDebugReportCallbackEXT)
+        }
         _ => None,
     }
 }

@@ -41,12 +41,15 @@ mod device;
 mod dispatch;
 mod driver_answers;
 mod instance;
+mod intercept;
+mod memory_layout;
 mod pipe;
 mod pipelines;
 mod properties;
 mod read;
 mod readback;
 pub mod report;
+mod router;
 mod setting_docs;
 pub mod settings;
 mod shadow;
@@ -165,7 +168,7 @@ pub unsafe extern "system" fn vkGetInstanceProcAddr(
             .flatten()?;
         // SAFETY: the next layer's GIPA, with the instance it created.
         let next = unsafe { (data.next_gipa)(data.handle, name.as_ptr()) };
-        match device::intercept(name).or_else(|| properties::intercept(name)) {
+        match router::device_command(name).or_else(|| properties::intercept(name)) {
             Some(ours) if next.is_some() => Some(ours),
             _ => next,
         }
@@ -186,14 +189,14 @@ pub unsafe extern "system" fn vkGetDeviceProcAddr(
         // SAFETY: the name is NUL-terminated (the caller's guarantee).
         let name = unsafe { read::name(name) }?;
         if name == c"vkGetDeviceProcAddr" {
-            return device::as_void(vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr);
+            return intercept::as_void(vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr);
         }
         let data = (device != vk::Device::null())
             .then(|| DEVICES.get(device))
             .flatten()?;
         // SAFETY: the next layer's GDPA, with the device it created.
         let next = unsafe { (data.next_gdpa)(data.handle, name.as_ptr()) };
-        match device::intercept(name) {
+        match router::device_command(name) {
             Some(ours) if next.is_some() => Some(ours),
             _ => next,
         }
@@ -203,6 +206,6 @@ pub unsafe extern "system" fn vkGetDeviceProcAddr(
 /// Whether `name` is a command this layer intercepts (for tests and tools).
 pub fn intercepts(name: &CStr) -> bool {
     instance::intercept(name).is_some()
-        || device::intercept(name).is_some()
+        || router::device_command(name).is_some()
         || properties::intercept(name).is_some()
 }

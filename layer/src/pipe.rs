@@ -10,8 +10,8 @@ use std::ffi::CStr;
 use ash::vk;
 use ommcheck::raw::pipeline::MemoryMarkerInfoAMD;
 
-use crate::device::as_void;
 use crate::dispatch::next_fn;
+use crate::intercept::as_void;
 use crate::{pipelines, sync, work};
 
 /// `vkCmdWriteMarkerToMemoryAMD`, newer than ash 0.38.

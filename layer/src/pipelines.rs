@@ -12,9 +12,9 @@ use ommcheck::raw::pipeline::{self as raw, StructReader};
 use ommcheck::state::Handle;
 use ommcheck::{Report, Validator};
 
-use crate::device::{check, device_and, device_object, track};
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::guarded;
+use crate::intercept::{check, device_and, device_object, track};
 use crate::work::DeferredPipelines;
 
 /// One of the core's four pipeline-creation checks.

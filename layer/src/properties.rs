@@ -21,8 +21,8 @@ use ommcheck::raw::pipeline as raw;
 use ommcheck::vuids::khr;
 use ommcheck::{Device, Limits, Report, Validator};
 
-use crate::device::as_void;
 use crate::dispatch::{InstanceData, INSTANCES};
+use crate::intercept::as_void;
 use crate::report::Message;
 use crate::{guarded, panic_message, testing};
 

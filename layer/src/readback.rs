@@ -197,7 +197,7 @@ pub fn plan(
     }
     if windows
         .iter()
-        .all(|w| crate::submit::host_can_read(state, w.buffer, w.offset, w.len))
+        .all(|w| crate::memory_layout::host_can_read(state, w.buffer, w.offset, w.len))
     {
         return Plan::AtSubmission;
     }

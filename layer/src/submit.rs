@@ -14,60 +14,17 @@ use std::ffi::CStr;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use foldhash::{HashMap, HashSet};
 use ommcheck::checks::device_contents::KnownBytes;
 use ommcheck::model::SubmitBatch;
-use ommcheck::raw::MAX_HOST_BYTES;
 use ommcheck::state::Handle;
 use ommcheck::Severity;
 
 use crate::commands::{self, KeptBuild, Recorded};
-use crate::device::{as_void, check, device_and};
 use crate::dispatch::{DeviceData, DeviceFns, DeviceState};
+use crate::intercept::{as_void, check, device_and};
+use crate::memory_layout::{mapped_address, unreadable_reason};
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
 use crate::{guarded, panic_message, read};
-
-/// Where buffers lie in device memory and where memory is mapped.
-#[derive(Debug, Default)]
-pub struct MemoryLayout {
-    /// Buffer → (memory, offset in it) from vkBindBufferMemory(2).
-    bound: HashMap<u64, (u64, u64)>,
-    /// Memory → offset of its mapping (the host range is in `DeviceState::mappings`).
-    mapped_at: HashMap<u64, u64>,
-    /// The causes [`CONTENTS_NOT_CHECKED`] was reported for on this device.
-    reported_unreadable: HashSet<&'static str>,
-}
-
-impl MemoryLayout {
-    pub fn bind(&mut self, buffer: u64, memory: u64, offset: u64) {
-        self.bound.insert(buffer, (memory, offset));
-    }
-
-    pub fn forget_buffer(&mut self, buffer: u64) {
-        self.bound.remove(&buffer);
-    }
-
-    pub fn map(&mut self, memory: u64, offset: u64) {
-        self.mapped_at.insert(memory, offset);
-    }
-
-    pub fn unmap(&mut self, memory: u64) {
-        self.mapped_at.remove(&memory);
-    }
-
-    /// Whether [`CONTENTS_NOT_CHECKED`] is still to be reported for
-    /// `cause` on this device (it is once per device and cause); true once.
-    pub fn first_report(&mut self, cause: &'static str) -> bool {
-        self.reported_unreadable.insert(cause)
-    }
-
-    /// Whether `buffer`'s memory is mapped now.
-    pub fn is_mapped(&self, buffer: u64) -> bool {
-        self.bound
-            .get(&buffer)
-            .is_some_and(|(memory, _)| self.mapped_at.contains_key(memory))
-    }
-}
 
 /// The next layer's submission function for one of the submit commands.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
@@ -77,61 +34,6 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkQueueSubmit2KHR" => as_void(queue_submit2_khr as vk::PFN_vkQueueSubmit2),
         _ => None,
     }
-}
-
-/// Why the bytes of one buffer could not be read at submission.
-fn unreadable_reason(state: &DeviceState, buffer: Handle) -> &'static str {
-    let Some(tracked) = state.validator.state().buffers.get(&buffer) else {
-        return "the buffer holding them is not tracked";
-    };
-    let Some(binding) = tracked.memory else {
-        return "the buffer holding them is not bound to memory";
-    };
-    if !binding.host_visible {
-        return "the buffer holding them is bound to memory that is not host-visible (device-local), and no transfer the layer follows wrote them";
-    }
-    let mapped = state
-        .memory_layout
-        .bound
-        .get(&buffer)
-        .and_then(|(memory, _)| state.memory_layout.mapped_at.get(memory));
-    match mapped {
-        None => "the buffer holding them is bound to host-visible memory that is not mapped at submission, and no transfer the layer follows wrote them",
-        Some(_) => "the mapping of the buffer's memory does not cover what the build reads",
-    }
-}
-
-/// Where `[offset, offset + len)` of `buffer` lies in host memory the
-/// application has mapped, if all of it does (at most [`MAX_HOST_BYTES`]).
-pub(crate) fn mapped_address(
-    state: &DeviceState,
-    buffer: Handle,
-    offset: u64,
-    len: u64,
-) -> Option<usize> {
-    if len > MAX_HOST_BYTES {
-        return None;
-    }
-    let size = state.validator.state().buffers.get(&buffer)?.size;
-    if offset.checked_add(len)? > size {
-        return None;
-    }
-    let &(memory, bound_at) = state.memory_layout.bound.get(&buffer)?;
-    let &mapped_offset = state.memory_layout.mapped_at.get(&memory)?;
-    let mapping = state.mappings.get(&memory)?;
-    // The window's start inside the mapping.
-    let into_mapping = bound_at.checked_add(offset)?.checked_sub(mapped_offset)?;
-    if into_mapping.checked_add(len)? > mapping.len {
-        return None;
-    }
-    let address = usize::try_from(mapping.address.checked_add(into_mapping)?).ok()?;
-    address.checked_add(usize::try_from(len).ok()?)?;
-    Some(address)
-}
-
-/// Whether the host can read `[offset, offset + len)` of `buffer` now.
-pub fn host_can_read(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> bool {
-    mapped_address(state, buffer, offset, len).is_some()
 }
 
 /// A copy of `[offset, offset + len)` of `buffer` from mapped memory.

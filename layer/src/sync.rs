@@ -12,9 +12,9 @@ use ommcheck::raw::pipeline::{self as raw, MemoryMarkerInfoAMD};
 use ommcheck::{Report, Validator};
 
 use crate::commands;
-use crate::device::{check, device_and};
 use crate::dispatch::{aliased_intercepts, DeviceFns};
 use crate::guarded;
+use crate::intercept::{check, device_and};
 
 /// Runs `body` as the check of a command recorded in `command_buffer`,
 /// then calls the next layer's function that `pick` selects with `call`
@@ -294,7 +294,7 @@ unsafe fn reset_query_pool_with(
         };
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, pool, first, count) };
-        crate::device::track(&data, function, |state| {
+        crate::intercept::track(&data, function, |state| {
             state
                 .validator
                 .reset_query_pool(pool.as_raw(), first, count);

@@ -14,8 +14,8 @@ use ash::vk;
 use ash::vk::Handle as _;
 
 use crate::commands::{self, Recorded};
-use crate::device::{as_void, device_and};
 use crate::dispatch::{aliased_intercepts, next_fn, DeviceData, DeviceFns, DeviceState};
+use crate::intercept::{as_void, device_and};
 use crate::shadow::Transfer;
 use crate::{completion, guarded, read};
 

@@ -35,9 +35,9 @@ use ommcheck::raw::pipeline as raw;
 use ommcheck::state::Handle;
 use ommcheck::Validator;
 
-use crate::device::{check, device_and, track};
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::guarded;
+use crate::intercept::{check, device_and, track};
 
 /// SPIR-V `RayQueryKHR`.
 const CAPABILITY_RAY_QUERY: u32 = 4472;
