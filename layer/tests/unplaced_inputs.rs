@@ -305,7 +305,17 @@ fn findings_at_completion(chain: &Chain, record: impl FnOnce(vk::CommandBuffer))
     chain.collector.take()
 }
 
-/// The ids and locations of `findings`.
+/// What [`ids_at`] gives for the faulty instance (11580 at its flags), or
+/// its valid twin (nothing).
+fn expected_11580(faulty: bool) -> Vec<(&'static str, bool)> {
+    if faulty {
+        vec![(INSTANCE_FLAGS_11580, true)]
+    } else {
+        Vec::new()
+    }
+}
+
+/// The ids of `findings`, each with whether it names the instance's flags.
 fn ids_at(findings: &[Received]) -> Vec<(&str, bool)> {
     findings
         .iter()
@@ -333,32 +343,23 @@ fn an_indirect_top_level_builds_instance_flags_are_checked_at_completion() {
             let range = range_info_bytes(1, 0);
             let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
                 | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-            let (ranges, memory) = chain.buffer_and_memory(16, usage, u32::from(mapped_ranges));
             let mut writes: Vec<(vk::Buffer, &[u8])> = vec![(instances, &bytes)];
-            if mapped_ranges {
-                // SAFETY: inside the 16-byte mapping.
-                unsafe {
-                    chain
-                        .map_backing(memory)
-                        .copy_from_nonoverlapping(range.as_ptr(), range.len())
-                };
+            let ranges = if mapped_ranges {
+                chain.mapped_buffer_holding(&range, usage)
             } else {
+                let ranges = chain.buffer(16, usage, 0);
                 writes.push((ranges, &range));
-            }
+                ranges
+            };
             let found = findings_at_completion(&chain, |command_buffer| {
                 shader_writes(&chain, command_buffer, &writes);
                 let data = chain.address(instances);
                 let at = Some(chain.address(ranges));
                 record_top_level_as(&chain, command_buffer, data, false, at);
             });
-            let expected = if faulty {
-                vec![(INSTANCE_FLAGS_11580, true)]
-            } else {
-                Vec::new()
-            };
             assert_eq!(
                 ids_at(&found),
-                expected,
+                expected_11580(faulty),
                 "mapped ranges {mapped_ranges}: {found:#?}"
             );
             if faulty {
@@ -384,26 +385,47 @@ fn instances_behind_a_mapped_array_of_pointers_are_read_back_and_checked() {
         let instances = input(&chain, 64);
         let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-        let (pointers, memory) = chain.buffer_and_memory(8, usage, 1);
         let pointer = chain.address(instances).to_le_bytes();
-        // SAFETY: inside the 8-byte mapping.
-        unsafe {
-            chain
-                .map_backing(memory)
-                .copy_from_nonoverlapping(pointer.as_ptr(), pointer.len())
-        };
+        let pointers = chain.mapped_buffer_holding(&pointer, usage);
         let bytes = instance(faulty);
         let found = findings_at_completion(&chain, |command_buffer| {
             shader_writes(&chain, command_buffer, &[(instances, &bytes)]);
             record_top_level(&chain, command_buffer, chain.address(pointers), true);
         });
-        let expected = if faulty {
-            vec![(INSTANCE_FLAGS_11580, true)]
-        } else {
-            Vec::new()
-        };
-        assert_eq!(ids_at(&found), expected, "{found:#?}");
+        assert_eq!(ids_at(&found), expected_11580(faulty), "{found:#?}");
         let said = info.take();
         assert!(not_checked(&said).is_empty(), "{said:#?}");
+    }
+}
+
+/// Readback off, the array of pointers uploaded into device-local memory
+/// with vkCmdUpdateBuffer (not known at recording, which says so), the
+/// instance in mapped memory: at submission the layer follows the pointers
+/// the transfer wrote into the mapped instance and reports its flag there;
+/// the valid twin is silent.
+#[test]
+fn instances_behind_uploaded_pointers_are_checked_at_submission() {
+    for faulty in [true, false] {
+        let (chain, info) = chain_with(false, false);
+        let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+            | vk::BufferUsageFlags::TRANSFER_DST;
+        let instances = chain.mapped_buffer_holding(&instance(faulty), usage);
+        let pointers = chain.buffer(8, usage, 0);
+        let pointer = chain.address(instances).to_le_bytes();
+        let command_buffer = chain.allocate_command_buffer();
+        chain.begin(command_buffer);
+        let update: vk::PFN_vkCmdUpdateBuffer = device_fn(chain.device, c"vkCmdUpdateBuffer");
+        // SAFETY: 8 bytes at a valid pointer.
+        unsafe { update(command_buffer, pointers, 0, 8, pointer.as_ptr().cast()) };
+        record_top_level(&chain, command_buffer, chain.address(pointers), true);
+        chain.end(command_buffer);
+        let at_recording = info.take();
+        assert_eq!(not_checked(&at_recording).len(), 1, "{at_recording:#?}");
+        assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
+        let found = chain.collector.take();
+        assert_eq!(ids_at(&found), expected_11580(faulty), "{found:#?}");
+        let later = info.take();
+        assert!(not_checked(&later).is_empty(), "{later:#?}");
     }
 }

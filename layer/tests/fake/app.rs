@@ -50,6 +50,18 @@ impl Chain {
         info
     }
 
+    /// A buffer of `bytes.len()` bytes in host-visible memory the
+    /// application keeps mapped, holding `bytes`.
+    pub fn mapped_buffer_holding(&self, bytes: &[u8], usage: vk::BufferUsageFlags) -> vk::Buffer {
+        let (buffer, memory) = self.buffer_and_memory(bytes.len() as u64, usage, 1);
+        // SAFETY: the mapping covers the whole memory, `bytes.len()` long.
+        unsafe {
+            self.map_backing(memory)
+                .copy_from_nonoverlapping(bytes.as_ptr(), bytes.len())
+        };
+        buffer
+    }
+
     /// An acceleration structure of `ty` in 64 KiB of device-local storage.
     pub fn acceleration_structure(
         &self,

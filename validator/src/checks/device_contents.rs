@@ -29,7 +29,8 @@ pub enum DeviceBuild {
     Micromaps(Vec<MicromapBuildInfo>),
     /// `vkCmdBuildAccelerationStructuresKHR`'s `pInfos` and `ppBuildRangeInfos`,
     /// or (`indirect`) `vkCmdBuildAccelerationStructuresIndirectKHR`'s
-    /// `pInfos`, whose ranges are in device memory (None each).
+    /// `pInfos`, whose ranges are in device memory (None each, until
+    /// decoded from the contents: [`device_indirect::resolve`]).
     AccelerationStructures {
         infos: Vec<BuildGeometryInfo>,
         ranges: Vec<Option<Vec<BuildRangeInfo>>>,
@@ -267,13 +268,8 @@ impl DeviceBuild {
                                 }),
                         );
                     }
-                    GeometryData::Instances(instances) if instances.data != 0 => {
-                        let data = format!("{at}.instances.data");
-                        if !has_ranges {
-                            unplaced.without_ranges.push(data);
-                        } else if instances.array_of_pointers {
-                            unplaced.behind_pointers.push(data);
-                        }
+                    GeometryData::Instances(instances) if instances.data != 0 && !has_ranges => {
+                        unplaced.without_ranges.push(format!("{at}.instances.data"));
                     }
                     _ => {}
                 }
@@ -282,9 +278,12 @@ impl DeviceBuild {
         unplaced
     }
 
-    /// arrays and data, opacity attachments' index buffers (an index type
-    /// of NONE reads none) and top-level builds' instances. NULL addresses
-    /// and empty reads are left out: the recording's rules report them.
+    /// The memory the build's content rules read: micromap builds' and
+    /// micromap geometries' triangle arrays and data, opacity attachments'
+    /// index buffers (an index type of NONE reads none), top-level builds'
+    /// instances (or pointers) and indirect builds' range infos (see
+    /// [`device_indirect::indirect_reads`]). NULL addresses and empty
+    /// reads are left out: the recording's rules report them.
     pub fn content_reads(&self) -> Vec<ContentRead> {
         let mut reads = Vec::new();
         match self {
@@ -323,18 +322,19 @@ impl DeviceBuild {
 /// the build is recorded, by why.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct UnplacedReads {
-    /// Inputs whose extent the build ranges decide, in infos that have no
-    /// ranges (an indirect build's are in device memory): opacity
-    /// attachments' index buffers and instances geometries' instances.
+    /// Inputs whose extent the build ranges decide, in infos that have
+    /// neither ranges nor the address of their range infos in device
+    /// memory (an indirect build given fewer `pIndirectDeviceAddresses`
+    /// than infos): opacity attachments' index buffers and instances
+    /// geometries' instances. (The instances behind an array of pointers
+    /// are placed by the pointers' bytes: the adaptor decides whether it
+    /// can read those when it must.)
     pub without_ranges: Vec<String>,
-    /// Instances geometries with `arrayOfPointers`: the instances are
-    /// wherever the pointers in device memory point.
-    pub behind_pointers: Vec<String>,
 }
 
 impl UnplacedReads {
     pub fn is_empty(&self) -> bool {
-        self.without_ranges.is_empty() && self.behind_pointers.is_empty()
+        self.without_ranges.is_empty()
     }
 }
 

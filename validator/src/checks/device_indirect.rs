@@ -31,7 +31,7 @@ pub const RANGE_INFO_SIZE: u64 = 16;
 /// geometry), each opacity attachment's index buffer and each instances
 /// geometry's instances (or pointers) from their start to the end of their
 /// buffer.
-pub(crate) fn indirect_reads(
+pub fn indirect_reads(
     i: usize,
     info: &BuildGeometryInfo,
     source: &IndirectRanges,
