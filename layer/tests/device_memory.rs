@@ -650,9 +650,10 @@ struct Setup {
     app: App,
     scene: Scene,
     staging: Staging,
-    /// A buffer and the bytes the fake shader writes into it before the
-    /// inputs (an indirect build's range info in device-local memory).
-    pending_range_write: Option<(vk::Buffer, Vec<u8>)>,
+    /// A buffer and the bytes written into it before the inputs (an
+    /// indirect build's range info in device-local memory), by the fake
+    /// shader or (`RangesIn::Updated`) vkCmdUpdateBuffer.
+    pending_range_write: Option<(vk::Buffer, Vec<u8>, RangesIn)>,
 }
 
 impl Setup {
@@ -677,11 +678,20 @@ impl Setup {
     /// is the mapped memory as it is at submission.
     fn record(&self, command_buffer: vk::CommandBuffer, route: Route, contents: &Contents) {
         let (app, scene) = (&self.app, &self.scene);
-        if let Some((buffer, bytes)) = &self.pending_range_write {
-            fake_gpu_write(command_buffer, *buffer, 0, bytes);
-            let dispatch: vk::PFN_vkCmdDispatch = app.f(c"vkCmdDispatch");
-            // SAFETY: a recording command buffer.
-            unsafe { dispatch(command_buffer, 1, 1, 1) };
+        match &self.pending_range_write {
+            Some((buffer, bytes, RangesIn::Updated)) => {
+                let update: vk::PFN_vkCmdUpdateBuffer = app.f(c"vkCmdUpdateBuffer");
+                let size = bytes.len() as u64;
+                // SAFETY: `bytes` holds the size given.
+                unsafe { update(command_buffer, *buffer, 0, size, bytes.as_ptr().cast()) };
+            }
+            Some((buffer, bytes, _)) => {
+                fake_gpu_write(command_buffer, *buffer, 0, bytes);
+                let dispatch: vk::PFN_vkCmdDispatch = app.f(c"vkCmdDispatch");
+                // SAFETY: a recording command buffer.
+                unsafe { dispatch(command_buffer, 1, 1, 1) };
+            }
+            None => {}
         }
         match route {
             Route::Upload(upload) => {
@@ -1731,6 +1741,8 @@ enum RangesIn {
     /// Host-visible memory the application keeps mapped, written before
     /// recording.
     Mapped,
+    /// Device-local memory vkCmdUpdateBuffer writes (route 1).
+    Updated,
 }
 
 /// The scene with its bottom-level build recorded indirectly, its range
@@ -1744,10 +1756,10 @@ fn indirect_setup(readback: bool, ranges_in: RangesIn, extra: &[(&CStr, &CStr)])
         | vk::BufferUsageFlags::STORAGE_BUFFER;
     let range = range_info_bytes(2, 0);
     let (ranges, pending) = match ranges_in {
-        // The fake GPU writes it at the submission's first dispatch.
-        RangesIn::DeviceLocal => {
-            let buffer = chain.buffer(16, usage, 0);
-            (buffer, Some((buffer, range)))
+        // The fake GPU writes it when the command buffer runs.
+        RangesIn::DeviceLocal | RangesIn::Updated => {
+            let buffer = chain.buffer(16, usage | vk::BufferUsageFlags::TRANSFER_DST, 0);
+            (buffer, Some((buffer, range, ranges_in)))
         }
         RangesIn::Mapped => {
             let (buffer, memory) = chain.buffer_and_memory(16, usage, 1);
@@ -1819,22 +1831,28 @@ fn an_indirect_builds_index_past_the_micromap_is_reported_at_completion() {
 }
 
 /// Range info and index buffer both in memory the host knows at
-/// submission (the range info mapped, the indices uploaded from staging),
-/// readback off: the indirect build is checked at vkQueueSubmit.
+/// submission (the range info mapped or written by vkCmdUpdateBuffer, the
+/// indices uploaded from staging), readback off: the indirect build is
+/// checked at vkQueueSubmit.
 #[test]
-fn an_indirect_build_with_mapped_ranges_and_uploaded_indices_is_checked_at_submission() {
-    for faulty in [true, false] {
-        let setup = indirect_setup(false, RangesIn::Mapped, &[]);
-        let contents = Rule::IndexPastMicromap.contents(faulty);
-        let command_buffer = setup.recorded(Route::Upload(Upload::CopyBuffer), &contents);
-        let reported = setup.submit_and_wait(command_buffer);
-        let expected = if faulty {
-            strings(&[INDEX_IN_RANGE])
-        } else {
-            Vec::new()
-        };
-        assert_eq!(reported.at_submission, expected, "faulty {faulty}");
-        assert!(reported.at_completion.is_empty(), "{reported:?}");
+fn an_indirect_build_with_known_ranges_and_uploaded_indices_is_checked_at_submission() {
+    for ranges_in in [RangesIn::Mapped, RangesIn::Updated] {
+        for faulty in [true, false] {
+            let setup = indirect_setup(false, ranges_in, &[]);
+            let contents = Rule::IndexPastMicromap.contents(faulty);
+            let command_buffer = setup.recorded(Route::Upload(Upload::CopyBuffer), &contents);
+            let reported = setup.submit_and_wait(command_buffer);
+            let expected = if faulty {
+                strings(&[INDEX_IN_RANGE])
+            } else {
+                Vec::new()
+            };
+            assert_eq!(
+                reported.at_submission, expected,
+                "{ranges_in:?} faulty {faulty}"
+            );
+            assert!(reported.at_completion.is_empty(), "{reported:?}");
+        }
     }
 }
 
