@@ -27,6 +27,7 @@ use ash::vk::Handle as _;
 use ommcheck::checks::device_contents::{
     ContentRead, DeviceBuild, Extent, KnownBytes, ReadKind, INSTANCE_SIZE,
 };
+use ommcheck::model::accel::GeometryData;
 use ommcheck::Severity;
 
 use crate::dispatch::{DeviceData, DeviceState};
@@ -368,8 +369,21 @@ pub fn unplaced_messages(
     build: &DeviceBuild,
 ) -> Vec<Message> {
     let unplaced = build.unplaced_reads();
-    let pointers_unknown: Vec<String> = build
-        .content_reads()
+    // Most builds have no array of pointers: they skip listing their reads.
+    let has_pointers = match build {
+        DeviceBuild::AccelerationStructures { infos, .. } => infos.iter().any(|info| {
+            info.geometries_read().any(
+                |(_, g)| matches!(&g.geometry, GeometryData::Instances(d) if d.array_of_pointers),
+            )
+        }),
+        DeviceBuild::Micromaps(_) => false,
+    };
+    let reads = if has_pointers {
+        build.content_reads()
+    } else {
+        Vec::new()
+    };
+    let pointers_unknown: Vec<String> = reads
         .iter()
         .filter(|read| {
             read.kind == ReadKind::InstancePointers
