@@ -260,4 +260,19 @@ mod tests {
         assert!(resolved.unread[0].starts_with("the build range infos of pInfos[0]"));
         assert!(resolve(&DeviceBuild::Micromaps(Vec::new()), |_, _| None).is_none());
     }
+
+    /// Range infos at their largest place the instances far past anything
+    /// read: decoded without a large read or allocation, and named.
+    #[test]
+    fn absurd_ranges_are_named_not_read() {
+        let ranges = record(u32::MAX, u32::MAX);
+        let instances = vec![0u8; 192];
+        let resolved =
+            resolve(&top_level(0x100, 16), reader(&ranges, &instances)).expect("indirect");
+        assert_eq!(resolved.unread.len(), 1, "{resolved:?}");
+        assert!(
+            resolved.unread[0].contains(&format!("{} bytes", u64::from(u32::MAX) * 64)),
+            "{resolved:?}"
+        );
+    }
 }
