@@ -485,9 +485,10 @@ unsafe extern "system" fn cmd_build_acceleration_structures(
 
 /// `vkCmdBuildAccelerationStructuresIndirectKHR`: its build ranges are in
 /// device memory, so at recording only what the parameters decide is
-/// checked; from the content tier its micromap geometries' inputs are read
-/// as a direct build's, and the inputs whose extent the ranges give are
-/// reported not checked ([`crate::readback::unplaced_messages`]).
+/// checked; from the content tier its range infos are read by the same
+/// routes as its inputs (the opacity indices and instances whose extent
+/// they decide towards the end of their buffers, see
+/// [`crate::readback::windows`]) and decoded when the build is checked.
 unsafe extern "system" fn cmd_build_acceleration_structures_indirect(
     command_buffer: vk::CommandBuffer,
     info_count: u32,

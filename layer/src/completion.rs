@@ -157,15 +157,24 @@ fn check_completed(data: &DeviceData, completed: Vec<Pending>, observed_by: &'st
             let mut state = data.state();
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 let contents = readback.contents();
-                state.validator.check_device_build_contents(
+                let (report, unread) = state.validator.check_device_build_contents_unread(
                     &pending.kept.recorded_in,
                     &pending.kept.build,
                     contents,
-                )
+                );
+                // What an indirect build's ranges place past the bytes read back.
+                let unread = crate::readback::unread_message(
+                    &mut state,
+                    pending.command_buffer,
+                    &pending.kept.build,
+                    &unread,
+                    observed_by,
+                );
+                (report, unread)
             }))
         };
         let messages: Vec<Message> = match outcome {
-            Ok(report) => report
+            Ok((report, unread)) => report
                 .findings
                 .iter()
                 .map(|finding| {
@@ -176,6 +185,7 @@ fn check_completed(data: &DeviceData, completed: Vec<Pending>, observed_by: &'st
                     ));
                     message
                 })
+                .chain(unread)
                 .collect(),
             Err(payload) => vec![panic_message(
                 function,

@@ -24,13 +24,16 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::checks::device_contents::{DeviceBuild, Extent, KnownBytes};
+use ommcheck::checks::device_contents::{
+    ContentRead, DeviceBuild, Extent, KnownBytes, ReadKind, INSTANCE_SIZE,
+};
+use ommcheck::model::accel::GeometryData;
 use ommcheck::Severity;
 
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
-use crate::settings::{GPU_READBACK, GPU_READBACK_MAX_BYTES};
+use crate::settings::{GPU_READBACK, GPU_READBACK_INDIRECT_MAX_BYTES, GPU_READBACK_MAX_BYTES};
 
 /// One window of an application buffer a build reads, and where its copy
 /// lies in the layer's readback buffer.
@@ -125,12 +128,31 @@ pub enum Plan {
     NotReadBack(&'static str, String),
 }
 
+/// Reads `[offset, offset + len)` of a buffer as far as the host knows it
+/// now (mapped memory at recording; mapped memory and followed transfers
+/// at submission).
+pub type HostBytes = fn(&DeviceState, u64, u64, u64) -> Option<Vec<u8>>;
+
+/// At most this many instance pointers are followed per build input
+/// (512 KiB of pointers); a longer array's instances are not placed.
+pub const MAX_POINTERS_FOLLOWED: u64 = 1 << 16;
+
 /// The windows `build` reads, by buffer (one hull per buffer), as far as
 /// each buffer reaches; Err names an input no tracked buffer holds.
-pub fn windows(state: &DeviceState, build: &DeviceBuild) -> Result<Vec<Window>, String> {
+/// Inputs whose extent an indirect build's range infos decide are read
+/// from their start towards their buffer's end, at most `indirect_cap`
+/// bytes. The instances an array of pointers points to are added where
+/// `host` can read the pointers (see [`pointed_instances`]).
+pub fn windows(
+    state: &DeviceState,
+    build: &DeviceBuild,
+    indirect_cap: u64,
+    host: HostBytes,
+) -> Result<Vec<Window>, String> {
     let tracked = state.validator.state();
     let mut windows: Vec<Window> = Vec::new();
-    for read in build.content_reads() {
+    let reads = build.content_reads();
+    for read in &reads {
         let found = tracked
             .buffers_at(read.address)
             .find_map(|(handle, b)| Some((handle, b.address_range()?.0, b.size)));
@@ -151,27 +173,91 @@ pub fn windows(state: &DeviceState, build: &DeviceBuild) -> Result<Vec<Window>, 
         let left = size.saturating_sub(offset);
         let len = match read.extent {
             Extent::Bytes(n) => n.min(left),
+            Extent::RangesDecide => left.min(indirect_cap),
             Extent::ToBufferEnd | Extent::Overflow => left,
         };
-        if len == 0 {
-            continue;
-        }
-        match windows.iter_mut().find(|w| w.buffer == buffer) {
-            Some(w) => {
-                let end = (w.offset + w.len).max(offset + len);
-                w.offset = w.offset.min(offset);
-                w.len = end - w.offset;
-            }
-            None => windows.push(Window {
-                location: read.location,
-                buffer,
-                offset,
-                len,
-                at: 0,
-            }),
+        add_window(&mut windows, &read.location, buffer, offset, len);
+    }
+    for read in reads
+        .iter()
+        .filter(|r| r.kind == ReadKind::InstancePointers)
+    {
+        for (buffer, offset, len) in pointed_instances(state, read, host).unwrap_or_default() {
+            add_window(&mut windows, &read.location, buffer, offset, len);
         }
     }
     Ok(windows)
+}
+
+/// Adds `[offset, offset + len)` of `buffer` to the window of that buffer
+/// (their hull), or as a new window.
+fn add_window(windows: &mut Vec<Window>, location: &str, buffer: u64, offset: u64, len: u64) {
+    if len == 0 {
+        return;
+    }
+    match windows.iter_mut().find(|w| w.buffer == buffer) {
+        Some(w) => {
+            let end = (w.offset + w.len).max(offset + len);
+            w.offset = w.offset.min(offset);
+            w.len = end - w.offset;
+        }
+        None => windows.push(Window {
+            location: location.to_owned(),
+            buffer,
+            offset,
+            len,
+            at: 0,
+        }),
+    }
+}
+
+/// The instances the array of pointers `read` points to, as
+/// `(buffer, offset, len)`, adjacent ones coalesced: None where the
+/// pointers cannot be read through `host` now (their count is unknown,
+/// as an indirect build's is, or there are more than
+/// [`MAX_POINTERS_FOLLOWED`], or the host cannot read them). NULL
+/// pointers and pointers into no known buffer point to nothing read.
+pub fn pointed_instances(
+    state: &DeviceState,
+    read: &ContentRead,
+    host: HostBytes,
+) -> Option<Vec<(u64, u64, u64)>> {
+    let Extent::Bytes(len) = read.extent else {
+        return None;
+    };
+    if len / 8 > MAX_POINTERS_FOLLOWED {
+        return None;
+    }
+    let tracked = state.validator.state();
+    let (buffer, start) = tracked
+        .buffers_at(read.address)
+        .find_map(|(handle, b)| Some((handle, b.address_range()?.0)))?;
+    let pointers = host(state, buffer, read.address - start, len)?;
+    let mut addresses: Vec<u64> = pointers
+        .chunks_exact(8)
+        .filter_map(|p| Some(u64::from_le_bytes(p.try_into().ok()?)))
+        .filter(|&address| address != 0)
+        .collect();
+    addresses.sort_unstable();
+    addresses.dedup();
+    let mut found: Vec<(u64, u64, u64)> = Vec::new();
+    for address in addresses {
+        let Some((buffer, start, size)) = tracked
+            .buffers_at(address)
+            .find_map(|(handle, b)| Some((handle, b.address_range()?.0, b.size)))
+        else {
+            continue;
+        };
+        let offset = address - start;
+        let len = INSTANCE_SIZE.min(size.saturating_sub(offset));
+        match found.last_mut() {
+            Some(last) if last.0 == buffer && last.1 + last.2 >= offset => {
+                last.2 = last.2.max(offset + len - last.1);
+            }
+            _ => found.push((buffer, offset, len)),
+        }
+    }
+    Some(found)
 }
 
 /// `VK_BUFFER_USAGE_TRANSFER_SRC_BIT`.
@@ -188,7 +274,9 @@ pub fn plan(
     command_buffer: vk::CommandBuffer,
     build: &DeviceBuild,
 ) -> Plan {
-    let mut windows = match windows(state, build) {
+    let settings = data.instance.reporter.settings();
+    let cap = settings.gpu_readback_indirect_max_bytes;
+    let mut windows = match windows(state, build, cap, crate::submit::mapped_window) {
         Ok(windows) => windows,
         Err(reason) => return Plan::NotReadBack("unknown-address", reason),
     };
@@ -201,7 +289,6 @@ pub fn plan(
     {
         return Plan::AtSubmission;
     }
-    let settings = data.instance.reporter.settings();
     if !settings.gpu_readback {
         return Plan::NotReadBack("readback-off", format!(
             "they lie in memory the host cannot read and GPU readback is off (setting gpu_readback, {GPU_READBACK})"
@@ -272,25 +359,48 @@ pub fn plan(
 /// whose place is known only when the GPU runs it are not checked: once
 /// per device and cause ([`CONTENTS_NOT_CHECKED`]), said at recording.
 /// Neither route reads them: transfers and readback follow the windows
-/// the build's parameters give, and these depend on bytes in device
-/// memory (an indirect build's range infos, an array of instance
-/// pointers).
+/// known at recording, and these depend on bytes in device memory: the
+/// instances behind an array of pointers the host cannot read now (or of
+/// an indirect build, whose pointer count the GPU reads), and an indirect
+/// build's inputs where it was given no range info addresses.
 pub fn unplaced_messages(
     state: &mut DeviceState,
     command_buffer: vk::CommandBuffer,
     build: &DeviceBuild,
 ) -> Vec<Message> {
     let unplaced = build.unplaced_reads();
+    // Most builds have no array of pointers: they skip listing their reads.
+    let has_pointers = match build {
+        DeviceBuild::AccelerationStructures { infos, .. } => infos.iter().any(|info| {
+            info.geometries_read().any(
+                |(_, g)| matches!(&g.geometry, GeometryData::Instances(d) if d.array_of_pointers),
+            )
+        }),
+        DeviceBuild::Micromaps(_) => false,
+    };
+    let reads = if has_pointers {
+        build.content_reads()
+    } else {
+        Vec::new()
+    };
+    let pointers_unknown: Vec<String> = reads
+        .iter()
+        .filter(|read| {
+            read.kind == ReadKind::InstancePointers
+                && pointed_instances(state, read, crate::submit::mapped_window).is_none()
+        })
+        .map(|read| read.location.clone())
+        .collect();
     let causes = [
         (
             "indirect-ranges",
             unplaced.without_ranges,
-            "their extent comes from the build range infos (primitiveCount, primitiveOffset) the GPU reads from pIndirectDeviceAddresses when it runs the build, which the layer neither reads nor reads back, so the rules over them (opacity indices, instances) are not checked; build with vkCmdBuildAccelerationStructuresKHR to have them checked",
+            "their extent comes from the build range infos (primitiveCount, primitiveOffset) the GPU reads, and pIndirectDeviceAddresses gives none for them, so the rules over them (opacity indices, instances) are not checked".to_owned(),
         ),
         (
             "instance-pointers",
-            unplaced.behind_pointers,
-            "with arrayOfPointers the instances are wherever the pointers point: the layer reads the array of pointers (from mapped memory, followed transfers or GPU readback) but not the instances it points to, so the rules over those instances are not checked; pass the instances themselves (arrayOfPointers VK_FALSE) to have them checked",
+            pointers_unknown,
+            format!("with arrayOfPointers the instances are wherever the pointers point, and the layer records the copies that read them back when the build is recorded, when it can read the pointers only from memory the application has mapped (and at most {MAX_POINTERS_FOLLOWED} of them, and not for an indirect build, whose pointer count the GPU reads). These pointers lie elsewhere, so the instances they point to are checked only if at submission the host knows the pointers and the instances (mapped memory, followed transfers); otherwise the rules over those instances are not checked. Keep the array of pointers in mapped memory, or pass the instances themselves (arrayOfPointers VK_FALSE), to have them checked"),
         ),
     ];
     let function = build.function();
@@ -304,14 +414,40 @@ pub fn unplaced_messages(
             locations.join(", "),
             command_buffer.as_raw()
         );
-        let mut message =
-            Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Info, function, &text);
-        message
-            .objects
-            .push((vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw()));
-        messages.push(message);
+        messages.push(not_checked(function, command_buffer.as_raw(), &text));
     }
     messages
+}
+
+/// The information that inputs an indirect build's range infos place
+/// outside the bytes the layer read (`unread`, from
+/// [`ommcheck::Validator::check_device_build_contents_unread`]) are not
+/// checked: once per device ([`CONTENTS_NOT_CHECKED`], cause
+/// `indirect-unread`), said where the build was checked (`when`).
+pub fn unread_message(
+    state: &mut DeviceState,
+    command_buffer: u64,
+    build: &DeviceBuild,
+    unread: &[String],
+    when: &str,
+) -> Option<Message> {
+    if unread.is_empty() || !state.memory_layout.first_report("indirect-unread") {
+        return None;
+    }
+    let text = format!(
+        "the inputs {} of an indirect build recorded in VkCommandBuffer {command_buffer:#x} are not checked at {when}: the build range infos lie, or place them, outside the bytes the layer read. The layer reads each input whose extent the range infos decide from its start towards the end of its buffer, at most gpu_readback_indirect_max_bytes ({GPU_READBACK_INDIRECT_MAX_BYTES}) bytes; raise it if the ranges reach further. This is reported once per device and reason.",
+        unread.join("; ")
+    );
+    Some(not_checked(build.function(), command_buffer, &text))
+}
+
+/// A [`CONTENTS_NOT_CHECKED`] information about a build of `command_buffer`.
+fn not_checked(function: &'static str, command_buffer: u64, text: &str) -> Message {
+    let mut message = Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Info, function, text);
+    message
+        .objects
+        .push((vk::ObjectType::COMMAND_BUFFER, command_buffer));
+    message
 }
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {

@@ -26,6 +26,7 @@ pub const TIER: &str = "OMMCHECK_TIER";
 pub const BREAK_ON_ERROR: &str = "OMMCHECK_BREAK_ON_ERROR";
 pub const GPU_READBACK: &str = "OMMCHECK_GPU_READBACK";
 pub const GPU_READBACK_MAX_BYTES: &str = "OMMCHECK_GPU_READBACK_MAX_BYTES";
+pub const GPU_READBACK_INDIRECT_MAX_BYTES: &str = "OMMCHECK_GPU_READBACK_INDIRECT_MAX_BYTES";
 
 /// A setting as the layer manifest's `features.settings` describes it
 /// (the format the Khronos layers use and vkconfig reads).
@@ -47,7 +48,7 @@ pub struct SettingDoc {
 }
 
 /// Every setting, in the order the manifest lists them.
-pub const DOCUMENTED: [SettingDoc; 10] = [
+pub const DOCUMENTED: [SettingDoc; 11] = [
     SettingDoc {
         key: "report_flags",
         env: REPORT,
@@ -150,6 +151,15 @@ pub const DOCUMENTED: [SettingDoc; 10] = [
         description: "The most bytes of layer-owned memory the readback copies of one device hold at once; a build past it is reported as not checked.",
         kind: "INT",
         default_json: "268435456",
+        flags: &[],
+    },
+    SettingDoc {
+        key: "gpu_readback_indirect_max_bytes",
+        env: GPU_READBACK_INDIRECT_MAX_BYTES,
+        label: "Indirect Build Input Window",
+        description: "The most bytes read of each input whose extent an indirect build's range infos decide (opacity index buffers, instances), from its start towards the end of its buffer; what the ranges place past it is reported as not checked.",
+        kind: "INT",
+        default_json: "16777216",
         flags: &[],
     },
 ];

@@ -162,10 +162,20 @@ pub struct Settings {
     pub gpu_readback: bool,
     /// The most bytes the readback copies of one device hold at once.
     pub gpu_readback_max_bytes: u64,
+    /// The most bytes read of each input of an indirect build whose extent
+    /// its range infos decide (from its start towards its buffer's end).
+    pub gpu_readback_indirect_max_bytes: u64,
 }
 
 /// The default of `gpu_readback_max_bytes`: 256 MiB.
 pub const DEFAULT_GPU_READBACK_MAX_BYTES: u64 = 256 << 20;
+
+/// The default of `gpu_readback_indirect_max_bytes`: 16 MiB, the 32-bit
+/// opacity indices of 4 Mi triangles or 256 Ki instances. A separate bound
+/// from `gpu_readback_max_bytes` because an input read to the end of its
+/// buffer may lie in a large suballocated buffer: without it one indirect
+/// build could take the whole readback memory.
+pub const DEFAULT_GPU_READBACK_INDIRECT_MAX_BYTES: u64 = 16 << 20;
 
 impl Default for Settings {
     fn default() -> Self {
@@ -180,6 +190,7 @@ impl Default for Settings {
             tier: Tier::default(),
             gpu_readback: true,
             gpu_readback_max_bytes: DEFAULT_GPU_READBACK_MAX_BYTES,
+            gpu_readback_indirect_max_bytes: DEFAULT_GPU_READBACK_INDIRECT_MAX_BYTES,
         }
     }
 }
@@ -352,6 +363,10 @@ pub fn parse(
     get(GPU_READBACK_MAX_BYTES, &|v| {
         let bytes = whole_number::<u64>(v)?;
         Ok(Box::new(move |s| s.gpu_readback_max_bytes = bytes))
+    });
+    get(GPU_READBACK_INDIRECT_MAX_BYTES, &|v| {
+        let bytes = whole_number::<u64>(v)?;
+        Ok(Box::new(move |s| s.gpu_readback_indirect_max_bytes = bytes))
     });
     (settings, problems)
 }
@@ -579,6 +594,7 @@ mod tests {
                 (TIER, "state"),
                 (GPU_READBACK, "false"),
                 (GPU_READBACK_MAX_BYTES, "4096"),
+                (GPU_READBACK_INDIRECT_MAX_BYTES, "512"),
             ],
             None,
         );
@@ -598,6 +614,7 @@ mod tests {
         assert_eq!(settings.tier, Tier::State);
         assert!(!settings.gpu_readback);
         assert_eq!(settings.gpu_readback_max_bytes, 4096);
+        assert_eq!(settings.gpu_readback_indirect_max_bytes, 512);
     }
 
     /// No documented setting is left unread: a value for each either
@@ -868,6 +885,7 @@ ommcheck_validation.tier = simulate
 ommcheck_validation.break_on_error = false
 ommcheck_validation.gpu_readback = true
 ommcheck_validation.gpu_readback_max_bytes = 1048576
+ommcheck_validation.gpu_readback_indirect_max_bytes = 65536
 khronos_validation.report_flags = error
 khronos_validation.tier = nonsense
 ";
@@ -888,6 +906,7 @@ khronos_validation.tier = nonsense
         assert_eq!(settings.duplicate_limit, 4);
         assert_eq!(settings.tier, Tier::Simulate);
         assert_eq!(settings.gpu_readback_max_bytes, 1 << 20);
+        assert_eq!(settings.gpu_readback_indirect_max_bytes, 1 << 16);
         assert_eq!(settings.log_file, None);
         assert!(settings.actions.log);
         assert!(

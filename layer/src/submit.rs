@@ -37,7 +37,12 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
 }
 
 /// A copy of `[offset, offset + len)` of `buffer` from mapped memory.
-fn mapped_window(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> Option<Vec<u8>> {
+pub(crate) fn mapped_window(
+    state: &DeviceState,
+    buffer: Handle,
+    offset: u64,
+    len: u64,
+) -> Option<Vec<u8>> {
     let address = mapped_address(state, buffer, offset, len)?;
     // SAFETY: `[address, address + len)` lies inside the range vkMapMemory
     // returned for the buffer's memory (checked above), which stays mapped
@@ -71,7 +76,12 @@ fn check_kept(
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let mut contents = Vec::new();
         let mut unreadable: Option<String> = None;
-        match crate::readback::windows(&state, &kept.build) {
+        let cap = data
+            .instance
+            .reporter
+            .settings()
+            .gpu_readback_indirect_max_bytes;
+        match crate::readback::windows(&state, &kept.build, cap, window_bytes) {
             Ok(windows) => {
                 for w in &windows {
                     match window_bytes(&state, w.buffer, w.offset, w.len) {
@@ -97,13 +107,27 @@ fn check_kept(
             }
             Err(reason) => unreadable = Some(reason),
         }
-        let mut messages: Vec<Message> = state
-            .validator
-            .check_device_build_contents(&kept.recorded_in, &kept.build, contents)
+        let (report, unread) = state.validator.check_device_build_contents_unread(
+            &kept.recorded_in,
+            &kept.build,
+            contents,
+        );
+        let mut messages: Vec<Message> = report
             .findings
             .iter()
             .map(|finding| Message::from_finding(finding, object))
             .collect();
+        // Where some window could not be read, the message below says so
+        // for the whole build.
+        if unreadable.is_none() {
+            messages.extend(crate::readback::unread_message(
+                &mut state,
+                command_buffer,
+                &kept.build,
+                &unread,
+                submit_function,
+            ));
+        }
         if let Some(reason) = unreadable {
             let (key, why_not_read_back) = kept.not_read_back.as_ref().map_or(
                 (

@@ -40,7 +40,7 @@ use std::ffi::CStr;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use fake::app::{record_micromap_build, AttachmentBuild};
+use fake::app::{range_info_bytes, record_micromap_build, AttachmentBuild};
 use fake::gpu::{device_bytes, fake_gpu_write, memory_bytes, memory_type_of};
 use fake::{
     add_messenger, all_calls, device_fn, device_micromap_build, Call, Chain, Collector, TRIANGLES,
@@ -273,6 +273,9 @@ struct Scene {
     input_memory: [vk::DeviceMemory; 3],
     vertices: u64,
     scratch: u64,
+    /// Where the bottom-level build's range info is, when it is recorded
+    /// with vkCmdBuildAccelerationStructuresIndirectKHR.
+    indirect_ranges: Option<u64>,
 }
 
 impl Scene {
@@ -300,6 +303,7 @@ impl Scene {
             input_memory: [triangle_memory, data_memory, index_memory],
             vertices: chain.address(chain.buffer(4096, usage, 0)),
             scratch: chain.address(chain.buffer(1 << 16, address_usage, 0)),
+            indirect_ranges: None,
         }
     }
 
@@ -322,7 +326,7 @@ impl Scene {
             self.scratch,
         );
         record_micromap_build(chain, command_buffer, &info);
-        AttachmentBuild {
+        let attachment = AttachmentBuild {
             blas: self.blas,
             vertices: self.vertices,
             scratch: self.scratch,
@@ -333,8 +337,11 @@ impl Scene {
             } else {
                 vk::MicromapEXT::null()
             },
+        };
+        match self.indirect_ranges {
+            Some(ranges) => attachment.record_indirect(chain, command_buffer, ranges),
+            None => attachment.record(chain, command_buffer),
         }
-        .record(chain, command_buffer);
     }
 
     /// The bytes the application's input memory holds now.
@@ -643,6 +650,10 @@ struct Setup {
     app: App,
     scene: Scene,
     staging: Staging,
+    /// A buffer and the bytes written into it before the inputs (an
+    /// indirect build's range info in device-local memory), by the fake
+    /// shader or (`RangesIn::Updated`) vkCmdUpdateBuffer.
+    pending_range_write: Option<(vk::Buffer, Vec<u8>, RangesIn)>,
 }
 
 impl Setup {
@@ -654,6 +665,7 @@ impl Setup {
             app,
             scene,
             staging,
+            pending_range_write: None,
         }
     }
 
@@ -666,6 +678,21 @@ impl Setup {
     /// is the mapped memory as it is at submission.
     fn record(&self, command_buffer: vk::CommandBuffer, route: Route, contents: &Contents) {
         let (app, scene) = (&self.app, &self.scene);
+        match &self.pending_range_write {
+            Some((buffer, bytes, RangesIn::Updated)) => {
+                let update: vk::PFN_vkCmdUpdateBuffer = app.f(c"vkCmdUpdateBuffer");
+                let size = bytes.len() as u64;
+                // SAFETY: `bytes` holds the size given.
+                unsafe { update(command_buffer, *buffer, 0, size, bytes.as_ptr().cast()) };
+            }
+            Some((buffer, bytes, _)) => {
+                fake_gpu_write(command_buffer, *buffer, 0, bytes);
+                let dispatch: vk::PFN_vkCmdDispatch = app.f(c"vkCmdDispatch");
+                // SAFETY: a recording command buffer.
+                unsafe { dispatch(command_buffer, 1, 1, 1) };
+            }
+            None => {}
+        }
         match route {
             Route::Upload(upload) => {
                 record_upload(app, scene, &self.staging, command_buffer, upload, contents);
@@ -1702,4 +1729,170 @@ fn exactly_the_contract_commands_are_inserted_before_each_build() {
             );
         }
     }
+}
+
+// Indirect builds: the range infos and the inputs they place, read back.
+
+/// Where an indirect build's range info lies.
+#[derive(Clone, Copy, Debug)]
+enum RangesIn {
+    /// Device-local memory the fake shader writes (before the inputs).
+    DeviceLocal,
+    /// Host-visible memory the application keeps mapped, written before
+    /// recording.
+    Mapped,
+    /// Device-local memory vkCmdUpdateBuffer writes (route 1).
+    Updated,
+}
+
+/// The scene with its bottom-level build recorded indirectly, its range
+/// info (two triangles) in `ranges_in`, readback as given, `extra`
+/// settings.
+fn indirect_setup(readback: bool, ranges_in: RangesIn, extra: &[(&CStr, &CStr)]) -> Setup {
+    let mut setup = Setup::new(readback, extra);
+    let chain = setup.chain();
+    let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+        | vk::BufferUsageFlags::STORAGE_BUFFER;
+    let range = range_info_bytes(2, 0);
+    let (ranges, pending) = match ranges_in {
+        // The fake GPU writes it when the command buffer runs.
+        RangesIn::DeviceLocal | RangesIn::Updated => {
+            let buffer = chain.buffer(16, usage | vk::BufferUsageFlags::TRANSFER_DST, 0);
+            (buffer, Some((buffer, range, ranges_in)))
+        }
+        RangesIn::Mapped => {
+            let (buffer, memory) = chain.buffer_and_memory(16, usage, 1);
+            // SAFETY: inside the 16-byte mapping.
+            unsafe {
+                chain
+                    .map_backing(memory)
+                    .copy_from_nonoverlapping(range.as_ptr(), range.len())
+            };
+            (buffer, None)
+        }
+    };
+    setup.scene.indirect_ranges = Some(chain.address(ranges));
+    setup.pending_range_write = pending;
+    setup
+}
+
+/// Route 2 through an indirect build: shader-written inputs (and range
+/// info where device-local), read back and checked at vkWaitForFences.
+fn indirect_route_2(faulty: bool, ranges_in: RangesIn, extra: &[(&CStr, &CStr)]) -> Reported {
+    let setup = indirect_setup(true, ranges_in, extra);
+    let contents = Rule::IndexPastMicromap.contents(faulty);
+    let command_buffer = setup.recorded(Route::Shader, &contents);
+    setup.submit_and_wait(command_buffer)
+}
+
+/// An indirect build's opacity index past the micromap, in device-local
+/// memory a shader wrote: the layer reads back the range info (from
+/// device-local memory, or reads it from mapped memory) and the index
+/// buffer towards its end, decodes primitiveCount and reports the index
+/// at completion, as a direct build's; the valid twin is silent.
+#[test]
+fn an_indirect_builds_index_past_the_micromap_is_reported_at_completion() {
+    for ranges_in in [RangesIn::DeviceLocal, RangesIn::Mapped] {
+        let setup = indirect_setup(true, ranges_in, &[]);
+        let chain = setup.chain();
+        let contents = Rule::IndexPastMicromap.contents(true);
+        let command_buffer = setup.recorded(Route::Shader, &contents);
+        let complete = submit_for(&setup.app, command_buffer, Completion::WaitForFences);
+        assert_eq!(setup.app.reported(), Vec::<String>::new(), "{ranges_in:?}");
+        complete();
+        let received = chain.collector.take();
+        assert_eq!(received.len(), 1, "{ranges_in:?}: {received:#?}");
+        assert_eq!(received[0].id, INDEX_IN_RANGE);
+        for words in [
+            "vkCmdBuildAccelerationStructuresIndirectKHR(): pInfos[0].pGeometries[0]",
+            "indexBuffer[1]",
+            "Read back from device memory after the build ran",
+            "seen complete at vkWaitForFences",
+        ] {
+            assert!(
+                received[0].text.contains(words),
+                "{words}: {}",
+                received[0].text
+            );
+        }
+        assert_eq!(
+            received[0].objects[0],
+            (vk::ObjectType::COMMAND_BUFFER, command_buffer.as_raw())
+        );
+        assert_eq!(setup.app.reported(), Vec::<String>::new(), "{ranges_in:?}");
+
+        let twin = indirect_route_2(false, ranges_in, &[]);
+        assert!(
+            twin.at_submission.is_empty() && twin.at_completion.is_empty(),
+            "{ranges_in:?}: {twin:?}"
+        );
+    }
+}
+
+/// Range info and index buffer both in memory the host knows at
+/// submission (the range info mapped or written by vkCmdUpdateBuffer, the
+/// indices uploaded from staging), readback off: the indirect build is
+/// checked at vkQueueSubmit.
+#[test]
+fn an_indirect_build_with_known_ranges_and_uploaded_indices_is_checked_at_submission() {
+    for ranges_in in [RangesIn::Mapped, RangesIn::Updated] {
+        for faulty in [true, false] {
+            let setup = indirect_setup(false, ranges_in, &[]);
+            let contents = Rule::IndexPastMicromap.contents(faulty);
+            let command_buffer = setup.recorded(Route::Upload(Upload::CopyBuffer), &contents);
+            let reported = setup.submit_and_wait(command_buffer);
+            let expected = if faulty {
+                strings(&[INDEX_IN_RANGE])
+            } else {
+                Vec::new()
+            };
+            assert_eq!(
+                reported.at_submission, expected,
+                "{ranges_in:?} faulty {faulty}"
+            );
+            assert!(reported.at_completion.is_empty(), "{reported:?}");
+        }
+    }
+}
+
+/// The index buffer is read towards its end only up to
+/// gpu_readback_indirect_max_bytes: with 4 bytes, the second index the
+/// range info asks for is not read, so it is not decided and the layer
+/// says so once per device, naming the input and the setting; no finding
+/// is made up.
+#[test]
+fn indices_an_indirect_build_reads_past_the_cap_are_reported_not_checked_naming_the_setting() {
+    let extra = [(c"gpu_readback_indirect_max_bytes", c"4")];
+    let reported = indirect_route_2(true, RangesIn::DeviceLocal, &extra);
+    assert!(reported.at_submission.is_empty(), "{reported:?}");
+    // The core names the index it could not read too (each time, where
+    // the layer's message is once per device).
+    assert_eq!(
+        sorted(reported.at_completion.clone()),
+        strings(&[CONTENTS_NOT_CHECKED, "OMMCHECK-not-checked-contents"]),
+        "{reported:?}"
+    );
+
+    let setup = indirect_setup(true, RangesIn::DeviceLocal, &extra);
+    let command_buffer = setup.recorded(Route::Shader, &Rule::IndexPastMicromap.contents(true));
+    submit_for(&setup.app, command_buffer, Completion::WaitForFences)();
+    let info: Vec<fake::Received> = setup
+        .app
+        .info_only()
+        .into_iter()
+        .filter(|m| m.id == CONTENTS_NOT_CHECKED)
+        .collect();
+    assert_eq!(info.len(), 1, "{info:#?}");
+    for words in [
+        "gpu_readback_indirect_max_bytes",
+        "OMMCHECK_GPU_READBACK_INDIRECT_MAX_BYTES",
+        "pInfos[0].pGeometries[0].geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.indexBuffer (8 bytes",
+        "vkWaitForFences",
+    ] {
+        assert!(info[0].text.contains(words), "{words}: {}", info[0].text);
+    }
+    // Under the default cap the same build is checked.
+    let reported = indirect_route_2(true, RangesIn::DeviceLocal, &[]);
+    assert_eq!(reported.at_completion, [INDEX_IN_RANGE], "{reported:?}");
 }

@@ -1,17 +1,22 @@
-//! Build inputs whose place in device memory only the GPU learns, over
-//! the fake driver: an indirect build's opacity indices (their extent is
-//! in the build range infos the GPU reads) and the instances an array of
-//! instance pointers points to. Neither route reads them, and the layer
-//! says so at recording, once per device and cause
-//! (`OMMCHECK-layer-contents-not-checked`), rather than staying silent; the
-//! same inputs placed by the parameters draw no such message.
+//! Build inputs whose place in device memory is decided by other bytes in
+//! device memory, over the fake driver: an indirect build's opacity indices
+//! and instances (their extent is in the build range infos the GPU reads)
+//! and the instances an array of instance pointers points to.
+//!
+//! The layer reads an indirect build's range infos and those inputs (from
+//! their start towards the end of their buffer) by the same routes as any
+//! input, and checks them once the range infos are decoded; the instances
+//! behind an array of pointers it can read at recording (mapped memory) are
+//! read back too. What neither route reads (an array of pointers in
+//! device-local memory) is said not checked once per device and cause
+//! (`OMMCHECK-layer-contents-not-checked`), rather than left silent.
 
 #![allow(unsafe_code)]
 
 mod fake;
 
 use ash::vk;
-use fake::app::{AttachmentBuild, REPORT_EVERYTHING};
+use fake::app::{range_info_bytes, record_indirect, AttachmentBuild, REPORT_EVERYTHING};
 use fake::gpu::fake_gpu_write;
 use fake::{device_fn, Chain, Collector, Received, USAGE};
 
@@ -20,8 +25,16 @@ const CONTENTS_NOT_CHECKED: &str = "OMMCHECK-layer-contents-not-checked";
 /// The chain with readback on, every severity reported, and its
 /// information messages collected apart.
 fn chain() -> (Chain, Box<Collector>) {
-    let chain = Chain::with_settings(
-        &[REPORT_EVERYTHING.as_slice(), &[(c"gpu_readback", c"true")]].concat(),
+    chain_with(true, true)
+}
+
+/// The chain with readback as given, every severity reported, the micromap
+/// feature as given, and its information messages collected apart.
+fn chain_with(readback: bool, micromap_feature: bool) -> (Chain, Box<Collector>) {
+    let readback = if readback { c"true" } else { c"false" };
+    let chain = Chain::with_settings_and_micromap_feature(
+        &[REPORT_EVERYTHING.as_slice(), &[(c"gpu_readback", readback)]].concat(),
+        micromap_feature,
     );
     let info = chain.info_collector();
     (chain, info)
@@ -127,78 +140,45 @@ fn attachment_build(chain: &Chain) -> (AttachmentBuild<'static>, vk::Buffer) {
     (build, indices)
 }
 
-/// vkCmdBuildAccelerationStructuresIndirectKHR of `build`, its range info
-/// (two triangles) in device memory at `ranges`.
-fn record_indirect(
-    chain: &Chain,
-    command_buffer: vk::CommandBuffer,
-    build: &AttachmentBuild<'_>,
-    ranges: u64,
-) {
-    let indirect: vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR =
-        device_fn(chain.device, c"vkCmdBuildAccelerationStructuresIndirectKHR");
-    build.with_info(|info| {
-        let addresses = [ranges];
-        let strides = [16u32];
-        let max_counts = [2u32];
-        let max_count_pointers = [max_counts.as_ptr()];
-        // SAFETY: valid pointers for one info and its one geometry.
-        unsafe {
-            indirect(
-                command_buffer,
-                1,
-                info,
-                addresses.as_ptr(),
-                strides.as_ptr(),
-                max_count_pointers.as_ptr(),
-            )
-        };
-    });
-}
-
+/// An indirect build's opacity indices and range info, written by a
+/// shader: with readback on both are read back and nothing is said not
+/// checked; with it off neither route reads them, and the layer says so
+/// once per device at submission, naming the setting.
 #[test]
-fn an_indirect_builds_opacity_indices_are_reported_not_checked_once_per_device() {
-    let (chain, info) = chain();
-    let (build, indices) = attachment_build(&chain);
-    let ranges = input(&chain, 16);
-    let range = [2u32, 0, 0, 0]; // primitiveCount 2, offsets 0.
-    let range_bytes: Vec<u8> = range.iter().flat_map(|w| w.to_le_bytes()).collect();
-    let record = |command_buffer| {
-        // Indices past the micromap's two triangles: a fault no route sees.
-        let past: &[u8] = &[0, 0, 0, 0, 9, 0, 0, 0];
-        shader_writes(
-            &chain,
-            command_buffer,
-            &[(indices, past), (ranges, &range_bytes)],
-        );
-        record_indirect(&chain, command_buffer, &build, chain.address(ranges));
-    };
-    said_not_checked_once(
-        &chain,
-        &info,
-        record,
-        &[
+fn an_indirect_builds_opacity_indices_are_read_back_or_said_not_checked_naming_gpu_readback() {
+    for readback in [true, false] {
+        let (chain, info) = chain_with(readback, true);
+        let (build, indices) = attachment_build(&chain);
+        let ranges = input(&chain, 16);
+        let range_bytes = range_info_bytes(2, 0);
+        let record = |command_buffer| {
+            shader_writes(
+                &chain,
+                command_buffer,
+                &[(indices, &[0, 0, 0, 0, 1, 0, 0, 0]), (ranges, &range_bytes)],
+            );
+            build.record_indirect(&chain, command_buffer, chain.address(ranges));
+        };
+        let mut said = Vec::new();
+        for _ in 0..2 {
+            let (at_recording, later) = run(&chain, &info, record);
+            assert!(not_checked(&at_recording).is_empty(), "{at_recording:#?}");
+            said.extend(later);
+        }
+        let said = not_checked(&said);
+        if readback {
+            assert!(said.is_empty(), "{said:#?}");
+            continue;
+        }
+        assert_eq!(said.len(), 1, "{said:#?}");
+        for words in [
             "vkCmdBuildAccelerationStructuresIndirectKHR",
-            "pInfos[0].pGeometries[0].geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.indexBuffer",
-            "pIndirectDeviceAddresses",
-        ],
-    );
-
-    // The direct build of the same inputs reads them back (the content
-    // rules over them are tested in device_memory.rs): nothing is said
-    // not checked.
-    let (chain, info) = self::chain();
-    let (build, indices) = attachment_build(&chain);
-    let (at_recording, later) = run(&chain, &info, |command_buffer| {
-        shader_writes(
-            &chain,
-            command_buffer,
-            &[(indices, &[0, 0, 0, 0, 1, 0, 0, 0])],
-        );
-        build.record(&chain, command_buffer);
-    });
-    let all = [at_recording, later].concat();
-    assert!(not_checked(&all).is_empty(), "{all:#?}");
+            "gpu_readback",
+            "vkQueueSubmit",
+        ] {
+            assert!(said[0].text.contains(words), "{words}: {}", said[0].text);
+        }
+    }
 }
 
 /// A top-level build of one instance from device-local `data`, as an
@@ -208,6 +188,18 @@ fn record_top_level(
     command_buffer: vk::CommandBuffer,
     data: u64,
     array_of_pointers: bool,
+) {
+    record_top_level_as(chain, command_buffer, data, array_of_pointers, None);
+}
+
+/// [`record_top_level`], or (`indirect_ranges`) the indirect build whose
+/// range info is at that device address.
+fn record_top_level_as(
+    chain: &Chain,
+    command_buffer: vk::CommandBuffer,
+    data: u64,
+    array_of_pointers: bool,
+    indirect_ranges: Option<u64>,
 ) {
     let tlas = chain.acceleration_structure(vk::AccelerationStructureTypeKHR::TOP_LEVEL);
     let geometry = vk::AccelerationStructureGeometryKHR {
@@ -235,6 +227,10 @@ fn record_top_level(
         },
         ..Default::default()
     };
+    if let Some(ranges) = indirect_ranges {
+        record_indirect(chain, command_buffer, &info, ranges);
+        return;
+    }
     let range = vk::AccelerationStructureBuildRangeInfoKHR {
         primitive_count: 1,
         ..Default::default()
@@ -275,4 +271,161 @@ fn instances_behind_an_array_of_pointers_are_reported_not_checked_once_per_devic
     });
     let all = [at_recording, later].concat();
     assert!(not_checked(&all).is_empty(), "{all:#?}");
+}
+
+const INSTANCE_FLAGS_11580: &str = "VUID-VkAccelerationStructureInstanceKHR-micromap-11580";
+
+/// One VkAccelerationStructureInstanceKHR, with
+/// VK_GEOMETRY_INSTANCE_FORCE_OPACITY_MICROMAP_2_STATE_BIT_EXT where
+/// `faulty` (11580 without the micromap feature), else no flag.
+fn instance(faulty: bool) -> [u8; 64] {
+    let mut bytes = [0u8; 64];
+    bytes[52] = 0xff; // mask
+    bytes[55] = if faulty { 0x10 } else { 0 };
+    bytes[56..].copy_from_slice(&0x1000u64.to_le_bytes());
+    bytes
+}
+
+/// Records `record`, submits with a fence and waits; asserts nothing but
+/// information was reported before the wait, and returns the errors and
+/// warnings reported at it.
+fn findings_at_completion(chain: &Chain, record: impl FnOnce(vk::CommandBuffer)) -> Vec<Received> {
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
+    record(command_buffer);
+    chain.end(command_buffer);
+    let fence = chain.fence();
+    assert_eq!(
+        chain.submit_with(command_buffer, fence),
+        vk::Result::SUCCESS
+    );
+    let early = chain.collector.take();
+    assert!(early.is_empty(), "{early:#?}");
+    assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
+    chain.collector.take()
+}
+
+/// What [`ids_at`] gives for the faulty instance (11580 at its flags), or
+/// its valid twin (nothing).
+fn expected_11580(faulty: bool) -> Vec<(&'static str, bool)> {
+    if faulty {
+        vec![(INSTANCE_FLAGS_11580, true)]
+    } else {
+        Vec::new()
+    }
+}
+
+/// The ids of `findings`, each with whether it names the instance's flags.
+fn ids_at(findings: &[Received]) -> Vec<(&str, bool)> {
+    findings
+        .iter()
+        .map(|m| {
+            let at = m
+                .text
+                .contains("pInfos[0].pGeometries[0].geometry.instances.data[0].flags");
+            (m.id.as_str(), at)
+        })
+        .collect()
+}
+
+/// An indirect top-level build whose one instance (device-local, written
+/// by a shader) carries an opacity-micromap flag without the micromap
+/// feature: its range info, in device-local memory or mapped, is read,
+/// the instances read back, and 11580 reported at completion naming the
+/// instance's flags; the valid twin is silent.
+#[test]
+fn an_indirect_top_level_builds_instance_flags_are_checked_at_completion() {
+    for mapped_ranges in [false, true] {
+        for faulty in [true, false] {
+            let (chain, info) = chain_with(true, false);
+            let instances = input(&chain, 64);
+            let bytes = instance(faulty);
+            let range = range_info_bytes(1, 0);
+            let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+            let mut writes: Vec<(vk::Buffer, &[u8])> = vec![(instances, &bytes)];
+            let ranges = if mapped_ranges {
+                chain.mapped_buffer_holding(&range, usage)
+            } else {
+                let ranges = chain.buffer(16, usage, 0);
+                writes.push((ranges, &range));
+                ranges
+            };
+            let found = findings_at_completion(&chain, |command_buffer| {
+                shader_writes(&chain, command_buffer, &writes);
+                let data = chain.address(instances);
+                let at = Some(chain.address(ranges));
+                record_top_level_as(&chain, command_buffer, data, false, at);
+            });
+            assert_eq!(
+                ids_at(&found),
+                expected_11580(faulty),
+                "mapped ranges {mapped_ranges}: {found:#?}"
+            );
+            if faulty {
+                assert!(found[0]
+                    .text
+                    .contains("vkCmdBuildAccelerationStructuresIndirectKHR"));
+                assert!(found[0].text.contains("Read back from device memory"));
+            }
+            let said = info.take();
+            assert!(not_checked(&said).is_empty(), "{said:#?}");
+        }
+    }
+}
+
+/// An array of instance pointers in memory the application keeps mapped,
+/// pointing to an instance in device-local memory a shader writes: the
+/// layer reads the pointers at recording, reads the instance back, and
+/// reports its flags at completion; the valid twin is silent.
+#[test]
+fn instances_behind_a_mapped_array_of_pointers_are_read_back_and_checked() {
+    for faulty in [true, false] {
+        let (chain, info) = chain_with(true, false);
+        let instances = input(&chain, 64);
+        let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+        let pointer = chain.address(instances).to_le_bytes();
+        let pointers = chain.mapped_buffer_holding(&pointer, usage);
+        let bytes = instance(faulty);
+        let found = findings_at_completion(&chain, |command_buffer| {
+            shader_writes(&chain, command_buffer, &[(instances, &bytes)]);
+            record_top_level(&chain, command_buffer, chain.address(pointers), true);
+        });
+        assert_eq!(ids_at(&found), expected_11580(faulty), "{found:#?}");
+        let said = info.take();
+        assert!(not_checked(&said).is_empty(), "{said:#?}");
+    }
+}
+
+/// Readback off, the array of pointers uploaded into device-local memory
+/// with vkCmdUpdateBuffer (not known at recording, which says so), the
+/// instance in mapped memory: at submission the layer follows the pointers
+/// the transfer wrote into the mapped instance and reports its flag there;
+/// the valid twin is silent.
+#[test]
+fn instances_behind_uploaded_pointers_are_checked_at_submission() {
+    for faulty in [true, false] {
+        let (chain, info) = chain_with(false, false);
+        let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+            | vk::BufferUsageFlags::TRANSFER_DST;
+        let instances = chain.mapped_buffer_holding(&instance(faulty), usage);
+        let pointers = chain.buffer(8, usage, 0);
+        let pointer = chain.address(instances).to_le_bytes();
+        let command_buffer = chain.allocate_command_buffer();
+        chain.begin(command_buffer);
+        let update: vk::PFN_vkCmdUpdateBuffer = device_fn(chain.device, c"vkCmdUpdateBuffer");
+        // SAFETY: 8 bytes at a valid pointer.
+        unsafe { update(command_buffer, pointers, 0, 8, pointer.as_ptr().cast()) };
+        record_top_level(&chain, command_buffer, chain.address(pointers), true);
+        chain.end(command_buffer);
+        let at_recording = info.take();
+        assert_eq!(not_checked(&at_recording).len(), 1, "{at_recording:#?}");
+        assert_eq!(chain.submit(command_buffer), vk::Result::SUCCESS);
+        let found = chain.collector.take();
+        assert_eq!(ids_at(&found), expected_11580(faulty), "{found:#?}");
+        let later = info.take();
+        assert!(not_checked(&later).is_empty(), "{later:#?}");
+    }
 }

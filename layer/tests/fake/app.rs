@@ -50,6 +50,18 @@ impl Chain {
         info
     }
 
+    /// A buffer of `bytes.len()` bytes in host-visible memory the
+    /// application keeps mapped, holding `bytes`.
+    pub fn mapped_buffer_holding(&self, bytes: &[u8], usage: vk::BufferUsageFlags) -> vk::Buffer {
+        let (buffer, memory) = self.buffer_and_memory(bytes.len() as u64, usage, 1);
+        // SAFETY: the mapping covers the whole memory, `bytes.len()` long.
+        unsafe {
+            self.map_backing(memory)
+                .copy_from_nonoverlapping(bytes.as_ptr(), bytes.len())
+        };
+        buffer
+    }
+
     /// An acceleration structure of `ty` in 64 KiB of device-local storage.
     pub fn acceleration_structure(
         &self,
@@ -271,6 +283,12 @@ impl AttachmentBuild<'_> {
         });
     }
 
+    /// Records the build with vkCmdBuildAccelerationStructuresIndirectKHR,
+    /// its one range info (16 bytes, stride 16) at device address `ranges`.
+    pub fn record_indirect(&self, chain: &Chain, command_buffer: vk::CommandBuffer, ranges: u64) {
+        self.with_info(|info| record_indirect(chain, command_buffer, info, ranges));
+    }
+
     /// Calls `record` with the build's info (one geometry of two triangles).
     pub fn with_info(
         &self,
@@ -317,6 +335,43 @@ impl AttachmentBuild<'_> {
         };
         record(&info);
     }
+}
+
+/// Records vkCmdBuildAccelerationStructuresIndirectKHR of `info` (one
+/// geometry), its range info at device address `ranges`, stride 16, and a
+/// maximum primitive count of 2.
+pub fn record_indirect(
+    chain: &Chain,
+    command_buffer: vk::CommandBuffer,
+    info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    ranges: u64,
+) {
+    let indirect: vk::PFN_vkCmdBuildAccelerationStructuresIndirectKHR =
+        device_fn(chain.device, c"vkCmdBuildAccelerationStructuresIndirectKHR");
+    let addresses = [ranges];
+    let strides = [16u32];
+    let max_counts = [2u32];
+    let max_count_pointers = [max_counts.as_ptr()];
+    // SAFETY: valid pointers for one info and its one geometry.
+    unsafe {
+        indirect(
+            command_buffer,
+            1,
+            info,
+            addresses.as_ptr(),
+            strides.as_ptr(),
+            max_count_pointers.as_ptr(),
+        )
+    };
+}
+
+/// The bytes of one VkAccelerationStructureBuildRangeInfoKHR of
+/// `primitive_count` primitives from `primitive_offset`.
+pub fn range_info_bytes(primitive_count: u32, primitive_offset: u32) -> Vec<u8> {
+    [primitive_count, primitive_offset, 0, 0]
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .collect()
 }
 
 /// Records `info` with vkCmdBuildMicromapsEXT.

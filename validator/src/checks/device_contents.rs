@@ -10,6 +10,7 @@
 use std::sync::Arc;
 
 use crate::checks::accel_build::{self, BuildCommand};
+use crate::checks::device_indirect::{self, IndirectRanges};
 use crate::checks::micromap_build;
 use crate::model::accel::{
     BuildGeometryInfo, BuildRangeInfo, GeometryData, Instance, InstancesData,
@@ -28,11 +29,15 @@ pub enum DeviceBuild {
     Micromaps(Vec<MicromapBuildInfo>),
     /// `vkCmdBuildAccelerationStructuresKHR`'s `pInfos` and `ppBuildRangeInfos`,
     /// or (`indirect`) `vkCmdBuildAccelerationStructuresIndirectKHR`'s
-    /// `pInfos`, whose ranges are in device memory (None each).
+    /// `pInfos`, whose ranges are in device memory (None each, until
+    /// decoded from the contents: [`device_indirect::resolve`]).
     AccelerationStructures {
         infos: Vec<BuildGeometryInfo>,
         ranges: Vec<Option<Vec<BuildRangeInfo>>>,
         indirect: bool,
+        /// Where each info's range infos are in device memory (indirect
+        /// builds; empty for direct ones).
+        indirect_ranges: Vec<IndirectRanges>,
     },
 }
 
@@ -55,6 +60,10 @@ pub enum Extent {
     ToBufferEnd,
     /// The parameters give more than 2^64 bytes.
     Overflow,
+    /// To the end of the buffer holding the start, because the build
+    /// range infos in device memory decide the extent (an indirect
+    /// build's opacity indices and instances); an adaptor may cap it.
+    RangesDecide,
 }
 
 /// What one build input is: the kind decides which reads a host build
@@ -67,8 +76,12 @@ pub enum ReadKind {
     MicromapData,
     /// An opacity attachment's `indexBuffer`.
     OpacityIndices,
-    /// A top-level build's instances, or its array of instance pointers.
+    /// A top-level build's instances.
     Instances,
+    /// A top-level build's array of instance pointers (`arrayOfPointers`).
+    InstancePointers,
+    /// An indirect build's range infos (`pIndirectDeviceAddresses[i]`).
+    BuildRanges,
 }
 
 /// Memory a build's content rules read: where it starts, how far, what it
@@ -82,7 +95,7 @@ pub struct ContentRead {
 }
 
 /// `VkAccelerationStructureInstanceKHR` and a pointer to one, in bytes.
-const INSTANCE_SIZE: u64 = 64;
+pub const INSTANCE_SIZE: u64 = 64;
 const POINTER_SIZE: u64 = 8;
 
 /// Bytes of one index of `index_type` (None: NONE or not an index type).
@@ -179,10 +192,10 @@ pub fn geometry_reads(
                 }
             }
             GeometryData::Instances(instances) => {
-                let size = if instances.array_of_pointers {
-                    POINTER_SIZE
+                let (size, kind) = if instances.array_of_pointers {
+                    (POINTER_SIZE, ReadKind::InstancePointers)
                 } else {
-                    INSTANCE_SIZE
+                    (INSTANCE_SIZE, ReadKind::Instances)
                 };
                 let Some(start) = instances
                     .data
@@ -195,7 +208,7 @@ pub fn geometry_reads(
                     extent: count
                         .checked_mul(size)
                         .map_or(Extent::Overflow, Extent::Bytes),
-                    kind: ReadKind::Instances,
+                    kind,
                     location: format!("{at}.geometry.instances.data"),
                 });
             }
@@ -228,11 +241,18 @@ impl DeviceBuild {
     /// [`UnplacedReads`]), by location.
     pub fn unplaced_reads(&self) -> UnplacedReads {
         let mut unplaced = UnplacedReads::default();
-        let DeviceBuild::AccelerationStructures { infos, ranges, .. } = self else {
+        let DeviceBuild::AccelerationStructures {
+            infos,
+            ranges,
+            indirect_ranges,
+            ..
+        } = self
+        else {
             return unplaced;
         };
         for (i, info) in infos.iter().enumerate() {
-            let has_ranges = ranges.get(i).is_some_and(Option::is_some);
+            let has_ranges =
+                ranges.get(i).is_some_and(Option::is_some) || indirect_ranges.get(i).is_some();
             let (member, geometries) = info.geometry_entries();
             for (g, geometry) in geometries {
                 let at = format!("pInfos[{i}].{member}[{g}].geometry");
@@ -248,13 +268,8 @@ impl DeviceBuild {
                                 }),
                         );
                     }
-                    GeometryData::Instances(instances) if instances.data != 0 => {
-                        let data = format!("{at}.instances.data");
-                        if !has_ranges {
-                            unplaced.without_ranges.push(data);
-                        } else if instances.array_of_pointers {
-                            unplaced.behind_pointers.push(data);
-                        }
+                    GeometryData::Instances(instances) if instances.data != 0 && !has_ranges => {
+                        unplaced.without_ranges.push(format!("{at}.instances.data"));
                     }
                     _ => {}
                 }
@@ -263,9 +278,12 @@ impl DeviceBuild {
         unplaced
     }
 
-    /// arrays and data, opacity attachments' index buffers (an index type
-    /// of NONE reads none) and top-level builds' instances. NULL addresses
-    /// and empty reads are left out: the recording's rules report them.
+    /// The memory the build's content rules read: micromap builds' and
+    /// micromap geometries' triangle arrays and data, opacity attachments'
+    /// index buffers (an index type of NONE reads none), top-level builds'
+    /// instances (or pointers) and indirect builds' range infos (see
+    /// [`device_indirect::indirect_reads`]). NULL addresses and empty
+    /// reads are left out: the recording's rules report them.
     pub fn content_reads(&self) -> Vec<ContentRead> {
         let mut reads = Vec::new();
         match self {
@@ -280,10 +298,18 @@ impl DeviceBuild {
                     ));
                 }
             }
-            DeviceBuild::AccelerationStructures { infos, ranges, .. } => {
+            DeviceBuild::AccelerationStructures {
+                infos,
+                ranges,
+                indirect_ranges,
+                ..
+            } => {
                 for (i, info) in infos.iter().enumerate() {
                     let info_ranges = ranges.get(i).and_then(Option::as_ref);
                     reads.extend(geometry_reads(i, info, info_ranges));
+                    if let (None, Some(source)) = (info_ranges, indirect_ranges.get(i)) {
+                        reads.extend(device_indirect::indirect_reads(i, info, source));
+                    }
                 }
             }
         }
@@ -296,18 +322,19 @@ impl DeviceBuild {
 /// the build is recorded, by why.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct UnplacedReads {
-    /// Inputs whose extent the build ranges decide, in infos that have no
-    /// ranges (an indirect build's are in device memory): opacity
-    /// attachments' index buffers and instances geometries' instances.
+    /// Inputs whose extent the build ranges decide, in infos that have
+    /// neither ranges nor the address of their range infos in device
+    /// memory (an indirect build given fewer `pIndirectDeviceAddresses`
+    /// than infos): opacity attachments' index buffers and instances
+    /// geometries' instances. (The instances behind an array of pointers
+    /// are placed by the pointers' bytes: the adaptor decides whether it
+    /// can read those when it must.)
     pub without_ranges: Vec<String>,
-    /// Instances geometries with `arrayOfPointers`: the instances are
-    /// wherever the pointers in device memory point.
-    pub behind_pointers: Vec<String>,
 }
 
 impl UnplacedReads {
     pub fn is_empty(&self) -> bool {
-        self.without_ranges.is_empty() && self.behind_pointers.is_empty()
+        self.without_ranges.is_empty()
     }
 }
 
@@ -399,9 +426,12 @@ impl Validator {
                 infos,
                 ranges,
                 indirect,
+                ..
             } => {
-                // An indirect build's ranges are the GPU's to read.
-                let ranges = (!indirect).then_some(ranges.as_slice());
+                // An indirect build's ranges are the GPU's to read: they
+                // are known here only once read from device memory.
+                let known = !indirect || ranges.iter().any(Option::is_some);
+                let ranges = known.then_some(ranges.as_slice());
                 accel_build::builds(&mut ctx, DeviceBuild::command(*indirect), infos, ranges);
                 Vec::new()
             }
@@ -425,6 +455,20 @@ impl Validator {
         contents: Vec<KnownBytes>,
     ) -> Report {
         self.device_build_contents(command_buffer, build, contents, false)
+            .0
+    }
+
+    /// As [`Validator::check_device_build_contents`], and what an indirect
+    /// build's range infos, decoded from `contents`, place outside them
+    /// (see [`device_indirect::resolve`]): one sentence per input, for the
+    /// adaptor to report as not checked. Empty for other builds.
+    pub fn check_device_build_contents_unread(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        build: &DeviceBuild,
+        contents: Vec<KnownBytes>,
+    ) -> (Report, Vec<String>) {
+        self.device_build_contents(command_buffer, build, contents, false)
     }
 
     /// As [`Validator::check_device_build_contents`], and the memory of
@@ -438,6 +482,7 @@ impl Validator {
         contents: Vec<KnownBytes>,
     ) -> Report {
         self.device_build_contents(command_buffer, build, contents, true)
+            .0
     }
 
     fn device_build_contents(
@@ -446,7 +491,7 @@ impl Validator {
         build: &DeviceBuild,
         contents: Vec<KnownBytes>,
         name_unread: bool,
-    ) -> Report {
+    ) -> (Report, Vec<String>) {
         let mut previous = Vec::with_capacity(contents.len());
         for known in contents {
             if let Some(mut buffer) = self.state.buffers.get_mut(&known.buffer) {
@@ -470,12 +515,21 @@ impl Validator {
             DeviceBuild::Micromaps(_) => false,
         };
         let recorded = build;
+        // An indirect build's ranges, decoded from the contents.
+        let (resolved, unread) = match device_indirect::resolve(build, |address, len| {
+            self.state.read_device(address, len)
+        }) {
+            Some(resolved) => (Some(resolved.build), resolved.unread),
+            None => (None, Vec::new()),
+        };
+        let build = resolved.as_ref().unwrap_or(build);
         let with_instances;
         let build = match build {
             DeviceBuild::AccelerationStructures {
                 infos,
                 ranges,
                 indirect,
+                indirect_ranges,
             } if reads_instances => {
                 let mut infos = infos.clone();
                 read_instances(&self.state, &mut infos, ranges, false);
@@ -483,6 +537,7 @@ impl Validator {
                     infos,
                     ranges: ranges.clone(),
                     indirect: *indirect,
+                    indirect_ranges: indirect_ranges.clone(),
                 };
                 &with_instances
             }
@@ -511,10 +566,11 @@ impl Validator {
                 .collect()
         };
         self.record_built_contents(built);
-        Report {
+        let report = Report {
             findings,
             checked: with.checked,
-        }
+        };
+        (report, unread)
     }
 
     /// The content of each destination the build made, where it could be
@@ -578,7 +634,7 @@ enum Built {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::model::accel::{Geometry, TrianglesData, TrianglesOpacityMicromapExt};
     use crate::state::{Buffer, BuildRecord, Micromap};
@@ -633,6 +689,7 @@ mod tests {
             infos: vec![info],
             ranges,
             indirect: false,
+            indirect_ranges: Vec::new(),
         };
         (validator, build)
     }
@@ -690,21 +747,26 @@ mod tests {
         assert_eq!(strided_extent(u64::MAX, u64::MAX, 8), Extent::Overflow);
     }
 
-    /// A top-level build of one instances geometry of `count` instances (or
-    /// pointers) at device address 0x8000 + 64.
-    fn top_level_build(pointers: bool, count: u32) -> DeviceBuild {
-        let info = BuildGeometryInfo {
+    /// A top-level info of one instances geometry at device address `data`.
+    pub(crate) fn instances_info(pointers: bool, data: u64) -> BuildGeometryInfo {
+        BuildGeometryInfo {
             geometry_count: 1,
             geometries: Some(vec![Geometry {
                 geometry: GeometryData::Instances(InstancesData {
                     array_of_pointers: pointers,
-                    data: 0x8000,
+                    data,
                     instances: None,
                 }),
                 ..Geometry::default()
             }]),
             ..BuildGeometryInfo::default()
-        };
+        }
+    }
+
+    /// A top-level build of one instances geometry of `count` instances (or
+    /// pointers) at device address 0x8000 + 64.
+    fn top_level_build(pointers: bool, count: u32) -> DeviceBuild {
+        let info = instances_info(pointers, 0x8000);
         DeviceBuild::AccelerationStructures {
             infos: vec![info],
             ranges: vec![Some(vec![BuildRangeInfo {
@@ -713,6 +775,7 @@ mod tests {
                 ..BuildRangeInfo::default()
             }])],
             indirect: false,
+            indirect_ranges: Vec::new(),
         }
     }
 

@@ -24,6 +24,7 @@ use super::{
     MAX_ELEMENTS, MAX_HOST_BYTES,
 };
 use crate::checks::device_contents::{geometry_reads, DeviceBuild, Extent, ReadKind};
+use crate::checks::device_indirect::IndirectRanges;
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, GeometryMicromapData, Instance,
@@ -774,6 +775,7 @@ impl Validator {
             infos: model,
             ranges,
             indirect: false,
+            indirect_ranges: Vec::new(),
         };
         (report, build)
     }
@@ -842,10 +844,12 @@ impl Validator {
     /// As [`Self::cmd_build_acceleration_structures_indirect_ash`], and the
     /// build as read, for an adaptor that checks what it reads in device
     /// memory later: its build ranges are in device memory, so the build
-    /// has none (what they decide, the opacity indices and instances read,
-    /// is left out of [`DeviceBuild::content_reads`]; micromap geometries
-    /// are read as in a direct build). Device memory it cannot read now is
-    /// the caller's to report.
+    /// has none but where they are (`pIndirectDeviceAddresses[i]`,
+    /// `pIndirectStrides[i]`): [`DeviceBuild::content_reads`] lists the
+    /// range infos and, to the end of their buffers, the opacity indices
+    /// and instances they decide the extent of (micromap geometries are
+    /// read as in a direct build), and the check of the contents decodes
+    /// them. Device memory it cannot read now is the caller's to report.
     ///
     /// # Safety
     /// As [`Self::cmd_build_acceleration_structures_indirect_ash`].
@@ -876,10 +880,23 @@ impl Validator {
         ));
         self.device_contents_later = later;
         let ranges = vec![None; model.len()];
+        // Where the GPU reads each info's range infos; an info past the
+        // addresses or strides given has none (and its inputs whose extent
+        // they decide are not placed).
+        let indirect_ranges = indirect_device_addresses
+            .iter()
+            .zip(indirect_strides)
+            .take(model.len())
+            .map(|(&address, &stride)| IndirectRanges {
+                address,
+                stride: u64::from(stride),
+            })
+            .collect();
         let build = DeviceBuild::AccelerationStructures {
             infos: model,
             ranges,
             indirect: true,
+            indirect_ranges,
         };
         (report, build)
     }
