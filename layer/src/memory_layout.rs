@@ -1,13 +1,16 @@
 //! Where buffers lie in device memory and where the application has
-//! mapped memory: what the host can read of a buffer now, and why not.
+//! mapped memory: what the host can read of a buffer now (and a copy of it), and why not.
 //! Submission (route 1), readback planning (route 2) and the driver's
 //! answers all ask it, so it sits below them.
+
+#![allow(unsafe_code)]
 
 use foldhash::{HashMap, HashSet};
 use ommcheck::raw::MAX_HOST_BYTES;
 use ommcheck::state::Handle;
 
 use crate::dispatch::DeviceState;
+use crate::read;
 
 /// Where buffers lie in device memory and where memory is mapped.
 #[derive(Debug, Default)]
@@ -104,4 +107,18 @@ pub(crate) fn mapped_address(
 /// Whether the host can read `[offset, offset + len)` of `buffer` now.
 pub fn host_can_read(state: &DeviceState, buffer: Handle, offset: u64, len: u64) -> bool {
     mapped_address(state, buffer, offset, len).is_some()
+}
+
+/// A copy of `[offset, offset + len)` of `buffer` from mapped memory.
+pub(crate) fn mapped_window(
+    state: &DeviceState,
+    buffer: Handle,
+    offset: u64,
+    len: u64,
+) -> Option<Vec<u8>> {
+    let address = mapped_address(state, buffer, offset, len)?;
+    // SAFETY: `[address, address + len)` lies inside the range vkMapMemory
+    // returned for the buffer's memory (checked above), which stays mapped
+    // until vkUnmapMemory or vkFreeMemory (both of which forget the mapping).
+    Some(unsafe { read::mapped_bytes(address, usize::try_from(len).ok()?) }.to_vec())
 }

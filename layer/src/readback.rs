@@ -276,7 +276,7 @@ pub fn plan(
 ) -> Plan {
     let settings = data.instance.reporter.settings();
     let cap = settings.gpu_readback_indirect_max_bytes;
-    let mut windows = match windows(state, build, cap, crate::submit::mapped_window) {
+    let mut windows = match windows(state, build, cap, crate::memory_layout::mapped_window) {
         Ok(windows) => windows,
         Err(reason) => return Plan::NotReadBack("unknown-address", reason),
     };
@@ -387,7 +387,7 @@ pub fn unplaced_messages(
         .iter()
         .filter(|read| {
             read.kind == ReadKind::InstancePointers
-                && pointed_instances(state, read, crate::submit::mapped_window).is_none()
+                && pointed_instances(state, read, crate::memory_layout::mapped_window).is_none()
         })
         .map(|read| read.location.clone())
         .collect();

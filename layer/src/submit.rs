@@ -22,7 +22,7 @@ use ommcheck::Severity;
 use crate::commands::{self, KeptBuild, Recorded};
 use crate::dispatch::{DeviceData, DeviceFns, DeviceState};
 use crate::intercept::{as_void, check, device_and};
-use crate::memory_layout::{mapped_address, unreadable_reason};
+use crate::memory_layout::{mapped_window, unreadable_reason};
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
 use crate::{guarded, panic_message, read};
 
@@ -34,20 +34,6 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkQueueSubmit2KHR" => as_void(queue_submit2_khr as vk::PFN_vkQueueSubmit2),
         _ => None,
     }
-}
-
-/// A copy of `[offset, offset + len)` of `buffer` from mapped memory.
-pub(crate) fn mapped_window(
-    state: &DeviceState,
-    buffer: Handle,
-    offset: u64,
-    len: u64,
-) -> Option<Vec<u8>> {
-    let address = mapped_address(state, buffer, offset, len)?;
-    // SAFETY: `[address, address + len)` lies inside the range vkMapMemory
-    // returned for the buffer's memory (checked above), which stays mapped
-    // until vkUnmapMemory or vkFreeMemory (both of which forget the mapping).
-    Some(unsafe { read::mapped_bytes(address, usize::try_from(len).ok()?) }.to_vec())
 }
 
 /// The bytes of `[offset, offset + len)` of `buffer` as a build submitted
