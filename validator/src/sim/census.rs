@@ -275,29 +275,33 @@ impl BitSums {
         }
     }
 
-    /// The sums over 4-state data in one pass, sixteen vectors at a time:
+    /// The sums over 4-state data in one pass, eight vectors at a time:
     /// the bits set and the low bits (those at even positions) through one
     /// Harley-Seal carry-save counter over the data as it is; the both-set
     /// fields, which use only the even bits of a word, through a second
     /// over the same vectors folded two into one (the second shifted onto
-    /// the odd bits), so it adds half as many.
+    /// the odd bits), so it adds half as many: eight folded vectors for
+    /// every sixteen read.
     fn of_four_state(block: &[u8]) -> Self {
         let mut raw = EightWay::<true>::default();
         let mut both = EightWay::<false>::default();
         let steps = block.chunks_exact(16 * VECTOR_BYTES);
         let rest = steps.remainder();
+        let mut folded = [[0u64; LANES]; 8];
         for step in steps {
-            let mut words = step.chunks_exact(8).map(word);
-            let v: [Lanes; 16] =
-                std::array::from_fn(|_| std::array::from_fn(|_| words.next().unwrap_or(0)));
-            raw.add(&std::array::from_fn(|k| v[k]));
-            raw.add(&std::array::from_fn(|k| v[8 + k]));
-            both.add(&std::array::from_fn(|k| {
-                std::array::from_fn(|l| {
-                    let (a, b) = (v[2 * k][l], v[2 * k + 1][l]);
-                    (a & (a >> 1) & LOW_BITS) | (b & (b << 1) & !LOW_BITS)
-                })
-            }));
+            for (half, bytes) in step.chunks_exact(8 * VECTOR_BYTES).enumerate() {
+                let mut words = bytes.chunks_exact(8).map(word);
+                let v: [Lanes; 8] =
+                    std::array::from_fn(|_| std::array::from_fn(|_| words.next().unwrap_or(0)));
+                raw.add(&v);
+                for k in 0..4 {
+                    folded[4 * half + k] = std::array::from_fn(|l| {
+                        let (a, b) = (v[2 * k][l], v[2 * k + 1][l]);
+                        (a & (a >> 1) & LOW_BITS) | (b & (b << 1) & !LOW_BITS)
+                    });
+                }
+            }
+            both.add(&folded);
         }
         let (ones, low) = raw.total();
         let tail = words(rest).fold(Self::default(), |sums, w| sums + Self::of_word(w));
