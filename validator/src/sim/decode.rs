@@ -28,7 +28,9 @@ pub struct MicromapContent {
     /// A build with `triangleArrayStride` 0: all this many triangles read
     /// the one entry in [`Self::triangles`].
     pub repeated: Option<u64>,
-    /// Each entry's (format, level) key, worked out on first use.
+    /// Each entry's (format, level) key, worked out on first use; derived
+    /// from `triangles`, so whatever changes them starts a new cache (as
+    /// [`Self::repeating`] does).
     pub keys: KeysCache,
 }
 
