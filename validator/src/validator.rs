@@ -1,6 +1,7 @@
 //! The stateful checker: a device, tracked objects, and one method per API
 //! call (defined next to their checks in `checks/`).
 
+use crate::checks::index_scan::IndexMix;
 use crate::device::Device;
 use crate::not_checked::Cause;
 use crate::report::{Finding, ObjectRef, Report, RuleId, Severity};
@@ -95,6 +96,7 @@ impl Validator {
             per_rule: Vec::new(),
             unlisted: None,
             device_contents_later: self.device_contents_later,
+            index_mixes: Vec::new(),
         }
     }
 }
@@ -127,6 +129,9 @@ pub(crate) struct Ctx<'a> {
     unlisted: Option<Finding>,
     /// See [`Validator::device_contents_later`].
     pub device_contents_later: bool,
+    /// The opacity index buffers this call's checks read in full, for the
+    /// record of the build (which then need not read them again).
+    pub index_mixes: Vec<IndexMix>,
 }
 
 impl<'a> Ctx<'a> {

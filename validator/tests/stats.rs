@@ -199,6 +199,54 @@ proptest! {
     }
 }
 
+/// Triangles laid out as a baker lays them: mostly each right after the
+/// one before, in stretches of one format and level (which the census
+/// counts as one stream), now and then a gap, a step back, or another
+/// format or level; weights mostly alike within a stretch.
+fn laid_out_entries() -> impl Strategy<Value = (Vec<MicromapTriangle>, Vec<u64>)> {
+    let shape = (prop_oneof![Just(1u16), Just(2u16)], 0u16..=6);
+    let next = (
+        prop_oneof![6 => Just(0u32), 1 => 1u32..40, 1 => Just(u32::MAX)],
+        prop_oneof![5 => Just(false), 1 => Just(true)],
+        prop_oneof![5 => Just(None), 1 => (0u64..3).prop_map(Some)],
+    );
+    (shape.clone(), prop::collection::vec((shape, next), 0..40)).prop_map(|(first, steps)| {
+        let (mut shape, mut weight, mut end) = (first, 1u64, 0u32);
+        let mut triangles = Vec::new();
+        let mut weights = Vec::new();
+        for (other_shape, (gap, switch, new_weight)) in steps {
+            if switch {
+                shape = other_shape;
+            }
+            weight = new_weight.unwrap_or(weight);
+            // u32::MAX: back to the start of the data.
+            let data_offset = if gap == u32::MAX { 0 } else { end + gap };
+            let (format, subdivision_level) = shape;
+            let size = opacity_triangle_bytes(u32::from(format), u32::from(subdivision_level))
+                .unwrap_or(1) as u32;
+            end = data_offset + size;
+            triangles.push(MicromapTriangle {
+                data_offset,
+                subdivision_level,
+                format,
+            });
+            weights.push(weight);
+        }
+        (triangles, weights)
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn runs_of_consecutive_triangles_count_as_each_triangle_does(
+        (data, (triangles, weights)) in (data(), laid_out_entries()),
+    ) {
+        assert_census_matches(&triangles, 0, data, &weights)?;
+    }
+}
+
 #[test]
 fn level_12_triangles_match_decoding_every_state() {
     // 2 MiB and 4 MiB of pseudo-random bytes (a 64-bit LCG), the 4-state

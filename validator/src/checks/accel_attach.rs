@@ -23,8 +23,8 @@ use ommcheck_vuids::{khr as khr_values, Vuid};
 use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
 use crate::checks::common::{self, Tally, TriangleHistogram, UsageKeys};
 use crate::checks::index_scan::{
-    for_each_chunk, is_cluster_skip_index, is_special_index, read_indices, CleanIndices,
-    ReferenceTally,
+    for_each_chunk, is_cluster_skip_index, is_special_index, read_indices,
+    special_and_micromap_indices, CleanIndices, IndexMix, ReferenceTally,
 };
 use crate::checks::Coverage;
 use crate::model::accel::*;
@@ -1085,13 +1085,16 @@ fn index_contents(
     };
     let mut references = referenced
         .filter(|_| usage_counts_rule.is_some())
-        .map(|content| ReferenceTally::new(content.map(|c| &c.triangles), size, base, weight));
+        .map(|content| ReferenceTally::new(content, size, base, weight));
     let clean = CleanIndices::new(size, base, triangles);
     let mut tally = Tally::new();
+    let mut held = (false, false);
     let read = for_each_chunk(bytes, size, a.index_stride, count, |first, values| {
         if let Some(references) = &mut references {
             references.add(values);
         }
+        let (special, micromap) = special_and_micromap_indices(values, size);
+        held = (held.0 | special, held.1 | micromap);
         if clean.all(values) {
             return;
         }
@@ -1106,6 +1109,17 @@ fn index_contents(
         }
     });
     tally.finish(ctx);
+    // The record of a device build asks the same of the same indices (see
+    // `index_mix`); a host build's is left to read them itself.
+    if read == distinct && !host {
+        ctx.index_mixes.push(IndexMix {
+            index_type: a.index_type,
+            address: a.index_buffer,
+            stride: a.index_stride,
+            count,
+            held,
+        });
+    }
     if read < distinct {
         // The indices past the readable bytes are not guessed at.
         let cause = if host {

@@ -185,9 +185,10 @@ impl Validator {
         let _ = command_buffer;
         let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
+        let index_mixes = std::mem::take(&mut ctx.index_mixes);
         let report = ctx.finish();
         record_builds(&mut self.state, self.tier, infos, build_range_infos, false);
-        self.record_micromap_geometry(infos, build_range_infos);
+        self.record_micromap_geometry_after_checks(infos, build_range_infos, &index_mixes);
         self.record_acceleration_structure_builds(
             command_buffer,
             BuildCommand::Cmd.function(),

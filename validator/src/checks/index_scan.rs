@@ -10,7 +10,8 @@
 //! micromap's size.
 
 use crate::checks::common::TriangleHistogram;
-use crate::sim::decode::TriangleEntries;
+use crate::sim::decode::{MicromapContent, TriangleEntries};
+use crate::sim::keys::TriangleKeys;
 
 /// Indices decoded and classified at once.
 pub(crate) const CHUNK: usize = 64;
@@ -114,20 +115,49 @@ pub(crate) fn for_each_chunk(
     read
 }
 
+/// Whether `values`, `size`-byte indices, hold (a special index, an index
+/// that selects a micromap triangle): -5 is neither. Accumulated in locals
+/// over the whole chunk without branches, so that it compiles to a few
+/// vector operations.
+pub(crate) fn special_and_micromap_indices(values: &[u32], size: u64) -> (bool, bool) {
+    let max = index_max(size) as u32;
+    let (special_from, cluster) = (max - 3, max - 4);
+    let (mut special, mut micromap) = (false, false);
+    for &value in values {
+        let is_special = value >= special_from;
+        special |= is_special;
+        micromap |= !is_special & (value != cluster);
+    }
+    (special, micromap)
+}
+
+/// What an opacity index buffer holds, as a check read it in full: its
+/// index type, address, stride and triangle count, and whether it holds
+/// (special indices, micromap indices), as
+/// [`special_and_micromap_indices`] says.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct IndexMix {
+    pub index_type: i32,
+    pub address: u64,
+    pub stride: u64,
+    pub count: u64,
+    pub held: (bool, bool),
+}
+
 /// Which indices draw no finding from the index rules: a special index
 /// (-1..-4), or any other but -5 whose micromap triangle, index +
 /// `baseTriangle`, lies below the micromap's triangle count (none with a
 /// NULL micromap).
 ///
 /// Held in 32 bits, so that a vector register holds four indices: an index
-/// is in range when it is below `triangles - base`, which is at most
-/// `in_range_below` or, where `all_in_range`, above every 32-bit value.
+/// is in range when it is below `triangles - base`, saturated to
+/// `in_range_below` (the one 32-bit value it leaves out, `u32::MAX`, is a
+/// special index).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct CleanIndices {
     special_from: u32,
     cluster: u32,
     in_range_below: u32,
-    all_in_range: bool,
 }
 
 impl CleanIndices {
@@ -140,21 +170,20 @@ impl CleanIndices {
             special_from: max - 3,
             cluster: max - 4,
             in_range_below: u32::try_from(below).unwrap_or(u32::MAX),
-            all_in_range: below > u64::from(u32::MAX),
         }
     }
 
     /// Whether every index of `values` is clean; written without branches
     /// so that it compiles to a few vector operations per chunk.
     pub fn all(&self, values: &[u32]) -> bool {
-        let mut dirty = false;
+        let mut dirty = 0u32;
         for &value in values {
-            let special = value >= self.special_from;
+            let special = u32::from(value >= self.special_from);
             let in_range =
-                (value != self.cluster) & (self.all_in_range | (value < self.in_range_below));
-            dirty |= !(special | in_range);
+                u32::from(value != self.cluster) & u32::from(value < self.in_range_below);
+            dirty |= 1 ^ (special | in_range);
         }
-        !dirty
+        dirty == 0
     }
 }
 
@@ -163,38 +192,46 @@ impl CleanIndices {
 /// triangle); special indices select none. Undecided once an index selects
 /// a triangle the checker did not read (past the entries read, or any with
 /// a NULL micromap).
+///
+/// Tallied over the micromap's [`TriangleKeys`] (kept with its content), so
+/// that the time follows the references: no triangle array entry is read
+/// per reference. A micromap with more distinct keys than they name (only
+/// possible with invalid formats or levels) is tallied entry by entry.
 pub(crate) struct ReferenceTally<'e> {
-    /// The triangle array from its first entry, its stride and entries.
-    array: &'e [u8],
-    stride: usize,
-    entries: u64,
-    base: u64,
-    special_from: u64,
+    by: Tallying<'e>,
     weight: u64,
-    /// The key (`subdivisionLevel | format << 16`) of the current run of
-    /// alike references, and its length: counted into `found` when the key
-    /// changes, so that alike references cost a compare and an add.
-    key: u32,
-    run: u64,
-    found: TriangleHistogram,
     undecided: bool,
 }
 
+/// A NULL micromap's keys: none.
+static NO_KEYS: TriangleKeys = TriangleKeys::NONE;
+
+enum Tallying<'e> {
+    Keyed(KeyedTally<'e>),
+    /// Boxed: it carries its histogram, and is rare.
+    ByEntry(Box<EntryTally<'e>>),
+}
+
 impl<'e> ReferenceTally<'e> {
-    /// For `size`-byte indices selecting triangle index + `base` of
-    /// `entries` (None: a NULL micromap, which has none).
-    pub fn new(entries: Option<&'e TriangleEntries>, size: u64, base: u64, weight: u64) -> Self {
-        let (array, stride, len) = entries.map_or((&[][..], 0, 0), TriangleEntries::raw);
+    /// For `size`-byte indices selecting triangle index + `base` of the
+    /// triangle array of `content` (None: a NULL micromap, which has none).
+    pub fn new(content: Option<&'e MicromapContent>, size: u64, base: u64, weight: u64) -> Self {
+        let keyed = match content {
+            None => Some((&NO_KEYS, 0)),
+            Some(c) => c.keys().map(|keys| (keys, c.triangles.len() as u64)),
+        };
+        let by = match keyed {
+            Some((keys, entries)) => Tallying::Keyed(KeyedTally::new(keys, entries, size, base)),
+            None => Tallying::ByEntry(Box::new(EntryTally::new(
+                content.map(|c| &c.triangles),
+                size,
+                base,
+                weight,
+            ))),
+        };
         Self {
-            array,
-            stride,
-            entries: len as u64,
-            base,
-            special_from: index_max(size) - 3,
+            by,
             weight,
-            key: 0,
-            run: 0,
-            found: TriangleHistogram::new(),
             undecided: false,
         }
     }
@@ -204,6 +241,157 @@ impl<'e> ReferenceTally<'e> {
         if self.undecided {
             return;
         }
+        self.undecided = !match &mut self.by {
+            Tallying::Keyed(tally) => tally.add(values),
+            Tallying::ByEntry(tally) => tally.add(values),
+        };
+    }
+
+    /// The tally, or None where it is undecided.
+    pub fn finish(self) -> Option<TriangleHistogram> {
+        if self.undecided {
+            return None;
+        }
+        Some(match self.by {
+            Tallying::Keyed(tally) => tally.finish(self.weight),
+            Tallying::ByEntry(tally) => tally.finish(),
+        })
+    }
+}
+
+/// The tally of [`ReferenceTally`] over a micromap's [`TriangleKeys`]: a
+/// chunk of indices costs a few vector operations (which are special, and
+/// whether any selects a triangle past the entries read), plus, where the
+/// micromap has several keys, one byte read per reference.
+struct KeyedTally<'e> {
+    keys: &'e TriangleKeys,
+    base: u64,
+    special_from: u32,
+    /// An index below `special_from` selects an entry read when it is below
+    /// `entries_below` (saturated: every index that selects a triangle is
+    /// below `u32::MAX`).
+    entries_below: u32,
+    /// With one key: the references so far.
+    selected: u64,
+    /// With several: per key id, four counters, which the references of a
+    /// chunk take in turn, so that runs of alike ids add to different
+    /// words rather than waiting on one another.
+    per_key: Vec<[u64; 4]>,
+}
+
+impl<'e> KeyedTally<'e> {
+    fn new(keys: &'e TriangleKeys, entries: u64, size: u64, base: u64) -> Self {
+        let below = entries.saturating_sub(base);
+        Self {
+            keys,
+            base,
+            special_from: index_max(size) as u32 - 3,
+            entries_below: u32::try_from(below).unwrap_or(u32::MAX),
+            selected: 0,
+            per_key: vec![
+                [0; 4];
+                if keys.ids().is_empty() {
+                    0
+                } else {
+                    keys.distinct().len()
+                }
+            ],
+        }
+    }
+
+    /// Tallies `values`; false where one selects a triangle past the
+    /// entries read (the tally is then undecided).
+    fn add(&mut self, values: &[u32]) -> bool {
+        // In 32-bit lanes (a chunk has at most `CHUNK` indices), so that a
+        // vector register holds four.
+        let (mut selected, mut past) = (0u32, 0u32);
+        for &value in values {
+            let selects = u32::from(value < self.special_from);
+            selected += selects;
+            past |= selects & u32::from(value >= self.entries_below);
+        }
+        if past != 0 {
+            return false;
+        }
+        let selected = u64::from(selected);
+        let ids = self.keys.ids();
+        if ids.is_empty() {
+            self.selected += selected;
+            return true;
+        }
+        for (k, &value) in values.iter().enumerate() {
+            if value < self.special_from {
+                // Below the entries read (checked above), so inside `ids`.
+                if let Some(&id) = ids.get((u64::from(value) + self.base) as usize) {
+                    self.per_key[usize::from(id)][k % 4] += 1;
+                }
+            }
+        }
+        true
+    }
+
+    fn finish(self, weight: u64) -> TriangleHistogram {
+        let mut found = TriangleHistogram::new();
+        let distinct = self.keys.distinct();
+        let totals: Vec<(u32, u64)> = if self.per_key.is_empty() {
+            distinct
+                .first()
+                .map(|&key| (key, self.selected))
+                .into_iter()
+                .collect()
+        } else {
+            distinct
+                .iter()
+                .zip(&self.per_key)
+                .map(|(&key, lanes)| (key, lanes.iter().sum()))
+                .collect()
+        };
+        for (key, n) in totals {
+            if n > 0 {
+                found.add(key >> 16, key & 0xffff, n.saturating_mul(weight));
+            }
+        }
+        found
+    }
+}
+
+/// The tally of [`ReferenceTally`] entry by entry: each reference reads
+/// its triangle's key from the triangle array.
+struct EntryTally<'e> {
+    /// The triangle array from its first entry, its stride and entries.
+    array: &'e [u8],
+    stride: usize,
+    entries: u64,
+    base: u64,
+    special_from: u64,
+    /// The key (`subdivisionLevel | format << 16`) of the current run of
+    /// alike references, and its length: counted when the key changes, so
+    /// that alike references cost a compare and an add.
+    key: u32,
+    run: u64,
+    weight: u64,
+    found: TriangleHistogram,
+}
+
+impl<'e> EntryTally<'e> {
+    fn new(entries: Option<&'e TriangleEntries>, size: u64, base: u64, weight: u64) -> Self {
+        let (array, stride, len) = entries.map_or((&[][..], 0, 0), TriangleEntries::raw);
+        Self {
+            array,
+            stride,
+            entries: len as u64,
+            base,
+            special_from: index_max(size) - 3,
+            key: 0,
+            run: 0,
+            weight,
+            found: TriangleHistogram::new(),
+        }
+    }
+
+    /// Tallies `values`; false where one selects a triangle past the
+    /// entries read.
+    fn add(&mut self, values: &[u32]) -> bool {
         for &value in values {
             let value = u64::from(value);
             if value >= self.special_from {
@@ -215,8 +403,7 @@ impl<'e> ReferenceTally<'e> {
                 .then(|| m as usize * self.stride + 4)
                 .and_then(|at| self.array.get(at..at + 4));
             let Some(key) = key else {
-                self.undecided = true;
-                return;
+                return false;
             };
             let key = u32::from_le_bytes([key[0], key[1], key[2], key[3]]);
             if key == self.key {
@@ -227,6 +414,7 @@ impl<'e> ReferenceTally<'e> {
                 self.run = 1;
             }
         }
+        true
     }
 
     fn flush(&mut self) {
@@ -238,13 +426,9 @@ impl<'e> ReferenceTally<'e> {
         }
     }
 
-    /// The tally, or None where it is undecided.
-    pub fn finish(mut self) -> Option<TriangleHistogram> {
-        if self.undecided {
-            return None;
-        }
+    fn finish(mut self) -> TriangleHistogram {
         self.flush();
-        Some(self.found)
+        self.found
     }
 }
 
@@ -332,8 +516,11 @@ mod tests {
             subdivision_level,
             format,
         };
-        let entries = TriangleEntries::from(vec![t(3, 2), t(3, 2), t(1, 1), t(3, 2)]);
-        let mut tally = ReferenceTally::new(Some(&entries), 4, 1, 1);
+        let content = MicromapContent::new(
+            vec![t(3, 2), t(3, 2), t(1, 1), t(3, 2)],
+            std::sync::Arc::from(Vec::new()),
+        );
+        let mut tally = ReferenceTally::new(Some(&content), 4, 1, 1);
         // Triangles 1, 2, 3, 1 and a special index.
         tally.add(&[0, 1, 2]);
         tally.add(&[0, u32::MAX]);
@@ -343,12 +530,12 @@ mod tests {
             [((1, 1), 1), ((2, 3), 3)]
         );
         // Weighted (stride 0): one index for 5 triangles.
-        let mut tally = ReferenceTally::new(Some(&entries), 2, 0, 5);
+        let mut tally = ReferenceTally::new(Some(&content), 2, 0, 5);
         tally.add(&[2]);
         let found = tally.finish().expect("decided").into_map();
         assert_eq!(found.into_iter().collect::<Vec<_>>(), [((1, 1), 5)]);
         // Past the entries read, or any index with a NULL micromap: undecided.
-        let mut past = ReferenceTally::new(Some(&entries), 4, 1, 1);
+        let mut past = ReferenceTally::new(Some(&content), 4, 1, 1);
         past.add(&[0, 3]);
         assert!(past.finish().is_none());
         let mut null = ReferenceTally::new(None, 4, 0, 1);
@@ -357,5 +544,63 @@ mod tests {
         let mut null = ReferenceTally::new(None, 4, 0, 1);
         null.add(&[0]);
         assert!(null.finish().is_none());
+    }
+
+    /// Triangle array entries whose keys come from `pool` by `picks`.
+    fn content_of(pool: &[(u16, u16)], picks: &[usize]) -> MicromapContent {
+        let triangles: Vec<MicromapTriangle> = picks
+            .iter()
+            .map(|&p| MicromapTriangle {
+                data_offset: 0,
+                subdivision_level: pool[p % pool.len()].1,
+                format: pool[p % pool.len()].0,
+            })
+            .collect();
+        MicromapContent::new(triangles, std::sync::Arc::from(Vec::new()))
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2048))]
+
+        /// The tally over the micromap's keys gives what reading each
+        /// reference's entry gives: the same counts per key, and undecided
+        /// alike, whatever the indices (in range, special, -5, past the
+        /// entries), the keys (one, or several), the width, base, weight
+        /// and chunking.
+        #[test]
+        fn the_keyed_tally_is_the_entry_by_entry_tally(
+            keys in 1usize..5,
+            picks in proptest::collection::vec(0usize..8, 0..300),
+            raw in proptest::collection::vec(proptest::prelude::any::<u32>(), 0..400),
+            size in proptest::sample::select(vec![1u64, 2, 4]),
+            base in 0u64..6,
+            weight in 1u64..4,
+            chunk in 1usize..=CHUNK,
+        ) {
+            let pool = [(2, 3), (1, 0), (2, 12), (1, 7)];
+            // One key for every entry where `keys` is 1.
+            let content = content_of(&pool[..keys.min(pool.len())], &picks);
+            let max = index_max(size) as u32;
+            // Mostly in range, some special or -5, and now and then one
+            // anywhere (most often past the end, which leaves it undecided).
+            let in_range = (picks.len() as u32).saturating_sub(base as u32).max(1);
+            let values: Vec<u32> = raw
+                .iter()
+                .map(|r| match r % 128 {
+                    0 => (r >> 7) & max,
+                    1..=15 => max - (r >> 7) % 5,
+                    _ => (r >> 7) % in_range,
+                })
+                .collect();
+            let mut keyed = ReferenceTally::new(Some(&content), size, base, weight);
+            let mut by_entry = EntryTally::new(Some(&content.triangles), size, base, weight);
+            let mut decided = true;
+            for part in values.chunks(chunk) {
+                keyed.add(part);
+                decided &= by_entry.add(part);
+            }
+            let expected = decided.then(|| by_entry.finish().into_map());
+            proptest::prop_assert_eq!(keyed.finish().map(|f| f.into_map()), expected);
+        }
     }
 }

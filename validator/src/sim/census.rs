@@ -185,6 +185,62 @@ impl Shape {
     }
 }
 
+impl Shape {
+    /// Bytes of one triangle's data.
+    pub fn bytes(self) -> usize {
+        self.bytes
+    }
+
+    /// Whether a triangle's states fill its bytes (every level but 2-state
+    /// 0 and 1 and 4-state 0), so that the data of triangles laid one after
+    /// the other reads as one stream of states.
+    pub fn fills_bytes(self) -> bool {
+        self.used_bits % 8 == 0
+    }
+
+    /// The state counts of `triangles` triangles of this shape whose data
+    /// lies one after the other in `run` (`triangles · bytes` long): one
+    /// stream of states, counted at once. Only for shapes that
+    /// [fill their bytes](Self::fills_bytes).
+    pub fn run_counts(self, run: &[u8], triangles: u64) -> StateCounts {
+        let states = self.states.saturating_mul(triangles);
+        if self.bits == 1 {
+            let opaque = ones(run);
+            return StateCounts {
+                transparent: states - opaque,
+                opaque,
+                ..StateCounts::default()
+            };
+        }
+        let sums = if run.len() < 8 * VECTOR_BYTES {
+            words(run)
+                .map(BitSums::of_word)
+                .fold(BitSums::default(), |sums, word| sums + word)
+        } else {
+            BitSums::of_four_state(run)
+        };
+        sums.four_state(states)
+    }
+
+    /// The one state all micro-triangles of the triangle whose data starts
+    /// `block` hold, if they are alike. For shapes that
+    /// [fill their bytes](Self::fills_bytes): every byte repeats the first
+    /// state; read a word at a time, stopping at the first that differs.
+    pub fn uniform(self, block: &[u8]) -> Option<OpacityState> {
+        let block = block.get(..self.bytes)?;
+        let first = *block.first()? & if self.bits == 1 { 1 } else { 3 };
+        let (state, byte) = if self.bits == 1 {
+            (STATES[usize::from(first)], first * 0xff)
+        } else {
+            (STATES[usize::from(first)], first * 0x55)
+        };
+        let whole = block.chunks_exact(8);
+        let alike = whole.remainder().iter().all(|b| *b == byte)
+            && whole.map(word).all(|w| w == u64::from_ne_bytes([byte; 8]));
+        alike.then_some(state)
+    }
+}
+
 /// Popcounts over a triangle's data, read as little-endian 64-bit words
 /// (a last partial word zero-extended: zero bits are transparent states,
 /// which the counts derive from the total, so padding changes nothing).
@@ -219,43 +275,41 @@ impl BitSums {
         }
     }
 
-    /// The sums over 4-state data: the bits set and the low bits (those at
-    /// even positions), through one pass of the carry-save counter; the
-    /// both-set fields, which use only the even bits of a word, through a
-    /// second with two words folded into one (the second shifted onto the
-    /// odd bits), so it counts half as many words.
+    /// The sums over 4-state data in one pass, eight vectors at a time:
+    /// the bits set and the low bits (those at even positions) through one
+    /// Harley-Seal carry-save counter over the data as it is; the both-set
+    /// fields, which use only the even bits of a word, through a second
+    /// over the same vectors folded two into one (the second shifted onto
+    /// the odd bits), so it adds half as many: eight folded vectors for
+    /// every sixteen read.
     fn of_four_state(block: &[u8]) -> Self {
-        // Piece by piece, so the three passes over a piece find it in the
-        // first-level cache.
-        block
-            .chunks(FOUR_STATE_PIECE)
-            .fold(Self::default(), |sums, piece| {
-                sums + Self::of_four_state_piece(piece)
-            })
-    }
-
-    fn of_four_state_piece(block: &[u8]) -> Self {
-        let vectors = block.len() / VECTOR_BYTES;
-        let (ones, low) = count_vectors::<true>(vectors, |i| vector(block, i));
-        let pairs = vectors / 2;
-        let both = |w: u64| w & (w >> 1) & LOW_BITS;
-        let (both_sum, _) = count_vectors::<false>(pairs, |i| folded(block, i, both));
-        let mut sums = Self {
+        let mut raw = EightWay::<true>::default();
+        let mut both = EightWay::<false>::default();
+        let steps = block.chunks_exact(16 * VECTOR_BYTES);
+        let rest = steps.remainder();
+        let mut folded = [[0u64; LANES]; 8];
+        for step in steps {
+            for (half, bytes) in step.chunks_exact(8 * VECTOR_BYTES).enumerate() {
+                let mut words = bytes.chunks_exact(8).map(word);
+                let v: [Lanes; 8] =
+                    std::array::from_fn(|_| std::array::from_fn(|_| words.next().unwrap_or(0)));
+                raw.add(&v);
+                for k in 0..4 {
+                    folded[4 * half + k] = std::array::from_fn(|l| {
+                        let (a, b) = (v[2 * k][l], v[2 * k + 1][l]);
+                        (a & (a >> 1) & LOW_BITS) | (b & (b << 1) & !LOW_BITS)
+                    });
+                }
+            }
+            both.add(&folded);
+        }
+        let (ones, low) = raw.total();
+        let tail = words(rest).fold(Self::default(), |sums, w| sums + Self::of_word(w));
+        Self {
             ones,
             low,
-            both: both_sum,
-        };
-        // The words past the last whole vector, and past the last whole
-        // pair of vectors (and a last partial word).
-        let after = |at: usize| words(block.get(at..).unwrap_or_default());
-        for w in after(vectors * VECTOR_BYTES) {
-            sums.ones += u64::from(w.count_ones());
-            sums.low += u64::from((w & LOW_BITS).count_ones());
-        }
-        for w in after(pairs * 2 * VECTOR_BYTES) {
-            sums.both += u64::from(both(w).count_ones());
-        }
-        sums
+            both: both.total().0,
+        } + tail
     }
 
     /// A 4-state field's low bit is set for opaque (1) and unknown-opaque
@@ -280,8 +334,6 @@ impl BitSums {
 const LANES: usize = 4;
 type Lanes = [u64; LANES];
 const VECTOR_BYTES: usize = 8 * LANES;
-/// 4-state data is counted in pieces of this many bytes.
-const FOUR_STATE_PIECE: usize = 8 << 10;
 
 /// Vector `i` of `bytes` (its words `LANES·i` to `LANES·i + LANES - 1`),
 /// zeros when it is not whole.
@@ -298,13 +350,6 @@ fn vector(bytes: &[u8], i: usize) -> Lanes {
         word.copy_from_slice(&whole[8 * k..8 * k + 8]);
         u64::from_le_bytes(word)
     })
-}
-
-/// Pair `i` of vectors of `bytes` folded into one vector: `even` keeps
-/// only even bits of a word, so the pair's second vector fits on the odd bits.
-fn folded(bytes: &[u8], i: usize, even: impl Fn(u64) -> u64) -> Lanes {
-    let (a, b) = (vector(bytes, 2 * i), vector(bytes, 2 * i + 1));
-    std::array::from_fn(|k| even(a[k]) | (even(b[k]) << 1))
 }
 
 /// A little-endian word of up to 8 bytes.
@@ -338,53 +383,64 @@ fn ones(bytes: &[u8]) -> u64 {
     if vectors == 0 {
         return tail;
     }
-    count_vectors::<false>(vectors, |i| vector(bytes, i)).0 + tail
+    count_vectors(vectors, |i| vector(bytes, i)) + tail
 }
 
-/// The bits set in vectors `vector(0)` to `vector(n - 1)`, and with
-/// `EVEN`, those of them at even positions (4-state low bits; 0 without):
-/// a Harley-Seal carry-save counter adds eight vectors at a time bitwise
-/// (the ones, twos and fours of each bit position kept in three vectors),
-/// so only one vector in eight (the eights) is popcounted as it goes. The
-/// counter keeps bit positions apart, so masking what is popcounted splits
-/// the count by position at no other cost.
-fn count_vectors<const EVEN: bool>(n: usize, vector: impl Fn(usize) -> Lanes) -> (u64, u64) {
-    let (mut ones, mut twos, mut fours) = ([0u64; LANES], [0u64; LANES], [0u64; LANES]);
-    let count = |v: Lanes| {
-        let even = if EVEN {
-            popcount(v.map(|w| w & LOW_BITS))
-        } else {
-            0
-        };
-        (popcount(v), even)
-    };
-    let (mut eights, mut eights_even) = (0u64, 0u64);
+/// The bits set in vectors `vector(0)` to `vector(n - 1)`, eight at a time
+/// through an [`EightWay`] counter.
+fn count_vectors(n: usize, vector: impl Fn(usize) -> Lanes) -> u64 {
+    let mut counter = EightWay::<false>::default();
     let mut i = 0;
     while i + 8 <= n {
-        let (twos_a, o) = add(ones, vector(i), vector(i + 1));
-        let (twos_b, o) = add(o, vector(i + 2), vector(i + 3));
-        let (fours_a, t) = add(twos, twos_a, twos_b);
-        let (twos_a, o) = add(o, vector(i + 4), vector(i + 5));
-        let (twos_b, o) = add(o, vector(i + 6), vector(i + 7));
-        let (fours_b, t) = add(t, twos_a, twos_b);
-        let (eights_v, f) = add(fours, fours_a, fours_b);
-        (ones, twos, fours) = (o, t, f);
-        let (all, even) = count(eights_v);
-        eights += all;
-        eights_even += even;
+        counter.add(&std::array::from_fn(|k| vector(i + k)));
         i += 8;
     }
     // Fewer than eight vectors left: counted one by one.
-    let mut total = (8 * eights, 8 * eights_even);
-    for (weight, v) in [(4, fours), (2, twos), (1, ones)]
-        .into_iter()
-        .chain((i..n).map(|i| (1, vector(i))))
-    {
-        let (all, even) = count(v);
-        total.0 += weight * all;
-        total.1 += weight * even;
+    (i..n).fold(counter.total().0, |all, i| all + popcount(vector(i)))
+}
+
+/// A Harley-Seal carry-save counter, fed eight vectors at a time: it adds
+/// them bitwise (the ones, twos and fours of each bit position kept in
+/// three vectors), so only one vector in eight (the eights) is popcounted as
+/// it goes. The counter keeps bit positions apart, so masking what is
+/// popcounted splits the count by position at no other cost: with `EVEN`,
+/// the bits at even positions (4-state low bits) are counted too.
+#[derive(Default)]
+struct EightWay<const EVEN: bool> {
+    ones: Lanes,
+    twos: Lanes,
+    fours: Lanes,
+    eights: u64,
+    eights_even: u64,
+}
+
+impl<const EVEN: bool> EightWay<EVEN> {
+    fn add(&mut self, v: &[Lanes; 8]) {
+        let (twos_a, o) = add(self.ones, v[0], v[1]);
+        let (twos_b, o) = add(o, v[2], v[3]);
+        let (fours_a, t) = add(self.twos, twos_a, twos_b);
+        let (twos_a, o) = add(o, v[4], v[5]);
+        let (twos_b, o) = add(o, v[6], v[7]);
+        let (fours_b, t) = add(t, twos_a, twos_b);
+        let (eights, f) = add(self.fours, fours_a, fours_b);
+        (self.ones, self.twos, self.fours) = (o, t, f);
+        self.eights += popcount(eights);
+        if EVEN {
+            self.eights_even += popcount(eights.map(|w| w & LOW_BITS));
+        }
     }
-    total
+
+    /// (bits set, bits set at even positions; 0 without `EVEN`).
+    fn total(&self) -> (u64, u64) {
+        let (mut all, mut even) = (8 * self.eights, 8 * self.eights_even);
+        for (weight, v) in [(4, self.fours), (2, self.twos), (1, self.ones)] {
+            all += weight * popcount(v);
+            if EVEN {
+                even += weight * popcount(v.map(|w| w & LOW_BITS));
+            }
+        }
+        (all, even)
+    }
 }
 
 /// A carry-save adder on each lane: (carries, sums) of a + b + c.

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::MicromapTriangle;
 use crate::sim::index::{self, BaryError};
+use crate::sim::keys::{KeysCache, TriangleKeys};
 use crate::sim::opacity::{bits_per_state, state_at, OpacityState, Slot};
 
 /// The triangle array and data of one micromap build.
@@ -27,6 +28,10 @@ pub struct MicromapContent {
     /// A build with `triangleArrayStride` 0: all this many triangles read
     /// the one entry in [`Self::triangles`].
     pub repeated: Option<u64>,
+    /// Each entry's (format, level) key, worked out on first use; derived
+    /// from `triangles`, so whatever changes them starts a new cache (as
+    /// [`Self::repeating`] does).
+    pub keys: KeysCache,
 }
 
 /// A build's triangle array as the checker read it: a shared view of the
@@ -198,6 +203,7 @@ impl MicromapContent {
             data,
             data_start,
             repeated: None,
+            keys: KeysCache::default(),
         }
     }
 
@@ -206,7 +212,14 @@ impl MicromapContent {
     pub fn repeating(mut self, count: u64) -> Self {
         self.triangles.truncate(1);
         self.repeated = Some(count);
+        self.keys = KeysCache::default();
         self
+    }
+
+    /// Each triangle array entry's (format, level) key (see [`TriangleKeys`]):
+    /// one pass over the entries on the first call, kept for the next.
+    pub fn keys(&self) -> Option<&TriangleKeys> {
+        self.keys.get_or_work_out(&self.triangles)
     }
 
     /// The bytes from the build's `data` address on.

@@ -6,6 +6,7 @@ pub mod census;
 pub mod decode;
 pub mod index;
 pub mod intersect;
+pub mod keys;
 pub mod opacity;
 pub mod simulate;
 pub mod stats;

@@ -15,6 +15,7 @@ use crate::model::values::{
     MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
     OPACITY_MICROMAP_FORMAT_4_STATE,
 };
+use crate::model::MicromapTriangle;
 use crate::sim::census::{Shape, StateCounts};
 use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::sim::index::MAX_LEVEL;
@@ -208,9 +209,11 @@ const FORMATS: [(u32, &str); 2] = [
 const LEVELS: usize = MAX_LEVEL as usize + 1;
 
 /// The census of `content` whose entry `i` is referenced `weights[i]` times
-/// (missing weights are 0). Each triangle's data is counted by
-/// [`Shape::counts`]; a stride-0 build's one entry is counted once and
-/// multiplied by the triangles that read it.
+/// (missing weights are 0). Consecutive triangles of one format and level
+/// and one weight whose data lies one after the other are counted as one
+/// stream of states ([`Shape::run_counts`]), each checked on its own only
+/// for being uniform; others by [`Shape::counts`]. A stride-0 build's one
+/// entry is counted once and multiplied by the triangles that read it.
 pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
     let mut levels = [[LevelStats::default(); LEVELS]; 2];
     let shapes: [[Option<Shape>; LEVELS]; 2] = std::array::from_fn(|f| {
@@ -220,8 +223,25 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
     let (count, per_entry) = triangle_count(content);
     out.triangles = count;
     let data = content.data_bytes();
+    let mut run: Option<Run> = None;
     for (i, entry) in entries(content).iter().enumerate() {
         let weight = weights.get(i).copied().unwrap_or(0);
+        let offset = usize::try_from(entry.data_offset).ok();
+        // The next triangle of the current run: only its uniformity is
+        // checked here.
+        if let Some(run) = run.as_mut().filter(|r| r.continues(&entry, offset, weight)) {
+            if let Some(block) = data.get(run.end..run.end + run.shape.bytes()) {
+                run.end += block.len();
+                run.triangles += 1;
+                if let Some(state) = run.shape.uniform(block) {
+                    out.uniform.note(i, per_entry, state);
+                }
+                continue;
+            }
+        }
+        if let Some(run) = run.take() {
+            run.count_into(&mut levels, data, per_entry);
+        }
         let (format, level) = (u32::from(entry.format), u32::from(entry.subdivision_level));
         // Entry `i` not counted, for the reason whose count `reason` picks.
         let skip = |out: &mut Census, reason: fn(&mut NotCounted) -> &mut u64| {
@@ -240,22 +260,38 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
             skip(&mut out, |n| &mut n.level);
             continue;
         };
-        let block = usize::try_from(entry.data_offset)
-            .ok()
-            .and_then(|offset| data.get(offset..));
+        let block = offset.and_then(|offset| data.get(offset..));
+        if shape.fills_bytes() {
+            let (Some(start), Some(block)) = (offset, block.and_then(|b| b.get(..shape.bytes())))
+            else {
+                skip(&mut out, |n| &mut n.data_past_end);
+                continue;
+            };
+            if let Some(state) = shape.uniform(block) {
+                out.uniform.note(i, per_entry, state);
+            }
+            run = Some(Run {
+                format: entry.format,
+                level: entry.subdivision_level,
+                shape: *shape,
+                weight,
+                start,
+                end: start + block.len(),
+                triangles: 1,
+            });
+            continue;
+        }
         let Some(counts) = block.and_then(|block| shape.counts(block)) else {
             skip(&mut out, |n| &mut n.data_past_end);
             continue;
         };
-        bump(&mut at_level.triangles, per_entry);
-        at_level.stored += counts.times(per_entry);
-        if weight != 0 {
-            bump(&mut at_level.references, weight);
-            at_level.referenced += counts.times(weight);
-        }
+        at_level.add(1, per_entry, weight, counts);
         if let Some(state) = counts.uniform() {
             out.uniform.note(i, per_entry, state);
         }
+    }
+    if let Some(run) = run {
+        run.count_into(&mut levels, data, per_entry);
     }
     for (f, by_level) in levels.iter_mut().enumerate() {
         for (level, stats) in (0u32..).zip(by_level.iter_mut()) {
@@ -268,6 +304,56 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
         }
     }
     out
+}
+
+/// Consecutive triangles of one format and level, referenced alike, whose
+/// data lies one after the other (`data[start..end]`): their states are
+/// counted as one stream.
+struct Run {
+    format: u16,
+    level: u16,
+    shape: Shape,
+    weight: u64,
+    start: usize,
+    end: usize,
+    triangles: u64,
+}
+
+impl Run {
+    /// Whether `entry`, whose data starts at `offset` and which is
+    /// referenced `weight` times, is the run's next triangle.
+    fn continues(&self, entry: &MicromapTriangle, offset: Option<usize>, weight: u64) -> bool {
+        entry.format == self.format
+            && entry.subdivision_level == self.level
+            && weight == self.weight
+            && offset == Some(self.end)
+    }
+
+    /// Adds the run's counts to its level's (each entry standing for
+    /// `per_entry` triangles).
+    fn count_into(self, levels: &mut [[LevelStats; LEVELS]; 2], data: &[u8], per_entry: u64) {
+        let f = usize::from(u32::from(self.format) != FORMATS[0].0);
+        // Each triangle's block was found inside `data` as the run grew, and
+        // its level has a slot (it has a shape).
+        let run = data.get(self.start..self.end).unwrap_or_default();
+        let counts = self.shape.run_counts(run, self.triangles);
+        if let Some(stats) = levels[f].get_mut(usize::from(self.level)) {
+            stats.add(self.triangles, per_entry, self.weight, counts);
+        }
+    }
+}
+
+impl LevelStats {
+    /// Adds `triangles` counted triangles, each entry standing for
+    /// `per_entry` and referenced `weight` times, holding `counts` in all.
+    fn add(&mut self, triangles: u64, per_entry: u64, weight: u64, counts: StateCounts) {
+        bump(&mut self.triangles, triangles.saturating_mul(per_entry));
+        self.stored += counts.times(per_entry);
+        if weight != 0 {
+            bump(&mut self.references, triangles.saturating_mul(weight));
+            self.referenced += counts.times(weight);
+        }
+    }
 }
 
 impl UniformTriangles {

@@ -7,7 +7,7 @@
 use ommcheck_vuids::vuid;
 use ommcheck_vuids::Vuid;
 
-use crate::checks::index_scan::{for_each_chunk, index_max};
+use crate::checks::index_scan::{for_each_chunk, special_and_micromap_indices, IndexMix};
 use crate::device::ext;
 use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData, TrianglesData};
 use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
@@ -172,6 +172,18 @@ impl Validator {
         infos: &[BuildGeometryInfo],
         ranges: &[Option<Vec<BuildRangeInfo>>],
     ) {
+        self.record_micromap_geometry_after_checks(infos, ranges, &[]);
+    }
+
+    /// As [`Self::record_micromap_geometry`], with `index_mixes`, what the
+    /// call's checks found in the index buffers they read in full (which
+    /// are not read again).
+    pub(crate) fn record_micromap_geometry_after_checks(
+        &mut self,
+        infos: &[BuildGeometryInfo],
+        ranges: &[Option<Vec<BuildRangeInfo>>],
+        index_mixes: &[IndexMix],
+    ) {
         for (i, info) in infos.iter().enumerate() {
             if info.dst_acceleration_structure == 0 {
                 continue; // VK_NULL_HANDLE: nothing to remember it by.
@@ -184,7 +196,8 @@ impl Validator {
                     .map_or(0, |r| r.primitive_count);
                 let found = match &entry.geometry {
                     GeometryData::Triangles(triangles) => {
-                        triangles_geometry(&self.state, self.tier, triangles, primitives)
+                        let read = (&self.state, index_mixes);
+                        triangles_geometry(read, self.tier, triangles, primitives)
                     }
                     GeometryData::Instances(instances) => instances
                         .instances
@@ -227,9 +240,10 @@ fn referenced(state: &State, reference: u64) -> Option<MicromapGeometry> {
 }
 
 /// `tier`: below the content tier the index buffer is not read, so mixed
-/// special indices are not known.
+/// special indices are not known. An index buffer the checks read in full
+/// (in `index_mixes`) is not read again.
 fn triangles_geometry(
-    state: &State,
+    (state, index_mixes): (&State, &[IndexMix]),
     tier: Tier,
     triangles: &TrianglesData,
     primitives: u32,
@@ -251,7 +265,15 @@ fn triangles_geometry(
         opacity_khr: triangles.opacity_khr.is_some(),
         mixed_special_indices: tier >= Tier::Content
             && indices.any(|(ty, address, stride)| {
-                index_mix(state, ty, address, stride, primitives) == Some((true, true))
+                let read = index_mixes.iter().find(|m| {
+                    (m.index_type, m.address, m.stride, m.count)
+                        == (ty, address, stride, u64::from(primitives))
+                });
+                let held = match read {
+                    Some(mix) => Some(mix.held),
+                    None => index_mix(state, ty, address, stride, primitives),
+                };
+                held == Some((true, true))
             }),
     }
 }
@@ -283,15 +305,11 @@ pub(crate) fn index_mix(
     // One branch-free pass, a chunk of indices at a time (see index_scan):
     // special indices are -1..-4 cast to the index width; -5 (cluster
     // geometry's) is neither.
-    let width_max = index_max(size);
     let (mut special, mut real) = (false, false);
     for_each_chunk(bytes, size, stride, entries, |_, values| {
-        for &value in values {
-            let value = u64::from(value);
-            let is_special = value + 3 >= width_max;
-            special |= is_special;
-            real |= !is_special & (value + 4 != width_max);
-        }
+        let (s, r) = special_and_micromap_indices(values, size);
+        special |= s;
+        real |= r;
     });
     Some((special, real))
 }
@@ -460,6 +478,66 @@ mod tests {
             },
         );
         state
+    }
+
+    /// A device build at the content tier records what its checks read of
+    /// the index buffer (without reading it again), and that is what
+    /// reading it again gives.
+    #[test]
+    fn a_device_build_records_the_mix_its_checks_read() {
+        use crate::device::{Device, Profile};
+        use crate::model::accel::{
+            Geometry, TrianglesOpacityMicromapExt, ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+        };
+        let bytes = vec![0xff, 0xff, 0x03, 0x00, 0xfb, 0xff];
+        for (primitives, mixed) in [(3u32, true), (2, true), (1, false)] {
+            let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+            v.set_tier(Tier::Content);
+            *v.state_mut() = state_with(bytes.clone());
+            let attachment = TrianglesOpacityMicromapExt {
+                index_type: INDEX_TYPE_UINT16,
+                index_buffer: 0x1000,
+                index_stride: 2,
+                ..Default::default()
+            };
+            let geometry = GeometryData::Triangles(TrianglesData {
+                opacity_ext: Some(attachment),
+                ..Default::default()
+            });
+            let geometries = vec![Geometry {
+                geometry,
+                ..Default::default()
+            }];
+            let info = BuildGeometryInfo {
+                dst_acceleration_structure: 7,
+                ..BuildGeometryInfo::with_geometries(
+                    ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+                    geometries,
+                )
+            };
+            let range = BuildRangeInfo {
+                primitive_count: primitives,
+                ..Default::default()
+            };
+            let mut ctx = v.ctx("vkCmdBuildAccelerationStructuresKHR");
+            crate::checks::accel_build::builds(
+                &mut ctx,
+                crate::checks::accel_build::BuildCommand::Cmd,
+                std::slice::from_ref(&info),
+                Some(&[Some(vec![range])]),
+            );
+            let index_mixes = std::mem::take(&mut ctx.index_mixes);
+            drop(ctx);
+            assert_eq!(index_mixes.len(), 1, "{primitives} triangles");
+            let read_again = index_mix(&v.state, INDEX_TYPE_UINT16, 0x1000, 2, primitives);
+            assert_eq!(Some(index_mixes[0].held), read_again);
+            v.record_micromap_geometry_after_checks(&[info], &[Some(vec![range])], &index_mixes);
+            let recorded = v.state.micromap_geometry[&7];
+            assert_eq!(
+                recorded.mixed_special_indices, mixed,
+                "{primitives} triangles"
+            );
+        }
     }
 
     #[test]
