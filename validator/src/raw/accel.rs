@@ -283,6 +283,7 @@ unsafe fn geometry_micromap_data(
         // same layout (above).
         usage_counts: unsafe {
             usage_counts(
+                Vec::new(),
                 data.usage_counts_count,
                 array,
                 pointers,
@@ -356,6 +357,7 @@ unsafe fn triangles_data(
                     // SAFETY: forwarded from the caller.
                     usage_counts: unsafe {
                         usage_counts(
+                            Vec::new(),
                             a.usage_counts_count,
                             a.p_usage_counts,
                             a.pp_usage_counts,
@@ -424,6 +426,7 @@ unsafe fn triangles_data(
                     // SAFETY: forwarded from the caller.
                     usage_counts: unsafe {
                         usage_counts(
+                            Vec::new(),
                             a.usage_counts_count,
                             a.p_usage_counts,
                             a.pp_usage_counts,
