@@ -500,14 +500,14 @@ impl Validator {
                 vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
             )
         };
-        let mut report = Report::from(findings);
         if infos.is_null() && info_count != 0 {
-            return (report, None);
+            return (Report::from(findings), None);
         }
         // The caller reads the build's device memory at submission and
         // reports there what it cannot read.
         let later = std::mem::replace(&mut self.device_contents_later, true);
-        report.extend(self.cmd_build_micromaps(command_buffer, &model));
+        let mut report = self.cmd_build_micromaps(command_buffer, &model);
+        report.prepend(findings);
         self.device_contents_later = later;
         if self.tier < Tier::Content {
             // No check reads the build's contents: its vectors serve the
@@ -644,12 +644,12 @@ impl Validator {
                 });
             }
         }
-        let mut report = Report::from(findings);
-        report.extend(self.build_micromaps(
+        let mut report = self.build_micromaps(
             vk::Handle::as_raw(device),
             vk::Handle::as_raw(deferred_operation),
             &model,
-        ));
+        );
+        report.prepend(findings);
         self.state.host_memory.truncate(described_before);
         self.state.host_memory_partial = partial_before;
         self.spare_micromap_infos.keep(model);
