@@ -54,6 +54,8 @@ pub(crate) fn check(
         }))
     };
     let messages: Vec<Message> = match outcome {
+        // Most calls are valid: nothing to convert or deliver.
+        Ok(report) if report.findings.is_empty() => return false,
         Ok(report) => report
             .findings
             .iter()

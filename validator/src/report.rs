@@ -251,6 +251,15 @@ impl Report {
         self.findings.push(finding);
     }
 
+    /// Puts `findings` of an earlier step of the same call (reading its
+    /// arguments) before this report's own; cheaper than [`Self::extend`]
+    /// into a report of them, which moves this one and merges rule sets.
+    pub fn prepend(&mut self, findings: Vec<Finding>) {
+        if !findings.is_empty() {
+            self.findings.splice(0..0, findings);
+        }
+    }
+
     pub fn extend(&mut self, other: Report) {
         self.findings.extend(other.findings);
         self.checked.union(&other.checked);
@@ -433,6 +442,35 @@ impl fmt::Display for ReportSummary {
 mod tests {
     use super::*;
     use ommcheck_vuids::vuid;
+
+    #[test]
+    fn prepended_findings_come_first_and_keep_the_rules_checked() {
+        let finding = |location: &str| {
+            Finding::new(
+                vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
+                Severity::Error,
+                "f",
+                location,
+                "m",
+            )
+        };
+        let mut report = Report::from(vec![finding("check")]);
+        report
+            .checked
+            .insert(vuid::vkCmdBuildMicromapsEXT::pInfos_07508);
+        report.prepend(vec![finding("read 1"), finding("read 2")]);
+        let order: Vec<&str> = report
+            .findings
+            .iter()
+            .map(|f| f.location.as_str())
+            .collect();
+        assert_eq!(order, ["read 1", "read 2", "check"]);
+        report.prepend(Vec::new());
+        assert_eq!(report.findings.len(), 3);
+        assert!(report
+            .checked
+            .contains(vuid::vkCmdBuildMicromapsEXT::pInfos_07508));
+    }
 
     #[test]
     fn counts_agree_with_their_nouns_at_every_width() {

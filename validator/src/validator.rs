@@ -22,6 +22,10 @@ pub struct Validator {
     /// device memory later, at submission, and reports what it cannot read
     /// itself: contents missing now are not reported as not checked.
     pub(crate) device_contents_later: bool,
+    /// The micromap build infos the last build call read and no one kept,
+    /// refilled by the next one: a call reads into these vectors instead of
+    /// allocating its own (see [`crate::raw::SpareInfos`]).
+    pub(crate) spare_micromap_infos: crate::raw::SpareInfos,
 }
 
 impl Validator {
@@ -31,6 +35,7 @@ impl Validator {
             state: State::default(),
             tier: Tier::default(),
             device_contents_later: false,
+            spare_micromap_infos: Default::default(),
         }
     }
 

@@ -833,9 +833,9 @@ fn overhead_drivers() -> Option<(PathBuf, PathBuf)> {
     icd.zip(khronos)
 }
 
-/// Builds omm-app and the layer in release, runs `omm-app overhead` per
-/// configuration [`OVERHEAD_RUNS`] times, and returns the rows.
-fn run_overhead(root: &Path, icd: &Path, khronos: &Path) -> Result<Vec<OverheadRow>, Error> {
+/// Builds the layer (into `target/bench/layer`) and omm-app in release;
+/// returns omm-app and the layer's manifest directory.
+fn build_overhead_app(root: &Path) -> Result<(PathBuf, PathBuf), Error> {
     let target = crate::target_dir(root);
     // The layer: `cargo build -p ommcheck-tests --bin omm-app` does not build
     // the tests crate's dev-dependency on it, so it is built on its own.
@@ -858,47 +858,105 @@ fn run_overhead(root: &Path, icd: &Path, khronos: &Path) -> Result<Vec<OverheadR
             "cargo build omm-app failed ({status})"
         )));
     }
-    let app = target.join("release").join("omm-app");
-    let layer_path = std::env::join_paths([layer_dir.as_path(), khronos])
-        .map_err(|e| Error::Tool(format!("VK_ADD_LAYER_PATH: {e}")))?;
+    Ok((target.join("release").join("omm-app"), layer_dir))
+}
+
+/// Where and how one `omm-app overhead` process runs: the app, the Mock
+/// ICD, the layer search path, and (for the interleaved run) a directory
+/// holding a `vk_layer_settings.txt`.
+struct OverheadSetup {
+    app: PathBuf,
+    icd: PathBuf,
+    layer_path: std::ffi::OsString,
+    settings: Option<PathBuf>,
+}
+
+/// One process's shape: the layers, ommcheck's tier, the usage entries and
+/// micromap triangles of each build.
+struct OverheadProcess<'a> {
+    name: &'a str,
+    layers: &'a [&'static str],
+    tier: Option<&'a str>,
+    iterations: u32,
+    usage_entries: u32,
+    triangles: Option<u32>,
+}
+
+impl OverheadSetup {
+    /// Runs `omm-app overhead` once, with no `VK_*` or `OMMCHECK_*`
+    /// variable of the caller's.
+    fn run(&self, process: &OverheadProcess<'_>) -> Result<OverheadRun, Error> {
+        let mut command = Command::new(&self.app);
+        command
+            .args(["overhead", "--iterations"])
+            .arg(process.iterations.to_string())
+            .arg("--usage-entries")
+            .arg(process.usage_entries.to_string());
+        if let Some(triangles) = process.triangles {
+            command.arg("--triangles").arg(triangles.to_string());
+        }
+        for layer in process.layers {
+            command.args(["--layer", layer]);
+        }
+        for (var, _) in std::env::vars_os() {
+            let name = var.to_string_lossy();
+            if name.starts_with("VK_") || name.starts_with("OMMCHECK_") {
+                command.env_remove(&var);
+            }
+        }
+        command
+            .env("NODEVICE_SELECT", "1")
+            .env("VK_DRIVER_FILES", &self.icd)
+            .env("VK_ADD_LAYER_PATH", &self.layer_path);
+        if let Some(settings) = &self.settings {
+            command.env("VK_LAYER_SETTINGS_PATH", settings);
+        }
+        if let Some(tier) = process.tier {
+            command.env(VkLayer_ommcheck::settings::TIER, tier);
+        }
+        let output = command
+            .output()
+            .map_err(|e| Error::Tool(format!("{}: could not start: {e}", self.app.display())))?;
+        if !output.status.success() {
+            return Err(Error::Tool(format!(
+                "omm-app overhead ({}) failed ({}): {}",
+                process.name,
+                output.status,
+                String::from_utf8_lossy(&output.stderr)
+            )));
+        }
+        parse_overhead(&String::from_utf8_lossy(&output.stdout))
+    }
+}
+
+/// The layer search path: ommcheck's manifest directory, then the Khronos layer's.
+fn layer_path(layer_dir: &Path, khronos: &Path) -> Result<std::ffi::OsString, Error> {
+    std::env::join_paths([layer_dir, khronos])
+        .map_err(|e| Error::Tool(format!("VK_ADD_LAYER_PATH: {e}")))
+}
+
+/// Builds omm-app and the layer in release, runs `omm-app overhead` per
+/// configuration [`OVERHEAD_RUNS`] times, and returns the rows.
+fn run_overhead(root: &Path, icd: &Path, khronos: &Path) -> Result<Vec<OverheadRow>, Error> {
+    let (app, layer_dir) = build_overhead_app(root)?;
+    let setup = OverheadSetup {
+        app,
+        icd: icd.to_path_buf(),
+        layer_path: layer_path(&layer_dir, khronos)?,
+        settings: None,
+    };
     let mut rows = Vec::new();
     for config in overhead_configs() {
         let mut runs = Vec::new();
         for _ in 0..OVERHEAD_RUNS {
-            let mut command = Command::new(&app);
-            command
-                .args(["overhead", "--iterations"])
-                .arg(OVERHEAD_ITERATIONS.to_string())
-                .arg("--usage-entries")
-                .arg(config.usage_entries.to_string());
-            for layer in &config.layers {
-                command.args(["--layer", layer]);
-            }
-            for (var, _) in std::env::vars_os() {
-                let name = var.to_string_lossy();
-                if name.starts_with("VK_") || name.starts_with("OMMCHECK_") {
-                    command.env_remove(&var);
-                }
-            }
-            command
-                .env("NODEVICE_SELECT", "1")
-                .env("VK_DRIVER_FILES", icd)
-                .env("VK_ADD_LAYER_PATH", &layer_path);
-            if let Some(tier) = config.tier {
-                command.env(VkLayer_ommcheck::settings::TIER, tier);
-            }
-            let output = command
-                .output()
-                .map_err(|e| Error::Tool(format!("{}: could not start: {e}", app.display())))?;
-            if !output.status.success() {
-                return Err(Error::Tool(format!(
-                    "omm-app overhead ({}) failed ({}): {}",
-                    config.name,
-                    output.status,
-                    String::from_utf8_lossy(&output.stderr)
-                )));
-            }
-            let run = parse_overhead(&String::from_utf8_lossy(&output.stdout))?;
+            let run = setup.run(&OverheadProcess {
+                name: &config.name,
+                layers: &config.layers,
+                tier: config.tier,
+                iterations: OVERHEAD_ITERATIONS,
+                usage_entries: config.usage_entries,
+                triangles: None,
+            })?;
             eprintln!("xtask: bench: overhead, {}: {:?} ns", config.name, run.ns);
             runs.push(run);
         }
@@ -908,6 +966,156 @@ fn run_overhead(root: &Path, icd: &Path, khronos: &Path) -> Result<Vec<OverheadR
         });
     }
     Ok(rows)
+}
+
+/// The Khronos layer's errors that come from the Mock ICD's zero limits and
+/// zero buffer addresses, muted in the interleaved run so that its BLAS
+/// figure is the cost of checking.
+const MOCK_ICD_ERRORS: [&str; 2] = [
+    "VUID-VkAccelerationStructureBuildGeometryInfoKHR-type-03793",
+    "VUID-vkCmdBuildAccelerationStructuresKHR-pInfos-03802",
+];
+
+/// The builds' shapes of the interleaved run: (micromap triangles, usage
+/// entries).
+pub const INTERLEAVED_SHAPES: [(u32, u32); 6] = [
+    (1, 1),
+    (1, OVERHEAD_MANY_USAGE_ENTRIES),
+    (1000, 1),
+    (1000, OVERHEAD_MANY_USAGE_ENTRIES),
+    (100_000, 1),
+    (100_000, OVERHEAD_MANY_USAGE_ENTRIES),
+];
+
+/// The interleaved run's configurations: no layer, ommcheck, the Khronos layer.
+const INTERLEAVED_CONFIGS: [(&str, &[&str]); 3] = [
+    ("none", &[]),
+    ("ommcheck", &[VkLayer_ommcheck::LAYER_NAME]),
+    ("khronos", &[KHRONOS_VALIDATION]),
+];
+
+/// One call's medians in the interleaved run: no layer, ommcheck, Khronos.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InterleavedRow {
+    pub triangles: u32,
+    pub usage_entries: u32,
+    pub call: &'static str,
+    pub medians: [f64; 3],
+}
+
+/// The interleaved run's markdown table: each call's medians and
+/// ommcheck's overhead over the Khronos layer's (each less the no-layer
+/// time), then the messages received.
+pub fn render_interleaved(
+    tier: &str,
+    rows: &[InterleavedRow],
+    messages: &BTreeSet<String>,
+) -> String {
+    let mut out = format!(
+        "| micromap triangles | usage entries | call | no layer | ommcheck `{tier}` | Khronos \
+         | ommcheck overhead ÷ Khronos overhead |\n| ---: | ---: | --- | ---: | ---: | ---: | ---: |\n"
+    );
+    for row in rows {
+        let [none, ommcheck, khronos] = row.medians;
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {none:.1} ns | {ommcheck:.0} ns | {khronos:.0} ns | {:.2}× |",
+            row.triangles,
+            row.usage_entries,
+            row.call,
+            (ommcheck - none) / (khronos - none)
+        );
+    }
+    let received: Vec<&str> = messages.iter().map(String::as_str).collect();
+    let _ = write!(
+        out,
+        "\nMessages received: {}\n",
+        if received.is_empty() {
+            "none".into()
+        } else {
+            received.join(", ")
+        }
+    );
+    out
+}
+
+/// `cargo xtask overhead ROUNDS ITERATIONS [--tier TIER]`: issue 18's
+/// params floor. Runs `omm-app overhead` with no layer, with ommcheck at
+/// `tier` and with the Khronos layer, one process each, interleaved round
+/// by round over [`INTERLEAVED_SHAPES`], so that load on the machine falls
+/// on all three alike; prints each call's median over the rounds and
+/// ommcheck's overhead over the Khronos layer's.
+pub fn run_interleaved(
+    root: &Path,
+    rounds: usize,
+    iterations: u32,
+    tier: &str,
+) -> Result<(), Error> {
+    let Some((icd, khronos)) = overhead_drivers() else {
+        return Err(Error::Tool(
+            "the Mock ICD and the Khronos layer are needed".into(),
+        ));
+    };
+    let (app, layer_dir) = build_overhead_app(root)?;
+    let settings = crate::target_dir(root)
+        .join("bench")
+        .join("overhead-settings");
+    std::fs::create_dir_all(&settings).map_err(|source| Error::Io {
+        path: settings.clone(),
+        source,
+    })?;
+    let settings_file = settings.join("vk_layer_settings.txt");
+    let muted = format!(
+        "khronos_validation.message_id_filter = {}\n",
+        MOCK_ICD_ERRORS.join(",")
+    );
+    std::fs::write(&settings_file, muted).map_err(|source| Error::Io {
+        path: settings_file,
+        source,
+    })?;
+    let setup = OverheadSetup {
+        app,
+        icd,
+        layer_path: layer_path(&layer_dir, &khronos)?,
+        settings: Some(settings),
+    };
+    // Per (shape, configuration): each round's nanoseconds per call.
+    let mut runs: BTreeMap<(usize, usize), Vec<[f64; 3]>> = BTreeMap::new();
+    let mut messages = BTreeSet::new();
+    for round in 1..=rounds {
+        for (s, &(triangles, usage_entries)) in INTERLEAVED_SHAPES.iter().enumerate() {
+            for (c, (name, layers)) in INTERLEAVED_CONFIGS.iter().enumerate() {
+                let run = setup.run(&OverheadProcess {
+                    name,
+                    layers,
+                    tier: (c == 1).then_some(tier),
+                    iterations,
+                    usage_entries,
+                    triangles: Some(triangles),
+                })?;
+                messages.extend(run.messages.iter().map(|m| format!("{name}: {m}")));
+                runs.entry((s, c)).or_default().push(run.ns);
+            }
+        }
+        eprintln!("xtask: overhead: round {round} of {rounds} done");
+    }
+    let mut rows = Vec::new();
+    for (s, &(triangles, usage_entries)) in INTERLEAVED_SHAPES.iter().enumerate() {
+        for (i, &(_, header)) in OVERHEAD_CALLS.iter().enumerate() {
+            let medians = std::array::from_fn(|c| {
+                let ns: Vec<f64> = runs[&(s, c)].iter().map(|ns| ns[i]).collect();
+                median(&ns)
+            });
+            rows.push(InterleavedRow {
+                triangles,
+                usage_entries,
+                call: header,
+                medians,
+            });
+        }
+    }
+    print!("{}", render_interleaved(tier, &rows, &messages));
+    Ok(())
 }
 
 /// Runs the benchmarks (`--quick`: criterion's short warm-up and
@@ -1263,6 +1471,30 @@ mod tests {
             overhead_run([12.5, 30.0, 1500.0], &["VUID-x"])
         );
         assert!(parse_overhead(r#"{"results":{}}"#).is_err());
+    }
+
+    #[test]
+    fn interleaved_table_gives_overhead_over_khronos_less_no_layer() {
+        let rows = [InterleavedRow {
+            triangles: 1000,
+            usage_entries: 64,
+            call: OVERHEAD_CALLS[0].1,
+            medians: [2.0, 202.0, 402.0],
+        }];
+        let table = render_interleaved("params", &rows, &BTreeSet::new());
+        assert!(table.starts_with("| micromap triangles |"), "{table}");
+        assert!(table.contains("ommcheck `params`"), "{table}");
+        assert!(
+            table.contains(
+                "| 1000 | 64 | `vkCmdBuildMicromapsEXT` | 2.0 ns | 202 ns | 402 ns | 0.50× |"
+            ),
+            "{table}"
+        );
+        assert!(table.ends_with("Messages received: none\n"), "{table}");
+        let messages = BTreeSet::from(["khronos: VUID-x".to_string()]);
+        assert!(
+            render_interleaved("params", &rows, &messages).contains("received: khronos: VUID-x")
+        );
     }
 
     #[test]

@@ -123,6 +123,19 @@ mod driver {
             #[arg(long)]
             overhead_only: bool,
         },
+        /// The layer overhead per call of issue 18's params floor: omm-app over
+        /// the Mock ICD with no layer, ommcheck and the Khronos layer,
+        /// interleaved round by round over 1, 10^3 and 10^5 micromap
+        /// triangles with 1 and 64 usage entries; prints each call's median.
+        Overhead {
+            /// Rounds (one process per shape and configuration each).
+            rounds: usize,
+            /// Calls timed per command and process.
+            iterations: u32,
+            /// ommcheck's tier.
+            #[arg(long, default_value = "params")]
+            tier: String,
+        },
         /// Install what the tests need, then run fmt, clippy and the whole test suite.
         Test {
             /// Do not install missing prerequisites; report them.
@@ -229,6 +242,11 @@ mod driver {
                 quick,
                 overhead_only,
             } => xtask::bench::run(&root, quick, overhead_only),
+            Task::Overhead {
+                rounds,
+                iterations,
+                tier,
+            } => xtask::bench::run_interleaved(&root, rounds, iterations, &tier),
             Task::Test {
                 no_install,
                 sanitize: false,

@@ -8,7 +8,7 @@ use ommcheck_vuids::Vuid;
 
 use crate::device::Limits;
 use crate::model::command::queue;
-use crate::model::micromap::{MicromapUsage, UsageCounts};
+use crate::model::micromap::{MicromapUsage, UsageCounts, UsagesRead};
 use crate::model::values::{
     FormatKind, DISPLACEMENT_MICROMAP_FORMATS_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
     OPACITY_MICROMAP_FORMAT_4_STATE,
@@ -166,12 +166,23 @@ pub(crate) fn deferred_operation(
 /// (most calls have none, and building every location string was most of
 /// a valid call's cost).
 #[derive(Clone, Copy)]
-pub(crate) struct At<'a>(pub &'a str, pub &'a str);
+pub(crate) struct At<A>(pub A, pub &'static str);
 
-impl Display for At<'_> {
+impl<A: Display> Display for At<A> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.0)?;
+        self.0.fmt(f)?;
         f.write_str(self.1)
+    }
+}
+
+/// Element `.1` of the array `.0` (`"pInfos[2]"`), written out only when a
+/// finding needs it, as [`At`] is.
+#[derive(Clone, Copy)]
+pub(crate) struct Element(pub &'static str, pub usize);
+
+impl Display for Element {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}[{}]", self.0, self.1)
     }
 }
 
@@ -550,18 +561,19 @@ pub(crate) fn ext_usage_maxima(limits: &Limits) -> (u32, u32, u32) {
     )
 }
 
-/// The (format, subdivision level) keys a usage-count rule allows, as the
-/// highest level allowed per format, so that a call's usage entries are
-/// checked in one pass of a few compares each, with nothing formatted or
-/// allocated: a usage entry per (format, level) in use is what real builds
+/// The (format, subdivision level) keys a usage-count rule allows, as a
+/// table of the level bound per format, so that a call's usage entries are
+/// checked in one pass of a lookup and a compare each, with nothing
+/// formatted, hashed or allocated: a usage entry per (format, level) in use is what real builds
 /// give, and the per-entry rules (with their locations and messages) run
 /// only where an entry is outside the table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct UsageKeys {
-    /// Whether formats 0 to 3 are allowed, and up to which level. Formats
-    /// from 4 on are rejected everywhere.
-    allowed: [bool; Self::FORMATS],
-    max_level: [u32; Self::FORMATS],
+    /// Per format 0 to 3, one more than the highest level allowed (0: the
+    /// format is not allowed); the last slot stands for every format from
+    /// 4 on, which are rejected everywhere. As u64 so that a limit of
+    /// `u32::MAX` allows every level.
+    level_bound: [u64; Self::FORMATS + 1],
 }
 
 impl UsageKeys {
@@ -570,8 +582,7 @@ impl UsageKeys {
     /// No key allowed; add formats with [`Self::allow`].
     pub fn none() -> Self {
         Self {
-            allowed: [false; Self::FORMATS],
-            max_level: [0; Self::FORMATS],
+            level_bound: [0; Self::FORMATS + 1],
         }
     }
 
@@ -592,39 +603,35 @@ impl UsageKeys {
 
     /// Also allows `format` (below 4) at levels 0 to `max`.
     pub fn allow(mut self, format: u32, max: u32) -> Self {
-        if let Some(slot) = self.allowed.get_mut(format as usize) {
-            *slot = true;
-            self.max_level[format as usize] = max;
+        if (format as usize) < Self::FORMATS {
+            self.level_bound[format as usize] = u64::from(max) + 1;
         }
         self
     }
 
-    /// Written without branches or lookups (a compare per format), so that
-    /// a pass over many entries compiles to vector operations.
+    /// The table slot of `format`: itself below 4, else the slot no level
+    /// passes.
+    #[inline]
+    fn slot(format: u32) -> usize {
+        format.min(Self::FORMATS as u32) as usize
+    }
+
+    /// One table lookup and a compare, without branches, so that a pass
+    /// over many entries costs a few instructions each.
     #[inline]
     fn allows(&self, format: u32, level: u32) -> bool {
-        let mut allowed = false;
-        for f in 0..Self::FORMATS {
-            allowed |= (format == f as u32) & self.allowed[f] & (level <= self.max_level[f]);
-        }
-        allowed
+        u64::from(level) < self.level_bound[Self::slot(format)]
     }
 
     /// The usage entries of `counts` the per-entry rules must run on to
     /// decide what running them on every entry would: the first of each
     /// format where every entry is allowed (see [`Self::representatives`]),
     /// else all of them, in order.
-    pub fn entries_to_check<'a>(
-        &self,
-        counts: &'a UsageCounts,
-    ) -> impl Iterator<Item = (usize, MicromapUsage)> + 'a {
-        let first = self.representatives(counts);
-        let all = first.is_none().then(|| counts.usages_read());
-        first
-            .into_iter()
-            .flatten()
-            .flatten()
-            .chain(all.into_iter().flatten())
+    pub fn entries_to_check<'a>(&self, counts: &'a UsageCounts) -> EntriesToCheck<'a> {
+        match self.representatives(counts) {
+            Some(first) => EntriesToCheck::Representatives(first.into_iter()),
+            None => EntriesToCheck::All(counts.usages_read()),
+        }
     }
 
     /// When every usage entry of `counts` is an allowed key: the first
@@ -653,18 +660,23 @@ impl UsageKeys {
         // `pUsageCounts`: one branch-free pass, then the first entry of each
         // format seen (most arrays show it within a few entries).
         let mut allowed = true;
-        let mut seen = [false; Self::FORMATS];
-        for usage in array {
+        // A bit per table slot seen.
+        let mut seen = 0u8;
+        let mut visit = |usage: &MicromapUsage| {
             allowed &= self.allows(usage.format, usage.subdivision_level);
-            for (f, seen) in seen.iter_mut().enumerate() {
-                *seen |= usage.format == f as u32;
-            }
+            seen |= 1 << Self::slot(usage.format);
+        };
+        // Four entries a step: one loop test per four entries.
+        let mut chunks = array.chunks_exact(4);
+        for four in &mut chunks {
+            four.iter().for_each(&mut visit);
         }
+        chunks.remainder().iter().for_each(visit);
         if !allowed {
             return None;
         }
         for (format, slot) in first.iter_mut().enumerate() {
-            if seen[format] {
+            if seen & (1 << format) != 0 {
                 *slot = array
                     .iter()
                     .position(|u| u.format as usize == format)
@@ -672,6 +684,26 @@ impl UsageKeys {
             }
         }
         Some(first)
+    }
+}
+
+/// What [`UsageKeys::entries_to_check`] yields: a plain enum rather than a
+/// chain of adapters, which cost more per call than the pass itself.
+pub(crate) enum EntriesToCheck<'a> {
+    /// The first entry of each format, where every entry is allowed.
+    Representatives(std::array::IntoIter<Option<(usize, MicromapUsage)>, { UsageKeys::FORMATS }>),
+    /// Every entry, where some entry is not.
+    All(UsagesRead<'a>),
+}
+
+impl Iterator for EntriesToCheck<'_> {
+    type Item = (usize, MicromapUsage);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        match self {
+            EntriesToCheck::Representatives(first) => first.find_map(|entry| entry),
+            EntriesToCheck::All(all) => all.next(),
+        }
     }
 }
 
@@ -913,6 +945,10 @@ mod tests {
             .map(|(k, _)| k)
             .collect();
         assert_eq!(checked, [1, 0]);
+        // A limit of u32::MAX allows every level.
+        let every = UsageKeys::none().allow(1, u32::MAX);
+        let last = usage_counts(&[(1, u32::MAX, 1), (1, 0, 1)]);
+        assert_eq!(every.entries_to_check(&last).count(), 1);
         // A limit of 63 or more allows every level a u64 mask holds.
         let wide = UsageKeys::none().allow(2, 70);
         assert_eq!(

@@ -1,6 +1,7 @@
 //! `VkMicromapBuildInfoEXT`, `vkCmdBuildMicromapsEXT` and `vkBuildMicromapsEXT`.
 
 use std::collections::hash_map::{Entry, HashMap};
+use std::fmt::Display;
 use std::sync::Arc;
 
 use ommcheck_vuids::vuid::{
@@ -113,11 +114,7 @@ impl Validator {
             .map(|info| crate::state::execution::ExecEvent::Construct {
                 object: info.dst_micromap,
             });
-        self.record_execution(
-            command_buffer,
-            "vkCmdBuildMicromapsEXT",
-            constructs.collect::<Vec<_>>(),
-        );
+        self.record_execution(command_buffer, "vkCmdBuildMicromapsEXT", constructs);
         report
     }
 
@@ -154,10 +151,14 @@ impl Validator {
             String::new,
             || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
         );
-        let mut contents = Vec::with_capacity(infos.len());
+        let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
         for (i, info) in infos.iter().enumerate() {
-            let at = format!("pInfos[{i}]");
-            contents.push(build_info(&mut ctx, &at, info, Side::Host));
+            let at = common::Element("pInfos", i);
+            let content = build_info(&mut ctx, at, info, Side::Host);
+            // Below the content tier nothing is read (None): no list is kept.
+            if ctx.contents {
+                contents.push(content);
+            }
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
                 host::mode_07462,
@@ -304,10 +305,14 @@ pub(crate) fn cmd_build_micromaps_rules(
         String::new,
         || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into(),
     );
-    let mut contents = Vec::with_capacity(infos.len());
+    let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
     for (i, info) in infos.iter().enumerate() {
-        let at = format!("pInfos[{i}]");
-        contents.push(build_info(ctx, &at, info, Side::Device));
+        let at = common::Element("pInfos", i);
+        let content = build_info(ctx, at, info, Side::Device);
+        // Below the content tier nothing is read (None): no list is kept.
+        if ctx.contents {
+            contents.push(content);
+        }
         ctx.require(
             info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
             cmd::mode_07462,
@@ -328,27 +333,27 @@ pub(crate) fn cmd_build_micromaps_rules(
             ctx,
             info.data,
             cmd::pInfos_10896,
-            common::At(&at, ".data.deviceAddress"),
+            common::At(at, ".data.deviceAddress"),
         );
         common::valid_device_address(
             ctx,
             info.triangle_array,
             cmd::pInfos_10897,
-            common::At(&at, ".triangleArray.deviceAddress"),
+            common::At(at, ".triangleArray.deviceAddress"),
         );
         common::aligned(
             ctx,
             info.data,
             256,
             cmd::pInfos_07515,
-            common::At(&at, ".data.deviceAddress"),
+            common::At(at, ".data.deviceAddress"),
         );
         common::aligned(
             ctx,
             info.triangle_array,
             256,
             cmd::pInfos_07515,
-            common::At(&at, ".triangleArray.deviceAddress"),
+            common::At(at, ".triangleArray.deviceAddress"),
         );
         for (address, member) in [(info.data, "data"), (info.triangle_array, "triangleArray")] {
             common::device_address_usage(
@@ -380,7 +385,7 @@ pub(crate) fn cmd_build_micromaps_rules(
                 BUFFER_USAGE_STORAGE_BUFFER_BIT,
                 "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
                 cmd::pInfos_07511,
-                common::At(&at, ".scratchData.deviceAddress"),
+                common::At(at, ".scratchData.deviceAddress"),
             );
         }
         let alignment = u64::from(
@@ -393,7 +398,7 @@ pub(crate) fn cmd_build_micromaps_rules(
             info.scratch_data,
             alignment,
             cmd::pInfos_07514,
-            common::At(&at, ".scratchData.deviceAddress"),
+            common::At(at, ".scratchData.deviceAddress"),
         );
     }
     overlaps(ctx, infos, Side::Device);
@@ -558,7 +563,7 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
 /// data for the build's record.
 pub(crate) fn build_info(
     ctx: &mut Ctx<'_>,
-    at: &str,
+    at: impl Display + Copy,
     info: &MicromapBuildInfo,
     side: Side,
 ) -> Option<MicromapContent> {
@@ -677,7 +682,7 @@ pub(crate) fn build_info(
 /// `maxima` are the 2-state, 4-state and displacement level limits.
 fn usage_rules(
     ctx: &mut Ctx<'_>,
-    (at, member, k): (&str, &str, usize),
+    (at, member, k): (impl Display, &str, usize),
     usage: MicromapUsage,
     opacity: bool,
     (max2, max4, max_nv): (u32, u32, u32),
@@ -744,7 +749,7 @@ fn usage_rules(
 
 /// The triangle array's stride against the entries' 8 bytes: decided by the
 /// parameters alone (KHR states it as 11646/11647).
-fn triangle_array_stride(ctx: &mut Ctx<'_>, at: &str, info: &MicromapBuildInfo) {
+fn triangle_array_stride(ctx: &mut Ctx<'_>, at: impl Display, info: &MicromapBuildInfo) {
     let stride = info.triangle_array_stride;
     if stride >= MicromapTriangle::SIZE && stride % 4 == 0 {
         return;
@@ -804,7 +809,7 @@ fn entry_rules(opacity: bool) -> Vec<RuleId> {
 /// with the memory holding it), or None when the array is unreadable.
 fn triangle_array(
     ctx: &mut Ctx<'_>,
-    at: &str,
+    at: impl Display,
     info: &MicromapBuildInfo,
     side: Side,
     opacity: bool,
@@ -816,6 +821,10 @@ fn triangle_array(
     if triangles == 0 {
         return None;
     }
+    // Past this point the array is read, which costs far more than
+    // writing out the location once.
+    let at = at.to_string();
+    let at = at.as_str();
     // The memory holding an address, shared, and the address's offset in it.
     let shared_from = |address: u64| match side {
         Side::Device => state.device_contents_from(address),

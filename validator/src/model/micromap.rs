@@ -5,9 +5,11 @@ use serde::{Deserialize, Serialize};
 use crate::model::values::*;
 use crate::state::Handle;
 
-/// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`.
+/// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`, laid out as they are, so
+/// that reading an application's array of them is a copy of its bytes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
+#[repr(C)]
 pub struct MicromapUsage {
     pub count: u32,
     pub subdivision_level: u32,
@@ -88,7 +90,19 @@ impl UsageCounts {
         // The slice the entries are read from, summed directly: a vector
         // loop rather than a step of the two-slice iterator per entry.
         match (&self.array, &self.pointers) {
-            (Some(array), _) => array.iter().map(|u| u64::from(u.count)).sum(),
+            (Some(array), _) => {
+                // Four entries a step: one loop test per four adds.
+                let mut chunks = array.chunks_exact(4);
+                let mut sum = 0u64;
+                for four in &mut chunks {
+                    sum += four.iter().map(|u| u64::from(u.count)).sum::<u64>();
+                }
+                sum + chunks
+                    .remainder()
+                    .iter()
+                    .map(|u| u64::from(u.count))
+                    .sum::<u64>()
+            }
             (None, Some(pointers)) => pointers.iter().flatten().map(|u| u64::from(u.count)).sum(),
             (None, None) => 0,
         }

@@ -284,6 +284,7 @@ unsafe fn geometry_micromap_data(
         // same layout (above).
         usage_counts: unsafe {
             usage_counts(
+                Vec::new(),
                 data.usage_counts_count,
                 array,
                 pointers,
@@ -357,6 +358,7 @@ unsafe fn triangles_data(
                     // SAFETY: forwarded from the caller.
                     usage_counts: unsafe {
                         usage_counts(
+                            Vec::new(),
                             a.usage_counts_count,
                             a.p_usage_counts,
                             a.pp_usage_counts,
@@ -425,6 +427,7 @@ unsafe fn triangles_data(
                     // SAFETY: forwarded from the caller.
                     usage_counts: unsafe {
                         usage_counts(
+                            Vec::new(),
                             a.usage_counts_count,
                             a.p_usage_counts,
                             a.pp_usage_counts,

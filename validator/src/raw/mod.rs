@@ -89,6 +89,11 @@ unsafe fn walk_chain(
     findings: &mut Vec<Finding>,
     mut visit: impl FnMut(Link),
 ) {
+    // Most structures carry no chain: return before clearing the list of
+    // visited addresses, which costs more than the rest of the walk.
+    if next.is_null() {
+        return;
+    }
     let mut visited = [std::ptr::null::<c_void>(); MAX_CHAIN];
     let mut walked = 0;
     while !next.is_null() {
@@ -210,6 +215,19 @@ pub(crate) fn bounded_len(
     len.min(MAX_ELEMENTS)
 }
 
+// `usage_counts` reads `VkMicromapUsageEXT` arrays as `MicromapUsage`.
+const _: () = {
+    use std::mem::{align_of, offset_of, size_of};
+    assert!(size_of::<vk::MicromapUsageEXT>() == size_of::<MicromapUsage>());
+    assert!(align_of::<vk::MicromapUsageEXT>() == align_of::<MicromapUsage>());
+    assert!(offset_of!(vk::MicromapUsageEXT, count) == offset_of!(MicromapUsage, count));
+    assert!(
+        offset_of!(vk::MicromapUsageEXT, subdivision_level)
+            == offset_of!(MicromapUsage, subdivision_level)
+    );
+    assert!(offset_of!(vk::MicromapUsageEXT, format) == offset_of!(MicromapUsage, format));
+};
+
 pub(crate) fn usage(u: vk::MicromapUsageEXT) -> MicromapUsage {
     MicromapUsage {
         count: u.count,
@@ -218,11 +236,14 @@ pub(crate) fn usage(u: vk::MicromapUsageEXT) -> MicromapUsage {
     }
 }
 
-/// Reads a `usageCountsCount` / `pUsageCounts` / `ppUsageCounts` triple.
+/// Reads a `usageCountsCount` / `pUsageCounts` / `ppUsageCounts` triple,
+/// `pUsageCounts` into `spare`'s allocation (a new vector where there is
+/// none to reuse).
 ///
 /// # Safety
 /// The pointers must be NULL or valid for `count` elements, as the API requires.
 pub(crate) unsafe fn usage_counts(
+    mut spare: Vec<MicromapUsage>,
     count: u32,
     array: *const vk::MicromapUsageEXT,
     pointers: *const *const vk::MicromapUsageEXT,
@@ -256,7 +277,17 @@ pub(crate) unsafe fn usage_counts(
             .map(|&p| (!p.is_null()).then(|| usage(unsafe { *p })))
             .collect::<Vec<_>>()
     });
-    let array = array.map(|list| list.iter().copied().map(usage).collect::<Vec<_>>());
+    let array = array.map(|list| {
+        // SAFETY: `MicromapUsage` is `VkMicromapUsageEXT` laid out alike
+        // (repr(C), the same three u32 in the same order; asserted below),
+        // so the elements read as they are.
+        let list = unsafe {
+            std::slice::from_raw_parts(list.as_ptr().cast::<MicromapUsage>(), list.len())
+        };
+        spare.clear();
+        spare.extend_from_slice(list);
+        spare
+    });
     let read = array
         .as_ref()
         .map(Vec::len)
@@ -283,6 +314,22 @@ pub unsafe fn micromap_build_info(
     location: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> MicromapBuildInfo {
+    // SAFETY: forwarded from the caller.
+    unsafe { micromap_build_info_into(Vec::new(), info, function, location, findings) }
+}
+
+/// [`micromap_build_info`], reading the usage counts into `spare_usages`'
+/// allocation.
+///
+/// # Safety
+/// As for [`micromap_build_info`].
+unsafe fn micromap_build_info_into(
+    spare_usages: Vec<MicromapUsage>,
+    info: &vk::MicromapBuildInfoEXT<'_>,
+    function: &'static str,
+    location: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> MicromapBuildInfo {
     // The host members' provenance is exposed so a host build can read
     // through the number again (see `build_micromaps_raw`).
     let (data, scratch_data, triangle_array) = (
@@ -301,6 +348,7 @@ pub unsafe fn micromap_build_info(
         // SAFETY: forwarded from the caller.
         usage_counts: unsafe {
             usage_counts(
+                spare_usages,
                 info.usage_counts_count,
                 info.p_usage_counts,
                 info.pp_usage_counts,
@@ -316,17 +364,47 @@ pub unsafe fn micromap_build_info(
     }
 }
 
-/// Reads `infos` (NULL with a non-zero count reads as empty).
+/// Micromap build infos a call read and no one kept, whose vectors (the
+/// list and each info's usage entries) the next call reads into, so that a
+/// build call below the content tier allocates nothing. Small ones only:
+/// one huge call must not keep its memory for the device's lifetime.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SpareInfos(Vec<MicromapBuildInfo>);
+
+impl SpareInfos {
+    /// The most infos, and usage entries of one info, kept for reuse.
+    const INFOS: usize = 64;
+    const USAGES: usize = 4096;
+
+    /// Keeps `infos` for the next call if they are small.
+    pub fn keep(&mut self, infos: Vec<MicromapBuildInfo>) {
+        let small = infos.capacity() <= Self::INFOS
+            && infos.iter().all(|info| {
+                info.usage_counts
+                    .array
+                    .as_ref()
+                    .is_none_or(|array| array.capacity() <= Self::USAGES)
+            });
+        if small {
+            self.0 = infos;
+        }
+    }
+}
+
+/// Reads `infos` (NULL with a non-zero count reads as empty), into the
+/// vectors of `spare`.
 ///
 /// # Safety
 /// As [`micromap_build_info`] for each of `count` elements at `infos`.
 pub(crate) unsafe fn micromap_build_infos(
+    spare: &mut SpareInfos,
     infos: *const vk::MicromapBuildInfoEXT<'_>,
     count: u32,
     function: &'static str,
     findings: &mut Vec<Finding>,
     null_infos: ommcheck_vuids::Vuid,
 ) -> Vec<MicromapBuildInfo> {
+    let mut read = std::mem::take(&mut spare.0);
     if infos.is_null() {
         if count != 0 {
             findings.push(Finding::new(
@@ -337,18 +415,29 @@ pub(crate) unsafe fn micromap_build_infos(
                 format!("pInfos is NULL with infoCount = {count}"),
             ));
         }
-        return Vec::new();
+        read.clear();
+        return read;
     }
     let len = bounded_len(count, function, "pInfos", findings);
     // SAFETY: the caller guarantees `count` readable elements; `len <= count`.
     let list = unsafe { std::slice::from_raw_parts(infos, len) };
-    list.iter()
-        .enumerate()
+    read.truncate(len);
+    read.reserve_exact(len - read.len());
+    for (i, info) in list.iter().enumerate() {
+        let old = read.get_mut(i);
+        let usages = old
+            .and_then(|old| old.usage_counts.array.take())
+            .unwrap_or_default();
         // SAFETY: forwarded from the caller.
-        .map(|(i, info)| unsafe {
-            micromap_build_info(info, function, Index("pInfos", i), findings)
-        })
-        .collect()
+        let info = unsafe {
+            micromap_build_info_into(usages, info, function, Index("pInfos", i), findings)
+        };
+        match read.get_mut(i) {
+            Some(slot) => *slot = info,
+            None => read.push(info),
+        }
+    }
+    read
 }
 
 impl Validator {
@@ -387,7 +476,8 @@ impl Validator {
     /// As [`Self::cmd_build_micromaps_raw`], and returns the build as read,
     /// to check its contents when the command buffer is submitted
     /// ([`Validator::check_device_build_contents`]); None when `pInfos` is
-    /// NULL with a count.
+    /// NULL with a count, and below the content tier, where no check reads
+    /// contents.
     ///
     /// # Safety
     /// As [`Self::cmd_build_micromaps_raw`].
@@ -402,6 +492,7 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let model = unsafe {
             micromap_build_infos(
+                &mut self.spare_micromap_infos,
                 infos,
                 info_count,
                 function,
@@ -409,15 +500,21 @@ impl Validator {
                 vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
             )
         };
-        let mut report = Report::from(findings);
         if infos.is_null() && info_count != 0 {
-            return (report, None);
+            return (Report::from(findings), None);
         }
         // The caller reads the build's device memory at submission and
         // reports there what it cannot read.
         let later = std::mem::replace(&mut self.device_contents_later, true);
-        report.extend(self.cmd_build_micromaps(command_buffer, &model));
+        let mut report = self.cmd_build_micromaps(command_buffer, &model);
+        report.prepend(findings);
         self.device_contents_later = later;
+        if self.tier < Tier::Content {
+            // No check reads the build's contents: its vectors serve the
+            // next call.
+            self.spare_micromap_infos.keep(model);
+            return (report, None);
+        }
         (report, Some(DeviceBuild::Micromaps(model)))
     }
 
@@ -487,6 +584,7 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let model = unsafe {
             micromap_build_infos(
+                &mut self.spare_micromap_infos,
                 infos,
                 info_count,
                 "vkBuildMicromapsEXT",
@@ -546,14 +644,15 @@ impl Validator {
                 });
             }
         }
-        let mut report = Report::from(findings);
-        report.extend(self.build_micromaps(
+        let mut report = self.build_micromaps(
             vk::Handle::as_raw(device),
             vk::Handle::as_raw(deferred_operation),
             &model,
-        ));
+        );
+        report.prepend(findings);
         self.state.host_memory.truncate(described_before);
         self.state.host_memory_partial = partial_before;
+        self.spare_micromap_infos.keep(model);
         report
     }
 
@@ -687,6 +786,109 @@ mod tests {
         assert_eq!(s_types, [1, 2]);
         assert_eq!(findings.len(), 1);
         assert_eq!(findings[0].rule.as_str(), rules::PNEXT_CHAIN.id);
+    }
+
+    /// `count` build infos, info `i` with `i + 1` usage entries of level
+    /// `i` and its own destination, behind `usages`.
+    fn infos_with_usages(
+        usages: &[[vk::MicromapUsageEXT; 4]; 4],
+        count: usize,
+    ) -> Vec<vk::MicromapBuildInfoEXT<'_>> {
+        (0..count)
+            .map(|i| vk::MicromapBuildInfoEXT {
+                dst_micromap: vk::Handle::from_raw(0x100 + i as u64),
+                usage_counts_count: i as u32 + 1,
+                p_usage_counts: usages[i].as_ptr(),
+                ..Default::default()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn infos_read_into_spare_vectors_equal_a_fresh_read() {
+        let usages: [[vk::MicromapUsageEXT; 4]; 4] = std::array::from_fn(|i| {
+            std::array::from_fn(|k| vk::MicromapUsageEXT {
+                count: k as u32 + 1,
+                subdivision_level: i as u32,
+                format: 1,
+            })
+        });
+        let mut spare = SpareInfos::default();
+        // More infos than the spare holds, then fewer, then more again:
+        // every read equals one into fresh vectors.
+        for count in [2, 4, 1, 3, 0] {
+            let infos = infos_with_usages(&usages, count);
+            let mut findings = Vec::new();
+            let n = count as u32;
+            // SAFETY: each info's usage pointer holds `i + 1` live entries.
+            let read = unsafe {
+                micromap_build_infos(
+                    &mut spare,
+                    infos.as_ptr(),
+                    n,
+                    "f",
+                    &mut findings,
+                    vuid::vkCmdBuildMicromapsEXT::pInfos_parameter,
+                )
+            };
+            // SAFETY: as above.
+            let fresh: Vec<MicromapBuildInfo> = infos
+                .iter()
+                .enumerate()
+                .map(|(i, info)| unsafe {
+                    micromap_build_info(info, "f", Index("pInfos", i), &mut findings)
+                })
+                .collect();
+            assert_eq!(read, fresh, "{count} infos");
+            assert_eq!(read.len(), count);
+            for (i, info) in read.iter().enumerate() {
+                let array = info.usage_counts.array.as_deref().unwrap();
+                assert_eq!(array.len(), i + 1);
+                assert!(array.iter().all(|u| u.subdivision_level == i as u32));
+            }
+            assert!(findings.is_empty());
+            spare.keep(read);
+        }
+    }
+
+    #[test]
+    fn only_small_infos_are_kept_for_reuse() {
+        let mut spare = SpareInfos::default();
+        let huge = MicromapBuildInfo {
+            usage_counts: UsageCounts::array(vec![
+                MicromapUsage::default();
+                SpareInfos::USAGES + 1
+            ]),
+            ..Default::default()
+        };
+        spare.keep(vec![huge]);
+        assert!(spare.0.is_empty());
+        spare.keep(vec![MicromapBuildInfo::default(); SpareInfos::INFOS + 1]);
+        assert!(spare.0.is_empty());
+        spare.keep(vec![MicromapBuildInfo::default(); 2]);
+        assert_eq!(spare.0.len(), 2);
+    }
+
+    #[test]
+    fn below_the_content_tier_no_device_build_is_kept() {
+        let usages = [usage_ext(2)];
+        let info = vk::MicromapBuildInfoEXT {
+            usage_counts_count: 1,
+            p_usage_counts: usages.as_ptr(),
+            ..Default::default()
+        };
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        for (tier, kept) in [
+            (Tier::Params, false),
+            (Tier::State, false),
+            (Tier::Content, true),
+        ] {
+            v.set_tier(tier);
+            // SAFETY: the usage pointer holds one live entry.
+            let (_, build) =
+                unsafe { v.cmd_build_micromaps_raw_kept(&CommandBuffer::default(), 1, &info) };
+            assert_eq!(build.is_some(), kept, "{tier}");
+        }
     }
 
     #[test]
