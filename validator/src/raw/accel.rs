@@ -12,8 +12,6 @@
 //! only host commands (`vkBuildAccelerationStructuresKHR`) read memory at an
 //! address, and only where the API itself describes the extent.
 
-use std::sync::Arc;
-
 use ash::vk;
 use ommcheck_vuids::khr;
 
@@ -668,7 +666,7 @@ impl Validator {
         };
         self.state.host_memory.push(HostRange {
             address: read.address,
-            bytes: Arc::from(bytes),
+            bytes: crate::Bytes::from(bytes),
         });
     }
 

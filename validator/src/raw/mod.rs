@@ -17,7 +17,6 @@ pub mod pipeline;
 
 use std::ffi::c_void;
 use std::fmt::{self, Display};
-use std::sync::Arc;
 
 use ash::vk;
 
@@ -542,7 +541,7 @@ impl Validator {
                 };
                 self.state.host_memory.push(HostRange {
                     address: info.triangle_array,
-                    bytes: Arc::from(bytes),
+                    bytes: crate::Bytes::from(bytes),
                 });
             }
         }
@@ -599,7 +598,7 @@ impl Validator {
         };
         self.state.host_memory.push(HostRange {
             address: data,
-            bytes: Arc::from(bytes),
+            bytes: crate::Bytes::from(bytes),
         });
     }
 }
