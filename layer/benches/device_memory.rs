@@ -7,8 +7,10 @@
 //!   takes a range of its arena and records a barrier, two copies and a
 //!   barrier) and off;
 //! - `complete`: the `vkWaitForFences` that sees the submission complete
-//!   and checks the read-back inputs of a valid build, against a memcpy of
-//!   the bytes read back;
+//!   and checks the read-back inputs of a valid build (`wait`), against a
+//!   memcpy of the bytes read back; and the `vkQueueSubmit` of the same
+//!   command buffer before it (`resubmit`), which copies out what the last
+//!   check kept of the readback;
 //! - `route1`: `vkQueueSubmit` of an upload from a mapped staging buffer
 //!   and the build, with readback off, whose inputs lie at the start of a
 //!   buffer of exactly their size or of 16 MiB: the cost follows the bytes
@@ -189,6 +191,29 @@ fn complete(c: &mut Criterion) {
                 waiting
             })
         });
+        // The submission before each of those waits: the command buffer is
+        // submitted again, so what the last completion kept of the readback
+        // is copied out before the copies write it again.
+        group.bench_with_input(
+            BenchmarkId::new("resubmit", triangles),
+            &triangles,
+            |b, _| {
+                b.iter_custom(|iterations| {
+                    let mut submitting = Duration::ZERO;
+                    for _ in 0..iterations {
+                        let start = Instant::now();
+                        assert_eq!(
+                            black_box(build.chain.submit_with(command_buffer, fence)),
+                            vk::Result::SUCCESS
+                        );
+                        submitting += start.elapsed();
+                        assert_eq!(build.chain.wait_for_fence(fence), vk::Result::SUCCESS);
+                        fake::clear_calls();
+                    }
+                    submitting
+                })
+            },
+        );
         let source = vec![7u8; bytes as usize];
         let mut target = vec![0u8; bytes as usize];
         group.bench_with_input(BenchmarkId::new("memcpy", triangles), &triangles, |b, _| {

@@ -6,7 +6,8 @@
 
 use std::collections::HashSet;
 use std::ffi::{c_char, c_void, CStr};
-use std::sync::Arc;
+
+use ommcheck::Bytes;
 
 use ash::vk;
 use ash::vk::Handle as _;
@@ -501,11 +502,46 @@ pub unsafe fn queue_family_flags(
 /// # Safety
 /// `[address, address + len)` must lie inside a range the application
 /// mapped with `vkMapMemory` and has not unmapped.
-pub unsafe fn mapped_bytes(address: usize, len: usize) -> Arc<[u8]> {
+pub unsafe fn mapped_bytes(address: usize, len: usize) -> Bytes {
     // SAFETY: forwarded from the caller: mapped memory is readable host memory.
-    Arc::from(unsafe {
+    Bytes::copy_from_slice(unsafe {
         std::slice::from_raw_parts(std::ptr::with_exposed_provenance::<u8>(address), len)
     })
+}
+
+/// `len` bytes of mapped device memory at host address `address`, shared
+/// without a copy: the view keeps `owner`, which keeps the memory mapped.
+///
+/// # Safety
+/// `[address, address + len)` must lie inside memory mapped with
+/// `vkMapMemory` that stays mapped, and is not written, while `owner`
+/// lives: the bytes are read whenever the view (or a clone of it) is.
+pub unsafe fn mapped_view<O: Send + 'static>(owner: O, address: usize, len: usize) -> Bytes {
+    Bytes::from_owner(MappedView {
+        _owner: owner,
+        address,
+        len,
+    })
+}
+
+/// See [`mapped_view`]: constructed only there, under its contract.
+struct MappedView<O> {
+    _owner: O,
+    address: usize,
+    len: usize,
+}
+
+impl<O> AsRef<[u8]> for MappedView<O> {
+    fn as_ref(&self) -> &[u8] {
+        // SAFETY: `mapped_view`'s caller promised the range stays mapped and
+        // unwritten while the owner, a field of this view, lives.
+        unsafe {
+            std::slice::from_raw_parts(
+                std::ptr::with_exposed_provenance::<u8>(self.address),
+                self.len,
+            )
+        }
+    }
 }
 
 /// Every reader on the structures an application (or the next layer) could
@@ -548,6 +584,7 @@ pub unsafe fn device_sizes(
 mod tests {
     use std::ffi::{c_void, CStr};
     use std::ptr;
+    use std::sync::Arc;
 
     use ash::vk;
 
@@ -965,6 +1002,23 @@ mod tests {
         // SAFETY: bytes 4..12 of a live allocation whose provenance is exposed.
         let copy = unsafe { mapped_bytes(address + 4, 8) };
         assert_eq!(&copy[..], &memory[4..12]);
+    }
+
+    #[test]
+    fn mapped_views_share_the_range_and_keep_their_owner() {
+        let memory: Arc<Vec<u8>> = Arc::new((0..32).collect());
+        let address = memory.as_ptr().expose_provenance();
+        // SAFETY: bytes 4..12 of an allocation the view's owner keeps alive
+        // and nothing writes; its provenance is exposed.
+        let view = unsafe { mapped_view(Arc::clone(&memory), address + 4, 8) };
+        assert_eq!(&view[..], &memory[4..12]);
+        assert_eq!(view.as_ptr().addr(), address + 4, "not a copy");
+        let tail = view.slice(6..);
+        drop(view);
+        assert_eq!(Arc::strong_count(&memory), 2, "a slice keeps the owner");
+        assert_eq!(&tail[..], &[10, 11]);
+        drop(tail);
+        assert_eq!(Arc::strong_count(&memory), 1);
     }
 
     #[test]

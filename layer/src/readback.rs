@@ -20,7 +20,7 @@
 
 #![allow(unsafe_code)]
 
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError, Weak};
 
 use ash::vk;
 use ash::vk::Handle as _;
@@ -28,7 +28,7 @@ use ommcheck::checks::device_contents::{
     ContentRead, DeviceBuild, Extent, KnownBytes, ReadKind, INSTANCE_SIZE,
 };
 use ommcheck::model::accel::GeometryData;
-use ommcheck::Severity;
+use ommcheck::{Bytes, Severity};
 
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::read;
@@ -66,6 +66,10 @@ pub struct Readback {
     /// Where the range starts in host memory (the block is mapped whole).
     mapped: usize,
     pub windows: Vec<Window>,
+    /// Alive while a view of the range ([`Readback::contents`]) is.
+    views: Mutex<Weak<()>>,
+    /// Memory of earlier copies of the views, for reuse.
+    spares: Mutex<Vec<Bytes>>,
 }
 
 impl Drop for Readback {
@@ -75,28 +79,84 @@ impl Drop for Readback {
 }
 
 impl Readback {
-    /// The bytes the copies wrote, one window each, for the content checks.
-    /// Call only once the submission that ran them is complete.
-    pub fn contents(&self) -> Vec<KnownBytes> {
+    /// The bytes the copies wrote, one window each, for the content checks:
+    /// views of the range, not copies. Each view keeps the range taken
+    /// (this readback alive), so what the checks keep (a built micromap's
+    /// triangles and data) stays readable; before the range is written
+    /// again, [`Readback::own_views`] makes those copies. Call only once
+    /// the submission that ran the copies is complete.
+    pub fn contents(self: &Arc<Self>) -> Vec<KnownBytes> {
+        let Ok(size) = usize::try_from(self.size) else {
+            return Vec::new();
+        };
+        let token = {
+            let mut views = lock(&self.views);
+            views.upgrade().unwrap_or_else(|| {
+                let token = Arc::new(());
+                *views = Arc::downgrade(&token);
+                token
+            })
+        };
+        // SAFETY: the range `[mapped, mapped + size)` is this readback's, in
+        // a block mapped whole, host-coherent; the view keeps the readback,
+        // so the range is neither returned nor the block unmapped while it
+        // lives. The copies that write it have completed, and the range is
+        // written again only by a later submission of the same recording,
+        // before which `own_views` replaces the views the checker keeps.
+        let whole = unsafe { read::mapped_view((Arc::clone(self), token), self.mapped, size) };
         self.windows
             .iter()
             .filter_map(|window| {
-                let address = self.mapped.checked_add(usize::try_from(window.at).ok()?)?;
-                let len = usize::try_from(window.len).ok()?;
-                // SAFETY: `[at, at + len)` lies inside this readback's range
-                // of its block (sized to hold every window), which stays
-                // mapped while the range is taken, and the memory is
-                // host-coherent.
-                let bytes = unsafe { read::mapped_bytes(address, len) };
-                Some(KnownBytes {
+                let at = usize::try_from(window.at).ok()?;
+                let end = at.checked_add(usize::try_from(window.len).ok()?)?;
+                (end <= size).then(|| KnownBytes {
                     buffer: window.buffer,
                     offset: window.offset,
-                    bytes,
+                    bytes: whole.slice(at..end),
                 })
             })
             .collect()
     }
+
+    /// Before the range is written again (a later submission of the
+    /// recording that holds it): what `state` keeps of it becomes copies.
+    /// The copies' memory is kept here and reused at the next submission
+    /// once the checker has let go of it (a completion replaced what it
+    /// kept), so a command buffer submitted again and again neither
+    /// allocates nor frees its copies each time.
+    pub fn own_views(&self, state: &mut ommcheck::state::State) {
+        if lock(&self.views).strong_count() == 0 {
+            return;
+        }
+        let Ok(size) = usize::try_from(self.size) else {
+            return;
+        };
+        let mut spares = lock(&self.spares);
+        let mut copy = |bytes: &[u8]| {
+            let reused = spares
+                .iter()
+                .position(|spare| spare.len() == bytes.len() && spare.is_unique())
+                .and_then(|k| spares.swap_remove(k).try_into_mut().ok());
+            let copied = match reused {
+                Some(mut memory) => {
+                    memory.copy_from_slice(bytes);
+                    memory.freeze()
+                }
+                None => Bytes::copy_from_slice(bytes),
+            };
+            // One spare per view a build keeps (its triangles and data);
+            // more would only be memory held for nothing.
+            if spares.len() < MAX_SPARES {
+                spares.push(copied.clone());
+            }
+            copied
+        };
+        state.own_bytes_within(&(self.mapped..self.mapped.saturating_add(size)), &mut copy);
+    }
 }
+
+/// Copies a readback keeps for reuse (see [`Readback::own_views`]).
+const MAX_SPARES: usize = 8;
 
 #[cfg(test)]
 impl Readback {
@@ -110,6 +170,8 @@ impl Readback {
             buffer: vk::Buffer::null(),
             mapped: 0,
             windows: Vec::new(),
+            views: Mutex::default(),
+            spares: Mutex::default(),
         }
     }
 }
@@ -336,6 +398,8 @@ pub fn plan(
                 buffer,
                 mapped,
                 windows,
+                views: Mutex::default(),
+            spares: Mutex::default(),
             };
             // SAFETY: the application's command buffer, recording (the
             // build command being recorded requires it).
@@ -841,6 +905,95 @@ mod tests {
         assert_eq!(arena.blocks.len(), 1, "the last block stays");
         assert_eq!(arena.blocks[0].free, [(0, 64)]);
         assert_eq!(arena.held, 0);
+    }
+
+    /// A readback whose range is `memory` (standing in for a mapped block),
+    /// with one window at `at` of `len` bytes of buffer 9.
+    fn readback_over(memory: &[u8], at: u64, len: u64) -> Arc<Readback> {
+        Arc::new(Readback {
+            size: memory.len() as u64,
+            mapped: memory.as_ptr().expose_provenance(),
+            windows: vec![Window {
+                location: "pInfos[0].triangleArray".into(),
+                buffer: 9,
+                offset: 0,
+                len,
+                at,
+            }],
+            arena: Arc::default(),
+            block: 0,
+            offset: 0,
+            buffer: vk::Buffer::null(),
+            views: Mutex::default(),
+            spares: Mutex::default(),
+        })
+    }
+
+    #[test]
+    fn contents_are_views_kept_until_the_range_is_written_again() {
+        use ommcheck::sim::decode::{MicromapContent, TriangleEntries};
+        use ommcheck::state::{BuildRecord, Micromap, State};
+        let memory: Vec<u8> = (0..64).collect();
+        let readback = readback_over(&memory, 16, 16);
+        let contents = readback.contents();
+        assert_eq!(contents.len(), 1);
+        let bytes = contents[0].bytes.clone();
+        assert_eq!(&bytes[..], &memory[16..32]);
+        assert_eq!(bytes.as_ptr(), memory[16..].as_ptr(), "a view, not a copy");
+        assert_eq!(Arc::strong_count(&readback), 2, "the view keeps the range");
+        // What a check keeps: a built micromap's triangles.
+        let keep = |state: &mut State, bytes| {
+            let triangles = TriangleEntries::shared(bytes, 0, 8, 2).expect("inside");
+            let content = MicromapContent::new(triangles, Default::default());
+            state.micromaps.insert(
+                1,
+                Micromap {
+                    built: Some(BuildRecord {
+                        content: Some(Arc::new(content)),
+                        ..BuildRecord::default()
+                    }),
+                    ..Micromap::default()
+                },
+            );
+        };
+        let kept = |state: &State| {
+            let content = state.micromaps[&1].built.as_ref().unwrap().content.clone();
+            content.expect("kept")
+        };
+        let mut state = State::default();
+        keep(&mut state, bytes);
+        drop(contents);
+        // Before a later submission copies into the range again.
+        readback.own_views(&mut state);
+        assert_eq!(Arc::strong_count(&readback), 1, "no view is left");
+        let content = kept(&state);
+        assert_eq!(content.triangles.iter().count(), 2);
+        assert_eq!(
+            content.triangles.get(0).map(|t| t.data_offset),
+            Some(u32::from_le_bytes([16, 17, 18, 19])),
+            "the same bytes, now a copy"
+        );
+        let spare = |readback: &Readback| {
+            let spares = lock(&readback.spares);
+            spares.iter().map(|b| b.as_ptr()).collect::<Vec<_>>()
+        };
+        let first_copy = spare(&readback);
+        assert_eq!(first_copy.len(), 1, "the copy's memory is kept");
+        // The next completion keeps views again, letting go of the copy,
+        // whose memory the next submission's copy reuses.
+        drop(content);
+        let contents = readback.contents();
+        keep(&mut state, contents[0].bytes.clone());
+        drop(contents);
+        readback.own_views(&mut state);
+        assert_eq!(Arc::strong_count(&readback), 1);
+        assert_eq!(spare(&readback), first_copy, "reused, not allocated");
+        assert_eq!(
+            kept(&state).triangles.get(1).map(|t| t.format),
+            Some(31 << 8 | 30)
+        );
+        // A window past the range gives no bytes.
+        assert!(readback_over(&memory, 60, 16).contents().is_empty());
     }
 
     #[test]

@@ -16,7 +16,8 @@
 //! it reads from mapped memory.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
+
+use ommcheck::Bytes;
 
 use foldhash::HashMap;
 
@@ -30,11 +31,7 @@ pub enum Transfer {
         regions: Vec<(u64, u64, u64)>,
     },
     /// `vkCmdUpdateBuffer`: `bytes` at `offset`.
-    Update {
-        dst: u64,
-        offset: u64,
-        bytes: Arc<[u8]>,
-    },
+    Update { dst: u64, offset: u64, bytes: Bytes },
     /// `vkCmdFillBuffer`: `size` bytes (`VK_WHOLE_SIZE` already resolved)
     /// of the little-endian word `value` repeated, from `offset`.
     Fill {
@@ -359,7 +356,7 @@ mod tests {
             &Transfer::Update {
                 dst: 1,
                 offset: 0,
-                bytes: Arc::from(vec![1u8; 16]),
+                bytes: Bytes::from(vec![1u8; 16]),
             },
             no_mapped,
         );

@@ -207,14 +207,20 @@ fn check_submission(
                 });
                 state.shadows = shadows;
             }
-            Recorded::Build(kept) => match (sequence, kept.readback.is_some()) {
-                (Some(sequence), true) => data.state().submissions.add(
-                    submitted.queue.as_raw(),
-                    sequence,
-                    recorded_in,
-                    kept,
-                    submitted.function,
-                ),
+            Recorded::Build(kept) => match (sequence, &kept.readback) {
+                (Some(sequence), Some(readback)) => {
+                    let mut state = data.state();
+                    // The copies write the range again: what the checker
+                    // kept of it from an earlier completion becomes copies.
+                    readback.own_views(state.validator.state_mut());
+                    state.submissions.add(
+                        submitted.queue.as_raw(),
+                        sequence,
+                        recorded_in,
+                        kept,
+                        submitted.function,
+                    );
+                }
                 _ => {
                     // The device lock is taken per build and released before delivery.
                     let messages = check_kept(data, recorded_in, &kept, submitted.function);

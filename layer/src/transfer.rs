@@ -242,7 +242,7 @@ unsafe extern "system" fn cmd_update_buffer(
             Transfer::Update {
                 dst: dst.as_raw(),
                 offset,
-                bytes: Arc::from(bytes),
+                bytes: ommcheck::Bytes::copy_from_slice(bytes),
             }
         },
         // SAFETY: the next layer's function, with the application's arguments.

@@ -7,7 +7,6 @@
 //! `cargo bench -p ommcheck --bench stats -- --warm-up-time 1 --measurement-time 3`
 
 use std::hint::black_box;
-use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use ommcheck::model::micromap::opacity_triangle_bytes;
@@ -39,7 +38,10 @@ fn micromap(format: u32, level: u16) -> (MicromapContent, Vec<u64>) {
         })
         .collect();
     let weights = vec![1; triangles.len()];
-    (MicromapContent::new(triangles, Arc::from(data)), weights)
+    (
+        MicromapContent::new(triangles, ommcheck::Bytes::from(data)),
+        weights,
+    )
 }
 
 fn census_throughput(c: &mut Criterion) {

@@ -113,6 +113,9 @@
 
 #![deny(unsafe_code)]
 
+/// Shared, immutable bytes: buffer contents, host ranges and what builds
+/// keep of them are views of one memory, never copies.
+pub use bytes::Bytes;
 pub use ommcheck_vuids as vuids;
 
 pub mod checks;

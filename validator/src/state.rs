@@ -4,6 +4,9 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
+use crate::sim::decode::owned_if_within;
+use crate::Bytes;
+
 use serde::{Deserialize, Serialize};
 
 mod buffers;
@@ -38,7 +41,7 @@ pub struct Buffer {
     /// The buffer's bytes where the checker can read them (a host-visible
     /// mapping, or the contents a scene or test supplied), starting
     /// `contents_offset` bytes into the buffer.
-    pub contents: Option<Arc<[u8]>>,
+    pub contents: Option<Bytes>,
     /// Where in the buffer `contents` starts: 0, unless only a window of
     /// the buffer is known (an adaptor that read back just the ranges a
     /// build reads).
@@ -50,7 +53,7 @@ impl Buffer {
     /// in them; None when `address` lies before the known window or the
     /// buffer has no address or contents. An address one past the window
     /// gives an empty tail.
-    fn contents_at(&self, address: u64) -> Option<(&Arc<[u8]>, usize)> {
+    fn contents_at(&self, address: u64) -> Option<(&Bytes, usize)> {
         let (start, _) = self.address_range()?;
         let contents = self.contents.as_ref()?;
         let window = start.checked_add(self.contents_offset)?;
@@ -164,7 +167,7 @@ pub struct QueryPool {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct HostRange {
     pub address: u64,
-    pub bytes: Arc<[u8]>,
+    pub bytes: Bytes,
 }
 
 /// Everything tracked.
@@ -219,6 +222,37 @@ pub struct State {
 }
 
 impl State {
+    /// Makes every byte view the state keeps of host memory in `within`
+    /// (addresses) a copy, which `copy` makes (an adaptor may reuse memory
+    /// for it): host ranges and built micromap contents
+    /// (buffer contents an adaptor hands a check are its own again after
+    /// it, see [`crate::Validator::check_device_build_contents`]). An adaptor calls it before that memory changes
+    /// (the layer's readback memory, before a submission copies into it
+    /// again).
+    pub fn own_bytes_within(
+        &mut self,
+        within: &std::ops::Range<usize>,
+        copy: &mut dyn FnMut(&[u8]) -> Bytes,
+    ) {
+        let built = self
+            .micromaps
+            .values_mut()
+            .filter_map(|m| m.built.as_mut())
+            .chain(
+                self.acceleration_structures
+                    .values_mut()
+                    .filter_map(|s| s.built.as_mut()),
+            );
+        for record in built {
+            if let Some(content) = record.content.as_mut().filter(|c| c.views_within(within)) {
+                Arc::make_mut(content).own_bytes_within(within, copy);
+            }
+        }
+        for range in &mut self.host_memory {
+            owned_if_within(&mut range.bytes, within, copy);
+        }
+    }
+
     /// Buffers whose device-address range contains `address`, lowest handle
     /// first; through the address index, not a walk over every buffer (see
     /// [`Buffers::containing`] for the cost).
@@ -282,19 +316,19 @@ impl State {
 
     /// The device memory from `address` on, shared: the contents of the
     /// buffer holding `address` and the offset of `address` in them.
-    pub fn device_contents_from(&self, address: u64) -> Option<(Arc<[u8]>, usize)> {
+    pub fn device_contents_from(&self, address: u64) -> Option<(Bytes, usize)> {
         self.buffers_at(address).find_map(|(_, b)| {
             let (contents, offset) = b.contents_at(address)?;
-            Some((Arc::clone(contents), offset))
+            Some((contents.clone(), offset))
         })
     }
 
     /// The host memory from `address` on, shared: the range holding
     /// `address` and the offset of `address` in it.
-    pub fn host_contents_from(&self, address: u64) -> Option<(Arc<[u8]>, usize)> {
+    pub fn host_contents_from(&self, address: u64) -> Option<(Bytes, usize)> {
         self.host_memory.iter().find_map(|r| {
             let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
-            (offset < r.bytes.len()).then(|| (Arc::clone(&r.bytes), offset))
+            (offset < r.bytes.len()).then(|| (r.bytes.clone(), offset))
         })
     }
 
@@ -318,7 +352,7 @@ mod tests {
             Buffer {
                 size: 16,
                 device_address: Some(0x1000),
-                contents: Some(Arc::from((0u8..16).collect::<Vec<u8>>())),
+                contents: Some(crate::Bytes::from((0u8..16).collect::<Vec<u8>>())),
                 ..Default::default()
             },
         );
@@ -341,7 +375,7 @@ mod tests {
         let mut state = state_with_buffer();
         let mut buffer = state.buffers.get_mut(&1).unwrap();
         // Bytes 8..12 of the buffer are known, nothing else.
-        buffer.contents = Some(Arc::from(vec![8u8, 9, 10, 11]));
+        buffer.contents = Some(crate::Bytes::from(vec![8u8, 9, 10, 11]));
         buffer.contents_offset = 8;
         drop(buffer);
         assert_eq!(state.read_device(0x1008, 4), Some(&[8u8, 9, 10, 11][..]));
@@ -363,7 +397,7 @@ mod tests {
         let mut state = State::default();
         state.host_memory.push(HostRange {
             address: 0x50,
-            bytes: Arc::from(vec![9u8; 8]),
+            bytes: crate::Bytes::from(vec![9u8; 8]),
         });
         assert_eq!(state.read_host(0x52, 4), Some(&[9u8; 4][..]));
         assert_eq!(state.read_host(0x56, 4), None);
@@ -373,5 +407,45 @@ mod tests {
         assert!(state.describes_all_host_memory());
         state.host_memory_partial = true;
         assert!(!state.describes_all_host_memory());
+    }
+
+    #[test]
+    fn views_of_memory_about_to_change_become_copies_and_others_stay_shared() {
+        use crate::sim::decode::{MicromapContent, TriangleEntries};
+        let memory = crate::Bytes::from(vec![0u8; 64]);
+        let outside = crate::Bytes::from(vec![1u8; 8]);
+        let start = memory.as_ptr().addr();
+        let triangles = TriangleEntries::shared(memory.slice(8..24), 0, 8, 2).expect("inside");
+        let content = MicromapContent::new(triangles, outside.clone());
+        let mut state = State::default();
+        state.micromaps.insert(
+            1,
+            Micromap {
+                built: Some(BuildRecord {
+                    content: Some(Arc::new(content.clone())),
+                    ..BuildRecord::default()
+                }),
+                ..Micromap::default()
+            },
+        );
+        state.host_memory.push(HostRange {
+            address: 0x50,
+            bytes: memory.slice(32..),
+        });
+        let kept = |state: &State| {
+            let content = state.micromaps[&1].built.as_ref().unwrap().content.clone();
+            content.expect("kept")
+        };
+        // Memory elsewhere: nothing changes.
+        let mut copy = |bytes: &[u8]| crate::Bytes::copy_from_slice(bytes);
+        state.own_bytes_within(&(0..1), &mut copy);
+        assert!(kept(&state).views_within(&(start..start + 64)));
+        state.own_bytes_within(&(start..start + 64), &mut copy);
+        let after = kept(&state);
+        assert!(!after.views_within(&(start..start + 64)), "copied");
+        assert_eq!(*after, content, "the same bytes");
+        assert_eq!(after.data.as_ptr(), outside.as_ptr(), "still shared");
+        assert_ne!(state.host_memory[0].bytes.as_ptr().addr(), start + 32);
+        assert_eq!(state.host_memory[0].bytes, memory.slice(32..));
     }
 }

@@ -8,8 +8,6 @@
 //! entry points of [`crate::raw`] read the chains as a layer must, and are
 //! `unsafe` for it.
 
-use std::sync::Arc;
-
 use ash::vk;
 
 use crate::device::{ext, Device};
@@ -121,7 +119,7 @@ impl Validator {
         let address = memory.host_address();
         self.state.host_memory.push(HostRange {
             address,
-            bytes: Arc::from(memory.host_bytes()),
+            bytes: crate::Bytes::from(memory.host_bytes()),
         });
         address
     }
@@ -173,7 +171,7 @@ impl Validator {
         contents: &(impl HostBytes + ?Sized),
     ) {
         if let Some(mut tracked) = self.state.buffers.get_mut(&vk::Handle::as_raw(buffer)) {
-            tracked.contents = Some(Arc::from(contents.host_bytes()));
+            tracked.contents = Some(crate::Bytes::from(contents.host_bytes()));
         }
     }
 

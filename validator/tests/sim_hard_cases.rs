@@ -2,8 +2,6 @@
 //! level 12, barycentrics just outside the triangle, needle and huge
 //! triangles, grazing rays, NaN and infinity, and integer overflow.
 
-use std::sync::Arc;
-
 use glam::DVec3;
 use ommcheck::model::micromap::opacity_triangle_bytes;
 use ommcheck::model::{MicromapTriangle, MicromapUsage, UsageCounts};
@@ -177,7 +175,7 @@ fn level_12_blocks_and_offsets_near_2_pow_32() {
             subdivision_level: 12,
             format: 2,
         }],
-        Arc::from(vec![0u8; 16]),
+        ommcheck::Bytes::from(vec![0u8; 16]),
     );
     assert_eq!(
         content.states(Slot::Micromap(0), 0.1, 0.1, 0.0),

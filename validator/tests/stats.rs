@@ -132,7 +132,7 @@ fn assert_census_matches(
 ) -> Result<(), TestCaseError> {
     let (slow_levels, slow) =
         slow_census(triangles, data.get(data_start..).unwrap_or(&[]), weights);
-    let content = MicromapContent::at(triangles.to_vec(), Arc::from(data), data_start);
+    let content = MicromapContent::at(triangles.to_vec(), ommcheck::Bytes::from(data), data_start);
     let fast = census(&content, weights);
     prop_assert_eq!(levels_of(&fast), slow_levels);
     prop_assert_eq!(fast.triangles, slow.triangles);
@@ -283,7 +283,7 @@ fn stride_zero_micromaps_count_one_entry_for_every_triangle() {
             subdivision_level: 3,
             format: 2,
         }],
-        Arc::from(vec![0x55u8; 16]),
+        ommcheck::Bytes::from(vec![0x55u8; 16]),
     )
     .repeating(1 << 40);
     let c = census(&content, &[5]);
@@ -375,7 +375,7 @@ fn world(triangles: &[MicromapTriangle], data: &[u8], attachments: &[AttachmentC
             Buffer {
                 size: bytes.len() as u64,
                 device_address: Some(address),
-                contents: Some(Arc::from(bytes)),
+                contents: Some(ommcheck::Bytes::from(bytes)),
                 ..Default::default()
             },
         );
@@ -404,7 +404,7 @@ fn world(triangles: &[MicromapTriangle], data: &[u8], attachments: &[AttachmentC
                 triangle_count: triangles.len() as u64,
                 content: Some(Arc::new(MicromapContent::new(
                     triangles.to_vec(),
-                    Arc::from(data.to_vec()),
+                    ommcheck::Bytes::from(data.to_vec()),
                 ))),
                 ..Default::default()
             }),
@@ -605,7 +605,7 @@ fn the_total_adds_every_micromap_and_attachments_naming_none() {
                 subdivision_level: 1,
                 format,
             }],
-            Arc::from(vec![byte]),
+            ommcheck::Bytes::from(vec![byte]),
         )
     };
     let built = |content: Option<MicromapContent>, triangle_count: u64| BuildRecord {
@@ -646,7 +646,7 @@ fn the_total_adds_every_micromap_and_attachments_naming_none() {
         Buffer {
             size: 2,
             device_address: Some(0x1000),
-            contents: Some(Arc::from(vec![0xffu8, 0xfe])),
+            contents: Some(ommcheck::Bytes::from(vec![0xffu8, 0xfe])),
             ..Default::default()
         },
     );

@@ -8,7 +8,6 @@
 //! answer of `ommcheck::sim` is checked, not only that it returns.
 
 use std::collections::BTreeSet;
-use std::sync::Arc;
 
 use ommcheck::model::accel::{
     INDEX_TYPE_NONE, INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8,
@@ -63,7 +62,8 @@ fn body(data: &[u8]) -> String {
         .map(|k| seed.get(k % seed.len().max(1)).copied().unwrap_or(0))
         .collect();
     let data_start = usize::from(input.u16());
-    let mut content = MicromapContent::at(triangles.clone(), Arc::from(bytes), data_start);
+    let mut content =
+        MicromapContent::at(triangles.clone(), ommcheck::Bytes::from(bytes), data_start);
     if input.below(4) == 0 {
         let repeat = input.u64_mostly_below(256);
         content = content.repeating(repeat);

@@ -10,8 +10,6 @@
 // Each bench target uses a part of this module.
 #![allow(dead_code)]
 
-use std::sync::Arc;
-
 use criterion::{BatchSize, Bencher};
 use ommcheck::model::accel::*;
 use ommcheck::model::micromap::opacity_triangle_bytes;
@@ -265,7 +263,7 @@ fn bound_buffer(address: u64, size: u64, usage: u64, contents: Option<Vec<u8>>) 
         usage,
         device_address: Some(address),
         memory: Some(MemoryBinding::default()),
-        contents: contents.map(Arc::from),
+        contents: contents.map(ommcheck::Bytes::from),
         ..Default::default()
     }
 }

@@ -14,6 +14,8 @@ use crate::state::execution::ExecEvent;
 use std::fmt::{self, Display};
 use std::sync::Arc;
 
+use crate::Bytes;
+
 use ommcheck_vuids::vuid::{
     vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
     vkCmdBuildAccelerationStructuresKHR as cmd, vkCmdCopyAccelerationStructureKHR as cmd_copy,
@@ -643,8 +645,7 @@ pub(crate) fn micromap_content(
     // say: a view of the bytes, not a copy.
     let readable = readable_entries(array_len as u64, stride).min(total);
     let triangles = TriangleEntries::shared(memory, array_start, stride, readable)?;
-    let (bytes, start) =
-        contents_from(state, host, data.data).unwrap_or_else(|| (Arc::from(Vec::new()), 0));
+    let (bytes, start) = contents_from(state, host, data.data).unwrap_or_else(|| (Bytes::new(), 0));
     Some(MicromapContent::at(triangles, bytes, start))
 }
 
@@ -1322,7 +1323,7 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
 }
 
 /// The memory holding `address`, shared, and the offset of `address` in it.
-fn contents_from(state: &State, host: bool, address: u64) -> Option<(Arc<[u8]>, usize)> {
+fn contents_from(state: &State, host: bool, address: u64) -> Option<(Bytes, usize)> {
     if host {
         state.host_contents_from(address)
     } else {
@@ -1408,15 +1409,12 @@ impl TriangleArrayCheck {
         // The loop ends at the end of `array`: each step advances >= 8 bytes.
         while next < total {
             if let Some(clean) = run.filter(|_| next >= one_by_one_until) {
-                match CleanRun::block(array, next, total) {
-                    Some(block) if clean.holds(block) => {
-                        histogram.add(clean.format, clean.level, CleanRun::ENTRIES as u64);
-                        read += CleanRun::ENTRIES as u64;
-                        next += CleanRun::ENTRIES as u64;
-                        continue;
-                    }
-                    Some(_) => one_by_one_until = next + CleanRun::ENTRIES as u64,
-                    None => one_by_one_until = u64::MAX,
+                let clean_entries;
+                (clean_entries, one_by_one_until) = clean.count(&mut histogram, array, next, total);
+                read += clean_entries;
+                next += clean_entries;
+                if next >= total {
+                    break;
                 }
             }
             let m = next;

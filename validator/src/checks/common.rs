@@ -265,26 +265,87 @@ impl CleanRun {
         })
     }
 
-    /// The [`Self::ENTRIES`] entries of a tightly packed `array` from entry
-    /// `first` on, if they all lie before entry `end` and inside `array`.
-    pub fn block(array: &[u8], first: u64, end: u64) -> Option<&[u8]> {
-        let past = first.checked_add(Self::ENTRIES as u64)?;
-        if past > end {
-            return None;
+    /// How many entries of a tightly packed `array`, from entry `first`
+    /// on and before entry `end`, lie in consecutive whole blocks of
+    /// [`Self::ENTRIES`] that [hold](Self::holds), and whether the scan
+    /// stopped at a block that does not (rather than where no whole block
+    /// is left). One tight loop over the blocks: most of a valid array is
+    /// counted here without going back to the per-entry loop.
+    pub fn span(&self, array: &[u8], first: u64, end: u64) -> (u64, bool) {
+        let block_bytes = Self::ENTRIES * MicromapTriangle::SIZE as usize;
+        let rest = first
+            .checked_mul(MicromapTriangle::SIZE)
+            .and_then(|start| usize::try_from(start).ok())
+            .and_then(|start| array.get(start..));
+        let Some(rest) = rest else {
+            return (0, false);
+        };
+        let blocks_before_end = end.saturating_sub(first) / Self::ENTRIES as u64;
+        let blocks_before_end = usize::try_from(blocks_before_end).unwrap_or(usize::MAX);
+        let mut held = 0u64;
+        for block in rest.chunks_exact(block_bytes).take(blocks_before_end) {
+            if !self.holds(block) {
+                return (held, true);
+            }
+            held += Self::ENTRIES as u64;
         }
-        let start = usize::try_from(first.checked_mul(MicromapTriangle::SIZE)?).ok()?;
-        array.get(start..start.checked_add(Self::ENTRIES * 8)?)
+        (held, false)
+    }
+
+    /// Counts the entries [`Self::span`] finds into `histogram`; returns
+    /// how many, and the entry before which the caller's loop goes one by
+    /// one (past the block that left the run; to the end where none did).
+    pub fn count(
+        &self,
+        histogram: &mut TriangleHistogram,
+        array: &[u8],
+        first: u64,
+        end: u64,
+    ) -> (u64, u64) {
+        let (entries, differs) = self.span(array, first, end);
+        histogram.add(self.format, self.level, entries);
+        let one_by_one_until = if differs {
+            first + entries + Self::ENTRIES as u64
+        } else {
+            u64::MAX
+        };
+        (entries, one_by_one_until)
     }
 
     /// Whether every 8-byte entry of `block` has this run's format and
-    /// level and a dataOffset of at most `max_offset`: whether the entry,
-    /// read as a number, lies in `[format_level, format_level +
-    /// max_offset]`. Written without branches so that it compiles to two
-    /// subtractions and an or per entry: with `d` the entry less
-    /// `format_level` (wrapping), `d` is in range exactly when neither `d`
-    /// nor `max_offset - d` (which wraps when `d` is larger, `max_offset`
-    /// being below 2^32) has bit 63 set.
+    /// level and a dataOffset of at most `max_offset`. First a test that
+    /// costs one or and one and per entry, which suffices for most blocks:
+    /// the upper halves all equal the run's when their union and their
+    /// intersection do, and each dataOffset is at most the union of the
+    /// dataOffsets (its bits are a subset). Where that test fails, the
+    /// exact one decides ([`Self::holds_exactly`]).
     pub fn holds(&self, block: &[u8]) -> bool {
+        let (mut union, mut intersection) = (0u64, u64::MAX);
+        for entry in block.chunks_exact(8) {
+            // Without a panic path in the loop (every chunk has 8 bytes),
+            // so that the compiler makes it a vector loop.
+            let bits = u64::from_le_bytes(entry.try_into().unwrap_or_default());
+            union |= bits;
+            intersection &= bits;
+        }
+        let upper = self.format_level >> 32;
+        let quick = union >> 32 == upper
+            && intersection >> 32 == upper
+            && union & u64::from(u32::MAX) <= self.max_offset;
+        quick || self.holds_exactly(block)
+    }
+
+    /// [`Self::holds`], deciding each entry: whether the entry, read as a
+    /// number, lies in `[format_level, format_level + max_offset]`. Written
+    /// without branches so that it compiles to two subtractions and an or
+    /// per entry: with `d` the entry less `format_level` (wrapping), `d` is
+    /// in range exactly when neither `d` nor `max_offset - d` (which wraps
+    /// when `d` is larger, `max_offset` being below 2^32) has bit 63 set.
+    /// Out of line, so the quick test's loop stays a tight vector loop
+    /// rather than keeping every entry for this one.
+    #[cold]
+    #[inline(never)]
+    fn holds_exactly(&self, block: &[u8]) -> bool {
         let mut differs = 0u64;
         for entry in block.chunks_exact(8) {
             let bits = u64::from_le_bytes(entry.try_into().expect("8 bytes"));
@@ -1049,6 +1110,11 @@ mod tests {
             2
         ))));
         assert!(!run.holds(&block(&|i| entry(0, 0xFFFF * (i == 30) as u16, 0xFFFF))));
+        // Offsets whose union passes the range (64 | 37 = 101) but each
+        // inside it: the exact test decides.
+        let tight = CleanRun::after(&entry(0, 2, 2), Some((4, 104))).expect("in range");
+        assert!(tight.holds(&block(&|i| entry(if i % 2 == 0 { 64 } else { 37 }, 2, 2))));
+        assert!(!tight.holds(&block(&|i| entry(if i == 4 { 101 } else { 37 }, 2, 2))));
         // Data shorter than a block: no entry is in range.
         assert_eq!(CleanRun::after(&entry(0, 2, 2), Some((4, 3))), None);
         // No range to check: every offset is in range.
@@ -1057,14 +1123,34 @@ mod tests {
     }
 
     #[test]
-    fn a_block_lies_before_the_end_and_inside_the_array() {
-        let array = vec![0u8; 8 * 40];
-        assert_eq!(CleanRun::block(&array, 0, 40).map(<[u8]>::len), Some(256));
-        assert_eq!(CleanRun::block(&array, 8, 40).map(<[u8]>::len), Some(256));
-        assert_eq!(CleanRun::block(&array, 9, 40), None);
-        assert_eq!(CleanRun::block(&array, 0, 31), None);
-        assert_eq!(CleanRun::block(&array, u64::MAX, u64::MAX), None);
-        assert_eq!(CleanRun::block(&array, u64::MAX / 8, u64::MAX), None);
+    fn a_span_counts_whole_blocks_that_hold_before_the_end_and_inside_the_array() {
+        let run = CleanRun::after(&entry(0, 2, 2), Some((4, 100))).expect("in range");
+        let clean: Vec<u8> = (0..100).flat_map(|_| entry(0, 2, 2).to_bytes()).collect();
+        assert_eq!(run.span(&clean, 0, 100), (96, false));
+        assert_eq!(run.span(&clean, 8, 100), (64, false));
+        assert_eq!(run.span(&clean, 8, 72), (64, false));
+        assert_eq!(run.span(&clean, 9, 40), (0, false));
+        assert_eq!(run.span(&clean, 0, 31), (0, false));
+        assert_eq!(
+            run.span(&clean, 0, u64::MAX),
+            (96, false),
+            "to the array's end"
+        );
+        assert_eq!(run.span(&clean, u64::MAX, u64::MAX), (0, false));
+        assert_eq!(run.span(&clean, u64::MAX / 8, u64::MAX), (0, false));
+        // Entry 40 leaves the run: the second block does not hold.
+        let mut dirty = clean.clone();
+        dirty[40 * 8..41 * 8].copy_from_slice(&entry(0, 3, 2).to_bytes());
+        assert_eq!(run.span(&dirty, 0, 100), (32, true));
+        assert_eq!(run.span(&dirty, 41, 100), (32, false));
+        // Counted into the histogram; one by one past the block that left.
+        let mut histogram = TriangleHistogram::new();
+        assert_eq!(run.count(&mut histogram, &dirty, 0, 100), (32, 64));
+        assert_eq!(run.count(&mut histogram, &clean, 0, 100), (96, u64::MAX));
+        assert_eq!(
+            histogram.into_map().into_iter().collect::<Vec<_>>(),
+            [((2, 2), 128)]
+        );
     }
 
     #[test]

@@ -9,6 +9,8 @@
 
 use std::sync::Arc;
 
+use crate::Bytes;
+
 use crate::checks::accel_build::{self, BuildCommand};
 use crate::checks::device_indirect::{self, IndirectRanges};
 use crate::checks::micromap_build;
@@ -47,7 +49,7 @@ pub enum DeviceBuild {
 pub struct KnownBytes {
     pub buffer: Handle,
     pub offset: u64,
-    pub bytes: Arc<[u8]>,
+    pub bytes: Bytes,
 }
 
 /// How far a build reads from where a [`ContentRead`] starts.
@@ -694,11 +696,11 @@ pub(crate) mod tests {
         (validator, build)
     }
 
-    fn indices(values: [u32; 2]) -> Arc<[u8]> {
+    fn indices(values: [u32; 2]) -> Bytes {
         values.iter().flat_map(|v| v.to_le_bytes()).collect()
     }
 
-    fn known(buffer: Handle, offset: u64, bytes: Arc<[u8]>) -> Vec<KnownBytes> {
+    fn known(buffer: Handle, offset: u64, bytes: Bytes) -> Vec<KnownBytes> {
         vec![KnownBytes {
             buffer,
             offset,

@@ -518,7 +518,7 @@ mod tests {
         };
         let content = MicromapContent::new(
             vec![t(3, 2), t(3, 2), t(1, 1), t(3, 2)],
-            std::sync::Arc::from(Vec::new()),
+            crate::Bytes::new(),
         );
         let mut tally = ReferenceTally::new(Some(&content), 4, 1, 1);
         // Triangles 1, 2, 3, 1 and a special index.
@@ -556,7 +556,7 @@ mod tests {
                 format: pool[p % pool.len()].0,
             })
             .collect();
-        MicromapContent::new(triangles, std::sync::Arc::from(Vec::new()))
+        MicromapContent::new(triangles, crate::Bytes::new())
     }
 
     proptest::proptest! {

@@ -895,14 +895,12 @@ fn triangle_array(
     let mut next = 0u64;
     while next < entries_to_read {
         if let Some(clean) = run.filter(|_| next >= one_by_one_until) {
-            match CleanRun::block(array, next, entries_to_read) {
-                Some(block) if clean.holds(block) => {
-                    histogram.add(clean.format, clean.level, CleanRun::ENTRIES as u64);
-                    next += CleanRun::ENTRIES as u64;
-                    continue;
-                }
-                Some(_) => one_by_one_until = next + CleanRun::ENTRIES as u64,
-                None => one_by_one_until = u64::MAX,
+            let clean_entries;
+            (clean_entries, one_by_one_until) =
+                clean.count(&mut histogram, array, next, entries_to_read);
+            next += clean_entries;
+            if next >= entries_to_read {
+                break;
             }
         }
         let m = next;
@@ -1035,7 +1033,7 @@ fn triangle_array(
         let location = format!("{at}.{}", info.usage_counts.member());
         usage_counts_match_triangles(ctx, &location, &info.usage_counts, &histogram, names);
     }
-    let (data, data_start) = shared_data.unwrap_or_else(|| (Arc::from(Vec::new()), 0));
+    let (data, data_start) = shared_data.unwrap_or_else(|| (crate::Bytes::new(), 0));
     let content = MicromapContent::at(entries, data, data_start);
     Some(if stride == 0 {
         content.repeating(triangles)

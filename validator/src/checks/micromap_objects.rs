@@ -1636,7 +1636,7 @@ mod tests {
         let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
         v.state_mut().host_memory.push(crate::state::HostRange {
             address: 0x1000,
-            bytes: std::sync::Arc::from(vec![0u8; 64]),
+            bytes: crate::Bytes::from(vec![0u8; 64]),
         });
         v
     }

@@ -12,8 +12,6 @@
 //! only host commands (`vkBuildAccelerationStructuresKHR`) read memory at an
 //! address, and only where the API itself describes the extent.
 
-use std::sync::Arc;
-
 use ash::vk;
 use ommcheck_vuids::khr;
 
@@ -672,7 +670,8 @@ impl Validator {
         };
         self.state.host_memory.push(HostRange {
             address: read.address,
-            bytes: Arc::from(bytes),
+            // A copy: the application may change or free the memory after the call.
+            bytes: crate::Bytes::copy_from_slice(bytes),
         });
     }
 

@@ -17,7 +17,6 @@ pub mod pipeline;
 
 use std::ffi::c_void;
 use std::fmt::{self, Display};
-use std::sync::Arc;
 
 use ash::vk;
 
@@ -640,7 +639,8 @@ impl Validator {
                 };
                 self.state.host_memory.push(HostRange {
                     address: info.triangle_array,
-                    bytes: Arc::from(bytes),
+                    // A copy: the application may change or free the memory after the call.
+                    bytes: crate::Bytes::copy_from_slice(bytes),
                 });
             }
         }
@@ -698,7 +698,8 @@ impl Validator {
         };
         self.state.host_memory.push(HostRange {
             address: data,
-            bytes: Arc::from(bytes),
+            // A copy: the application may change or free the memory after the call.
+            bytes: crate::Bytes::copy_from_slice(bytes),
         });
     }
 }
@@ -1002,6 +1003,70 @@ mod tests {
         let report = build(&mut v, &[ReadableHost { len: 1, ..whole }]);
         assert_eq!(report.ids(), [rules::TRIANGLE_DATA_RANGE.id], "{report}");
         assert!(v.state.host_memory.is_empty() && !v.state.host_memory_partial);
+    }
+
+    /// The bytes a host build's recorded content keeps are the checker's
+    /// own: the application may change or free its memory once the call
+    /// returns (a view of it would read freed memory; Miri runs this test).
+    #[test]
+    fn a_host_build_keeps_a_copy_of_what_it_read() {
+        let mut triangles: Box<[u8; 16]> =
+            Box::new([0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 0, 0, 1, 0, 1, 0]);
+        let usages = [vk::MicromapUsageEXT {
+            count: 2,
+            subdivision_level: 1,
+            format: 1,
+        }];
+        let mut data: Box<[u8]> = Box::new([0x1u8, 0x2]);
+        let mut scratch = [0u8; 64];
+        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
+        v.state.buffers.insert(
+            5,
+            crate::state::Buffer {
+                size: 256,
+                ..Default::default()
+            },
+        );
+        v.state.micromaps.insert(
+            9,
+            crate::state::Micromap {
+                buffer: 5,
+                size: 256,
+                ty: vk::MicromapTypeEXT::OPACITY_MICROMAP.as_raw(),
+                ..Default::default()
+            },
+        );
+        let readable = [ReadableHost {
+            address: data.as_ptr().expose_provenance() as u64,
+            len: 2,
+        }];
+        let info = vk::MicromapBuildInfoEXT {
+            dst_micromap: vk::Handle::from_raw(9),
+            ..host_build_info(&triangles, &usages, &data, &mut scratch)
+        };
+        // SAFETY: the triangle array holds the 2 entries the usage counts
+        // describe, and `readable` is `data`.
+        unsafe {
+            v.build_micromaps_raw_reading(
+                <vk::Device as vk::Handle>::from_raw(1),
+                vk::DeferredOperationKHR::null(),
+                1,
+                &info,
+                &readable,
+            )
+        };
+        // The application reuses its memory, then frees it.
+        triangles.fill(0xAA);
+        data.fill(0xBB);
+        drop((triangles, data));
+        let content = v.state.micromaps[&9]
+            .built
+            .as_ref()
+            .and_then(|b| b.content.clone())
+            .expect("the build's content is recorded");
+        let offsets: Vec<u32> = content.triangles.iter().map(|t| t.data_offset).collect();
+        assert_eq!(offsets, [0, 1]);
+        assert_eq!(&content.data[content.data_start..], [0x1, 0x2]);
     }
 
     #[test]

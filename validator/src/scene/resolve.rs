@@ -5,7 +5,8 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+
+use crate::Bytes;
 
 use base64::Engine as _;
 use glam::DVec3;
@@ -834,7 +835,7 @@ impl Resolver<'_> {
     }
 
     /// The bytes `contents` describes, `size` long.
-    fn contents(&mut self, contents: &Contents, size: u64, at: &str) -> Result<Arc<[u8]>> {
+    fn contents(&mut self, contents: &Contents, size: u64, at: &str) -> Result<Bytes> {
         if size > MAX_CONTENTS_BYTES {
             return problem(
                 at,
@@ -852,10 +853,7 @@ impl Resolver<'_> {
         let len = usize::try_from(size).or_else(|_| problem(at, "too large for this machine"))?;
         // The one allocation the bytes live in: filled in place (a file piece
         // is read straight into it), then shared as it is, never copied.
-        let mut shared: Arc<[u8]> = std::iter::repeat_n(0u8, len).collect();
-        let Some(bytes) = Arc::get_mut(&mut shared) else {
-            return problem(at, "internal: fresh contents are shared");
-        };
+        let mut bytes = vec![0u8; len];
         let pieces = contents.pieces();
         for (k, piece) in pieces.iter().enumerate() {
             let piece_at = match contents {
@@ -896,7 +894,7 @@ impl Resolver<'_> {
                 }
             }
         }
-        Ok(shared)
+        Ok(Bytes::from(bytes))
     }
 
     /// A piece's bytes: decoded from the scene, or a file measured here and

@@ -3,7 +3,8 @@
 //! follows the hits asked about, not the size of the micromap.
 
 use std::collections::BTreeSet;
-use std::sync::Arc;
+
+use crate::Bytes;
 
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::MicromapTriangle;
@@ -22,7 +23,7 @@ pub struct MicromapContent {
     /// checker could read it): a view of the bytes, not a copy.
     pub triangles: TriangleEntries,
     /// The memory holding the bytes `data` points to.
-    pub data: Arc<[u8]>,
+    pub data: Bytes,
     /// The offset of the build's `data` address in [`Self::data`].
     pub data_start: usize,
     /// A build with `triangleArrayStride` 0: all this many triangles read
@@ -41,7 +42,7 @@ pub struct MicromapContent {
 /// tier reads the array once.
 #[derive(Clone)]
 pub struct TriangleEntries {
-    bytes: Arc<[u8]>,
+    bytes: Bytes,
     start: usize,
     stride: usize,
     len: usize,
@@ -50,7 +51,7 @@ pub struct TriangleEntries {
 impl TriangleEntries {
     /// The `len` entries at `stride` from `start` in `bytes`; None unless
     /// every one of them lies inside `bytes`.
-    pub fn shared(bytes: Arc<[u8]>, start: usize, stride: u64, len: u64) -> Option<Self> {
+    pub fn shared(bytes: Bytes, start: usize, stride: u64, len: u64) -> Option<Self> {
         let stride = usize::try_from(stride).ok()?;
         let len = usize::try_from(len).ok()?;
         if let Some(last) = len.checked_sub(1) {
@@ -127,7 +128,7 @@ impl From<Vec<MicromapTriangle>> for TriangleEntries {
     fn from(triangles: Vec<MicromapTriangle>) -> Self {
         let bytes: Vec<u8> = triangles.iter().flat_map(|t| t.to_bytes()).collect();
         Self {
-            bytes: Arc::from(bytes),
+            bytes: Bytes::from(bytes),
             start: 0,
             stride: MicromapTriangle::SIZE as usize,
             len: triangles.len(),
@@ -188,15 +189,45 @@ pub enum LookupError {
     Barycentrics(BaryError),
 }
 
+/// Replaces `bytes` with `copy(bytes)` where it is a view of host memory
+/// in `within` (addresses).
+pub fn owned_if_within(
+    bytes: &mut Bytes,
+    within: &std::ops::Range<usize>,
+    copy: &mut dyn FnMut(&[u8]) -> Bytes,
+) {
+    if within.contains(&bytes.as_ptr().addr()) {
+        *bytes = copy(bytes);
+    }
+}
+
 impl MicromapContent {
+    /// Whether the triangles or the data are a view of host memory in
+    /// `within` (addresses).
+    pub fn views_within(&self, within: &std::ops::Range<usize>) -> bool {
+        within.contains(&self.triangles.bytes.as_ptr().addr())
+            || within.contains(&self.data.as_ptr().addr())
+    }
+
+    /// Makes the triangles and the data that are views of host memory in
+    /// `within` copies (`copy` makes them), so that memory may change.
+    pub fn own_bytes_within(
+        &mut self,
+        within: &std::ops::Range<usize>,
+        copy: &mut dyn FnMut(&[u8]) -> Bytes,
+    ) {
+        owned_if_within(&mut self.triangles.bytes, within, copy);
+        owned_if_within(&mut self.data, within, copy);
+    }
+
     /// Content whose data starts at the beginning of `data`.
-    pub fn new(triangles: impl Into<TriangleEntries>, data: Arc<[u8]>) -> Self {
+    pub fn new(triangles: impl Into<TriangleEntries>, data: Bytes) -> Self {
         Self::at(triangles, data, 0)
     }
 
     /// Content whose data starts `data_start` bytes into `data` (clamped to
     /// its length: past the end there is no data).
-    pub fn at(triangles: impl Into<TriangleEntries>, data: Arc<[u8]>, data_start: usize) -> Self {
+    pub fn at(triangles: impl Into<TriangleEntries>, data: Bytes, data_start: usize) -> Self {
         let data_start = data_start.min(data.len());
         Self {
             triangles: triangles.into(),
@@ -364,7 +395,7 @@ mod tests {
                     format: 2,
                 },
             ],
-            Arc::from(vec![0b1110_0100u8, 0x01]),
+            Bytes::from(vec![0b1110_0100u8, 0x01]),
         )
     }
 
@@ -404,17 +435,17 @@ mod tests {
     #[test]
     fn data_is_shared_from_an_offset_and_work_is_counted() {
         // The data starts 2 bytes into the shared memory.
-        let memory: Arc<[u8]> = Arc::from(vec![0xFFu8, 0xFF, 0b1110_0100]);
+        let memory: Bytes = Bytes::from(vec![0xFFu8, 0xFF, 0b1110_0100]);
         let c = MicromapContent::at(
             vec![MicromapTriangle {
                 data_offset: 0,
                 subdivision_level: 1,
                 format: 2,
             }],
-            Arc::clone(&memory),
+            memory.clone(),
             2,
         );
-        assert!(Arc::ptr_eq(&c.data, &memory));
+        assert_eq!(c.data.as_ptr(), memory.as_ptr(), "shared, not copied");
         assert_eq!(c.data_bytes(), &[0b1110_0100]);
         let mut work = WorkCounters::default();
         let (micro, states) = c
@@ -452,8 +483,8 @@ mod tests {
         let mut bytes = vec![0xEEu8; 24];
         bytes[4..12].copy_from_slice(&t(7, 3, 2).to_bytes());
         bytes[16..24].copy_from_slice(&t(9, 1, 1).to_bytes());
-        let memory: Arc<[u8]> = Arc::from(bytes);
-        let view = TriangleEntries::shared(Arc::clone(&memory), 4, 12, 2).expect("inside");
+        let memory: Bytes = Bytes::from(bytes);
+        let view = TriangleEntries::shared(memory.clone(), 4, 12, 2).expect("inside");
         assert_eq!(view.len(), 2);
         assert_eq!(view.get(0), Some(t(7, 3, 2)));
         assert_eq!(view.get(1), Some(t(9, 1, 1)));
@@ -462,7 +493,7 @@ mod tests {
         assert_eq!(view, vec![t(7, 3, 2), t(9, 1, 1)]);
         assert_eq!(view, TriangleEntries::from(vec![t(7, 3, 2), t(9, 1, 1)]));
         // A third entry would end at byte 36, past the 24 there are.
-        assert!(TriangleEntries::shared(Arc::clone(&memory), 4, 12, 3).is_none());
+        assert!(TriangleEntries::shared(memory.clone(), 4, 12, 3).is_none());
         assert!(TriangleEntries::shared(memory, 0, u64::MAX, 2).is_none());
         let mut first = view.clone();
         first.truncate(1);

@@ -617,7 +617,6 @@ fn vertices(
 
 #[cfg(test)]
 mod tests {
-    use std::sync::Arc;
 
     use super::*;
     use crate::device::{Device, Profile};
@@ -671,7 +670,7 @@ mod tests {
             Buffer {
                 size: SIZE as u64,
                 device_address: Some(ADDRESS),
-                contents: Some(Arc::from(bytes)),
+                contents: Some(crate::Bytes::from(bytes)),
                 ..Default::default()
             },
         );
@@ -803,7 +802,7 @@ mod tests {
         let content = record.content.unwrap();
         assert_eq!(content.triangles, vec![four_state(0, 1)]);
         let buffer = v.state().buffers[&BUFFER].contents.clone().unwrap();
-        assert!(Arc::ptr_eq(&content.data, &buffer));
+        assert_eq!(content.data.as_ptr(), buffer.as_ptr(), "shared, not copied");
         assert_eq!(content.data_bytes()[0], 0b1110_0100);
         let blas = v.state().acceleration_structures[&BLAS]
             .built

@@ -123,7 +123,6 @@ pub fn hit_outcomes(
 
 #[cfg(test)]
 mod tests {
-    use std::sync::Arc;
 
     use super::*;
     use crate::model::MicromapTriangle;
@@ -135,7 +134,7 @@ mod tests {
                 subdivision_level: 1,
                 format: 2,
             }],
-            Arc::from(vec![0b1110_0100u8]),
+            crate::Bytes::from(vec![0b1110_0100u8]),
         )
     }
 

@@ -2,8 +2,6 @@
 //! micromap, instance flags, rules across the infos of one build, and NV
 //! cluster triangle infos.
 
-use std::sync::Arc;
-
 use ommcheck::checks::accel_attach::record_original_attachments;
 use ommcheck::model::accel::*;
 use ommcheck::model::values::*;
@@ -130,18 +128,18 @@ fn world() -> Validator {
         let at = offset as usize;
         contents[at..at + 16].copy_from_slice(&le_bytes(&indices));
     }
-    input.contents = Some(Arc::from(contents));
+    input.contents = Some(ommcheck::Bytes::from(contents));
     // The guard re-indexes the buffer when dropped; it borrows the state until then.
     drop(input);
     for (address, indices) in [(HOST_INDICES, GOOD), (HOST_SPECIAL_INDICES, SPECIAL)] {
         state.host_memory.push(HostRange {
             address,
-            bytes: Arc::from(le_bytes(&indices)),
+            bytes: ommcheck::Bytes::from(le_bytes(&indices)),
         });
     }
     state.host_memory.push(HostRange {
         address: HOST_VERTICES,
-        bytes: Arc::from(vec![0u8; 0x100]),
+        bytes: ommcheck::Bytes::from(vec![0u8; 0x100]),
     });
     let opacity = built(MICROMAP_TYPE_OPACITY_MICROMAP_EXT, 0, u64::from(TRIANGLES));
     state.micromaps.get_mut(&MICROMAP).expect("fixture").built = opacity;
@@ -1388,7 +1386,7 @@ fn world_with_content() -> Validator {
     let at = CONTENT_TRIANGLES_OFFSET as usize;
     contents[at..at + 32].copy_from_slice(&entries(2));
     contents[at + 0x100..at + 0x120].copy_from_slice(&entries(1));
-    input.contents = Some(Arc::from(contents));
+    input.contents = Some(ommcheck::Bytes::from(contents));
     // The guard re-indexes the buffer when dropped; it borrows the state until then.
     drop(input);
     let opacity = MicromapBuildInfo {

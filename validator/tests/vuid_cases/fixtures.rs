@@ -3,7 +3,7 @@
 
 #![allow(dead_code)]
 
-use std::sync::Arc;
+use ommcheck::Bytes;
 
 use ommcheck::model::values::*;
 use ommcheck::model::{
@@ -55,12 +55,12 @@ pub fn two_triangles() -> Vec<MicromapTriangle> {
 }
 
 /// The input buffer's contents with `triangles` at [`TRIANGLES_OFFSET`].
-pub fn input_contents(triangles: &[MicromapTriangle]) -> Arc<[u8]> {
+pub fn input_contents(triangles: &[MicromapTriangle]) -> Bytes {
     let mut bytes = vec![0u8; INPUT_SIZE as usize];
     let array = triangle_bytes(triangles);
     let at = TRIANGLES_OFFSET as usize;
     bytes[at..at + array.len()].copy_from_slice(&array);
-    Arc::from(bytes)
+    ommcheck::Bytes::from(bytes)
 }
 
 /// A validator over [`device`] with the buffers and micromaps above.
@@ -120,15 +120,15 @@ pub fn validator_with(device: Device, triangles: &[MicromapTriangle]) -> Validat
     host_data[..2].copy_from_slice(&[0x55, 0xaa]);
     state.host_memory.push(HostRange {
         address: HOST_DATA,
-        bytes: Arc::from(host_data),
+        bytes: ommcheck::Bytes::from(host_data),
     });
     state.host_memory.push(HostRange {
         address: HOST_TRIANGLES,
-        bytes: Arc::from(triangle_bytes(triangles)),
+        bytes: ommcheck::Bytes::from(triangle_bytes(triangles)),
     });
     state.host_memory.push(HostRange {
         address: HOST_SCRATCH,
-        bytes: Arc::from(vec![0u8; 0x1000]),
+        bytes: ommcheck::Bytes::from(vec![0u8; 0x1000]),
     });
     v
 }

@@ -2,8 +2,6 @@
 //! and shader creation flags, the SPIR-V rules, the micromap feature and
 //! property structures, and the draw/dispatch/trace-rays rules.
 
-use std::sync::Arc;
-
 use ommcheck::checks::pipeline_sync::spirv::build::TestModule;
 use ommcheck::checks::pipeline_sync::WorkCommand;
 use ommcheck::device::ext;
@@ -632,7 +630,7 @@ fn built_from_indices(v: &mut Validator, indices: &[u16]) {
         Buffer {
             size: bytes.len() as u64,
             device_address: Some(INDEX_ADDRESS),
-            contents: Some(Arc::from(bytes)),
+            contents: Some(ommcheck::Bytes::from(bytes)),
             ..Default::default()
         },
     );

@@ -461,7 +461,6 @@ fn pipeline_opacity(
 
 #[cfg(test)]
 mod tests {
-    use std::sync::Arc;
 
     use super::*;
     use crate::state::Buffer;
@@ -473,7 +472,7 @@ mod tests {
             Buffer {
                 size: bytes.len() as u64,
                 device_address: Some(0x1000),
-                contents: Some(Arc::from(bytes)),
+                contents: Some(crate::Bytes::from(bytes)),
                 ..Default::default()
             },
         );

@@ -3,7 +3,8 @@
 //! model and running their checks.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
+
+use crate::Bytes;
 
 use crate::checks::pipeline_sync::WorkCommand;
 use crate::model::accel::{
@@ -164,7 +165,7 @@ impl Resolver<'_> {
     }
 
     /// The bytes `contents` describes, as long as its pieces reach.
-    fn sized_contents(&mut self, contents: &Contents, at: &str) -> Result<Arc<[u8]>> {
+    fn sized_contents(&mut self, contents: &Contents, at: &str) -> Result<Bytes> {
         let mut end = 0u64;
         for (k, piece) in contents.pieces().iter().enumerate() {
             let len = match (piece_len_hint(piece), &piece.file) {
