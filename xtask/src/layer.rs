@@ -313,6 +313,7 @@ mod tests {
                 "OMMCHECK_BREAK_ON_ERROR",
                 "OMMCHECK_GPU_READBACK",
                 "OMMCHECK_GPU_READBACK_MAX_BYTES",
+                "OMMCHECK_GPU_READBACK_INDIRECT_MAX_BYTES",
             ]
         );
         assert_eq!(settings[0]["default"], json!(["error", "warning"]));
