@@ -14,7 +14,7 @@ use ash::vk::Handle as _;
 use ommcheck::Report;
 
 use crate::dispatch::{DeviceData, DeviceFns, DeviceState, DEVICES};
-use crate::report::Message;
+use crate::report::{Message, Reporter};
 use crate::{panic_message, testing};
 
 /// A command as the loader's `PFN_vkVoidFunction`.
@@ -53,6 +53,18 @@ pub(crate) fn check(
             body(&mut state)
         }))
     };
+    deliver_checked(&data.instance.reporter, function, call_object, outcome)
+}
+
+/// Delivers what a check (run under `catch_unwind`) found about
+/// `call_object`, or one error message for its panic. Returns whether a
+/// messenger asked for the call to be skipped.
+pub(crate) fn deliver_checked(
+    reporter: &Reporter,
+    function: &'static str,
+    call_object: (vk::ObjectType, u64),
+    outcome: std::thread::Result<Report>,
+) -> bool {
     let messages: Vec<Message> = match outcome {
         // Most calls are valid: nothing to convert or deliver.
         Ok(report) if report.findings.is_empty() => return false,
@@ -67,7 +79,7 @@ pub(crate) fn check(
             "the call was passed on unchecked",
         )],
     };
-    !messages.is_empty() && data.instance.reporter.deliver(&messages, false)
+    reporter.deliver(&messages, false)
 }
 
 /// Calls a host command given `operation` down; where the driver ran it at

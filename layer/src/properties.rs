@@ -22,9 +22,8 @@ use ommcheck::vuids::khr;
 use ommcheck::{Device, Limits, Report, Validator};
 
 use crate::dispatch::{InstanceData, INSTANCES};
-use crate::intercept::as_void;
-use crate::report::Message;
-use crate::{guarded, panic_message, testing};
+use crate::intercept::{as_void, deliver_checked};
+use crate::{guarded, testing};
 
 /// This layer's function for a physical-device command name; like device
 /// commands, returned only where the next layer has the command.
@@ -54,19 +53,7 @@ fn check_chain(
         testing::panic_if_asked();
         body(&mut Validator::new(Device::default()))
     }));
-    let messages: Vec<Message> = match outcome {
-        Ok(report) => report
-            .findings
-            .iter()
-            .map(|finding| Message::from_finding(finding, object))
-            .collect(),
-        Err(payload) => vec![panic_message(
-            function,
-            payload.as_ref(),
-            "the call was passed on unchecked",
-        )],
-    };
-    !messages.is_empty() && instance.reporter.deliver(&messages, false)
+    deliver_checked(&instance.reporter, function, object, outcome)
 }
 
 /// `vkGetPhysicalDeviceProperties2` and its KHR alias.

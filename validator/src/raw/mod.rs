@@ -926,19 +926,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn host_data_is_read_in_full_from_a_readable_range() {
-        // Entries: dataOffset 0 and 1, level 1, format 1 (2-state, 1 byte each).
-        let triangles: [u8; 16] = [0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 0, 0, 1, 0, 1, 0];
-        let usages = [vk::MicromapUsageEXT {
-            count: 2,
-            subdivision_level: 1,
-            format: 1,
-        }];
-        let data = [0x1u8, 0x2];
-        let mut scratch = [0u8; 64];
-        let info = host_build_info(&triangles, &usages, &data, &mut scratch);
-        let device = <vk::Device as vk::Handle>::from_raw(1);
+    /// A validator that knows micromap 9, an opacity micromap of 256
+    /// bytes on buffer 5 (host-visible memory), for host builds into it.
+    fn with_micromap_9() -> Validator {
         let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
         v.state.buffers.insert(
             5,
@@ -960,6 +950,23 @@ mod tests {
                 ..Default::default()
             },
         );
+        v
+    }
+
+    #[test]
+    fn host_data_is_read_in_full_from_a_readable_range() {
+        // Entries: dataOffset 0 and 1, level 1, format 1 (2-state, 1 byte each).
+        let triangles: [u8; 16] = [0, 0, 0, 0, 1, 0, 1, 0, 1, 0, 0, 0, 1, 0, 1, 0];
+        let usages = [vk::MicromapUsageEXT {
+            count: 2,
+            subdivision_level: 1,
+            format: 1,
+        }];
+        let data = [0x1u8, 0x2];
+        let mut scratch = [0u8; 64];
+        let info = host_build_info(&triangles, &usages, &data, &mut scratch);
+        let device = <vk::Device as vk::Handle>::from_raw(1);
+        let mut v = with_micromap_9();
         let info = vk::MicromapBuildInfoEXT {
             dst_micromap: vk::Handle::from_raw(9),
             ..info
@@ -1019,23 +1026,7 @@ mod tests {
         }];
         let mut data: Box<[u8]> = Box::new([0x1u8, 0x2]);
         let mut scratch = [0u8; 64];
-        let mut v = Validator::new(Device::with_everything(Profile::SpecMinimum));
-        v.state.buffers.insert(
-            5,
-            crate::state::Buffer {
-                size: 256,
-                ..Default::default()
-            },
-        );
-        v.state.micromaps.insert(
-            9,
-            crate::state::Micromap {
-                buffer: 5,
-                size: 256,
-                ty: vk::MicromapTypeEXT::OPACITY_MICROMAP.as_raw(),
-                ..Default::default()
-            },
-        );
+        let mut v = with_micromap_9();
         let readable = [ReadableHost {
             address: data.as_ptr().expose_provenance() as u64,
             len: 2,
