@@ -77,9 +77,13 @@ impl Cause {
 
 /// Own rules are indexed after the catalog's VUIDs, in the order of
 /// [`rules::ALL`] (the not-checked ids of [`Cause`] are no rules a call is
-/// checked against and have no bit); 1024 bits hold the 574 VUIDs of the
-/// catalog and them (a test holds the catalog to it).
-const WORDS: usize = 16;
+/// checked against and have no bit); 768 bits hold the 574 VUIDs of the
+/// catalog and them (a test holds the catalog to it). No more than that:
+/// every checked call returns a [`crate::Report`] holding one set, and at
+/// 96 bytes the set keeps the report within the 128 bytes the compiler
+/// moves inline rather than through a `memcpy` call (each call moved its
+/// report about five times through such calls when the set had 1024 bits).
+const WORDS: usize = 12;
 
 /// A set of rules, as a bit per rule: inserting costs a few instructions,
 /// so checks can mark every rule they decide, even per element.

@@ -26,6 +26,10 @@ pub struct Validator {
     /// refilled by the next one: a call reads into these vectors instead of
     /// allocating its own (see [`crate::raw::SpareInfos`]).
     pub(crate) spare_micromap_infos: crate::raw::SpareInfos,
+    /// The triangle count of each info of the last micromap build call,
+    /// refilled by the next one (the pass over the usage counts sums them
+    /// once; the list keeps them until the builds are recorded).
+    pub(crate) spare_triangle_counts: Vec<u64>,
 }
 
 impl Validator {
@@ -36,6 +40,7 @@ impl Validator {
             tier: Tier::default(),
             device_contents_later: false,
             spare_micromap_infos: Default::default(),
+            spare_triangle_counts: Vec::new(),
         }
     }
 

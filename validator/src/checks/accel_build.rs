@@ -1060,16 +1060,10 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || format!("{stride} is not a multiple of 4"),
     );
     usage_count_pointers(ctx, at, &data.usage_counts);
-    let total = data.usage_counts.total();
-    let max_triangles = ctx.device.limits.max_micromap_triangles;
-    let member = data.usage_counts.member();
-    ctx.require(
-        total <= max_triangles,
-        micromap_vuid::count_11643,
-        || format!("{at}.{member}"),
-        || format!("the counts sum to {total}, more than maxMicromapTriangles = {max_triangles}"),
-    );
-    let limits = ctx.device.limits.clone();
+    // The device outlives the context: its limits need no copy while the
+    // context takes findings.
+    let device = ctx.device;
+    let limits = &device.limits;
     // Every rule of `usage_rules` runs for every entry, so where each entry
     // is a key the table allows, running them on one entry decides them as
     // running them on all would (see `UsageKeys::entries_to_check`).
@@ -1089,7 +1083,18 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
                 limits.max_opacity4_state_subdivision_level,
             )
     };
-    for (k, usage) in keys.entries_to_check(&data.usage_counts) {
+    // One pass finds the entries to check and sums the counts.
+    let scan = keys.scan(&data.usage_counts);
+    let total = scan.total;
+    let max_triangles = limits.max_micromap_triangles;
+    let member = data.usage_counts.member();
+    ctx.require(
+        total <= max_triangles,
+        micromap_vuid::count_11643,
+        || format!("{at}.{member}"),
+        || format!("the counts sum to {total}, more than maxMicromapTriangles = {max_triangles}"),
+    );
+    for (k, usage) in scan.entries {
         let loc = UsageAt {
             micromap: at,
             member,
@@ -1101,7 +1106,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
             usage.format,
             usage.subdivision_level,
             lossy,
-            &limits,
+            limits,
         );
     }
 }

@@ -422,7 +422,14 @@ impl Validator {
         ctx.device_contents_later = !name_unread;
         let contents = match build {
             DeviceBuild::Micromaps(infos) => {
-                micromap_build::cmd_build_micromaps_rules(&mut ctx, command_buffer, infos)
+                // The triangle counts were recorded with the builds.
+                let mut triangle_counts = Vec::new();
+                micromap_build::cmd_build_micromaps_rules(
+                    &mut ctx,
+                    command_buffer,
+                    infos,
+                    &mut triangle_counts,
+                )
             }
             DeviceBuild::AccelerationStructures {
                 infos,

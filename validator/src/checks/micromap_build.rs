@@ -105,10 +105,13 @@ impl Validator {
         command_buffer: &CommandBuffer,
         infos: &[MicromapBuildInfo],
     ) -> Report {
+        let mut triangle_counts = std::mem::take(&mut self.spare_triangle_counts);
         let mut ctx = self.ctx("vkCmdBuildMicromapsEXT");
-        let contents = cmd_build_micromaps_rules(&mut ctx, command_buffer, infos);
+        let contents =
+            cmd_build_micromaps_rules(&mut ctx, command_buffer, infos, &mut triangle_counts);
         let report = ctx.finish();
-        self.record_builds(infos, contents);
+        self.record_builds(infos, contents, &triangle_counts);
+        self.spare_triangle_counts = triangle_counts;
         let constructs = infos
             .iter()
             .map(|info| crate::state::execution::ExecEvent::Construct {
@@ -128,6 +131,8 @@ impl Validator {
         deferred_operation: Handle,
         infos: &[MicromapBuildInfo],
     ) -> Report {
+        // Each info's triangle count, kept in the list the last build left.
+        let mut triangle_counts = std::mem::take(&mut self.spare_triangle_counts);
         let mut ctx = self.ctx("vkBuildMicromapsEXT");
         common::device_handle(&mut ctx, device, host::device_parameter);
         common::deferred_operation(
@@ -152,9 +157,12 @@ impl Validator {
             || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
         );
         let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
+        triangle_counts.clear();
         for (i, info) in infos.iter().enumerate() {
             let at = common::Element("pInfos", i);
-            let content = build_info(&mut ctx, at, info, Side::Host);
+            let mut triangles = 0;
+            let content = build_info(&mut ctx, at, info, Side::Host, &mut triangles);
+            triangle_counts.push(triangles);
             // Below the content tier nothing is read (None): no list is kept.
             if ctx.contents {
                 contents.push(content);
@@ -242,7 +250,8 @@ impl Validator {
         crate::checks::driver_sizes::build_sizes(&mut ctx, infos, Side::Host);
         crate::checks::driver_sizes::host_scratch_overlaps(&mut ctx, infos);
         let report = ctx.finish();
-        self.record_builds(infos, contents);
+        self.record_builds(infos, contents, &triangle_counts);
+        self.spare_triangle_counts = triangle_counts;
         self.defer(deferred_operation);
         for info in infos {
             self.constructed_on_host(info.dst_micromap, deferred_operation);
@@ -251,21 +260,23 @@ impl Validator {
     }
 
     /// Remembers what each build made of its destination micromap, with
-    /// the content `build_info` read for it (`contents[i]` for `infos[i]`).
+    /// the content `build_info` read for it (`contents[i]` for `infos[i]`)
+    /// and its triangle count (`triangle_counts[i]`).
     fn record_builds(
         &mut self,
         infos: &[MicromapBuildInfo],
         contents: Vec<Option<MicromapContent>>,
+        triangle_counts: &[u64],
     ) {
         let mut contents = contents.into_iter();
-        for info in infos {
+        for (info, &triangle_count) in infos.iter().zip(triangle_counts) {
             let content = contents.next().flatten();
             self.state.driver.forget_micromap(info.dst_micromap);
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
                 micromap.built = Some(BuildRecord {
                     flags: info.flags,
                     ty: info.ty,
-                    triangle_count: info.usage_counts.total(),
+                    triangle_count,
                     content: content.map(Arc::new),
                     ..Default::default()
                 });
@@ -275,11 +286,13 @@ impl Validator {
 }
 
 /// The rules of `vkCmdBuildMicromapsEXT` (without recording the builds);
-/// returns each info's content as far as the checker could read it.
+/// returns each info's content as far as the checker could read it, and
+/// puts each info's triangle count in `triangle_counts` (cleared first).
 pub(crate) fn cmd_build_micromaps_rules(
     ctx: &mut Ctx<'_>,
     command_buffer: &CommandBuffer,
     infos: &[MicromapBuildInfo],
+    triangle_counts: &mut Vec<u64>,
 ) -> Vec<Option<MicromapContent>> {
     common::command_buffer(
         ctx,
@@ -306,9 +319,12 @@ pub(crate) fn cmd_build_micromaps_rules(
         || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into(),
     );
     let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
+    triangle_counts.clear();
     for (i, info) in infos.iter().enumerate() {
         let at = common::Element("pInfos", i);
-        let content = build_info(ctx, at, info, Side::Device);
+        let mut triangles = 0;
+        let content = build_info(ctx, at, info, Side::Device, &mut triangles);
+        triangle_counts.push(triangles);
         // Below the content tier nothing is read (None): no list is kept.
         if ctx.contents {
             contents.push(content);
@@ -560,12 +576,15 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
 
 /// `VkMicromapBuildInfoEXT` itself, the usage counts, and (when the checker
 /// can read them) the triangle array's entries, which it returns with the
-/// data for the build's record.
+/// data for the build's record. Puts the sum of the usage counts, which the
+/// pass over them works out on the way, in `triangles` (an out-parameter
+/// rather than a pair: returning the pair copied the content per call).
 pub(crate) fn build_info(
     ctx: &mut Ctx<'_>,
     at: impl Display + Copy,
     info: &MicromapBuildInfo,
     side: Side,
+    triangles: &mut u64,
 ) -> Option<MicromapContent> {
     ctx.require(
         info.s_type == STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
@@ -651,19 +670,24 @@ pub(crate) fn build_info(
         }
     }
 
+    if !(opacity || displacement) {
+        *triangles = counts.total();
+        return None;
+    }
     let maxima = common::ext_usage_maxima(&ctx.device.limits);
     let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
-    if opacity || displacement {
-        // One pass over the entries against the allowed keys; the rules
-        // with their locations and messages run per entry only where some
-        // entry is outside the table.
-        for (k, usage) in keys.entries_to_check(counts) {
-            usage_rules(ctx, (at, member, k), usage, opacity, maxima);
-        }
+    // One pass over the entries against the allowed keys, which also sums
+    // the counts; the rules with their locations and messages run per entry
+    // only where some entry is outside the table.
+    let scan = keys.scan(counts);
+    *triangles = scan.total;
+    let triangles = scan.total;
+    for (k, usage) in scan.entries {
+        usage_rules(ctx, (at, member, k), usage, opacity, maxima);
     }
-    if (opacity || displacement) && side != Side::SizeQuery {
-        triangle_array_stride(ctx, at, info);
+    if side != Side::SizeQuery {
+        triangle_array_stride(ctx, at, info, triangles);
         common::triangle_array_holds_every_entry(
             ctx,
             format_args!("{at}.triangleArray"),
@@ -672,7 +696,7 @@ pub(crate) fn build_info(
             &info.usage_counts,
             format_names(opacity),
         );
-        return triangle_array(ctx, at, info, side, opacity);
+        return triangle_array(ctx, at, info, side, opacity, triangles);
     }
     None
 }
@@ -749,12 +773,17 @@ fn usage_rules(
 
 /// The triangle array's stride against the entries' 8 bytes: decided by the
 /// parameters alone (KHR states it as 11646/11647).
-fn triangle_array_stride(ctx: &mut Ctx<'_>, at: impl Display, info: &MicromapBuildInfo) {
+/// `triangles` is the sum of the usage counts.
+fn triangle_array_stride(
+    ctx: &mut Ctx<'_>,
+    at: impl Display,
+    info: &MicromapBuildInfo,
+    triangles: u64,
+) {
     let stride = info.triangle_array_stride;
     if stride >= MicromapTriangle::SIZE && stride % 4 == 0 {
         return;
     }
-    let triangles = info.usage_counts.total();
     if triangles > 1 {
         ctx.report(
             &rules::EXT_TRIANGLE_ARRAY_STRIDE,
@@ -813,11 +842,11 @@ fn triangle_array(
     info: &MicromapBuildInfo,
     side: Side,
     opacity: bool,
+    triangles: u64,
 ) -> Option<MicromapContent> {
     // The bytes borrow the tracked state, not the context, so findings can
     // be reported while reading. Below the content tier nothing is read.
     let state = ctx.contents()?;
-    let triangles = info.usage_counts.total();
     if triangles == 0 {
         return None;
     }

@@ -879,6 +879,7 @@ impl Validator {
                 "pBuildInfo",
                 info,
                 crate::checks::micromap_build::Side::SizeQuery,
+                &mut 0,
             );
         }
         match size_info {

@@ -7,7 +7,19 @@ use crate::state::Handle;
 
 /// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`, laid out as they are, so
 /// that reading an application's array of them is a copy of its bytes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    bytemuck::Pod,
+    bytemuck::Zeroable,
+)]
 #[serde(rename_all = "camelCase")]
 #[repr(C)]
 pub struct MicromapUsage {
