@@ -226,6 +226,7 @@ impl Shape {
     /// `block` hold, if they are alike. For shapes that
     /// [fill their bytes](Self::fills_bytes): every byte repeats the first
     /// state; read a word at a time, stopping at the first that differs.
+    #[inline]
     pub fn uniform(self, block: &[u8]) -> Option<OpacityState> {
         let block = block.get(..self.bytes)?;
         let first = *block.first()? & if self.bits == 1 { 1 } else { 3 };
@@ -234,6 +235,11 @@ impl Shape {
         } else {
             (STATES[usize::from(first)], first * 0x55)
         };
+        // Most triangles are not uniform, and most show it in their first
+        // byte.
+        if block[0] != byte {
+            return None;
+        }
         let whole = block.chunks_exact(8);
         let alike = whole.remainder().iter().all(|b| *b == byte)
             && whole.map(word).all(|w| w == u64::from_ne_bytes([byte; 8]));

@@ -15,7 +15,6 @@ use crate::model::values::{
     MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
     OPACITY_MICROMAP_FORMAT_4_STATE,
 };
-use crate::model::MicromapTriangle;
 use crate::sim::census::{Shape, StateCounts};
 use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::sim::index::MAX_LEVEL;
@@ -223,22 +222,14 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
     let (count, per_entry) = triangle_count(content);
     out.triangles = count;
     let data = content.data_bytes();
+    let entries = entries(content);
     let mut run: Option<Run> = None;
-    for (i, entry) in entries(content).iter().enumerate() {
+    let mut next = 0;
+    while let Some(entry) = entries.get(next) {
+        let i = next;
+        next += 1;
         let weight = weights.get(i).copied().unwrap_or(0);
         let offset = usize::try_from(entry.data_offset).ok();
-        // The next triangle of the current run: only its uniformity is
-        // checked here.
-        if let Some(run) = run.as_mut().filter(|r| r.continues(&entry, offset, weight)) {
-            if let Some(block) = data.get(run.end..run.end + run.shape.bytes()) {
-                run.end += block.len();
-                run.triangles += 1;
-                if let Some(state) = run.shape.uniform(block) {
-                    out.uniform.note(i, per_entry, state);
-                }
-                continue;
-            }
-        }
         if let Some(run) = run.take() {
             run.count_into(&mut levels, data, per_entry);
         }
@@ -270,7 +261,7 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
             if let Some(state) = shape.uniform(block) {
                 out.uniform.note(i, per_entry, state);
             }
-            run = Some(Run {
+            let mut started = Run {
                 format: entry.format,
                 level: entry.subdivision_level,
                 shape: *shape,
@@ -278,7 +269,11 @@ pub fn census(content: &MicromapContent, weights: &[u64]) -> Census {
                 start,
                 end: start + block.len(),
                 triangles: 1,
+            };
+            next = started.extend(entries, next, weights, data, |k, state| {
+                out.uniform.note(k, per_entry, state)
             });
+            run = Some(started);
             continue;
         }
         let Some(counts) = block.and_then(|block| shape.counts(block)) else {
@@ -320,13 +315,65 @@ struct Run {
 }
 
 impl Run {
-    /// Whether `entry`, whose data starts at `offset` and which is
-    /// referenced `weight` times, is the run's next triangle.
-    fn continues(&self, entry: &MicromapTriangle, offset: Option<usize>, weight: u64) -> bool {
-        entry.format == self.format
-            && entry.subdivision_level == self.level
-            && weight == self.weight
-            && offset == Some(self.end)
+    /// Takes the entries from `from` on into the run while each is its
+    /// next triangle (the same format and level, referenced as often, its
+    /// data right after the run's and inside `data`), then checks each
+    /// taken only for being uniform (`uniform` hears of those); returns the
+    /// first entry not taken. Most of a large micromap's triangles are read
+    /// here, so both passes are a few instructions a triangle: one compare
+    /// of the entry's 8 bytes and of its weight, then one of its first
+    /// data byte.
+    fn extend(
+        &mut self,
+        entries: &TriangleEntries,
+        from: usize,
+        weights: &[u64],
+        data: &[u8],
+        mut uniform: impl FnMut(usize, OpacityState),
+    ) -> usize {
+        let (array, stride, len) = entries.raw();
+        let size = self.shape.bytes();
+        // Triangles that still fit after the run's end: inside `data`, and
+        // starting at an offset a u32 `dataOffset` can state.
+        let in_data = data.len().saturating_sub(self.end) / size;
+        let offsets = u64::from(u32::MAX)
+            .checked_sub(self.end as u64)
+            .map_or(0, |left| left / size as u64 + 1);
+        let last =
+            len.min(from.saturating_add(in_data.min(offsets.try_into().unwrap_or(usize::MAX))));
+        // The entry that continues the run, as its little-endian bytes read:
+        // data offset, then level and format; offsets below 2^32 here.
+        let key = u64::from(self.level) << 32 | u64::from(self.format) << 48;
+        let mut offset = self.end as u64;
+        let mut k = from;
+        while k < last {
+            let at = k * stride;
+            // Inside the array: `TriangleEntries` holds every entry whole.
+            let Some(entry) = array
+                .get(at..at + 8)
+                .and_then(|b| <[u8; 8]>::try_from(b).ok())
+            else {
+                break;
+            };
+            let weight = weights.get(k).copied().unwrap_or(0);
+            if u64::from_le_bytes(entry) != key | offset || weight != self.weight {
+                break;
+            }
+            offset += size as u64;
+            k += 1;
+        }
+        let taken = k - from;
+        let blocks = data
+            .get(self.end..self.end + taken * size)
+            .unwrap_or_default();
+        for (j, block) in blocks.chunks_exact(size).enumerate() {
+            if let Some(state) = self.shape.uniform(block) {
+                uniform(from + j, state);
+            }
+        }
+        self.end += taken * size;
+        self.triangles += taken as u64;
+        k
     }
 
     /// Adds the run's counts to its level's (each entry standing for
