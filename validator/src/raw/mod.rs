@@ -195,6 +195,7 @@ pub(crate) unsafe fn array_slice<'a, T>(
 }
 
 /// `count` bounded by [`MAX_ELEMENTS`], with a warning when it is cut.
+#[inline]
 pub(crate) fn bounded_len(
     count: u32,
     function: &'static str,
@@ -203,15 +204,26 @@ pub(crate) fn bounded_len(
 ) -> usize {
     let len = usize::try_from(count).unwrap_or(usize::MAX);
     if len > MAX_ELEMENTS {
-        findings.push(Finding::new(
-            &rules::READ_BOUND,
-            Severity::Warning,
-            function,
-            location.to_string(),
-            format!("the count {count} exceeds what ommcheck reads ({MAX_ELEMENTS}); the rest is not checked"),
-        ));
+        count_cut(count, function, &location, findings);
     }
     len.min(MAX_ELEMENTS)
+}
+
+/// [`bounded_len`]'s warning, kept out of the line every read takes.
+#[cold]
+fn count_cut(
+    count: u32,
+    function: &'static str,
+    location: &dyn Display,
+    findings: &mut Vec<Finding>,
+) {
+    findings.push(Finding::new(
+        &rules::READ_BOUND,
+        Severity::Warning,
+        function,
+        location.to_string(),
+        format!("the count {count} exceeds what ommcheck reads ({MAX_ELEMENTS}); the rest is not checked"),
+    ));
 }
 
 // `usage_counts` reads `VkMicromapUsageEXT` arrays as `MicromapUsage`.
