@@ -21,11 +21,12 @@ use std::fmt::{self, Display};
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
 use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
-use crate::checks::common::{self, Tally, TriangleHistogram, UsageKeys};
+use crate::checks::common::{self, Tally, TriangleHistogram};
 use crate::checks::index_scan::{
     for_each_chunk, is_cluster_skip_index, is_special_index, read_indices,
     special_and_micromap_indices, CleanIndices, IndexMix, ReferenceTally,
 };
+use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::model::accel::*;
 use crate::model::micromap::{MicromapUsage, UsageCounts};
@@ -655,7 +656,7 @@ fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     if !(opacity || displacement) {
         return;
     }
-    let maxima = common::ext_usage_maxima(&ctx.device.limits);
+    let maxima = usage_keys::ext_usage_maxima(&ctx.device.limits);
     let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
     // One pass over the entries against the allowed keys; the rules with

@@ -35,8 +35,9 @@ use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{
     self, bytes_available, readable_entries, usage_counts_match_triangles, CleanRun, Tally,
-    TriangleEntry, TriangleHistogram, UsageKeys,
+    TriangleEntry, TriangleHistogram,
 };
+use crate::checks::usage_keys::UsageKeys;
 use crate::checks::{accel_attach, hygiene, serialized, Coverage};
 use crate::device::Limits;
 use crate::model::accel::*;

@@ -10,8 +10,9 @@ use ommcheck_vuids::vuid::{
 
 use crate::checks::common::{
     self, readable_entries, usage_counts_match_triangles, CleanRun, CommandBufferVuids, Tally,
-    TriangleEntry, TriangleHistogram, UsageKeys,
+    TriangleEntry, TriangleHistogram,
 };
+use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::checks::{driver_sizes, hygiene};
 use crate::driver::BuildType;
@@ -674,7 +675,7 @@ pub(crate) fn build_info(
         *triangles = counts.total();
         return None;
     }
-    let maxima = common::ext_usage_maxima(&ctx.device.limits);
+    let maxima = usage_keys::ext_usage_maxima(&ctx.device.limits);
     let keys = UsageKeys::ext(opacity, maxima);
     let member = counts.member();
     // One pass over the entries against the allowed keys, which also sums

@@ -18,6 +18,7 @@ pub mod micromap_build;
 pub mod micromap_objects;
 pub mod pipeline_sync;
 mod serialized;
+pub(crate) mod usage_keys;
 
 /// A module's coverage declaration.
 pub struct Coverage {
