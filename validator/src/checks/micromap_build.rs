@@ -1071,3 +1071,94 @@ fn triangle_array(
         content
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::Device;
+    use crate::model::micromap::UsageCounts;
+    use crate::state::Micromap;
+    use crate::tier::Tier;
+
+    /// The usage entries of one build: `n` entries of `count` triangles,
+    /// 2-state and 4-state in turn.
+    fn usages(n: u32, count: u32) -> UsageCounts {
+        UsageCounts::array(
+            (0..n)
+                .map(|i| MicromapUsage {
+                    count,
+                    subdivision_level: i % 13,
+                    format: 1 + i % 2,
+                })
+                .collect(),
+        )
+    }
+
+    /// Each build's record holds the sum of its usage counts, whichever
+    /// way the pass over them summed them: entry by entry (under 16
+    /// entries), in 32-bit lanes, or one by one again (counts from 2^24,
+    /// or over 1,024 entries); on the host and the device command, for
+    /// every info of one call, at every tier.
+    #[test]
+    fn a_build_records_the_sum_of_its_usage_counts() {
+        let cases = [
+            usages(1, 5),
+            usages(15, 7),
+            usages(64, 3),
+            usages(67, 1 << 24),
+            usages(40, u32::MAX),
+            usages(2000, 9),
+            UsageCounts::pointers(vec![MicromapUsage {
+                count: 11,
+                subdivision_level: 2,
+                format: 2,
+            }]),
+        ];
+        let infos: Vec<MicromapBuildInfo> = cases
+            .iter()
+            .enumerate()
+            .map(|(i, usage_counts)| MicromapBuildInfo {
+                dst_micromap: 100 + i as Handle,
+                usage_counts: usage_counts.clone(),
+                ..Default::default()
+            })
+            .collect();
+        for tier in [Tier::Params, Tier::State, Tier::Content] {
+            for host in [true, false] {
+                let mut v = Validator::new(Device::default());
+                v.set_tier(tier);
+                for info in &infos {
+                    v.state_mut().micromaps.insert(
+                        info.dst_micromap,
+                        Micromap {
+                            ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
+                            ..Default::default()
+                        },
+                    );
+                }
+                if host {
+                    v.build_micromaps(1, 0, &infos);
+                } else {
+                    let command_buffer = CommandBuffer {
+                        handle: 2,
+                        recording: true,
+                        ..Default::default()
+                    };
+                    v.cmd_build_micromaps(&command_buffer, &infos);
+                }
+                for info in &infos {
+                    let recorded = v.state().micromaps[&info.dst_micromap]
+                        .built
+                        .as_ref()
+                        .map(|b| b.triangle_count);
+                    assert_eq!(
+                        recorded,
+                        Some(info.usage_counts.total()),
+                        "{tier:?} host {host}: {} entries",
+                        info.usage_counts.count
+                    );
+                }
+            }
+        }
+    }
+}
