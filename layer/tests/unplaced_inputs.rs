@@ -40,6 +40,13 @@ fn chain_with(readback: bool, micromap_feature: bool) -> (Chain, Box<Collector>)
     (chain, info)
 }
 
+/// The usage of a buffer an acceleration-structure build reads by address
+/// (range infos, pointer arrays, instances).
+const READ_BY_ADDRESS: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR.as_raw()
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+);
+
 /// A device-local buffer a build reads by address, of `size` bytes.
 fn input(chain: &Chain, size: u64) -> vk::Buffer {
     let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
@@ -341,8 +348,7 @@ fn an_indirect_top_level_builds_instance_flags_are_checked_at_completion() {
             let instances = input(&chain, 64);
             let bytes = instance(faulty);
             let range = range_info_bytes(1, 0);
-            let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+            let usage = READ_BY_ADDRESS;
             let mut writes: Vec<(vk::Buffer, &[u8])> = vec![(instances, &bytes)];
             let ranges = if mapped_ranges {
                 chain.mapped_buffer_holding(&range, usage)
@@ -383,8 +389,7 @@ fn instances_behind_a_mapped_array_of_pointers_are_read_back_and_checked() {
     for faulty in [true, false] {
         let (chain, info) = chain_with(true, false);
         let instances = input(&chain, 64);
-        let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+        let usage = READ_BY_ADDRESS;
         let pointer = chain.address(instances).to_le_bytes();
         let pointers = chain.mapped_buffer_holding(&pointer, usage);
         let bytes = instance(faulty);
@@ -407,9 +412,7 @@ fn instances_behind_a_mapped_array_of_pointers_are_read_back_and_checked() {
 fn instances_behind_uploaded_pointers_are_checked_at_submission() {
     for faulty in [true, false] {
         let (chain, info) = chain_with(false, false);
-        let usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
-            | vk::BufferUsageFlags::TRANSFER_DST;
+        let usage = READ_BY_ADDRESS | vk::BufferUsageFlags::TRANSFER_DST;
         let instances = chain.mapped_buffer_holding(&instance(faulty), usage);
         let pointers = chain.buffer(8, usage, 0);
         let pointer = chain.address(instances).to_le_bytes();
