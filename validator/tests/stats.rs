@@ -247,6 +247,86 @@ proptest! {
     }
 }
 
+/// What one triangle of a long run holds.
+#[derive(Clone, Debug)]
+enum Block {
+    /// Bytes from this seed.
+    Random(u64),
+    /// Every state alike (0 to 3, masked to the format).
+    Uniform(u8),
+    /// Uniform but for the byte at this position (modulo the size), flipped
+    /// by this mask: the census's quick test lets most of these through.
+    AlmostUniform(u8, usize, u8),
+}
+
+impl Block {
+    fn bytes(&self, format: u16, size: usize) -> Vec<u8> {
+        let repeat = |state: u8| {
+            if format == 1 {
+                (state & 1) * 0xff
+            } else {
+                (state & 3) * 0x55
+            }
+        };
+        match *self {
+            Block::Random(seed) => {
+                let mut x = seed | 1;
+                (0..size)
+                    .map(|_| {
+                        x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                        (x >> 56) as u8
+                    })
+                    .collect()
+            }
+            Block::Uniform(state) => vec![repeat(state); size],
+            Block::AlmostUniform(state, at, flip) => {
+                let mut bytes = vec![repeat(state); size];
+                bytes[at % size] ^= flip;
+                bytes
+            }
+        }
+    }
+}
+
+/// A run of 1 to 150 triangles of one format and level (0 to 6), laid one
+/// after the other, mostly random with uniform and almost uniform ones
+/// among them: long enough for the census's groups of triangles.
+fn long_run() -> impl Strategy<Value = (Vec<MicromapTriangle>, Vec<u8>)> {
+    let block = prop_oneof![
+        4 => any::<u64>().prop_map(Block::Random),
+        1 => (0u8..4).prop_map(Block::Uniform),
+        1 => (0u8..4, any::<usize>(), 1u8..=255).prop_map(|(s, at, flip)| Block::AlmostUniform(s, at, flip)),
+    ];
+    (1u16..=2, 0u16..=6, prop::collection::vec(block, 1..150)).prop_map(
+        |(format, level, blocks)| {
+            let size =
+                opacity_triangle_bytes(u32::from(format), u32::from(level)).unwrap_or(1) as usize;
+            let data: Vec<u8> = blocks.iter().flat_map(|b| b.bytes(format, size)).collect();
+            let triangles = (0..blocks.len())
+                .map(|m| MicromapTriangle {
+                    data_offset: (m * size) as u32,
+                    subdivision_level: level,
+                    format,
+                })
+                .collect();
+            (triangles, data)
+        },
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn long_runs_find_every_uniform_triangle(
+        (triangles, data) in long_run(),
+        weight in 0u64..3,
+    ) {
+        let weights = vec![weight; triangles.len()];
+        assert_census_matches(&triangles, 0, data, &weights)?;
+    }
+}
+
 #[test]
 fn level_12_triangles_match_decoding_every_state() {
     // 2 MiB and 4 MiB of pseudo-random bytes (a 64-bit LCG), the 4-state

@@ -222,6 +222,66 @@ impl Shape {
         sums.four_state(states)
     }
 
+    /// Calls `check(j, group)` for the groups of triangles of `blocks` (the
+    /// data of triangles laid one after the other, from triangle 0; `j` is
+    /// the group's first) in which some triangle may be uniform, passing
+    /// most of the others by a test without a branch per triangle: a
+    /// triangle may be uniform only when its first word (or byte) repeats
+    /// one state and its last equals its first, which a random triangle
+    /// does once in thousands. Triangles of level 6 and up come one to a
+    /// group: their first byte alone rules most out.
+    #[inline]
+    pub fn maybe_uniform_groups(self, blocks: &[u8], mut check: impl FnMut(usize, &[u8])) {
+        match self.bytes {
+            1 => self.groups_of::<1>(blocks, check),
+            2 => self.groups_of::<2>(blocks, check),
+            4 => self.groups_of::<4>(blocks, check),
+            8 => self.groups_of::<8>(blocks, check),
+            16 => self.groups_of::<16>(blocks, check),
+            32 => self.groups_of::<32>(blocks, check),
+            64 => self.groups_of::<64>(blocks, check),
+            128 => self.groups_of::<128>(blocks, check),
+            256 => self.groups_of::<256>(blocks, check),
+            _ => blocks
+                .chunks_exact(self.bytes)
+                .enumerate()
+                .for_each(|(j, block)| check(j, block)),
+        }
+    }
+
+    #[inline(always)]
+    fn groups_of<const SIZE: usize>(self, blocks: &[u8], mut check: impl FnMut(usize, &[u8])) {
+        const GROUP: usize = 16;
+        let groups = blocks.chunks_exact(GROUP * SIZE);
+        let rest = groups.remainder();
+        let whole = blocks.len() / (GROUP * SIZE);
+        for (g, group) in groups.enumerate() {
+            let maybe = group.chunks_exact(SIZE).fold(false, |maybe, block| {
+                maybe | self.may_be_uniform::<SIZE>(block)
+            });
+            if maybe {
+                check(g * GROUP, group);
+            }
+        }
+        if !rest.is_empty() {
+            check(whole * GROUP, rest);
+        }
+    }
+
+    /// The test of [`Self::maybe_uniform_groups`] for one triangle's
+    /// `SIZE` bytes: a word (or byte) that repeats one state is the same
+    /// rotated by one state.
+    #[inline(always)]
+    fn may_be_uniform<const SIZE: usize>(self, block: &[u8]) -> bool {
+        if SIZE >= 8 {
+            let (first, last) = (word(&block[..8]), word(&block[SIZE - 8..]));
+            (first.rotate_left(self.bits) == first) & (last == first)
+        } else {
+            let (first, last) = (block[0], block[SIZE - 1]);
+            (first.rotate_left(self.bits) == first) & (last == first)
+        }
+    }
+
     /// The one state all micro-triangles of the triangle whose data starts
     /// `block` hold, if they are alike. For shapes that
     /// [fill their bytes](Self::fills_bytes): every byte repeats the first
@@ -273,6 +333,7 @@ impl std::ops::Add for BitSums {
 }
 
 impl BitSums {
+    #[inline(always)]
     fn of_word(w: u64) -> Self {
         Self {
             ones: u64::from(w.count_ones()),
@@ -289,22 +350,35 @@ impl BitSums {
     /// the odd bits), so it adds half as many: eight folded vectors for
     /// every sixteen read.
     fn of_four_state(block: &[u8]) -> Self {
+        // The same code, compiled for AVX2 where the CPU has it: twice the
+        // lanes a vector, and a popcount of bytes by table lookup
+        // (`vpshufb`) where baseline x86-64 has shifts and a multiply.
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = pulp::x86::V3::try_new() {
+            return avx2.vectorize(|| Self::of_four_state_portable(block));
+        }
+        Self::of_four_state_portable(block)
+    }
+
+    /// [`Self::of_four_state`] for whatever target the crate is built for;
+    /// inlined whole into the caller, so that it is compiled with the
+    /// caller's target features.
+    #[inline(always)]
+    fn of_four_state_portable(block: &[u8]) -> Self {
         let mut raw = EightWay::<true>::default();
         let mut both = EightWay::<false>::default();
         let steps = block.chunks_exact(16 * VECTOR_BYTES);
         let rest = steps.remainder();
-        let mut folded = [[0u64; LANES]; 8];
         for step in steps {
-            for (half, bytes) in step.chunks_exact(8 * VECTOR_BYTES).enumerate() {
-                let mut words = bytes.chunks_exact(8).map(word);
-                let v: [Lanes; 8] =
-                    std::array::from_fn(|_| std::array::from_fn(|_| words.next().unwrap_or(0)));
+            let mut folded = [[0u64; LANES]; 8];
+            for (half, eight) in step.chunks_exact(8 * VECTOR_BYTES).enumerate() {
+                let mut v = [[0u64; LANES]; 8];
+                for (vector, bytes) in v.iter_mut().zip(eight.chunks_exact(VECTOR_BYTES)) {
+                    *vector = lanes(bytes);
+                }
                 raw.add(&v);
                 for k in 0..4 {
-                    folded[4 * half + k] = std::array::from_fn(|l| {
-                        let (a, b) = (v[2 * k][l], v[2 * k + 1][l]);
-                        (a & (a >> 1) & LOW_BITS) | (b & (b << 1) & !LOW_BITS)
-                    });
+                    folded[4 * half + k] = both_set_folded(v[2 * k], v[2 * k + 1]);
                 }
             }
             both.add(&folded);
@@ -343,19 +417,47 @@ const VECTOR_BYTES: usize = 8 * LANES;
 
 /// Vector `i` of `bytes` (its words `LANES·i` to `LANES·i + LANES - 1`),
 /// zeros when it is not whole.
+#[inline(always)]
 fn vector(bytes: &[u8], i: usize) -> Lanes {
     let at = i * VECTOR_BYTES;
-    let whole = bytes
-        .get(at..at + VECTOR_BYTES)
-        .and_then(|b| <&[u8; VECTOR_BYTES]>::try_from(b).ok());
-    let Some(whole) = whole else {
-        return [0; LANES];
-    };
-    std::array::from_fn(|k| {
-        let mut word = [0u8; 8];
-        word.copy_from_slice(&whole[8 * k..8 * k + 8]);
-        u64::from_le_bytes(word)
-    })
+    match bytes.get(at..at + VECTOR_BYTES) {
+        Some(whole) => lanes(whole),
+        None => [0; LANES],
+    }
+}
+
+// The helpers below are loops, not `std::array::from_fn` or `map`: those
+// are generic functions the compiler may leave out of line, compiled
+// without the caller's target features (AVX2 under `of_four_state`).
+
+/// The little-endian words of `VECTOR_BYTES` bytes, side by side.
+#[inline(always)]
+fn lanes(bytes: &[u8]) -> Lanes {
+    let mut lanes = [0u64; LANES];
+    for (lane, bytes) in lanes.iter_mut().zip(bytes.chunks_exact(8)) {
+        *lane = word(bytes);
+    }
+    lanes
+}
+
+/// The 2-bit fields with both bits set of two vectors, as one: those of
+/// `a` on the even bits, those of `b` on the odd bits.
+#[inline(always)]
+fn both_set_folded(a: Lanes, b: Lanes) -> Lanes {
+    let mut folded = [0u64; LANES];
+    for l in 0..LANES {
+        folded[l] = (a[l] & (a[l] >> 1) & LOW_BITS) | (b[l] & (b[l] << 1) & !LOW_BITS);
+    }
+    folded
+}
+
+/// The bits of `v` at even positions.
+#[inline(always)]
+fn even_bits(mut v: Lanes) -> Lanes {
+    for w in &mut v {
+        *w &= LOW_BITS;
+    }
+    v
 }
 
 /// A little-endian word of up to 8 bytes.
@@ -389,20 +491,31 @@ fn ones(bytes: &[u8]) -> u64 {
     if vectors == 0 {
         return tail;
     }
-    count_vectors(vectors, |i| vector(bytes, i)) + tail
+    #[cfg(target_arch = "x86_64")]
+    if vectors >= 8 {
+        if let Some(avx2) = pulp::x86::V3::try_new() {
+            return avx2.vectorize(|| count_vectors(bytes, vectors)) + tail;
+        }
+    }
+    count_vectors(bytes, vectors) + tail
 }
 
-/// The bits set in vectors `vector(0)` to `vector(n - 1)`, eight at a time
+/// The bits set in the first `n` vectors of `bytes`, eight at a time
 /// through an [`EightWay`] counter.
-fn count_vectors(n: usize, vector: impl Fn(usize) -> Lanes) -> u64 {
+#[inline(always)]
+fn count_vectors(bytes: &[u8], n: usize) -> u64 {
     let mut counter = EightWay::<false>::default();
     let mut i = 0;
     while i + 8 <= n {
-        counter.add(&std::array::from_fn(|k| vector(i + k)));
+        let mut v = [[0u64; LANES]; 8];
+        for (k, vector_k) in v.iter_mut().enumerate() {
+            *vector_k = vector(bytes, i + k);
+        }
+        counter.add(&v);
         i += 8;
     }
     // Fewer than eight vectors left: counted one by one.
-    (i..n).fold(counter.total().0, |all, i| all + popcount(vector(i)))
+    (i..n).fold(counter.total().0, |all, i| all + popcount(vector(bytes, i)))
 }
 
 /// A Harley-Seal carry-save counter, fed eight vectors at a time: it adds
@@ -416,11 +529,14 @@ struct EightWay<const EVEN: bool> {
     ones: Lanes,
     twos: Lanes,
     fours: Lanes,
-    eights: u64,
-    eights_even: u64,
+    /// The eights' popcounts, lane by lane: summed across lanes only at
+    /// the end, so the popcount stays in vector registers.
+    eights: Lanes,
+    eights_even: Lanes,
 }
 
 impl<const EVEN: bool> EightWay<EVEN> {
+    #[inline(always)]
     fn add(&mut self, v: &[Lanes; 8]) {
         let (twos_a, o) = add(self.ones, v[0], v[1]);
         let (twos_b, o) = add(o, v[2], v[3]);
@@ -430,26 +546,40 @@ impl<const EVEN: bool> EightWay<EVEN> {
         let (fours_b, t) = add(t, twos_a, twos_b);
         let (eights, f) = add(self.fours, fours_a, fours_b);
         (self.ones, self.twos, self.fours) = (o, t, f);
-        self.eights += popcount(eights);
+        add_popcounts(&mut self.eights, eights);
         if EVEN {
-            self.eights_even += popcount(eights.map(|w| w & LOW_BITS));
+            add_popcounts(&mut self.eights_even, even_bits(eights));
         }
     }
 
     /// (bits set, bits set at even positions; 0 without `EVEN`).
+    #[inline(always)]
     fn total(&self) -> (u64, u64) {
-        let (mut all, mut even) = (8 * self.eights, 8 * self.eights_even);
+        let (mut all, mut even) = (8 * sum(self.eights), 8 * sum(self.eights_even));
         for (weight, v) in [(4, self.fours), (2, self.twos), (1, self.ones)] {
             all += weight * popcount(v);
             if EVEN {
-                even += weight * popcount(v.map(|w| w & LOW_BITS));
+                even += weight * popcount(even_bits(v));
             }
         }
         (all, even)
     }
 }
 
+/// Adds each lane's popcount of `v` to that lane of `counts`.
+#[inline(always)]
+fn add_popcounts(counts: &mut Lanes, v: Lanes) {
+    for l in 0..LANES {
+        counts[l] += u64::from(v[l].count_ones());
+    }
+}
+
+fn sum(v: Lanes) -> u64 {
+    v.iter().sum()
+}
+
 /// A carry-save adder on each lane: (carries, sums) of a + b + c.
+#[inline(always)]
 fn add(a: Lanes, b: Lanes, c: Lanes) -> (Lanes, Lanes) {
     let mut carry = [0u64; LANES];
     let mut sum = [0u64; LANES];
@@ -461,8 +591,13 @@ fn add(a: Lanes, b: Lanes, c: Lanes) -> (Lanes, Lanes) {
     (carry, sum)
 }
 
+#[inline(always)]
 fn popcount(v: Lanes) -> u64 {
-    v.iter().map(|w| u64::from(w.count_ones())).sum()
+    let mut ones = 0;
+    for w in v {
+        ones += u64::from(w.count_ones());
+    }
+    ones
 }
 
 #[cfg(test)]
@@ -538,5 +673,43 @@ mod tests {
         sum += counts(1, 1, 1, u64::MAX);
         assert_eq!(sum, counts(2, 3, 4, u64::MAX));
         assert_eq!(sum.total(), u64::MAX);
+    }
+
+    /// Pseudo-random bytes (a 64-bit LCG).
+    fn noise(len: usize, seed: u64) -> Vec<u8> {
+        let mut x = seed;
+        (0..len)
+            .map(|_| {
+                x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                (x >> 56) as u8
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_avx2_and_portable_counters_agree_with_a_word_by_word_count() {
+        // Lengths around the counters' steps (8 and 16 vectors of 32
+        // bytes) and their tails; on a CPU with AVX2 the dispatching
+        // functions take the AVX2 path, the portable ones never do.
+        for len in [
+            0, 7, 8, 255, 256, 257, 511, 512, 513, 1000, 4096, 4099, 20_000,
+        ] {
+            let bytes = noise(len, len as u64 + 1);
+            let by_word =
+                words(&bytes).fold(BitSums::default(), |sums, w| sums + BitSums::of_word(w));
+            assert_eq!(BitSums::of_four_state(&bytes), by_word, "{len} bytes");
+            assert_eq!(
+                BitSums::of_four_state_portable(&bytes),
+                by_word,
+                "{len} bytes"
+            );
+            assert_eq!(ones(&bytes), by_word.ones, "{len} bytes");
+            let vectors = len / VECTOR_BYTES;
+            let tail: u64 = bytes[vectors * VECTOR_BYTES..]
+                .iter()
+                .map(|b| u64::from(b.count_ones()))
+                .sum();
+            assert_eq!(count_vectors(&bytes, vectors) + tail, by_word.ones);
+        }
     }
 }

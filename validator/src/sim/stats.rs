@@ -194,6 +194,13 @@ fn entry_of(content: &MicromapContent, m: u64) -> Option<usize> {
     }
 }
 
+/// A little-endian word of 8 bytes (0 for a shorter slice, which callers
+/// never pass).
+#[inline(always)]
+fn word(bytes: &[u8]) -> u64 {
+    <[u8; 8]>::try_from(bytes).map_or(0, u64::from_le_bytes)
+}
+
 /// Adds `n` to a count, saturating: weights multiply counts, and a
 /// census must not fail on a scene however large its numbers.
 fn bump(sum: &mut u64, n: u64) {
@@ -346,17 +353,38 @@ impl Run {
         let key = u64::from(self.level) << 32 | u64::from(self.format) << 48;
         let mut offset = self.end as u64;
         let mut k = from;
+        // Packed entries, eight at a time: one test of all eight (their
+        // bytes and weights against the expected ones, or-ed together)
+        // decides them, without a branch per entry.
+        if stride == 8 {
+            while k + 8 <= last {
+                let (Some(eight), Some(weights)) =
+                    (array.get(8 * k..8 * k + 64), weights.get(k..k + 8))
+                else {
+                    break;
+                };
+                let mut differ = 0u64;
+                let mut expected = key | offset;
+                for (entry, weight) in eight.chunks_exact(8).zip(weights) {
+                    differ |= (word(entry) ^ expected) | (weight ^ self.weight);
+                    expected += size as u64;
+                }
+                if differ != 0 {
+                    break;
+                }
+                offset += 8 * size as u64;
+                k += 8;
+            }
+        }
+        // The rest (and all of a strided array) entry by entry.
         while k < last {
             let at = k * stride;
             // Inside the array: `TriangleEntries` holds every entry whole.
-            let Some(entry) = array
-                .get(at..at + 8)
-                .and_then(|b| <[u8; 8]>::try_from(b).ok())
-            else {
+            let Some(entry) = array.get(at..at + 8) else {
                 break;
             };
             let weight = weights.get(k).copied().unwrap_or(0);
-            if u64::from_le_bytes(entry) != key | offset || weight != self.weight {
+            if word(entry) != key | offset || weight != self.weight {
                 break;
             }
             offset += size as u64;
@@ -366,14 +394,27 @@ impl Run {
         let blocks = data
             .get(self.end..self.end + taken * size)
             .unwrap_or_default();
-        for (j, block) in blocks.chunks_exact(size).enumerate() {
-            if let Some(state) = self.shape.uniform(block) {
-                uniform(from + j, state);
-            }
-        }
+        self.shape.maybe_uniform_groups(blocks, |j, group| {
+            self.note_uniform(group, from + j, &mut uniform)
+        });
         self.end += taken * size;
         self.triangles += taken as u64;
         k
+    }
+
+    /// Tells `uniform` of the uniform triangles among `blocks`, the data of
+    /// the run's triangles `first` on.
+    fn note_uniform(
+        &self,
+        blocks: &[u8],
+        first: usize,
+        uniform: &mut impl FnMut(usize, OpacityState),
+    ) {
+        for (j, block) in blocks.chunks_exact(self.shape.bytes()).enumerate() {
+            if let Some(state) = self.shape.uniform(block) {
+                uniform(first + j, state);
+            }
+        }
     }
 
     /// Adds the run's counts to its level's (each entry standing for
