@@ -230,7 +230,7 @@ impl Shape {
     /// one state and its last equals its first, which a random triangle
     /// does once in thousands. Triangles of level 6 and up come one to a
     /// group: their first byte alone rules most out.
-    #[inline]
+    #[inline(always)]
     pub fn maybe_uniform_groups(self, blocks: &[u8], mut check: impl FnMut(usize, &[u8])) {
         match self.bytes {
             1 => self.groups_of::<1>(blocks, check),

@@ -336,6 +336,28 @@ impl Run {
         from: usize,
         weights: &[u64],
         data: &[u8],
+        uniform: impl FnMut(usize, OpacityState),
+    ) -> usize {
+        // Compiled for AVX2 where the CPU has it, both passes compare four
+        // 64-bit words at once (baseline x86-64 has no 64-bit compare):
+        // a quarter less time a level-3 triangle (2-state, this machine).
+        #[cfg(target_arch = "x86_64")]
+        if let Some(avx2) = pulp::x86::V3::try_new() {
+            return avx2.vectorize(|| self.extend_portable(entries, from, weights, data, uniform));
+        }
+        self.extend_portable(entries, from, weights, data, uniform)
+    }
+
+    /// [`Self::extend`] for whatever target the crate is built for; inlined
+    /// whole into the caller, so that it is compiled with the caller's
+    /// target features.
+    #[inline(always)]
+    fn extend_portable(
+        &mut self,
+        entries: &TriangleEntries,
+        from: usize,
+        weights: &[u64],
+        data: &[u8],
         mut uniform: impl FnMut(usize, OpacityState),
     ) -> usize {
         let (array, stride, len) = entries.raw();
