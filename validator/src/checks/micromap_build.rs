@@ -682,13 +682,13 @@ pub(crate) fn build_info(
     // the counts; the rules with their locations and messages run per entry
     // only where some entry is outside the table.
     let scan = keys.scan(counts);
-    *triangles = scan.total;
-    let triangles = scan.total;
+    let total = scan.total;
+    *triangles = total;
     for (k, usage) in scan.entries {
         usage_rules(ctx, (at, member, k), usage, opacity, maxima);
     }
     if side != Side::SizeQuery {
-        triangle_array_stride(ctx, at, info, triangles);
+        triangle_array_stride(ctx, at, info, total);
         common::triangle_array_holds_every_entry(
             ctx,
             format_args!("{at}.triangleArray"),
@@ -697,7 +697,7 @@ pub(crate) fn build_info(
             &info.usage_counts,
             format_names(opacity),
         );
-        return triangle_array(ctx, at, info, side, opacity, triangles);
+        return triangle_array(ctx, at, info, side, opacity, total);
     }
     None
 }

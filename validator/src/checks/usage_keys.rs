@@ -404,19 +404,16 @@ impl Iterator for EntriesToCheck<'_> {
 /// `pUsageCounts` holding `(count, subdivisionLevel, format)` entries.
 #[cfg(test)]
 pub(crate) fn usage_counts(entries: &[(u32, u32, u32)]) -> UsageCounts {
-    let usages: Vec<_> = entries
-        .iter()
-        .map(|&(count, subdivision_level, format)| MicromapUsage {
-            count,
-            subdivision_level,
-            format,
-        })
-        .collect();
-    UsageCounts {
-        count: usages.len() as u32,
-        array: Some(usages),
-        pointers: None,
-    }
+    UsageCounts::array(
+        entries
+            .iter()
+            .map(|&(count, subdivision_level, format)| MicromapUsage {
+                count,
+                subdivision_level,
+                format,
+            })
+            .collect(),
+    )
 }
 
 #[cfg(test)]

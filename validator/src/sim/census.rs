@@ -462,7 +462,7 @@ fn even_bits(mut v: Lanes) -> Lanes {
 
 /// A little-endian word of up to 8 bytes.
 #[inline(always)]
-fn word(bytes: &[u8]) -> u64 {
+pub(crate) fn word(bytes: &[u8]) -> u64 {
     match <[u8; 8]>::try_from(bytes) {
         Ok(whole) => u64::from_le_bytes(whole),
         Err(_) => bytes

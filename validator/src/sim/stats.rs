@@ -15,7 +15,7 @@ use crate::model::values::{
     MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
     OPACITY_MICROMAP_FORMAT_4_STATE,
 };
-use crate::sim::census::{Shape, StateCounts};
+use crate::sim::census::{word, Shape, StateCounts};
 use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::sim::index::MAX_LEVEL;
 use crate::sim::opacity::{OpacityState, Slot};
@@ -194,13 +194,6 @@ fn entry_of(content: &MicromapContent, m: u64) -> Option<usize> {
     }
 }
 
-/// A little-endian word of 8 bytes (0 for a shorter slice, which callers
-/// never pass).
-#[inline(always)]
-fn word(bytes: &[u8]) -> u64 {
-    <[u8; 8]>::try_from(bytes).map_or(0, u64::from_le_bytes)
-}
-
 /// Adds `n` to a count, saturating: weights multiply counts, and a
 /// census must not fail on a scene however large its numbers.
 fn bump(sum: &mut u64, n: u64) {
@@ -327,9 +320,10 @@ impl Run {
     /// data right after the run's and inside `data`), then checks each
     /// taken only for being uniform (`uniform` hears of those); returns the
     /// first entry not taken. Most of a large micromap's triangles are read
-    /// here, so both passes are a few instructions a triangle: one compare
-    /// of the entry's 8 bytes and of its weight, then one of its first
-    /// data byte.
+    /// here, so both passes are a few instructions a triangle: eight
+    /// entries' bytes and weights compared at once, then sixteen triangles'
+    /// first and last words tested at once for a possibly uniform one
+    /// ([`Shape::maybe_uniform_groups`]).
     fn extend(
         &mut self,
         entries: &TriangleEntries,
