@@ -6,8 +6,8 @@
 #![allow(unsafe_code)]
 
 use foldhash::{HashMap, HashSet};
+use ommcheck::model::Handle;
 use ommcheck::raw::MAX_HOST_BYTES;
-use ommcheck::state::Handle;
 
 use crate::dispatch::DeviceState;
 use crate::read;

@@ -8,8 +8,8 @@
 use ash::vk;
 use ash::vk::Handle as _;
 use ommcheck::model::pipeline::PipelineCreateInfo;
+use ommcheck::model::Handle;
 use ommcheck::raw::pipeline::{self as raw, StructReader};
-use ommcheck::state::Handle;
 use ommcheck::{Report, Validator};
 
 use crate::dispatch::{DeviceData, DeviceState};

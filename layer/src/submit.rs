@@ -15,8 +15,8 @@ use std::ffi::CStr;
 use ash::vk;
 use ash::vk::Handle as _;
 use ommcheck::checks::device_contents::KnownBytes;
+use ommcheck::model::Handle;
 use ommcheck::model::SubmitBatch;
-use ommcheck::state::Handle;
 use ommcheck::Severity;
 
 use crate::commands::{self, KeptBuild, Recorded};

@@ -31,8 +31,8 @@ use ommcheck::model::pipeline::{
     AccelerationStructureAccess, AccessingShader, BoundWork, PipelineCreateInfo, ShaderCreateInfo,
 };
 use ommcheck::model::CommandBuffer;
+use ommcheck::model::Handle;
 use ommcheck::raw::pipeline as raw;
-use ommcheck::state::Handle;
 use ommcheck::Validator;
 
 use crate::dispatch::{DeviceData, DeviceState};

@@ -1,5 +1,5 @@
 //! What the state census (`ommcheck stats`) costs: the bytes per second
-//! `ommcheck::sim::stats::census` reads (the micromap's data and its
+//! `ommcheck::inspect::stats::census` reads (the micromap's data and its
 //! triangle array) for 8 MiB of 2-state or 4-state data at subdivision
 //! levels 3, 6, 9 and 12, next to a memcpy of as many bytes in the same
 //! run. Issue 18's target: at least half the memcpy's speed.
@@ -9,11 +9,11 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use ommcheck::inspect::stats::census;
 use ommcheck::model::micromap::opacity_triangle_bytes;
 use ommcheck::model::values::{OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE};
 use ommcheck::model::MicromapTriangle;
 use ommcheck::sim::decode::MicromapContent;
-use ommcheck::sim::stats::census;
 
 const DATA_BYTES: u64 = 8 << 20;
 const LEVELS: [u16; 4] = [3, 6, 9, 12];

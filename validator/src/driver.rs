@@ -17,7 +17,7 @@ use std::sync::Arc;
 use crate::device::Device;
 use crate::model::micromap::{MicromapBuildInfo, MicromapUsage};
 use crate::model::values::*;
-use crate::state::Handle;
+use crate::model::Handle;
 
 /// A shape holds at most this many usage counts: a valid opacity build has
 /// at most 2 formats x 13 levels of distinct ones, a displacement build

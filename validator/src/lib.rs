@@ -123,8 +123,9 @@ pub mod coverage;
 pub mod device;
 pub mod driver;
 pub mod explain;
+pub mod inspect;
 pub mod model;
-pub mod not_checked;
+
 pub mod raw;
 pub mod report;
 pub mod rules;
@@ -135,10 +136,9 @@ pub mod suggest;
 pub mod summary;
 pub mod tier;
 pub mod tracked;
-mod validator;
 
 pub use device::{Device, Features, Limits, Profile};
-pub use not_checked::{Cause, NotChecked, RuleSet};
+pub use report::not_checked::{self, Cause, NotChecked, RuleSet};
 pub use report::{Finding, Report, ReportSummary, RuleId, Severity};
 pub use tier::Tier;
 pub use tracked::{DescribesDevice, HostBytes};
@@ -157,4 +157,4 @@ pub struct ReadmeDocs;
 #[cfg(doctest)]
 #[doc = include_str!("../../docs/catalog.md")]
 pub struct CatalogDocs;
-pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};
+pub use checks::{Validator, FINDINGS_PER_RULE_PER_CALL};

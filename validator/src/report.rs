@@ -5,8 +5,10 @@ use std::fmt;
 use ommcheck_vuids::Vuid;
 use serde::Serialize;
 
-use crate::not_checked::{Cause, NotChecked, RuleSet};
+pub mod not_checked;
+
 use crate::rules::OwnRule;
+use not_checked::{Cause, NotChecked, RuleSet};
 
 /// How bad a finding is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
@@ -266,7 +268,7 @@ impl Report {
     }
 
     /// The not-checked information findings: rules skipped because the
-    /// checker was not told something (see [`crate::not_checked`]).
+    /// checker was not told something (see [`crate::report::not_checked`]).
     pub fn not_checked(&self) -> impl Iterator<Item = &Finding> {
         self.findings
             .iter()

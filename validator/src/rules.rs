@@ -149,7 +149,7 @@ pub static ACCESS_STAGE_ON_QUEUE: OwnRule = OwnRule {
 
 // The not-checked information ids below are about the checker, not rules a
 // call is checked against (like the layer's own ids), so they are not in
-// `ALL`; `crate::not_checked::Cause` lists them.
+// `ALL`; `crate::report::not_checked::Cause` lists them.
 
 const CHECKER: &str =
     "https://docs.vulkan.org/spec/latest/chapters/fundamentals.html#fundamentals-validusage";

@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
+use crate::model::Handle;
 use crate::sim::decode::owned_if_within;
 use crate::Bytes;
 
@@ -12,9 +13,6 @@ use serde::{Deserialize, Serialize};
 mod buffers;
 pub mod execution;
 pub use buffers::{BufferMut, Buffers, WALK_AT_MOST};
-
-/// A Vulkan handle's value; 0 is VK_NULL_HANDLE.
-pub type Handle = u64;
 
 /// The memory a buffer is bound to.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

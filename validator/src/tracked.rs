@@ -10,12 +10,12 @@
 
 use ash::vk;
 
+use crate::checks::Validator;
 use crate::device::{ext, Device};
 use crate::model::accel::AccelerationStructureCreateInfo;
 use crate::model::micromap_objects::MicromapCreateInfo;
 use crate::report::Report;
 use crate::state::{Buffer, HostRange, MemoryBinding};
-use crate::validator::Validator;
 
 mod driver_answers;
 

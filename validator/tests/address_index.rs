@@ -6,7 +6,9 @@
 //! range's end. Lookups among few buffers walk them all; the tests add
 //! filler buffers to take the index's path as well.
 
-use ommcheck::state::{Buffer, Handle, State, WALK_AT_MOST};
+use ommcheck::state::{Buffer, State, WALK_AT_MOST};
+
+use ommcheck::model::Handle;
 use proptest::prelude::*;
 
 /// The lookup as it was: every buffer, lowest handle first.

@@ -7,6 +7,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use ommcheck::inspect::stats::{census, Census, LISTED};
 use ommcheck::model::accel::{
     BuildRangeInfo, INDEX_TYPE_NONE, INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8,
 };
@@ -17,7 +18,6 @@ use ommcheck::scene::Scene;
 use ommcheck::sim::census::StateCounts;
 use ommcheck::sim::decode::MicromapContent;
 use ommcheck::sim::opacity::{state_at, OpacityState};
-use ommcheck::sim::stats::{census, Census, LISTED};
 use ommcheck::state::{
     AccelerationStructure, Buffer, BuildRecord, Micromap, OpacityAttachmentRecord,
     TriangleGeometryRecord,
@@ -100,7 +100,7 @@ fn slow_census(triangles: &[MicromapTriangle], data: &[u8], weights: &[u64]) -> 
             if out.uniform.listed.len() < LISTED {
                 out.uniform
                     .listed
-                    .push(ommcheck::sim::stats::UniformTriangle {
+                    .push(ommcheck::inspect::stats::UniformTriangle {
                         index: i as u64,
                         state: states[0],
                     });

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-use crate::testing::{apt_install, in_ci, is_root};
+use crate::host::{apt_install, in_ci, is_root};
 use crate::Error;
 
 /// The Mock ICD's manifest (a file) for `VK_DRIVER_FILES`.

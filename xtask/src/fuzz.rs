@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
+use crate::host::run_step;
 use crate::Error;
 
 /// The fuzz targets (`fuzz/libfuzzer/fuzz_targets/<name>.rs`).
@@ -37,18 +38,6 @@ fn cargo_fuzz(root: &Path, subcommand: &str) -> Command {
         .env("CARGO_TARGET_DIR", crate::target_dir(root).join("fuzz"))
         .args(["fuzz", subcommand, "--fuzz-dir", FUZZ_DIR]);
     command
-}
-
-fn run_step(description: &str, command: &mut Command) -> Result<(), Error> {
-    eprintln!("xtask: {description}: {command:?}");
-    let status = command
-        .status()
-        .map_err(|e| Error::Tool(format!("{description}: could not start: {e}")))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(Error::Tool(format!("{description} failed ({status})")))
-    }
 }
 
 /// A `cargo` command for the nightly toolchain. Through rustup's proxy the

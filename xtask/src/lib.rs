@@ -20,8 +20,12 @@ pub mod faults;
 #[cfg(feature = "driver")]
 pub mod fuzz;
 #[cfg(feature = "driver")]
+mod host;
+#[cfg(feature = "driver")]
 pub mod khr;
 pub mod layer;
+#[cfg(feature = "driver")]
+pub mod modules;
 #[cfg(feature = "driver")]
 pub mod registry;
 #[cfg(feature = "driver")]

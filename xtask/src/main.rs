@@ -99,6 +99,10 @@ mod driver {
             #[arg(long)]
             check: bool,
         },
+        /// Print the import graph between the top-level modules of
+        /// validator/src, layer/src and xtask/src in layers from the bottom;
+        /// fail on an import cycle.
+        Modules,
         /// Write VUID-COVERAGE.md (every catalog VUID's status) and docs/rules.md's table of our rules.
         Coverage,
         /// Build the Vulkan layer in release and write its manifest,
@@ -231,6 +235,7 @@ mod driver {
                         )
                     })
             }
+            Task::Modules => xtask::modules::run(&root).map(|report| print!("{report}")),
             Task::Layer { args } => return super::layer_command(&args),
             Task::Accuracy { seed } => {
                 let classes = xtask::faults::classes().len();

@@ -4,13 +4,8 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
+use crate::host::{apt_install, in_ci, run_step};
 use crate::Error;
-
-/// True when running under CI (`CI=true`), where a missing prerequisite is a
-/// failure rather than a skipped test.
-pub fn in_ci() -> bool {
-    std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0")
-}
 
 /// The registry directory (`../shared/vulkan-registry`) for the tests that
 /// read it; None (the test skips) where it is missing outside CI.
@@ -48,44 +43,6 @@ const PREREQUISITES: &[Prerequisite] = &[Prerequisite {
     debian_packages: &["libvulkan1"],
     present: vulkan_loader_present,
 }];
-
-fn run_step(description: &str, command: &mut Command) -> Result<(), Error> {
-    eprintln!("xtask: {description}: {command:?}");
-    let status = command
-        .status()
-        .map_err(|e| Error::Tool(format!("{description}: could not start: {e}")))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(Error::Tool(format!("{description} failed ({status})")))
-    }
-}
-
-pub(crate) fn is_root() -> bool {
-    Command::new("id")
-        .arg("-u")
-        .output()
-        .is_ok_and(|out| String::from_utf8_lossy(&out.stdout).trim() == "0")
-}
-
-pub(crate) fn apt_install(packages: &[&str]) -> Result<(), Error> {
-    let sudo: &[&str] = if is_root() { &[] } else { &["sudo"] };
-    let mut update = Command::new(sudo.first().copied().unwrap_or("apt-get"));
-    if !sudo.is_empty() {
-        update.arg("apt-get");
-    }
-    update.arg("update");
-    run_step("apt-get update", &mut update)?;
-    let mut install = Command::new(sudo.first().copied().unwrap_or("apt-get"));
-    if !sudo.is_empty() {
-        install.arg("apt-get");
-    }
-    install
-        .env("DEBIAN_FRONTEND", "noninteractive")
-        .args(["install", "-y", "--no-install-recommends"])
-        .args(packages);
-    run_step("apt-get install", &mut install)
-}
 
 /// Makes sure every prerequisite is present, installing with apt where it can.
 fn ensure_prerequisites(install: bool) -> Result<(), Error> {

@@ -16,7 +16,7 @@
 use std::collections::HashMap;
 
 use ash::vk;
-use ommcheck::scene::names::{self, Kind};
+use ommcheck::model::names::{self, Kind};
 use serde_json::Value;
 
 use crate::fake::app::{record_micromap_build, REPORT_EVERYTHING};

@@ -28,16 +28,17 @@ use crate::checks::index_scan::{
 };
 use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
+use crate::checks::{Ctx, Validator};
 use crate::model::accel::*;
 use crate::model::micromap::{MicromapUsage, UsageCounts};
 use crate::model::values::FormatKind;
 use crate::model::values::*;
-use crate::not_checked::Cause;
+use crate::model::Handle;
 use crate::report::count as count_of;
+use crate::report::not_checked::Cause;
 use crate::report::{Report, RuleId, Severity};
 use crate::rules;
-use crate::state::{AccelerationStructure, Handle, State};
-use crate::validator::{Ctx, Validator};
+use crate::state::{AccelerationStructure, State};
 
 pub const COVERAGE: Coverage = Coverage {
     module: "accel_attach",

@@ -39,6 +39,7 @@ use crate::checks::common::{
 };
 use crate::checks::usage_keys::UsageKeys;
 use crate::checks::{accel_attach, hygiene, serialized, Coverage};
+use crate::checks::{Ctx, Validator};
 use crate::device::Limits;
 use crate::model::accel::*;
 use crate::model::micromap::opacity_triangle_bytes;
@@ -49,17 +50,16 @@ use crate::model::values::{
     BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR,
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
+use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
 use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::state::{
-    AccelerationStructure, BuildRecord, Handle, OpacityAttachmentRecord, State,
-    TriangleGeometryRecord,
+    AccelerationStructure, BuildRecord, OpacityAttachmentRecord, State, TriangleGeometryRecord,
 };
 use crate::tier::Tier;
-use crate::validator::{Ctx, Validator};
 
 const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by memory contents that serializations (GPU copies at execution time, or host copies) write in an implementation's opaque format, not visible at the API boundary";
 

@@ -6,16 +6,17 @@ use std::fmt::Display;
 
 use ommcheck_vuids::Vuid;
 
+use crate::checks::Ctx;
 use crate::model::command::queue;
 use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;
+use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapTriangle};
-use crate::not_checked::Cause;
 use crate::report::count as count_of;
+use crate::report::not_checked::Cause;
 use crate::report::{ObjectRef, RuleId, Severity};
 use crate::rules;
-use crate::state::{Handle, State};
-use crate::validator::Ctx;
+use crate::state::State;
 
 /// The implicit command-buffer VUIDs of one `vkCmd*` command.
 pub(crate) struct CommandBufferVuids {

@@ -14,15 +14,16 @@ use crate::Bytes;
 use crate::checks::accel_build::{self, BuildCommand};
 use crate::checks::device_indirect::{self, IndirectRanges};
 use crate::checks::micromap_build;
+use crate::checks::Validator;
 use crate::model::accel::{
     BuildGeometryInfo, BuildRangeInfo, GeometryData, Instance, InstancesData,
 };
 use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
+use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle, UsageCounts};
 use crate::report::Report;
 use crate::sim::decode::MicromapContent;
-use crate::state::{Handle, State};
-use crate::validator::Validator;
+use crate::state::State;
 
 /// A device build command as recorded, in the owned model.
 #[derive(Clone, Debug, PartialEq)]

@@ -16,12 +16,12 @@ use ommcheck_vuids::vuid::{
 use crate::checks::common;
 use crate::checks::micromap_build::Side;
 use crate::checks::Coverage;
+use crate::checks::Ctx;
 use crate::driver::{BuildType, MicromapBuildSizes, MicromapVersion};
 use crate::model::micromap_objects::{CopyMemoryToMicromapInfo, CopyMicromapToMemoryInfo};
 use crate::model::values::BUILD_MICROMAP_MODE_BUILD_EXT;
 use crate::model::MicromapBuildInfo;
 use crate::report::ObjectRef;
-use crate::validator::Ctx;
 
 pub const COVERAGE: Coverage = Coverage {
     module: "driver_sizes",

@@ -19,15 +19,15 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::Coverage;
+use crate::checks::Validator;
 use crate::model::accel::{BuildGeometryInfo, GeometryData};
+use crate::model::Handle;
 use crate::model::{CommandBuffer, SubmitBatch};
 use crate::report::{ObjectRef, Report};
 use crate::state::execution::{
     first_available, join, set_queries, Clock, ExecEvent, Execution, ReadRule,
 };
-use crate::state::Handle;
 use crate::tier::Tier;
-use crate::validator::Validator;
 
 pub const COVERAGE: Coverage = Coverage {
     module: "execution",

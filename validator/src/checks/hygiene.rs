@@ -10,12 +10,12 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hash, Hasher};
 
 use crate::checks::common::{Tally, TriangleEntry};
+use crate::checks::Ctx;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::report::Severity;
 use crate::rules;
 use crate::sim::decode::TriangleEntries;
 use crate::sim::opacity::bits_per_state;
-use crate::validator::Ctx;
 
 /// One block's bytes as a map key, hashed once with XXH3 (a fast hash made
 /// for bulk bytes; the map compares the bytes themselves on a match, so a

@@ -15,17 +15,18 @@ use crate::checks::common::{
 use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::checks::{driver_sizes, hygiene};
+use crate::checks::{Ctx, Validator};
 use crate::driver::BuildType;
 use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
+use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle, MicromapUsage};
 use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
-use crate::state::{BuildRecord, Handle};
-use crate::validator::{Ctx, Validator};
+use crate::state::BuildRecord;
 
 pub const COVERAGE: Coverage = Coverage {
     module: "micromap_build",

@@ -20,14 +20,15 @@ use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{self, CommandBufferVuids};
 use crate::checks::Coverage;
+use crate::checks::{Ctx, Validator};
 use crate::model::micromap_objects::*;
 use crate::model::values::*;
+use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapBuildInfo};
 use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
 use crate::state::execution::{ExecEvent, ReadRule};
-use crate::state::{Handle, MemoryBinding, Micromap};
-use crate::validator::{Ctx, Validator};
+use crate::state::{MemoryBinding, Micromap};
 
 const SERIALIZED_SOURCE: &str = "needs the micromap whose serialization src holds (the size used to serialize it): serialized data passes through application memory and storage the checker does not follow";
 const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";

@@ -2,6 +2,10 @@
 //! specification's structure. Each module lists the VUIDs it enforces and
 //! those it cannot decide at the API boundary (with the reason), which the
 //! coverage report and its tests read.
+//!
+//! [`Validator`] is defined here, beside the checks that implement its
+//! methods (`impl super::Validator` in each module), as naga keeps its
+//! validator inside `valid/`.
 
 use ommcheck_vuids::Vuid;
 
@@ -19,6 +23,10 @@ pub mod micromap_objects;
 pub mod pipeline_sync;
 mod serialized;
 pub(crate) mod usage_keys;
+mod validator;
+
+pub(crate) use validator::Ctx;
+pub use validator::{Validator, FINDINGS_PER_RULE_PER_CALL};
 
 /// A module's coverage declaration.
 pub struct Coverage {

@@ -17,13 +17,13 @@ use ommcheck_vuids::vuid::VkCopyMemoryToAccelerationStructureInfoKHR as from_mem
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common;
+use crate::checks::Ctx;
 use crate::model::accel::{
     CopyMemoryToAccelerationStructureInfo, ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
     ACCELERATION_STRUCTURE_TYPE_GENERIC, ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
 };
 use crate::report::RuleId;
 use crate::state::State;
-use crate::validator::Ctx;
 
 /// The rules this module decides, all of them from the header's bytes.
 pub(crate) const RULES: [Vuid; 3] = [

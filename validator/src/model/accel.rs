@@ -9,7 +9,7 @@ use ommcheck_vuids::khr;
 use serde::{Deserialize, Serialize};
 
 use crate::model::micromap::UsageCounts;
-use crate::state::Handle;
+use crate::model::Handle;
 
 pub const ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL: i32 =
     vk::AccelerationStructureTypeKHR::TOP_LEVEL.as_raw();

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::state::Handle;
+use crate::model::Handle;
 
 /// `VkQueueFlagBits` the checks read.
 pub mod queue {

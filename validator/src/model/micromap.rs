@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::model::values::*;
-use crate::state::Handle;
+use crate::model::Handle;
 
 /// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`, laid out as they are, so
 /// that reading an application's array of them is a copy of its bytes.
@@ -243,6 +243,33 @@ pub fn opacity_triangle_bytes(format: u32, level: u32) -> Option<u64> {
     } else {
         1u64.checked_shl(exponent - 3)?
     })
+}
+
+/// Micromap build infos a call read and no one kept, whose vectors (the
+/// list and each info's usage entries) the next call reads into, so that a
+/// build call below the content tier allocates nothing. Small ones only:
+/// one huge call must not keep its memory for the device's lifetime.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SpareInfos(pub(crate) Vec<MicromapBuildInfo>);
+
+impl SpareInfos {
+    /// The most infos, and usage entries of one info, kept for reuse.
+    pub(crate) const INFOS: usize = 64;
+    pub(crate) const USAGES: usize = 4096;
+
+    /// Keeps `infos` for the next call if they are small.
+    pub fn keep(&mut self, infos: Vec<MicromapBuildInfo>) {
+        let small = infos.capacity() <= Self::INFOS
+            && infos.iter().all(|info| {
+                info.usage_counts
+                    .array
+                    .as_ref()
+                    .is_none_or(|array| array.capacity() <= Self::USAGES)
+            });
+        if small {
+            self.0 = infos;
+        }
+    }
 }
 
 #[cfg(test)]

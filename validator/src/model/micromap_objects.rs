@@ -5,7 +5,7 @@ use ash::vk;
 use serde::{Deserialize, Serialize};
 
 use crate::model::values::MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
-use crate::state::Handle;
+use crate::model::Handle;
 
 pub const STRUCTURE_TYPE_MICROMAP_CREATE_INFO_EXT: i32 =
     vk::StructureType::MICROMAP_CREATE_INFO_EXT.as_raw();

@@ -7,8 +7,12 @@ pub mod accel;
 pub mod command;
 pub mod micromap;
 pub mod micromap_objects;
+pub mod names;
 pub mod pipeline;
 pub mod values;
+
+/// A Vulkan handle's value; 0 is VK_NULL_HANDLE.
+pub type Handle = u64;
 
 pub use command::{CommandBuffer, SemaphoreOp, SubmitBatch};
 pub use micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};

@@ -6,7 +6,7 @@ use ash::vk;
 use ommcheck_vuids::khr;
 use serde::{Deserialize, Serialize};
 
-use crate::state::Handle;
+use crate::model::Handle;
 
 pub const STAGE_MICROMAP_BUILD: u64 = khr::PIPELINE_STAGE_2_MICROMAP_BUILD_BIT_EXT.as_raw();
 pub const STAGE_ACCELERATION_STRUCTURE_BUILD: u64 =

@@ -5,7 +5,7 @@
 use ash::vk;
 use ommcheck_vuids::khr;
 
-use crate::scene::names;
+use super::names;
 
 pub const MICROMAP_TYPE_OPACITY_MICROMAP_EXT: i32 = vk::MicromapTypeEXT::OPACITY_MICROMAP.as_raw();
 pub const MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV: i32 =
@@ -163,7 +163,7 @@ pub fn structure_type_name(raw: i32) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::names::{name_of, Kind, MicromapFormat};
+    use crate::model::names::{name_of, Kind, MicromapFormat};
 
     #[test]
     fn formats_print_by_their_specification_names() {

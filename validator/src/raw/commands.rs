@@ -25,8 +25,9 @@ use crate::model::micromap_objects::{
     MicromapList, MicromapVersionInfo,
 };
 use crate::model::CommandBuffer;
+use crate::model::Handle;
 use crate::report::{Finding, Report};
-use crate::state::{Handle, QueryPool};
+use crate::state::QueryPool;
 use crate::Validator;
 
 /// The bytes of serialized micromap data that say its version: the driver

@@ -21,6 +21,7 @@ use std::fmt::{self, Display};
 use ash::vk;
 
 use crate::checks::device_contents::DeviceBuild;
+use crate::model::micromap::SpareInfos;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
@@ -372,33 +373,6 @@ unsafe fn micromap_build_info_into(
         scratch_data,
         triangle_array,
         triangle_array_stride: info.triangle_array_stride,
-    }
-}
-
-/// Micromap build infos a call read and no one kept, whose vectors (the
-/// list and each info's usage entries) the next call reads into, so that a
-/// build call below the content tier allocates nothing. Small ones only:
-/// one huge call must not keep its memory for the device's lifetime.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct SpareInfos(Vec<MicromapBuildInfo>);
-
-impl SpareInfos {
-    /// The most infos, and usage entries of one info, kept for reuse.
-    const INFOS: usize = 64;
-    const USAGES: usize = 4096;
-
-    /// Keeps `infos` for the next call if they are small.
-    pub fn keep(&mut self, infos: Vec<MicromapBuildInfo>) {
-        let small = infos.capacity() <= Self::INFOS
-            && infos.iter().all(|info| {
-                info.usage_counts
-                    .array
-                    .as_ref()
-                    .is_none_or(|array| array.capacity() <= Self::USAGES)
-            });
-        if small {
-            self.0 = infos;
-        }
     }
 }
 

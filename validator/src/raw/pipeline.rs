@@ -24,9 +24,9 @@ use crate::model::pipeline::{
     PipelineCreateInfo, SemaphoreSubmitInfo, ShaderCreateInfo, ShaderStage, SpecializationValue,
     SubmitInfo2, SHADER_CODE_TYPE_SPIRV, STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR,
 };
+use crate::model::Handle;
 use crate::report::{Finding, Severity};
 use crate::rules;
-use crate::state::Handle;
 
 /// The most bytes of an entry-point name read (the specification sets no
 /// bound; real names are far shorter).

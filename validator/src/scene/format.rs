@@ -9,8 +9,8 @@ use serde::de::{self, Deserializer};
 use serde::Deserialize;
 
 use super::args::{deserialize_tagged, AddressArg, HandleArg, Tagged};
-use super::names::{self, Value};
 use crate::checks::pipeline_sync::WorkCommand;
+use crate::model::names::{self, Value};
 
 /// Reads a member that must be present but may be `null` (a pointer
 /// parameter: omitting it is a mistake, NULL is a case to check).
@@ -536,7 +536,7 @@ impl Tagged for ChainStruct {
     type Tag = Value<names::StructureType>;
 
     fn from_rest<'de, D: Deserializer<'de>>(tag: Self::Tag, rest: D) -> Result<Self, D::Error> {
-        use super::names::{lookup, StructureType};
+        use crate::model::names::{lookup, StructureType};
         let is = |name: &str| lookup::<StructureType>(name) == Some(tag.raw());
         if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT") {
             Deserialize::deserialize(rest).map(ChainStruct::TrianglesOpacityMicromapExt)

@@ -20,7 +20,7 @@
 
 pub mod args;
 pub mod format;
-pub mod names;
+
 mod resolve;
 pub mod stats;
 pub mod trace;
@@ -269,7 +269,7 @@ pub struct Summary {
     /// Rules the checks decided in every scene that reached them.
     pub rules_checked: usize,
     /// Rules a not-checked information names: skipped for want of what a
-    /// scene did not give (see [`crate::not_checked`]).
+    /// scene did not give (see [`crate::report::not_checked`]).
     pub rules_not_checked: usize,
 }
 

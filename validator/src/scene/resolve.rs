@@ -12,7 +12,9 @@ use base64::Engine as _;
 use glam::DVec3;
 
 use crate::checks::device_contents::read_instances;
+use crate::checks::Validator;
 use crate::device::{Device, Limits, Profile};
+use crate::inspect::simulate::{HitInput, HitQuery};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, CopyAccelerationStructureInfo,
@@ -26,18 +28,16 @@ use crate::model::micromap_objects::{
     AllocationCallbacks, CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo,
     MicromapBuildSizesInfo, MicromapCreateInfo, MicromapList, MicromapVersionInfo,
 };
+use crate::model::Handle;
 use crate::report::{ObjectRef, Report};
 use crate::sim::intersect::Ray;
-use crate::sim::simulate::{HitInput, HitQuery};
 use crate::state::{
-    AccelerationStructure, Buffer, BuildRecord, Handle, HostRange, MemoryBinding, Micromap,
-    QueryPool,
+    AccelerationStructure, Buffer, BuildRecord, HostRange, MemoryBinding, Micromap, QueryPool,
 };
-use crate::validator::Validator;
 
 use super::args::{AddressArg, HandleArg};
 use super::format::*;
-use super::names::Value;
+use crate::model::names::Value;
 
 /// A scene problem found while resolving it: where (a JSON path) and what.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -484,12 +484,12 @@ fn place(cursor: u64, size: u64, taken: &[(u64, u64)]) -> Option<u64> {
     None
 }
 
-fn s_type(explicit: Option<Value<super::names::StructureType>>, default: i32) -> i32 {
+fn s_type(explicit: Option<Value<crate::model::names::StructureType>>, default: i32) -> i32 {
     explicit.map_or(default, Value::as_i32)
 }
 
 fn chain_s_type(chain: &ChainStruct) -> i32 {
-    use super::names::{lookup, StructureType};
+    use crate::model::names::{lookup, StructureType};
     let named = |given: Option<i32>, name: &str| {
         given.unwrap_or_else(|| lookup::<StructureType>(name).unwrap_or_default() as i32)
     };

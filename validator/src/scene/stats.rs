@@ -8,9 +8,9 @@ use serde::Serialize;
 
 use super::resolve::{self, NamedObject};
 use super::{count, CheckOptions, Scene, SceneError};
+use crate::checks::Validator;
+use crate::inspect::stats::{Census, MicromapStats};
 use crate::sim::census::{StateCounts, STATES};
-use crate::sim::stats::{Census, MicromapStats};
-use crate::validator::Validator;
 
 /// The census of one scene: an element of the JSON output's `scenes`.
 #[derive(Clone, Debug, Serialize)]

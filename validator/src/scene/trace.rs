@@ -8,19 +8,19 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use super::names::{self, Kind};
 use super::resolve::{self, NamedObject, ResolvedRay};
 use super::{count, CheckOptions, Scene, SceneError, Summary};
+use crate::checks::Validator;
+use crate::inspect::simulate::{Decision, HitAnswer, HitInput, HitQuery, SimError};
+use crate::model::names::{self, Kind};
+use crate::model::Handle;
 use crate::report::{Finding, Report};
 use crate::sim::decode::{LookupError, WorkCounters};
 use crate::sim::index::BaryError;
 use crate::sim::opacity::{
     instance_flags, ray_flags, state_at, HitOutcome, OpacityState, Slot, SpecialIndex,
 };
-use crate::sim::simulate::{Decision, HitAnswer, HitInput, HitQuery, SimError};
 use crate::sim::trace::TraceError;
-use crate::state::Handle;
-use crate::validator::Validator;
 
 /// The result of `ommcheck trace` on one scene: an element of the JSON
 /// output's `scenes`, laid out as `ommcheck check`'s ([`super::SceneReport`])

@@ -8,6 +8,4 @@ pub mod index;
 pub mod intersect;
 pub mod keys;
 pub mod opacity;
-pub mod simulate;
-pub mod stats;
 pub mod trace;

@@ -401,4 +401,28 @@ mod tests {
             BTreeSet::from([HitOutcome::Ignored, HitOutcome::Opaque])
         );
     }
+
+    /// The ray flags the simulator reads have the values it tests for.
+    #[test]
+    fn ray_flag_names_agree_with_the_simulator() {
+        use crate::model::names::{lookup, RayFlags, Value};
+        for (name, value) in [
+            ("OpaqueKHR", ray_flags::OPAQUE),
+            ("NoOpaqueKHR", ray_flags::NO_OPAQUE),
+            ("CullOpaqueKHR", ray_flags::CULL_OPAQUE),
+            ("CullNoOpaqueKHR", ray_flags::CULL_NO_OPAQUE),
+            (
+                "ForceOpacityMicromap2StateEXT",
+                ray_flags::FORCE_OPACITY_MICROMAP_2_STATE,
+            ),
+        ] {
+            assert_eq!(lookup::<RayFlags>(name), Some(i64::from(value)), "{name}");
+        }
+        let from_json = |text| serde_json::from_str::<Value<RayFlags>>(text).map(Value::raw);
+        assert_eq!(
+            from_json("[\"OpaqueKHR\", \"CullNoOpaqueKHR\"]").ok(),
+            Some(0x81)
+        );
+        assert!(from_json("\"gl_RayFlagsOpaqueEXT\"").is_err());
+    }
 }

@@ -11,7 +11,8 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::ops::{Deref, DerefMut, Index};
 
-use super::{Buffer, Handle};
+use super::Buffer;
+use crate::model::Handle;
 
 /// Up to this many buffers, a lookup walks them all: cheaper than a look in
 /// each size class of the index, and the same answer.

@@ -17,7 +17,7 @@
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
-use super::Handle;
+use crate::model::Handle;
 
 /// How many submissions not yet seen complete are remembered (for the
 /// objects they use): past it the oldest are forgotten, which can only hide

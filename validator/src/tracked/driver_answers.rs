@@ -8,9 +8,9 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use crate::checks::Validator;
 use crate::driver::{DriverQueries, MicromapBuildShape, MicromapBuildSizes, MicromapVersion};
 use crate::model::micromap::MicromapUsage;
-use crate::validator::Validator;
 
 impl Validator {
     /// `vkGetMicromapBuildSizesEXT` returned `sizes` for builds of type `ty`

@@ -5,8 +5,9 @@
 
 use ommcheck::model::micromap_objects::*;
 use ommcheck::model::values::*;
+use ommcheck::model::Handle;
 use ommcheck::model::{CommandBuffer, MicromapBuildInfo};
-use ommcheck::state::{Buffer, BuildRecord, Handle, MemoryBinding, Micromap, QueryPool};
+use ommcheck::state::{Buffer, BuildRecord, MemoryBinding, Micromap, QueryPool};
 use ommcheck::vuids::vuid::{
     vkCmdBeginQuery as begin_query, vkCmdBeginQueryIndexedEXT as begin_query_indexed,
     vkCmdCopyMemoryToMicromapEXT as cmd_from_memory, vkCmdCopyMicromapEXT as cmd_copy,

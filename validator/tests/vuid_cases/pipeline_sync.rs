@@ -7,7 +7,8 @@ use ommcheck::checks::pipeline_sync::WorkCommand;
 use ommcheck::device::ext;
 use ommcheck::model::accel::*;
 use ommcheck::model::pipeline::*;
-use ommcheck::state::{Buffer, Handle};
+use ommcheck::model::Handle;
+use ommcheck::state::Buffer;
 use ommcheck::vuids::vuid;
 use ommcheck::vuids::vuid::{
     vkCmdResetEvent2 as reset_event, vkCmdWriteBufferMarker2AMD as buffer_marker,

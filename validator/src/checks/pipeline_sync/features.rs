@@ -15,10 +15,10 @@ use ommcheck_vuids::vuid::{
 };
 use ommcheck_vuids::Vuid;
 
+use crate::checks::{Ctx, Validator};
 use crate::model::pipeline::{ChainedStruct, MicromapStruct};
 use crate::model::values::structure_type_name;
 use crate::report::Report;
-use crate::validator::{Ctx, Validator};
 
 pub(super) const ENFORCED: &[Vuid] = &[
     ext_features::sType_sType,

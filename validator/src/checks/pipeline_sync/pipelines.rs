@@ -14,10 +14,10 @@ use super::spirv::{
     Origin, SpirvModule, CAPABILITY_RAY_TRACING_OPACITY_MICROMAP,
     RAY_FLAGS_FORCE_OPACITY_MICROMAP_2_STATE,
 };
+use crate::checks::{Ctx, Validator};
 use crate::model::pipeline::*;
+use crate::model::Handle;
 use crate::report::Report;
-use crate::state::Handle;
-use crate::validator::{Ctx, Validator};
 
 pub(super) const ENFORCED: &[Vuid] = &[
     compute::flags_07367,

@@ -12,13 +12,13 @@ use ommcheck_vuids::vuid::{
 };
 use ommcheck_vuids::Vuid;
 
+use crate::checks::{Ctx, Validator};
 use crate::model::command::queue;
 use crate::model::pipeline::*;
 use crate::model::CommandBuffer;
+use crate::model::Handle;
 use crate::report::Report;
 use crate::rules;
-use crate::state::Handle;
-use crate::validator::{Ctx, Validator};
 
 pub(super) const ENFORCED: &[Vuid] = &[
     memory_barrier::srcStageMask_11541,

@@ -8,16 +8,16 @@ use ommcheck_vuids::vuid;
 use ommcheck_vuids::Vuid;
 
 use crate::checks::index_scan::{for_each_chunk, special_and_micromap_indices, IndexMix};
+use crate::checks::{Ctx, Validator};
 use crate::device::ext;
 use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData, TrianglesData};
 use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
 use crate::model::pipeline::*;
 use crate::model::CommandBuffer;
-use crate::not_checked::Cause;
+use crate::report::not_checked::Cause;
 use crate::report::{ObjectRef, Report, RuleId};
 use crate::state::State;
 use crate::tier::Tier;
-use crate::validator::{Ctx, Validator};
 
 const DESERIALIZED: &str = "needs the serialized bytes of the micromaps an acceleration structure was deserialized from and of those it was built with, which are device memory contents the application never hands over";
 

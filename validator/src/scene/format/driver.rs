@@ -5,8 +5,8 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::UsageDesc;
+use crate::model::names::{self, Value};
 use crate::scene::args::HandleArg;
-use crate::scene::names::{self, Value};
 
 /// What the driver answered; absent, the rules that need an answer are not
 /// decided.

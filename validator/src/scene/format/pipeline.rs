@@ -9,8 +9,8 @@ use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::{ChainStruct, CommandBufferArg, Contents};
+use crate::model::names::{self, Value};
 use crate::scene::args::{AddressArg, HandleArg};
-use crate::scene::names::{self, Value};
 
 /// `VkDeviceCreateInfo`: its pNext chain (the extensions and features the
 /// calls run under are the scene's `device`; this call checks the chain).

@@ -3,8 +3,8 @@
 
 use crate::model::command::{SemaphoreOp, SubmitBatch};
 use crate::model::pipeline::SubmitInfo2;
+use crate::model::Handle;
 use crate::report::Report;
-use crate::state::Handle;
 
 use super::super::args::HandleArg;
 use super::super::format::*;

@@ -13,12 +13,12 @@ use crate::model::accel::{
 };
 use crate::model::command::CommandBuffer;
 use crate::model::pipeline::*;
+use crate::model::Handle;
 use crate::report::Report;
-use crate::state::Handle;
 
 use super::super::format::*;
-use super::super::names::{lookup, PipelineBindPoint, StructureType, Value};
 use super::{chain_s_type, piece_len_hint, problem, ObjectKind, Resolver, Result};
+use crate::model::names::{lookup, PipelineBindPoint, StructureType, Value};
 
 /// What a command buffer has bound: a pipeline per bind point and a shader
 /// object per stage.

@@ -10,9 +10,11 @@ use std::collections::{BTreeMap, BTreeSet};
 use glam::DVec3;
 use serde::Serialize;
 
+use crate::checks::Validator;
 use crate::model::accel::{
     BuildRangeInfo, BUILD_MICROMAP_LOSSY, INDEX_TYPE_NONE, INDEX_TYPE_UINT16, INDEX_TYPE_UINT32,
 };
+use crate::model::Handle;
 use crate::sim::decode::{LookupError, MicromapContent, WorkCounters};
 use crate::sim::index::DEFAULT_DELTA;
 use crate::sim::intersect::{intersect, Ray};
@@ -20,8 +22,7 @@ use crate::sim::opacity::{
     decide, instance_flags, Candidate, HitOutcome, OpacityState, Slot, SpecialIndex,
 };
 use crate::sim::trace::{fetch_slot, index_size, Attachment, TraceError};
-use crate::state::{Handle, OpacityAttachmentRecord, State, TriangleGeometryRecord};
-use crate::validator::Validator;
+use crate::state::{OpacityAttachmentRecord, State, TriangleGeometryRecord};
 
 /// `VK_FORMAT_R32G32B32_SFLOAT`, the one vertex format the simulator reads.
 pub const VERTEX_FORMAT_R32G32B32_SFLOAT: i32 = 106;

@@ -18,7 +18,7 @@ use std::fmt;
 
 use ommcheck_vuids::Vuid;
 
-use crate::report::{Finding, RuleId};
+use super::{Finding, RuleId};
 use crate::rules::{self, OwnRule};
 
 /// Why rules were not checked; each cause has its own information id.

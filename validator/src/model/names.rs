@@ -1356,27 +1356,4 @@ mod tests {
         unique::<ClusterIndexFormat>();
         unique::<ClusterOpType>();
     }
-
-    /// The ray flags the simulator reads have the values it tests for.
-    #[test]
-    fn ray_flag_names_agree_with_the_simulator() {
-        use crate::sim::opacity::ray_flags;
-        for (name, value) in [
-            ("OpaqueKHR", ray_flags::OPAQUE),
-            ("NoOpaqueKHR", ray_flags::NO_OPAQUE),
-            ("CullOpaqueKHR", ray_flags::CULL_OPAQUE),
-            ("CullNoOpaqueKHR", ray_flags::CULL_NO_OPAQUE),
-            (
-                "ForceOpacityMicromap2StateEXT",
-                ray_flags::FORCE_OPACITY_MICROMAP_2_STATE,
-            ),
-        ] {
-            assert_eq!(lookup::<RayFlags>(name), Some(i64::from(value)), "{name}");
-        }
-        assert_eq!(
-            from_json::<RayFlags>("[\"OpaqueKHR\", \"CullNoOpaqueKHR\"]"),
-            Ok(0x81)
-        );
-        assert!(from_json::<RayFlags>("\"gl_RayFlagsOpaqueEXT\"").is_err());
-    }
 }

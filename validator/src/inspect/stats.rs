@@ -10,19 +10,20 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::checks::Validator;
+use crate::inspect::simulate::{micromap_content, trace_attachment};
 use crate::model::accel::INDEX_TYPE_NONE;
 use crate::model::values::{
     MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV, OPACITY_MICROMAP_FORMAT_2_STATE,
     OPACITY_MICROMAP_FORMAT_4_STATE,
 };
+use crate::model::Handle;
 use crate::sim::census::{word, Shape, StateCounts};
 use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::sim::index::MAX_LEVEL;
 use crate::sim::opacity::{OpacityState, Slot};
-use crate::sim::simulate::{micromap_content, trace_attachment};
 use crate::sim::trace::fetch_slot;
-use crate::state::{BuildRecord, Handle, OpacityAttachmentRecord, State};
-use crate::validator::Validator;
+use crate::state::{BuildRecord, OpacityAttachmentRecord, State};
 
 /// At most this many uniform triangles, and triangles not counted, are
 /// listed per micromap (all are counted): a micromap of millions of

@@ -1,11 +1,12 @@
 //! The stateful checker: a device, tracked objects, and one method per API
 //! call (defined next to their checks in `checks/`).
 
-use crate::checks::index_scan::IndexMix;
+use super::index_scan::IndexMix;
 use crate::device::Device;
-use crate::not_checked::Cause;
+use crate::model::Handle;
+use crate::report::not_checked::Cause;
 use crate::report::{Finding, ObjectRef, Report, RuleId, Severity};
-use crate::state::{Handle, State};
+use crate::state::State;
 use crate::tier::Tier;
 
 /// Checks calls against a device and the objects earlier calls created.
@@ -24,8 +25,8 @@ pub struct Validator {
     pub(crate) device_contents_later: bool,
     /// The micromap build infos the last build call read and no one kept,
     /// refilled by the next one: a call reads into these vectors instead of
-    /// allocating its own (see [`crate::raw::SpareInfos`]).
-    pub(crate) spare_micromap_infos: crate::raw::SpareInfos,
+    /// allocating its own (see [`crate::model::micromap::SpareInfos`]).
+    pub(crate) spare_micromap_infos: crate::model::micromap::SpareInfos,
     /// The triangle count of each info of the last micromap build call,
     /// refilled by the next one (the pass over the usage counts sums them
     /// once; the list keeps them until the builds are recorded).
