@@ -151,16 +151,6 @@ const INDEX_TYPES: [i32; 4] = [
     INDEX_TYPE_UINT8,
 ];
 
-/// Bytes of one index of `index_type`; None for NONE and for invalid values.
-fn index_size(index_type: i32) -> Option<u64> {
-    match index_type {
-        INDEX_TYPE_UINT8 => Some(1),
-        INDEX_TYPE_UINT16 => Some(2),
-        INDEX_TYPE_UINT32 => Some(4),
-        _ => None,
-    }
-}
-
 /// Which attachment a check looks at.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Kind {

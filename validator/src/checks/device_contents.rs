@@ -15,10 +15,10 @@ use crate::checks::accel_build::{self, BuildCommand};
 use crate::checks::device_indirect::{self, IndirectRanges};
 use crate::checks::micromap_build;
 use crate::checks::Validator;
+use crate::model::accel::index_size;
 use crate::model::accel::{
     BuildGeometryInfo, BuildRangeInfo, GeometryData, Instance, InstancesData,
 };
-use crate::model::accel::{INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8};
 use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle, UsageCounts};
 use crate::report::Report;
@@ -100,16 +100,6 @@ pub struct ContentRead {
 /// `VkAccelerationStructureInstanceKHR` and a pointer to one, in bytes.
 pub const INSTANCE_SIZE: u64 = 64;
 const POINTER_SIZE: u64 = 8;
-
-/// Bytes of one index of `index_type` (None: NONE or not an index type).
-pub fn index_size(index_type: i32) -> Option<u64> {
-    match index_type {
-        INDEX_TYPE_UINT8 => Some(1),
-        INDEX_TYPE_UINT16 => Some(2),
-        INDEX_TYPE_UINT32 => Some(4),
-        _ => None,
-    }
-}
 
 /// The extent of `count` elements of `size` bytes at `stride`: `(count − 1)
 /// × stride + size`; 0 bytes for no elements.
@@ -646,7 +636,9 @@ enum Built {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::model::accel::{Geometry, TrianglesData, TrianglesOpacityMicromapExt};
+    use crate::model::accel::{
+        Geometry, TrianglesData, TrianglesOpacityMicromapExt, INDEX_TYPE_UINT32,
+    };
     use crate::state::{Buffer, BuildRecord, Micromap};
     use crate::Device;
 

@@ -11,9 +11,9 @@
 //! is named, for the adaptor to report as not checked.
 
 use crate::checks::device_contents::{
-    geometry_reads, index_size, strided_extent, ContentRead, DeviceBuild, Extent, ReadKind,
+    geometry_reads, strided_extent, ContentRead, DeviceBuild, Extent, ReadKind,
 };
-use crate::model::accel::{BuildGeometryInfo, BuildRangeInfo, GeometryData};
+use crate::model::accel::{index_size, BuildGeometryInfo, BuildRangeInfo, GeometryData};
 
 /// Where one info's build range infos are in device memory:
 /// `pIndirectDeviceAddresses[i]` and `pIndirectStrides[i]`.

@@ -11,6 +11,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::checks::Validator;
+use crate::model::accel::index_size;
 use crate::model::accel::{
     BuildRangeInfo, BUILD_MICROMAP_LOSSY, INDEX_TYPE_NONE, INDEX_TYPE_UINT16, INDEX_TYPE_UINT32,
 };
@@ -21,7 +22,7 @@ use crate::sim::intersect::{intersect, Ray};
 use crate::sim::opacity::{
     decide, instance_flags, Candidate, HitOutcome, OpacityState, Slot, SpecialIndex,
 };
-use crate::sim::trace::{fetch_slot, index_size, Attachment, TraceError};
+use crate::sim::trace::{fetch_slot, Attachment, TraceError};
 use crate::state::{OpacityAttachmentRecord, State, TriangleGeometryRecord};
 
 /// `VK_FORMAT_R32G32B32_SFLOAT`, the one vertex format the simulator reads.

@@ -8,6 +8,7 @@ use ash::vk;
 use ommcheck_vuids::khr;
 use serde::{Deserialize, Serialize};
 
+use crate::model::array_or_pointers::ElementsRead;
 use crate::model::micromap::UsageCounts;
 use crate::model::Handle;
 
@@ -34,6 +35,17 @@ pub const INDEX_TYPE_UINT16: i32 = vk::IndexType::UINT16.as_raw();
 pub const INDEX_TYPE_UINT32: i32 = vk::IndexType::UINT32.as_raw();
 pub const INDEX_TYPE_NONE: i32 = vk::IndexType::NONE_KHR.as_raw();
 pub const INDEX_TYPE_UINT8: i32 = vk::IndexType::UINT8_EXT.as_raw();
+
+/// Bytes of one index of `index_type`; None for NONE and for values that
+/// are no index type.
+pub fn index_size(index_type: i32) -> Option<u64> {
+    match index_type {
+        INDEX_TYPE_UINT8 => Some(1),
+        INDEX_TYPE_UINT16 => Some(2),
+        INDEX_TYPE_UINT32 => Some(4),
+        _ => None,
+    }
+}
 
 pub const STRUCTURE_TYPE_BUILD_GEOMETRY_INFO: i32 =
     vk::StructureType::ACCELERATION_STRUCTURE_BUILD_GEOMETRY_INFO_KHR.as_raw();
@@ -122,48 +134,11 @@ impl BuildGeometryInfo {
     /// The geometries [`Self::geometry_entries`] lists, without collecting
     /// them (the checks walk them several times per call, and a valid call
     /// should not allocate).
-    pub fn geometries_read(&self) -> GeometriesRead<'_> {
-        let list = self.geometries.as_deref();
-        // `ppGeometries` is read only when `pGeometries` is not set.
-        let pointers = self.geometry_pointers.as_deref().filter(|_| list.is_none());
-        GeometriesRead {
-            list: list.unwrap_or_default().iter(),
-            pointers: pointers.unwrap_or_default().iter(),
-            index: 0,
-        }
-    }
-}
-
-/// The geometries a build reads, with their indices: the elements of
-/// `pGeometries`, or the non-NULL elements of `ppGeometries`. A plain
-/// iterator over two slices (one of them empty), which is cheaper per step
-/// than the adapters it replaces; the checks walk it per geometry rule.
-#[derive(Clone, Debug)]
-pub struct GeometriesRead<'a> {
-    list: std::slice::Iter<'a, Geometry>,
-    pointers: std::slice::Iter<'a, Option<Geometry>>,
-    index: usize,
-}
-
-impl<'a> Iterator for GeometriesRead<'a> {
-    type Item = (usize, &'a Geometry);
-
-    fn next(&mut self) -> Option<Self::Item> {
-        loop {
-            let index = self.index;
-            let geometry = match self.list.next() {
-                Some(geometry) => Some(geometry),
-                None => self.pointers.next()?.as_ref(),
-            };
-            self.index += 1;
-            if let Some(geometry) = geometry {
-                return Some((index, geometry));
-            }
-        }
-    }
-
-    fn size_hint(&self) -> (usize, Option<usize>) {
-        (self.list.len(), Some(self.list.len() + self.pointers.len()))
+    pub fn geometries_read(&self) -> ElementsRead<'_, Geometry> {
+        ElementsRead::new(
+            self.geometries.as_deref(),
+            self.geometry_pointers.as_deref(),
+        )
     }
 }
 

@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::model::array_or_pointers::{ElementsCopied, ElementsRead};
 use crate::model::values::*;
 use crate::model::Handle;
 
@@ -78,14 +79,7 @@ impl UsageCounts {
     /// The usages [`Self::entries`] lists, without collecting them (the
     /// checks walk them once per call, and a valid call should not allocate).
     pub fn usages_read(&self) -> UsagesRead<'_> {
-        let array = self.array.as_deref();
-        // `ppUsageCounts` is read only when `pUsageCounts` is not set.
-        let pointers = self.pointers.as_deref().filter(|_| array.is_none());
-        UsagesRead {
-            array: array.unwrap_or_default().iter(),
-            pointers: pointers.unwrap_or_default().iter(),
-            index: 0,
-        }
+        ElementsRead::new(self.array.as_deref(), self.pointers.as_deref()).copied()
     }
 
     /// Whether some entry read has a count other than 0 (Σ count > 0),
@@ -121,41 +115,10 @@ impl UsageCounts {
     }
 }
 
-/// The usages a structure's usage counts are read from, with their indices:
-/// the elements of `pUsageCounts`, or the non-NULL elements of
-/// `ppUsageCounts`. A plain iterator over two slices (one of them empty),
-/// cheaper per step than the adapters it replaces.
-#[derive(Clone, Debug)]
-pub struct UsagesRead<'a> {
-    array: std::slice::Iter<'a, MicromapUsage>,
-    pointers: std::slice::Iter<'a, Option<MicromapUsage>>,
-    index: usize,
-}
-
-impl Iterator for UsagesRead<'_> {
-    type Item = (usize, MicromapUsage);
-
-    fn next(&mut self) -> Option<Self::Item> {
-        loop {
-            let index = self.index;
-            let usage = match self.array.next() {
-                Some(usage) => Some(*usage),
-                None => *self.pointers.next()?,
-            };
-            self.index += 1;
-            if let Some(usage) = usage {
-                return Some((index, usage));
-            }
-        }
-    }
-
-    fn size_hint(&self) -> (usize, Option<usize>) {
-        (
-            self.array.len(),
-            Some(self.array.len() + self.pointers.len()),
-        )
-    }
-}
+/// The usages a structure's usage counts are read from, with their
+/// indices: the elements of `pUsageCounts`, or the non-NULL elements of
+/// `ppUsageCounts`.
+pub type UsagesRead<'a> = ElementsCopied<'a, MicromapUsage>;
 
 /// `VkMicromapBuildInfoEXT`. Addresses are device or host addresses,
 /// depending on the command.

@@ -4,6 +4,7 @@
 //! express can be expressed here and checked.
 
 pub mod accel;
+pub mod array_or_pointers;
 pub mod command;
 pub mod micromap;
 pub mod micromap_objects;

@@ -4,9 +4,8 @@
 
 use std::collections::BTreeSet;
 
-use crate::model::accel::{
-    INDEX_TYPE_NONE, INDEX_TYPE_UINT16, INDEX_TYPE_UINT32, INDEX_TYPE_UINT8,
-};
+use crate::model::accel::{index_size, INDEX_TYPE_NONE};
+
 use crate::sim::decode::{LookupError, MicromapContent};
 use crate::sim::opacity::{decide, Candidate, HitOutcome, OpacityState, Slot};
 
@@ -47,16 +46,6 @@ pub enum TraceError {
         t: u64,
     },
     Lookup(LookupError),
-}
-
-/// Bytes per index of `index_type`, or None for NONE and unknown types.
-pub fn index_size(index_type: i32) -> Option<u64> {
-    match index_type {
-        INDEX_TYPE_UINT8 => Some(1),
-        INDEX_TYPE_UINT16 => Some(2),
-        INDEX_TYPE_UINT32 => Some(4),
-        _ => None,
-    }
 }
 
 /// The slot of geometry triangle `t`: read (little-endian) at `t · stride`,
@@ -125,6 +114,7 @@ pub fn hit_outcomes(
 mod tests {
 
     use super::*;
+    use crate::model::accel::INDEX_TYPE_UINT16;
     use crate::model::MicromapTriangle;
 
     fn micromap() -> MicromapContent {
