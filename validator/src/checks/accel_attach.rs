@@ -26,11 +26,12 @@ use crate::checks::index_scan::{
     for_each_chunk, is_cluster_skip_index, is_special_index, read_indices,
     special_and_micromap_indices, CleanIndices, IndexMix, ReferenceTally,
 };
+use crate::checks::usage_counts::{self, EntryVuids, PointerVuids};
 use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::checks::{Ctx, Validator};
 use crate::model::accel::*;
-use crate::model::micromap::{MicromapUsage, UsageCounts};
+use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::Handle;
@@ -185,7 +186,7 @@ impl Kind {
                 stride_multiple: Some(ext::indexType_10722),
                 stride_max: Some(ext::indexType_10723),
                 micromap_parameter: ext::micromap_parameter,
-                usage_counts: Some(UsageCountVuids {
+                usage_counts: Some(PointerVuids {
                     one_of: ext::pUsageCounts_07335,
                     array: ext::pUsageCounts_parameter,
                     pointers: ext::ppUsageCounts_parameter,
@@ -221,7 +222,7 @@ impl Kind {
                 stride_multiple: None,
                 stride_max: None,
                 micromap_parameter: nv::micromap_parameter,
-                usage_counts: Some(UsageCountVuids {
+                usage_counts: Some(PointerVuids {
                     one_of: nv::pUsageCounts_07992,
                     array: nv::pUsageCounts_parameter,
                     pointers: nv::ppUsageCounts_parameter,
@@ -239,13 +240,7 @@ struct AttachmentVuids {
     stride_multiple: Option<Vuid>,
     stride_max: Option<Vuid>,
     micromap_parameter: Vuid,
-    usage_counts: Option<UsageCountVuids>,
-}
-
-struct UsageCountVuids {
-    one_of: Vuid,
-    array: Vuid,
-    pointers: Vuid,
+    usage_counts: Option<PointerVuids>,
 }
 
 /// Where an attachment is: `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`,
@@ -515,7 +510,7 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
         }
     }
     if let (Some(vuids), Some(counts)) = (vuids.usage_counts, a.usage_counts) {
-        usage_count_pointers(ctx, a, counts, &vuids);
+        usage_counts::pointer_rules(ctx, a.at, counts, &vuids);
     }
 }
 
@@ -543,58 +538,6 @@ fn index_alignment(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, stride_too:
                 a.index_stride
             ),
         );
-    }
-}
-
-/// `pUsageCounts` / `ppUsageCounts`: at most one set, each as long as
-/// `usageCountsCount` says, no NULL element.
-fn usage_count_pointers(
-    ctx: &mut Ctx<'_>,
-    a: &Attachment<'_>,
-    counts: &UsageCounts,
-    vuids: &UsageCountVuids,
-) {
-    ctx.require(
-        !(counts.array.is_some() && counts.pointers.is_some()),
-        vuids.one_of,
-        || a.at.to_string(),
-        || "both pUsageCounts and ppUsageCounts are set".into(),
-    );
-    if counts.count == 0 {
-        return;
-    }
-    if let Some(array) = &counts.array {
-        ctx.require(
-            array.len() as u64 == u64::from(counts.count),
-            vuids.array,
-            || a.member("pUsageCounts"),
-            || {
-                format!(
-                    "points to {}, not usageCountsCount = {}",
-                    count_of(array.len(), "element", "elements"),
-                    counts.count
-                )
-            },
-        );
-    }
-    if let Some(pointers) = &counts.pointers {
-        if pointers.len() as u64 != u64::from(counts.count) {
-            ctx.error(
-                vuids.pointers,
-                a.member("ppUsageCounts"),
-                format!(
-                    "points to {} pointers, not usageCountsCount = {}",
-                    pointers.len(),
-                    counts.count
-                ),
-            );
-        } else if let Some(null) = pointers.iter().position(Option::is_none) {
-            ctx.error(
-                vuids.pointers,
-                a.member(&format!("ppUsageCounts[{null}]")),
-                "the pointer is NULL",
-            );
-        }
     }
 }
 
@@ -654,62 +597,21 @@ fn ext_usage_counts(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
     // their locations and messages run per entry only where some entry is
     // outside the table.
     for (k, usage) in keys.entries_to_check(counts) {
-        attached_usage_rules(ctx, (a, member, k), usage, opacity, maxima);
+        let loc = format_args!("{}.{member}[{k}]", a.at);
+        usage_counts::entry_rules(ctx, loc, usage, opacity, maxima, &ATTACHED_USAGE_ENTRIES);
     }
 }
 
-/// One usage entry's format and subdivision level against the attached
-/// micromap's type (11679-11683), at `{a.at}.{member}[{k}]`, of an opacity
-/// (else a displacement) micromap; `maxima` are the 2-state, 4-state and
-/// displacement level limits.
-fn attached_usage_rules(
-    ctx: &mut Ctx<'_>,
-    (a, member, k): (&Attachment<'_>, &str, usize),
-    usage: MicromapUsage,
-    opacity: bool,
-    (max2, max4, max_nv): (u32, u32, u32),
-) {
-    // Written out only for a finding.
-    let loc = format_args!("{}.{member}[{k}]", a.at);
-    let level = usage.subdivision_level;
-    let exceeds = |max: u32, name: &'static str| move || format!("{level} exceeds {name} = {max}");
-    if opacity {
-        match usage.format {
-            OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
-                level <= max2,
-                ext::subdivisionLevel_11680,
-                || format!("{loc}.subdivisionLevel"),
-                exceeds(max2, "maxOpacity2StateSubdivisionLevel"),
-            ),
-            OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
-                level <= max4,
-                ext::subdivisionLevel_11681,
-                || format!("{loc}.subdivisionLevel"),
-                exceeds(max4, "maxOpacity4StateSubdivisionLevel"),
-            ),
-            other => {
-                ctx.error(
-                    ext::format_11679,
-                    format!("{loc}.format"),
-                    format!("{other} is not a VkOpacityMicromapFormatEXT value (micromap is an opacity micromap)"),
-                );
-            }
-        }
-    } else {
-        ctx.require(
-            DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
-            ext::format_11682,
-            || format!("{loc}.format"),
-            || format!("{} is not a VkDisplacementMicromapFormatNV value (micromap is a displacement micromap)", usage.format),
-        );
-        ctx.require(
-            level <= max_nv,
-            ext::subdivisionLevel_11683,
-            || format!("{loc}.subdivisionLevel"),
-            exceeds(max_nv, "maxDisplacementMicromapSubdivisionLevel"),
-        );
-    }
-}
+/// The usage entries of an EXT attachment against the attached micromap's
+/// type (11679-11683).
+const ATTACHED_USAGE_ENTRIES: EntryVuids = EntryVuids {
+    opacity_format: ext::format_11679,
+    opacity_2_state_level: ext::subdivisionLevel_11680,
+    opacity_4_state_level: ext::subdivisionLevel_11681,
+    displacement_format: ext::format_11682,
+    displacement_level: ext::subdivisionLevel_11683,
+    name_the_type: true,
+};
 
 /// `VkAccelerationStructureTrianglesOpacityMicromapKHR`: the index buffer
 /// against the index type (11571/11572/11577), the micromap (11579, 11624,

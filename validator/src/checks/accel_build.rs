@@ -37,6 +37,7 @@ use crate::checks::common::{
     self, bytes_available, readable_entries, usage_counts_match_triangles, CleanRun, Tally,
     TriangleEntry, TriangleHistogram,
 };
+use crate::checks::usage_counts::{self, PointerVuids};
 use crate::checks::usage_keys::UsageKeys;
 use crate::checks::{accel_attach, hygiene, serialized, Coverage};
 use crate::checks::{Ctx, Validator};
@@ -51,7 +52,7 @@ use crate::model::values::{
     OPACITY_MICROMAP_FORMAT_2_STATE, OPACITY_MICROMAP_FORMAT_4_STATE,
 };
 use crate::model::Handle;
-use crate::model::{CommandBuffer, MicromapTriangle, UsageCounts};
+use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::report::count as count_of;
 use crate::report::{Report, RuleId};
 use crate::rules;
@@ -1060,7 +1061,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || format!("{at}.triangleArrayStride"),
         || format!("{stride} is not a multiple of 4"),
     );
-    usage_count_pointers(ctx, at, &data.usage_counts);
+    usage_counts::pointer_rules(ctx, at, &data.usage_counts, &USAGE_POINTERS);
     // The device outlives the context: its limits need no copy while the
     // context takes findings.
     let device = ctx.device;
@@ -1181,51 +1182,13 @@ fn usage_rules(
     }
 }
 
-/// Only one of `pUsageCounts` and `ppUsageCounts` (11642), each holding
-/// `usageCountsCount` elements, none NULL.
-fn usage_count_pointers(ctx: &mut Ctx<'_>, at: MicromapAt, counts: &UsageCounts) {
-    ctx.require(
-        !(counts.array.is_some() && counts.pointers.is_some()),
-        micromap_vuid::pUsageCounts_11642,
-        || at.to_string(),
-        || "both pUsageCounts and ppUsageCounts are set".into(),
-    );
-    if counts.count == 0 {
-        return;
-    }
-    let expected = u64::from(counts.count);
-    if let Some(array) = &counts.array {
-        ctx.require(
-            array.len() as u64 == expected,
-            micromap_vuid::pUsageCounts_parameter,
-            || format!("{at}.pUsageCounts"),
-            || {
-                format!(
-                    "points to {}, not usageCountsCount = {expected}",
-                    count_of(array.len(), "element", "elements")
-                )
-            },
-        );
-    }
-    if let Some(pointers) = &counts.pointers {
-        if pointers.len() as u64 != expected {
-            ctx.error(
-                micromap_vuid::ppUsageCounts_parameter,
-                format!("{at}.ppUsageCounts"),
-                format!(
-                    "points to {} pointers, not usageCountsCount = {expected}",
-                    pointers.len()
-                ),
-            );
-        } else if let Some(null) = pointers.iter().position(Option::is_none) {
-            ctx.error(
-                micromap_vuid::ppUsageCounts_parameter,
-                format!("{at}.ppUsageCounts[{null}]"),
-                "the pointer is NULL",
-            );
-        }
-    }
-}
+/// `VkAccelerationStructureGeometryMicromapDataKHR`'s usage-count pointers
+/// (11642).
+const USAGE_POINTERS: PointerVuids = PointerVuids {
+    one_of: micromap_vuid::pUsageCounts_11642,
+    array: micromap_vuid::pUsageCounts_parameter,
+    pointers: micromap_vuid::ppUsageCounts_parameter,
+};
 
 /// A micromap geometry's input memory: its addresses (device builds) and,
 /// when the checker can read it, its triangle array.

@@ -12,6 +12,7 @@ use crate::checks::common::{
     self, readable_entries, usage_counts_match_triangles, CleanRun, CommandBufferVuids, Tally,
     TriangleEntry, TriangleHistogram,
 };
+use crate::checks::usage_counts::{self, EntryVuids, PointerVuids};
 use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::checks::{driver_sizes, hygiene};
@@ -21,8 +22,7 @@ use crate::model::micromap::opacity_triangle_bytes;
 use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::Handle;
-use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle, MicromapUsage};
-use crate::report::count as count_of;
+use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
@@ -630,47 +630,7 @@ pub(crate) fn build_info(
     );
 
     let counts = &info.usage_counts;
-    ctx.require(
-        !(counts.array.is_some() && counts.pointers.is_some()),
-        info_vuid::pUsageCounts_07516,
-        || at.to_string(),
-        || "both pUsageCounts and ppUsageCounts are set".into(),
-    );
-    if counts.count != 0 {
-        if let Some(array) = &counts.array {
-            ctx.require(
-                array.len() as u64 == u64::from(counts.count),
-                info_vuid::pUsageCounts_parameter,
-                || format!("{at}.pUsageCounts"),
-                || {
-                    format!(
-                        "points to {}, not usageCountsCount = {}",
-                        count_of(array.len(), "element", "elements"),
-                        counts.count
-                    )
-                },
-            );
-        }
-        if let Some(pointers) = &counts.pointers {
-            if pointers.len() as u64 != u64::from(counts.count) {
-                ctx.error(
-                    info_vuid::ppUsageCounts_parameter,
-                    format!("{at}.ppUsageCounts"),
-                    format!(
-                        "points to {} pointers, not usageCountsCount = {}",
-                        pointers.len(),
-                        counts.count
-                    ),
-                );
-            } else if let Some(null) = pointers.iter().position(Option::is_none) {
-                ctx.error(
-                    info_vuid::ppUsageCounts_parameter,
-                    format!("{at}.ppUsageCounts[{null}]"),
-                    "the pointer is NULL",
-                );
-            }
-        }
-    }
+    usage_counts::pointer_rules(ctx, at, counts, &USAGE_POINTERS);
 
     if !(opacity || displacement) {
         *triangles = counts.total();
@@ -686,7 +646,8 @@ pub(crate) fn build_info(
     let total = scan.total;
     *triangles = total;
     for (k, usage) in scan.entries {
-        usage_rules(ctx, (at, member, k), usage, opacity, maxima);
+        let loc = format_args!("{at}.{member}[{k}]");
+        usage_counts::entry_rules(ctx, loc, usage, opacity, maxima, &USAGE_ENTRIES);
     }
     if side != Side::SizeQuery {
         triangle_array_stride(ctx, at, info, total);
@@ -703,75 +664,23 @@ pub(crate) fn build_info(
     None
 }
 
-/// One usage entry's format and subdivision level (11652-11656), at
-/// `{at}.{member}[{k}]`, of an opacity (else a displacement) micromap;
-/// `maxima` are the 2-state, 4-state and displacement level limits.
-fn usage_rules(
-    ctx: &mut Ctx<'_>,
-    (at, member, k): (impl Display, &str, usize),
-    usage: MicromapUsage,
-    opacity: bool,
-    (max2, max4, max_nv): (u32, u32, u32),
-) {
-    // Built only for a finding.
-    let loc = || format!("{at}.{member}[{k}]");
-    if opacity {
-        match usage.format {
-            OPACITY_MICROMAP_FORMAT_2_STATE => ctx.require(
-                usage.subdivision_level <= max2,
-                info_vuid::subdivisionLevel_11654,
-                || format!("{}.subdivisionLevel", loc()),
-                || {
-                    format!(
-                        "{} exceeds maxOpacity2StateSubdivisionLevel = {max2}",
-                        usage.subdivision_level
-                    )
-                },
-            ),
-            OPACITY_MICROMAP_FORMAT_4_STATE => ctx.require(
-                usage.subdivision_level <= max4,
-                info_vuid::subdivisionLevel_11655,
-                || format!("{}.subdivisionLevel", loc()),
-                || {
-                    format!(
-                        "{} exceeds maxOpacity4StateSubdivisionLevel = {max4}",
-                        usage.subdivision_level
-                    )
-                },
-            ),
-            other => {
-                ctx.error(
-                    info_vuid::format_11652,
-                    format!("{}.format", loc()),
-                    format!("{other} is not a VkOpacityMicromapFormatEXT value"),
-                );
-            }
-        }
-    } else {
-        ctx.require(
-            DISPLACEMENT_MICROMAP_FORMATS_NV.contains(&usage.format),
-            info_vuid::format_11653,
-            || format!("{}.format", loc()),
-            || {
-                format!(
-                    "{} is not a VkDisplacementMicromapFormatNV value",
-                    usage.format
-                )
-            },
-        );
-        ctx.require(
-            usage.subdivision_level <= max_nv,
-            info_vuid::subdivisionLevel_11656,
-            || format!("{}.subdivisionLevel", loc()),
-            || {
-                format!(
-                    "{} exceeds maxDisplacementMicromapSubdivisionLevel = {max_nv}",
-                    usage.subdivision_level
-                )
-            },
-        );
-    }
-}
+/// `VkMicromapBuildInfoEXT`'s usage-count pointers (07516).
+const USAGE_POINTERS: PointerVuids = PointerVuids {
+    one_of: info_vuid::pUsageCounts_07516,
+    array: info_vuid::pUsageCounts_parameter,
+    pointers: info_vuid::ppUsageCounts_parameter,
+};
+
+/// `VkMicromapBuildInfoEXT`'s usage entries against the build's type
+/// (11652-11656).
+const USAGE_ENTRIES: EntryVuids = EntryVuids {
+    opacity_format: info_vuid::format_11652,
+    opacity_2_state_level: info_vuid::subdivisionLevel_11654,
+    opacity_4_state_level: info_vuid::subdivisionLevel_11655,
+    displacement_format: info_vuid::format_11653,
+    displacement_level: info_vuid::subdivisionLevel_11656,
+    name_the_type: false,
+};
 
 /// The triangle array's stride against the entries' 8 bytes: decided by the
 /// parameters alone (KHR states it as 11646/11647).
@@ -1077,7 +986,7 @@ fn triangle_array(
 mod tests {
     use super::*;
     use crate::device::Device;
-    use crate::model::micromap::UsageCounts;
+    use crate::model::micromap::{MicromapUsage, UsageCounts};
     use crate::state::Micromap;
     use crate::tier::Tier;
 
