@@ -12,7 +12,7 @@ use std::ffi::{c_void, CStr};
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::checks::device_contents::DeviceBuild;
+use ommcheck::build_inputs::DeviceBuild;
 use ommcheck::model::CommandBuffer;
 use ommcheck::vuids::khr;
 use ommcheck::Report;

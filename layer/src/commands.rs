@@ -17,7 +17,7 @@ use std::sync::{Arc, LazyLock, Mutex, MutexGuard, PoisonError};
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::checks::device_contents::DeviceBuild;
+use ommcheck::build_inputs::DeviceBuild;
 use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;

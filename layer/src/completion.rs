@@ -436,7 +436,7 @@ unsafe fn counter_value_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ommcheck::checks::device_contents::DeviceBuild;
+    use ommcheck::build_inputs::DeviceBuild;
     use ommcheck::model::CommandBuffer;
 
     fn kept() -> KeptBuild {

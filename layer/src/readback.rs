@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError, Weak};
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::checks::device_contents::{
+use ommcheck::build_inputs::{
     ContentRead, DeviceBuild, Extent, KnownBytes, ReadKind, INSTANCE_SIZE,
 };
 use ommcheck::model::accel::GeometryData;

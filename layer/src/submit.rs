@@ -14,7 +14,7 @@ use std::ffi::CStr;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::checks::device_contents::KnownBytes;
+use ommcheck::build_inputs::KnownBytes;
 use ommcheck::model::Handle;
 use ommcheck::model::SubmitBatch;
 use ommcheck::Severity;

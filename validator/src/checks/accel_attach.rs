@@ -20,7 +20,8 @@ use std::fmt::{self, Display};
 
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
-use crate::checks::accel_build::{BuildCommand, GeometryAt, InfoAt};
+use crate::checks::accel_build::{GeometryAt, InfoAt};
+
 use crate::checks::common::{self, Tally, TriangleHistogram};
 use crate::checks::index_scan::{
     for_each_chunk, is_cluster_skip_index, is_special_index, read_indices,
@@ -30,6 +31,7 @@ use crate::checks::usage_counts::{self, EntryVuids, PointerVuids};
 use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::checks::{Ctx, Validator};
+use crate::model::accel::BuildCommand;
 use crate::model::accel::*;
 use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;

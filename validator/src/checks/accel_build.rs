@@ -130,32 +130,6 @@ pub const COVERAGE: Coverage = Coverage {
     ],
 };
 
-/// Which build command is checked; many rules differ only in their VUID.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BuildCommand {
-    /// `vkCmdBuildAccelerationStructuresKHR`
-    Cmd,
-    /// `vkCmdBuildAccelerationStructuresIndirectKHR`
-    Indirect,
-    /// `vkBuildAccelerationStructuresKHR` (addresses are host addresses)
-    Host,
-}
-
-impl BuildCommand {
-    pub fn function(self) -> &'static str {
-        match self {
-            BuildCommand::Cmd => "vkCmdBuildAccelerationStructuresKHR",
-            BuildCommand::Indirect => "vkCmdBuildAccelerationStructuresIndirectKHR",
-            BuildCommand::Host => "vkBuildAccelerationStructuresKHR",
-        }
-    }
-
-    /// Whether the command's addresses are host addresses.
-    fn reads_host_memory(self) -> bool {
-        self == BuildCommand::Host
-    }
-}
-
 /// Flags a KHR opacity-micromap build may have (11562).
 const MICROMAP_BUILD_FLAGS: u32 = BUILD_ALLOW_COMPACTION
     | BUILD_PREFER_FAST_TRACE

@@ -13,7 +13,6 @@ pub mod accel_attach;
 pub mod accel_build;
 pub(crate) mod common;
 pub mod device_contents;
-pub mod device_indirect;
 pub mod driver_sizes;
 pub mod execution;
 pub(crate) mod hygiene;

@@ -36,6 +36,33 @@ pub const INDEX_TYPE_UINT32: i32 = vk::IndexType::UINT32.as_raw();
 pub const INDEX_TYPE_NONE: i32 = vk::IndexType::NONE_KHR.as_raw();
 pub const INDEX_TYPE_UINT8: i32 = vk::IndexType::UINT8_EXT.as_raw();
 
+/// Which acceleration-structure build command a build came from; many
+/// rules differ only in their VUID.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BuildCommand {
+    /// `vkCmdBuildAccelerationStructuresKHR`
+    Cmd,
+    /// `vkCmdBuildAccelerationStructuresIndirectKHR`
+    Indirect,
+    /// `vkBuildAccelerationStructuresKHR` (addresses are host addresses)
+    Host,
+}
+
+impl BuildCommand {
+    pub fn function(self) -> &'static str {
+        match self {
+            BuildCommand::Cmd => "vkCmdBuildAccelerationStructuresKHR",
+            BuildCommand::Indirect => "vkCmdBuildAccelerationStructuresIndirectKHR",
+            BuildCommand::Host => "vkBuildAccelerationStructuresKHR",
+        }
+    }
+
+    /// Whether the command's addresses are host addresses.
+    pub fn reads_host_memory(self) -> bool {
+        self == BuildCommand::Host
+    }
+}
+
 /// Bytes of one index of `index_type`; None for NONE and for values that
 /// are no index type.
 pub fn index_size(index_type: i32) -> Option<u64> {

@@ -21,8 +21,8 @@ use super::{
     array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, Index, Member,
     MAX_ELEMENTS, MAX_HOST_BYTES,
 };
-use crate::checks::device_contents::{geometry_reads, DeviceBuild, Extent, ReadKind};
-use crate::checks::device_indirect::IndirectRanges;
+use crate::build_inputs::indirect::IndirectRanges;
+use crate::build_inputs::{geometry_reads, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, GeometryMicromapData, Instance,

@@ -575,7 +575,7 @@ impl Validator {
         indirect_device_addresses: *const vk::DeviceAddress,
         indirect_strides: *const u32,
         max_primitive_counts: *const *const u32,
-    ) -> (Report, crate::checks::device_contents::DeviceBuild) {
+    ) -> (Report, crate::build_inputs::DeviceBuild) {
         let function = "vkCmdBuildAccelerationStructuresIndirectKHR";
         let mut findings = Vec::new();
         let len = bounded_len(info_count, function, "pInfos", &mut findings);

@@ -20,7 +20,7 @@ use std::fmt::{self, Display};
 
 use ash::vk;
 
-use crate::checks::device_contents::DeviceBuild;
+use crate::build_inputs::DeviceBuild;
 use crate::model::micromap::SpareInfos;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
 use crate::report::{Finding, Report, Severity};

@@ -11,7 +11,7 @@ use crate::Bytes;
 use base64::Engine as _;
 use glam::DVec3;
 
-use crate::checks::device_contents::read_instances;
+use crate::build_inputs::read_instances;
 use crate::checks::Validator;
 use crate::device::{Device, Limits, Profile};
 use crate::inspect::simulate::{HitInput, HitQuery};

@@ -521,7 +521,7 @@ mod tests {
             let mut ctx = v.ctx("vkCmdBuildAccelerationStructuresKHR");
             crate::checks::accel_build::builds(
                 &mut ctx,
-                crate::checks::accel_build::BuildCommand::Cmd,
+                crate::model::accel::BuildCommand::Cmd,
                 std::slice::from_ref(&info),
                 Some(&[Some(vec![range])]),
             );

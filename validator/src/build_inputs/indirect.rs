@@ -10,9 +10,7 @@
 //! those ranges is; what the decoded ranges place outside the known bytes
 //! is named, for the adaptor to report as not checked.
 
-use crate::checks::device_contents::{
-    geometry_reads, strided_extent, ContentRead, DeviceBuild, Extent, ReadKind,
-};
+use super::{geometry_reads, strided_extent, ContentRead, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{index_size, BuildGeometryInfo, BuildRangeInfo, GeometryData};
 
 /// Where one info's build range infos are in device memory:
@@ -182,7 +180,7 @@ fn range_info(bytes: &[u8]) -> Option<BuildRangeInfo> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::checks::device_contents::tests::instances_info;
+    use crate::build_inputs::tests::instances_info;
 
     fn top_level(address: u64, stride: u64) -> DeviceBuild {
         DeviceBuild::AccelerationStructures {
