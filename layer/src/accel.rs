@@ -323,11 +323,11 @@ unsafe extern "system" fn create_acceleration_structure(
         device,
         |f| f.accel.create_acceleration_structure,
         |state| match info {
-            // SAFETY: as above; no handle yet, so nothing is tracked.
+            // SAFETY: as above.
             Some(info) => unsafe {
                 state
                     .validator
-                    .create_acceleration_structure_ash(info, vk::AccelerationStructureKHR::null())
+                    .create_acceleration_structure_rules_ash(info)
             },
             None => Report::default(),
         },
@@ -338,12 +338,9 @@ unsafe extern "system" fn create_acceleration_structure(
     let created = unsafe { read::value(structure_out) };
     if let (vk::Result::SUCCESS, Some(info), Some(structure)) = (result, info, created) {
         record_created(device, function, |state| {
-            // SAFETY: as above; the report was given before the call.
-            drop(unsafe {
-                state
-                    .validator
-                    .create_acceleration_structure_ash(info, structure)
-            });
+            state
+                .validator
+                .record_acceleration_structure_created_ash(info, structure);
         });
     }
     result
@@ -373,11 +370,11 @@ unsafe extern "system" fn create_acceleration_structure2(
         device,
         |f| f.accel.create_acceleration_structure2,
         |state| match info {
-            // SAFETY: as above; no handle yet, so nothing is tracked.
+            // SAFETY: as above.
             Some(info) => unsafe {
                 state
                     .validator
-                    .create_acceleration_structure2_ash(info, vk::AccelerationStructureKHR::null())
+                    .create_acceleration_structure2_rules_ash(info)
             },
             None => Report::default(),
         },
@@ -388,12 +385,9 @@ unsafe extern "system" fn create_acceleration_structure2(
     let created = unsafe { read::value(structure_out) };
     if let (vk::Result::SUCCESS, Some(info), Some(structure)) = (result, info, created) {
         record_created(device, function, |state| {
-            // SAFETY: as above; the report was given before the call.
-            drop(unsafe {
-                state
-                    .validator
-                    .create_acceleration_structure2_ash(info, structure)
-            });
+            state
+                .validator
+                .record_acceleration_structure2_created_ash(info, structure);
         });
     }
     result

@@ -272,11 +272,24 @@ impl Validator {
 
     /// `vkCreateAccelerationStructureKHR(device, pCreateInfo, pAllocator,
     /// pAccelerationStructure)`; `acceleration_structure` is the handle the
-    /// call returned (0: none), which is then tracked.
+    /// call returned (0: none), which is then tracked: the call's rules
+    /// ([`Self::create_acceleration_structure_rules`]), then its record
+    /// ([`Self::record_acceleration_structure_created`]).
     pub fn create_acceleration_structure(
         &mut self,
         info: &AccelerationStructureCreateInfo,
         acceleration_structure: Handle,
+    ) -> Report {
+        let report = self.create_acceleration_structure_rules(info);
+        self.record_acceleration_structure_created(info, acceleration_structure);
+        report
+    }
+
+    /// The rules of `vkCreateAccelerationStructureKHR`, before the call;
+    /// records nothing.
+    pub fn create_acceleration_structure_rules(
+        &self,
+        info: &AccelerationStructureCreateInfo,
     ) -> Report {
         let mut ctx = self.ctx("vkCreateAccelerationStructureKHR");
         ctx.require(
@@ -285,38 +298,60 @@ impl Validator {
             || "pCreateInfo->type".into(),
             || "is VK_ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR, which only vkCreateAccelerationStructure2KHR creates".into(),
         );
-        let report = ctx.finish();
-        if acceleration_structure != 0 {
-            let buffer_start = self
-                .state
-                .buffers
-                .get(&info.buffer)
-                .and_then(|b| b.device_address)
-                .and_then(|start| start.checked_add(info.offset));
-            let record = AccelerationStructure {
-                ty: info.ty,
-                created_with_2: false,
-                buffer: info.buffer,
-                offset: info.offset,
-                size: info.size,
-                address_range: buffer_start
-                    .and_then(|start| Some((start, start.checked_add(info.size)?))),
-                built: None,
-            };
-            self.state
-                .acceleration_structures
-                .insert(acceleration_structure, record);
+        ctx.finish()
+    }
+
+    /// Tracks the structure `vkCreateAccelerationStructureKHR` created
+    /// (`acceleration_structure`; 0: none, nothing is tracked).
+    pub fn record_acceleration_structure_created(
+        &mut self,
+        info: &AccelerationStructureCreateInfo,
+        acceleration_structure: Handle,
+    ) {
+        if acceleration_structure == 0 {
+            return;
         }
-        report
+        let buffer_start = self
+            .state
+            .buffers
+            .get(&info.buffer)
+            .and_then(|b| b.device_address)
+            .and_then(|start| start.checked_add(info.offset));
+        let record = AccelerationStructure {
+            ty: info.ty,
+            created_with_2: false,
+            buffer: info.buffer,
+            offset: info.offset,
+            size: info.size,
+            address_range: buffer_start
+                .and_then(|start| Some((start, start.checked_add(info.size)?))),
+            built: None,
+        };
+        self.state
+            .acceleration_structures
+            .insert(acceleration_structure, record);
     }
 
     /// `vkCreateAccelerationStructure2KHR(device, pCreateInfo, pAllocator,
     /// pAccelerationStructure)`; `acceleration_structure` as for
-    /// [`Self::create_acceleration_structure`].
+    /// [`Self::create_acceleration_structure`]: the rules
+    /// ([`Self::create_acceleration_structure2_rules`]), then the record
+    /// ([`Self::record_acceleration_structure2_created`]).
     pub fn create_acceleration_structure2(
         &mut self,
         info: &AccelerationStructureCreateInfo2,
         acceleration_structure: Handle,
+    ) -> Report {
+        let report = self.create_acceleration_structure2_rules(info);
+        self.record_acceleration_structure2_created(info, acceleration_structure);
+        report
+    }
+
+    /// The rules of `vkCreateAccelerationStructure2KHR`, before the call;
+    /// records nothing.
+    pub fn create_acceleration_structure2_rules(
+        &self,
+        info: &AccelerationStructureCreateInfo2,
     ) -> Report {
         let mut ctx = self.ctx("vkCreateAccelerationStructure2KHR");
         if info.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
@@ -351,33 +386,40 @@ impl Validator {
                 );
             }
         }
-        let report = ctx.finish();
-        if acceleration_structure != 0 {
-            let backing = self
-                .state
-                .buffers_at(info.address)
-                .next()
-                .and_then(|(handle, b)| {
-                    Some((handle, info.address.checked_sub(b.device_address?)?))
-                });
-            let (buffer, offset) = backing.unwrap_or((0, 0));
-            let record = AccelerationStructure {
-                ty: info.ty,
-                created_with_2: true,
-                buffer,
-                offset,
-                size: info.size,
-                address_range: info
-                    .address
-                    .checked_add(info.size)
-                    .map(|end| (info.address, end)),
-                built: None,
-            };
-            self.state
-                .acceleration_structures
-                .insert(acceleration_structure, record);
+        ctx.finish()
+    }
+
+    /// Tracks the structure `vkCreateAccelerationStructure2KHR` created
+    /// (`acceleration_structure`; 0: none, nothing is tracked).
+    pub fn record_acceleration_structure2_created(
+        &mut self,
+        info: &AccelerationStructureCreateInfo2,
+        acceleration_structure: Handle,
+    ) {
+        if acceleration_structure == 0 {
+            return;
         }
-        report
+        let backing = self
+            .state
+            .buffers_at(info.address)
+            .next()
+            .and_then(|(handle, b)| Some((handle, info.address.checked_sub(b.device_address?)?)));
+        let (buffer, offset) = backing.unwrap_or((0, 0));
+        let record = AccelerationStructure {
+            ty: info.ty,
+            created_with_2: true,
+            buffer,
+            offset,
+            size: info.size,
+            address_range: info
+                .address
+                .checked_add(info.size)
+                .map(|end| (info.address, end)),
+            built: None,
+        };
+        self.state
+            .acceleration_structures
+            .insert(acceleration_structure, record);
     }
 
     /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`. Its one
@@ -1537,5 +1579,42 @@ impl TriangleArrayCheck {
                 "triangleArray",
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Device;
+
+    /// A create call's rules record nothing, its record reports nothing,
+    /// and the two together are the whole call.
+    #[test]
+    fn creating_is_rules_then_record() {
+        let faulty = AccelerationStructureCreateInfo {
+            ty: ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+            size: 256,
+            ..Default::default()
+        };
+        let mut v = Validator::new(Device::default());
+        let rules = v.create_acceleration_structure_rules(&faulty);
+        assert_eq!(rules.ids(), [create_info::type_11600.id()]);
+        assert!(v.state().acceleration_structures.is_empty());
+        v.record_acceleration_structure_created(&faulty, 9);
+        assert_eq!(v.state().acceleration_structures[&9].size, 256);
+        let mut whole = Validator::new(Device::default());
+        assert_eq!(whole.create_acceleration_structure(&faulty, 9), rules);
+        assert_eq!(whole.state().acceleration_structures, v.state().acceleration_structures);
+
+        let opacity = AccelerationStructureCreateInfo2 {
+            ty: ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+            size: 128,
+            ..Default::default()
+        };
+        let rules = v.create_acceleration_structure2_rules(&opacity);
+        assert!(!rules.is_empty(), "the micromap feature is off: {rules}");
+        assert!(!v.state().acceleration_structures.contains_key(&10));
+        v.record_acceleration_structure2_created(&opacity, 10);
+        assert!(v.state().acceleration_structures[&10].created_with_2);
     }
 }

@@ -1008,7 +1008,9 @@ impl Validator {
     }
 
     /// Checks `vkCreateAccelerationStructureKHR` with the ash create info;
-    /// `acceleration_structure` is the handle the call returned (null: none).
+    /// `acceleration_structure` is the handle the call returned (null:
+    /// none): [`Self::create_acceleration_structure_rules_ash`], then
+    /// [`Self::record_acceleration_structure_created_ash`].
     ///
     /// # Safety
     /// `info`'s pNext chain must be well formed (cycles and length are tolerated).
@@ -1016,6 +1018,21 @@ impl Validator {
         &mut self,
         info: &vk::AccelerationStructureCreateInfoKHR<'_>,
         acceleration_structure: vk::AccelerationStructureKHR,
+    ) -> Report {
+        // SAFETY: forwarded from the caller.
+        let report = unsafe { self.create_acceleration_structure_rules_ash(info) };
+        self.record_acceleration_structure_created_ash(info, acceleration_structure);
+        report
+    }
+
+    /// The rules of `vkCreateAccelerationStructureKHR` with the ash create
+    /// info, before the call; records nothing.
+    ///
+    /// # Safety
+    /// `info`'s pNext chain must be well formed (cycles and length are tolerated).
+    pub unsafe fn create_acceleration_structure_rules_ash(
+        &self,
+        info: &vk::AccelerationStructureCreateInfoKHR<'_>,
     ) -> Report {
         let mut findings = Vec::new();
         let model = AccelerationStructureCreateInfo {
@@ -1031,10 +1048,21 @@ impl Validator {
             ..AccelerationStructureCreateInfo::from_members(info)
         };
         let mut report = Report::from(findings);
-        report.extend(
-            self.create_acceleration_structure(&model, vk::Handle::as_raw(acceleration_structure)),
-        );
+        report.extend(self.create_acceleration_structure_rules(&model));
         report
+    }
+
+    /// Tracks the structure `vkCreateAccelerationStructureKHR` created from
+    /// `info` (null: none). Reads the members only, not the pNext chain.
+    pub fn record_acceleration_structure_created_ash(
+        &mut self,
+        info: &vk::AccelerationStructureCreateInfoKHR<'_>,
+        acceleration_structure: vk::AccelerationStructureKHR,
+    ) {
+        self.record_acceleration_structure_created(
+            &AccelerationStructureCreateInfo::from_members(info),
+            vk::Handle::as_raw(acceleration_structure),
+        );
     }
 
     /// Checks `vkCreateAccelerationStructure2KHR` with the generated
@@ -1048,9 +1076,23 @@ impl Validator {
         info: &khr::AccelerationStructureCreateInfo2KHR,
         acceleration_structure: vk::AccelerationStructureKHR,
     ) -> Report {
+        // SAFETY: forwarded from the caller.
+        let report = unsafe { self.create_acceleration_structure2_rules_ash(info) };
+        self.record_acceleration_structure2_created_ash(info, acceleration_structure);
+        report
+    }
+
+    /// The rules of `vkCreateAccelerationStructure2KHR`, before the call;
+    /// records nothing.
+    ///
+    /// # Safety
+    /// `info`'s pNext chain must be well formed (cycles and length are tolerated).
+    pub unsafe fn create_acceleration_structure2_rules_ash(
+        &self,
+        info: &khr::AccelerationStructureCreateInfo2KHR,
+    ) -> Report {
         let mut findings = Vec::new();
         let model = AccelerationStructureCreateInfo2 {
-            s_type: info.s_type.as_raw(),
             // SAFETY: forwarded from the caller.
             next: unsafe {
                 chain_s_types(
@@ -1060,17 +1102,40 @@ impl Validator {
                     &mut findings,
                 )
             },
-            create_flags: info.create_flags.as_raw(),
-            address: info.address_range.address,
-            size: info.address_range.size,
-            address_flags: info.address_flags.as_raw(),
-            ty: info.ty.as_raw(),
+            ..create_info2_members(info)
         };
         let mut report = Report::from(findings);
-        report.extend(
-            self.create_acceleration_structure2(&model, vk::Handle::as_raw(acceleration_structure)),
-        );
+        report.extend(self.create_acceleration_structure2_rules(&model));
         report
+    }
+
+    /// Tracks the structure `vkCreateAccelerationStructure2KHR` created from
+    /// `info` (null: none). Reads the members only, not the pNext chain.
+    pub fn record_acceleration_structure2_created_ash(
+        &mut self,
+        info: &khr::AccelerationStructureCreateInfo2KHR,
+        acceleration_structure: vk::AccelerationStructureKHR,
+    ) {
+        self.record_acceleration_structure2_created(
+            &create_info2_members(info),
+            vk::Handle::as_raw(acceleration_structure),
+        );
+    }
+}
+
+/// The members of `VkAccelerationStructureCreateInfo2KHR`, without its
+/// pNext chain.
+fn create_info2_members(
+    info: &khr::AccelerationStructureCreateInfo2KHR,
+) -> AccelerationStructureCreateInfo2 {
+    AccelerationStructureCreateInfo2 {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        create_flags: info.create_flags.as_raw(),
+        address: info.address_range.address,
+        size: info.address_range.size,
+        address_flags: info.address_flags.as_raw(),
+        ty: info.ty.as_raw(),
     }
 }
 
