@@ -24,6 +24,28 @@ pub use generated::catalog::vuid;
 pub use generated::catalog::{GATING_SOURCE, REGISTRY_VERSION};
 pub use generated::khr;
 
+/// The enum value name `name` stands for, where vk.xml gives `name` as an
+/// alias (`VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT_KHR` stands for
+/// `VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT`); None for a name that is no
+/// alias.
+pub fn enum_alias_target(name: &str) -> Option<&'static str> {
+    alias_target(generated::aliases::ENUM_ALIASES, name)
+}
+
+/// The command `name` stands for, where vk.xml gives `name` as an alias
+/// (`vkCmdPipelineBarrier2KHR` stands for `vkCmdPipelineBarrier2`); None
+/// for a name that is no alias.
+pub fn command_alias_target(name: &str) -> Option<&'static str> {
+    alias_target(generated::aliases::COMMAND_ALIASES, name)
+}
+
+fn alias_target(table: &'static [(&str, &str)], name: &str) -> Option<&'static str> {
+    table
+        .binary_search_by(|(alias, _)| (*alias).cmp(name))
+        .ok()
+        .map(|i| table[i].1)
+}
+
 /// A Valid Usage ID that is in the catalog. It can only be obtained from the
 /// generated constants in [`vuid`] or by looking a string up with
 /// [`Vuid::from_id`], so every `Vuid` names a real catalog entry.

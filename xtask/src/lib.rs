@@ -8,6 +8,8 @@
 //! binary hands other commands to a build with it (see main.rs).
 
 #[cfg(feature = "driver")]
+pub mod aliases;
+#[cfg(feature = "driver")]
 pub mod ash_names;
 #[cfg(feature = "driver")]
 pub mod bench;
@@ -151,6 +153,10 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
         (
             PathBuf::from("vuids/src/generated/khr.rs"),
             rustfmt(&khr::render(&vk, &ash)?)?,
+        ),
+        (
+            PathBuf::from("vuids/src/generated/aliases.rs"),
+            rustfmt(&aliases::render(&vk)?)?,
         ),
     ])
 }

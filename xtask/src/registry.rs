@@ -82,6 +82,12 @@ pub struct VkXml {
     pub extension_enums: Vec<ExtensionEnum>,
     /// For each type or command: the feature or extension that requires it first.
     pub first_required_by: HashMap<String, String>,
+    /// Every enum value name that vk.xml gives as an alias (in `<enums>`
+    /// blocks, core versions and extensions), with the name it aliases.
+    pub enum_aliases: BTreeMap<String, String>,
+    /// Every command name that vk.xml gives as an alias, with the command
+    /// it aliases.
+    pub command_aliases: BTreeMap<String, String>,
 }
 
 fn enum_value(spec: &EnumSpec, owner_number: Option<i64>) -> Option<i128> {
@@ -133,6 +139,8 @@ impl VkXml {
         let mut features = Vec::new();
         let mut extensions = Vec::new();
         let mut header_version = String::new();
+        let mut enum_aliases = BTreeMap::new();
+        let mut command_aliases = BTreeMap::new();
         for child in registry.0 {
             match child {
                 RegistryChild::Types(block) => {
@@ -160,9 +168,19 @@ impl VkXml {
                     let values = enum_blocks.entry(name).or_default();
                     for child in block.children {
                         if let EnumsChild::Enum(e) = child {
+                            if let EnumSpec::Alias { alias, .. } = &e.spec {
+                                enum_aliases.insert(e.name.clone(), alias.clone());
+                            }
                             if let Some(value) = enum_value(&e.spec, None) {
                                 values.insert(e.name, value);
                             }
+                        }
+                    }
+                }
+                RegistryChild::Commands(block) => {
+                    for command in block.children {
+                        if let vk_parse::Command::Alias { name, alias } = command {
+                            command_aliases.insert(name, alias);
                         }
                     }
                 }
@@ -180,6 +198,22 @@ impl VkXml {
         // "Introduced by" follows the order in which the API grew: core
         // versions first, then extensions by number.
         extensions.sort_by_key(|e| e.number.unwrap_or(i64::MAX));
+
+        for require in features
+            .iter()
+            .flat_map(|f| &f.children)
+            .chain(extensions.iter().flat_map(|e| &e.children))
+        {
+            if let ExtensionChild::Require { items, .. } = require {
+                for item in items {
+                    if let InterfaceItem::Enum(e) = item {
+                        if let EnumSpec::Alias { alias, .. } = &e.spec {
+                            enum_aliases.insert(e.name.clone(), alias.clone());
+                        }
+                    }
+                }
+            }
+        }
 
         let mut first_required_by: HashMap<String, String> = HashMap::new();
         for feature in &features {
@@ -309,6 +343,8 @@ impl VkXml {
             aliases,
             extension_enums,
             first_required_by,
+            enum_aliases,
+            command_aliases,
         })
     }
 

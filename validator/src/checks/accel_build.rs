@@ -1604,7 +1604,10 @@ mod tests {
         assert_eq!(v.state().acceleration_structures[&9].size, 256);
         let mut whole = Validator::new(Device::default());
         assert_eq!(whole.create_acceleration_structure(&faulty, 9), rules);
-        assert_eq!(whole.state().acceleration_structures, v.state().acceleration_structures);
+        assert_eq!(
+            whole.state().acceleration_structures,
+            v.state().acceleration_structures
+        );
 
         let opacity = AccelerationStructureCreateInfo2 {
             ty: ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,

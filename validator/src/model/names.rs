@@ -1020,11 +1020,23 @@ pub const HAND_WRITTEN: [&str; 5] = [
     "VK_GEOMETRY_TYPE_DENSE_GEOMETRY_FORMAT_TRIANGLES_AMDX",
 ];
 
-/// The value of `name` in `K`'s table.
+/// The value of `name` in `K`'s table. Every spelling vk.xml gives a value
+/// is accepted: where `name`, or the table's own name for the value, is an
+/// alias (`VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT_KHR`), the two match when
+/// they stand for the same name.
 pub fn lookup<K: Kind>(name: &str) -> Option<i64> {
-    K::names()
+    let names = K::names();
+    if let Some((_, value)) = names.iter().find(|(entry, _)| *entry == name) {
+        return Some(*value);
+    }
+    let unaliased = |name: &'static str| ommcheck_vuids::enum_alias_target(name).unwrap_or(name);
+    let target = ommcheck_vuids::enum_alias_target(name);
+    names
         .iter()
-        .find(|(entry, _)| *entry == name)
+        .find(|(entry, _)| match target {
+            Some(target) => unaliased(entry) == target,
+            None => ommcheck_vuids::enum_alias_target(entry) == Some(name),
+        })
         .map(|(_, value)| *value)
 }
 

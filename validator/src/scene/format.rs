@@ -1576,6 +1576,31 @@ pub fn work_call_names() -> impl Iterator<Item = &'static str> {
     WorkCommand::ALL.iter().map(|c| c.function())
 }
 
+/// The spelling of `name` that scenes read: `name` itself where it is a
+/// call scenes know, else the known call it and that call name the same
+/// command through vk.xml's aliases (`vkCmdPipelineBarrier2KHR` is
+/// `vkCmdPipelineBarrier2`); `name` where there is none.
+fn known_call_name(name: &str) -> &str {
+    let known = || {
+        CALL_NAMES
+            .iter()
+            .copied()
+            .chain(work_call_names())
+            .chain(EXECUTION_CALL_NAMES)
+    };
+    if known().any(|call| call == name) {
+        return name;
+    }
+    let unaliased = |call: &'static str| ommcheck_vuids::command_alias_target(call).unwrap_or(call);
+    let target = ommcheck_vuids::command_alias_target(name);
+    known()
+        .find(|&call| match target {
+            Some(target) => unaliased(call) == target,
+            None => ommcheck_vuids::command_alias_target(call) == Some(name),
+        })
+        .unwrap_or(name)
+}
+
 /// How many of the closest calls an unknown call name suggests.
 const CALL_SUGGESTIONS: usize = 3;
 
@@ -1638,7 +1663,7 @@ impl Tagged for Call {
 
     fn from_rest<'de, D: Deserializer<'de>>(name: String, rest: D) -> Result<Self, D::Error> {
         use Deserialize as De;
-        Ok(match name.as_str() {
+        Ok(match known_call_name(&name) {
             "vkCreateMicromapEXT" => Call::CreateMicromap(De::deserialize(rest)?),
             "vkDestroyMicromapEXT" => Call::DestroyMicromap(De::deserialize(rest)?),
             "vkCmdBuildMicromapsEXT" => Call::CmdBuildMicromaps(De::deserialize(rest)?),

@@ -346,6 +346,35 @@ mod tests {
         assert!(report.report.has_errors());
     }
 
+    /// Calls and enum values may be spelled with any name vk.xml gives
+    /// them, aliases included, and check exactly as their core names do.
+    #[test]
+    fn every_vk_xml_spelling_is_accepted() {
+        let barrier = |call: &str, suffix: &str| {
+            format!(
+                r#"{{"buffers": [], "calls": [{{"call": "{call}", "pDependencyInfo": {{
+                    "pMemoryBarriers": [{{
+                        "srcStageMask": "VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT{suffix}",
+                        "srcAccessMask": "VK_ACCESS_2_SHADER_READ_BIT{suffix}"}}]}}}},
+                    {{"call": "vkResetQueryPool{suffix2}", "queryPool": 0, "firstQuery": 0, "queryCount": 0}}]}}"#,
+                suffix2 = if suffix.is_empty() { "" } else { "EXT" },
+            )
+        };
+        let check = |text: String| {
+            let scene = Scene::parse(&text, "aliases.json", Path::new("."))
+                .unwrap_or_else(|e| panic!("{e}"));
+            scene.check(&CheckOptions::default()).unwrap().report
+        };
+        let core = check(barrier("vkCmdPipelineBarrier2", ""));
+        assert!(!core.is_empty(), "the barrier's masks disagree: {core}");
+        let aliased = check(barrier("vkCmdPipelineBarrier2KHR", "_KHR"));
+        assert_eq!(aliased.ids(), core.ids());
+        assert_eq!(aliased.to_string(), core.to_string());
+        // A name vk.xml does not give is still refused.
+        let wrong = barrier("vkCmdPipelineBarrier2NV", "");
+        assert!(Scene::parse(&wrong, "aliases.json", Path::new(".")).is_err());
+    }
+
     #[test]
     fn counts_agree_with_their_nouns() {
         assert_eq!(count(1, "call", "calls"), "1 call");
