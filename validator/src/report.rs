@@ -5,6 +5,7 @@ use std::fmt;
 use ommcheck_vuids::Vuid;
 use serde::Serialize;
 
+pub mod location;
 pub mod not_checked;
 
 use crate::rules::OwnRule;

@@ -16,11 +16,10 @@ use ommcheck_vuids::vuid::{
     VkClusterAccelerationStructureBuildTriangleClusterTemplateInfoNV as cluster_template,
 };
 use std::collections::BTreeMap;
-use std::fmt::{self, Display};
 
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
-use crate::checks::accel_build::{GeometryAt, InfoAt};
+use crate::checks::accel_build::{geometry_at, GeometryAt, InfoAt};
 
 use crate::checks::common::{self, Tally, TriangleHistogram};
 use crate::checks::index_scan::{
@@ -38,6 +37,7 @@ use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::Handle;
 use crate::report::count as count_of;
+use crate::report::location::{Locate, Location};
 use crate::report::not_checked::Cause;
 use crate::report::{Report, RuleId, Severity};
 use crate::rules;
@@ -163,6 +163,21 @@ enum Kind {
 }
 
 impl Kind {
+    /// Where the structure is from its triangles geometry.
+    fn step(self) -> &'static str {
+        match self {
+            Kind::Ext => {
+                ".geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>"
+            }
+            Kind::Khr => {
+                ".geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapKHR>"
+            }
+            Kind::Nv => {
+                ".geometry.triangles.pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>"
+            }
+        }
+    }
+
     fn struct_name(self) -> &'static str {
         match self {
             Kind::Ext => "VkAccelerationStructureTrianglesOpacityMicromapEXT",
@@ -245,23 +260,11 @@ struct AttachmentVuids {
     usage_counts: Option<PointerVuids>,
 }
 
-/// Where an attachment is: `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`,
-/// written out only when a finding needs it (a valid call has none).
-#[derive(Clone, Copy)]
-struct AttachmentAt {
-    geometry: GeometryAt,
-    kind: Kind,
-}
+/// Where an attachment is: `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`.
+type AttachmentAt = Location<'static, GeometryAt>;
 
-impl Display for AttachmentAt {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}.geometry.triangles.pNext<{}>",
-            self.geometry,
-            self.kind.struct_name()
-        )
-    }
+fn attachment_at(geometry: GeometryAt, kind: Kind) -> AttachmentAt {
+    geometry.text(kind.step())
 }
 
 /// The members the three attachments share, and where the structure is.
@@ -286,22 +289,8 @@ impl Attachment<'_> {
     /// The location of the member `name`, written out only where it is
     /// displayed: for the checks that take a location before they know
     /// whether there is a finding.
-    fn member_at<'n>(&self, name: &'n str) -> impl Display + Copy + 'n {
-        let at = self.at;
-        MemberAt { at, name }
-    }
-}
-
-/// `{attachment}.{name}`.
-#[derive(Clone, Copy)]
-struct MemberAt<'n> {
-    at: AttachmentAt,
-    name: &'n str,
-}
-
-impl Display for MemberAt<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}.{}", self.at, self.name)
+    fn member_at<'n>(&self, name: &'n str) -> Location<'n, AttachmentAt> {
+        self.at.member(name)
     }
 }
 
@@ -319,10 +308,7 @@ fn attachments(
 
 /// The attachment of `kind` chained to a triangles geometry, if any.
 fn attachment(geometry_at: GeometryAt, data: &TrianglesData, kind: Kind) -> Option<Attachment<'_>> {
-    let at = AttachmentAt {
-        geometry: geometry_at,
-        kind,
-    };
+    let at = attachment_at(geometry_at, kind);
     Some(match kind {
         Kind::Ext => {
             let a = data.opacity_ext.as_ref()?;
@@ -1515,10 +1501,7 @@ fn khr_micromaps(
     info.geometries_read().filter_map(move |(g, geometry)| {
         match KhrOpacityAttachment::of(geometry) {
             KhrOpacityAttachment::Micromap(m) => {
-                let at = AttachmentAt {
-                    geometry: GeometryAt::new(InfoAt::Element(i), member, g),
-                    kind: Kind::Khr,
-                };
+                let at = attachment_at(geometry_at(InfoAt::Element(i), member, g), Kind::Khr);
                 Some((at, m))
             }
             _ => None,

@@ -35,7 +35,7 @@ use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{
     self, bytes_available, readable_entries, usage_counts_match_triangles, CleanRun, Tally,
-    TriangleEntry, TriangleHistogram,
+    TriangleHistogram,
 };
 use crate::checks::usage_counts::{self, PointerVuids};
 use crate::checks::usage_keys::UsageKeys;
@@ -54,6 +54,7 @@ use crate::model::values::{
 use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::report::count as count_of;
+use crate::report::location::{Locate, Location};
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
@@ -742,9 +743,9 @@ pub(crate) fn builds(
         }
         let member = info.geometry_member();
         for (g, geometry) in info.geometries_read() {
-            let at = GeometryAt::new(InfoAt::Element(i), member, g);
+            let at = geometry_at(InfoAt::Element(i), member, g);
             if let Some(micromap) = &geometry.micromap {
-                micromap_inputs(ctx, command, MicromapAt(at), info, micromap);
+                micromap_inputs(ctx, command, micromap_at(at), info, micromap);
             }
             let range = info_ranges.flatten().and_then(|r| r.get(g));
             match &geometry.geometry {
@@ -763,9 +764,8 @@ pub(crate) fn builds(
 
 /// Where a `VkAccelerationStructureBuildGeometryInfoKHR` is, as the start
 /// of its members' locations: `pInfos[i].` in the build commands,
-/// `pBuildInfo->` in the size query. This and the location types below are
-/// written out only when a finding needs them: a valid call has none, and
-/// building every location string was most of its cost.
+/// `pBuildInfo->` in the size query: the root of the [`Location`]s of its
+/// members.
 #[derive(Clone, Copy)]
 pub(crate) enum InfoAt {
     Element(usize),
@@ -783,42 +783,19 @@ impl Display for InfoAt {
 
 /// Where one geometry of an info is: `pInfos[i].pGeometries[g]` (or
 /// `ppGeometries[g]`).
-#[derive(Clone, Copy)]
-pub(crate) struct GeometryAt {
-    info: InfoAt,
-    /// `pGeometries` or `ppGeometries`.
-    member: &'static str,
-    index: usize,
-}
+pub(crate) type GeometryAt = Location<'static, Location<'static, InfoAt>>;
 
-impl GeometryAt {
-    pub(crate) fn new(info: InfoAt, member: &'static str, index: usize) -> Self {
-        Self {
-            info,
-            member,
-            index,
-        }
-    }
-}
-
-impl Display for GeometryAt {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}{}[{}]", self.info, self.member, self.index)
-    }
+/// Geometry `index` of the info at `info`, in its member `member`
+/// (`pGeometries` or `ppGeometries`).
+pub(crate) fn geometry_at(info: InfoAt, member: &'static str, index: usize) -> GeometryAt {
+    info.text(member).index(index)
 }
 
 /// Where a geometry's `VkAccelerationStructureGeometryMicromapDataKHR` is.
-#[derive(Clone, Copy)]
-struct MicromapAt(GeometryAt);
+type MicromapAt = Location<'static, GeometryAt>;
 
-impl Display for MicromapAt {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}.pNext<VkAccelerationStructureGeometryMicromapDataKHR>",
-            self.0
-        )
-    }
+fn micromap_at(geometry: GeometryAt) -> MicromapAt {
+    geometry.text(".pNext<VkAccelerationStructureGeometryMicromapDataKHR>")
 }
 
 /// `vkCmdBuildAccelerationStructuresKHR`'s own rules for `pInfos[i]`, with
@@ -905,10 +882,10 @@ fn build_geometry_info(ctx: &mut Ctx<'_>, prefix: InfoAt, info: &BuildGeometryIn
     let lossy = info.flags & BUILD_MICROMAP_LOSSY != 0;
     let member = info.geometry_member();
     for (g, geometry) in info.geometries_read() {
-        let at = GeometryAt::new(prefix, member, g);
+        let at = geometry_at(prefix, member, g);
         geometry_rules(ctx, at, geometry);
         if let Some(micromap) = &geometry.micromap {
-            micromap_data(ctx, MicromapAt(at), micromap, lossy);
+            micromap_data(ctx, micromap_at(at), micromap, lossy);
         }
     }
 }
@@ -1113,11 +1090,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || format!("the counts sum to {total}, more than maxMicromapTriangles = {max_triangles}"),
     );
     for (k, usage) in scan.entries {
-        let loc = UsageAt {
-            micromap: at,
-            member,
-            index: k,
-        };
+        let loc = at.member(member).index(k);
         usage_rules(
             ctx,
             loc,
@@ -1129,25 +1102,10 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
     }
 }
 
-/// Where one `VkMicromapUsageKHR` of a micromap geometry is.
-#[derive(Clone, Copy)]
-struct UsageAt {
-    micromap: MicromapAt,
-    /// `pUsageCounts` or `ppUsageCounts`.
-    member: &'static str,
-    index: usize,
-}
-
-impl Display for UsageAt {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}.{}[{}]", self.micromap, self.member, self.index)
-    }
-}
-
 /// One `VkMicromapUsageKHR`'s format and subdivision level.
 fn usage_rules(
     ctx: &mut Ctx<'_>,
-    loc: UsageAt,
+    loc: impl Display + Copy,
     format: u32,
     level: u32,
     lossy: bool,
@@ -1501,7 +1459,7 @@ impl TriangleArrayCheck {
             tally.error(
                 ctx,
                 rule,
-                TriangleEntry::new(self.at, m).member(member),
+                self.at.member("triangleArray").index(m).member(member),
                 message,
                 "triangleArray",
             );
@@ -1567,7 +1525,11 @@ impl TriangleArrayCheck {
         let message = || {
             format!("[{start}, {start} + {size}) runs past the end of the memory data points into ({available} bytes from data)")
         };
-        let location = TriangleEntry::new(self.at, m).member("dataOffset");
+        let location = self
+            .at
+            .member("triangleArray")
+            .index(m)
+            .member("dataOffset");
         if self.command == BuildCommand::Cmd {
             tally.error(ctx, cmd::micromap_11553, location, message, "triangleArray");
         } else {

@@ -159,67 +159,6 @@ pub(crate) fn deferred_operation(
     }
 }
 
-/// A location `"{base}{member}"`, written out only when a finding needs it
-/// (most calls have none, and building every location string was most of
-/// a valid call's cost).
-#[derive(Clone, Copy)]
-pub(crate) struct At<A>(pub A, pub &'static str);
-
-impl<A: Display> Display for At<A> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        self.0.fmt(f)?;
-        f.write_str(self.1)
-    }
-}
-
-/// Element `.1` of the array `.0` (`"pInfos[2]"`), written out only when a
-/// finding needs it, as [`At`] is.
-#[derive(Clone, Copy)]
-pub(crate) struct Element(pub &'static str, pub usize);
-
-impl Display for Element {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}[{}]", self.0, self.1)
-    }
-}
-
-/// Triangle-array entry `m` of the micromap at `at`, or one of its members
-/// (`"{at}.triangleArray[{m}].{member}"`), written out only for a finding.
-#[derive(Clone, Copy)]
-pub(crate) struct TriangleEntry<A> {
-    at: A,
-    m: u64,
-    member: Option<&'static str>,
-}
-
-impl<A: Display> TriangleEntry<A> {
-    pub fn new(at: A, m: u64) -> Self {
-        Self {
-            at,
-            m,
-            member: None,
-        }
-    }
-
-    /// The entry's member `name` (`format`, `subdivisionLevel`, `dataOffset`).
-    pub fn member(self, name: &'static str) -> Self {
-        Self {
-            member: Some(name),
-            ..self
-        }
-    }
-}
-
-impl<A: Display> Display for TriangleEntry<A> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}.triangleArray[{}]", self.at, self.m)?;
-        match self.member {
-            Some(member) => write!(f, ".{member}"),
-            None => Ok(()),
-        }
-    }
-}
-
 /// A run of triangle-array entries that draw no finding, checked in bulk.
 ///
 /// Once an entry has gone through the per-entry rules without a finding,
@@ -928,16 +867,6 @@ mod tests {
         assert_eq!(
             histogram.into_map().into_iter().collect::<Vec<_>>(),
             [((2, 2), 128)]
-        );
-    }
-
-    #[test]
-    fn triangle_entry_locations() {
-        let entry = TriangleEntry::new("pInfos[0]", 7);
-        assert_eq!(entry.to_string(), "pInfos[0].triangleArray[7]");
-        assert_eq!(
-            entry.member("dataOffset").to_string(),
-            "pInfos[0].triangleArray[7].dataOffset"
         );
     }
 }

@@ -9,9 +9,10 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hash, Hasher};
 
-use crate::checks::common::{Tally, TriangleEntry};
+use crate::checks::common::Tally;
 use crate::checks::Ctx;
 use crate::model::micromap::opacity_triangle_bytes;
+use crate::report::location::Locate;
 use crate::report::Severity;
 use crate::rules;
 use crate::sim::decode::TriangleEntries;
@@ -87,7 +88,7 @@ pub(crate) fn opacity_blocks(
             continue;
         };
         // Written out only for a finding: most blocks have none.
-        let loc = TriangleEntry::new(at, m);
+        let loc = at.member("triangleArray").index(m);
         // Levels 0 and 1 use fewer than 8 bits of their single byte.
         let used_bits = (1u32 << (2 * level.min(2))) * bits;
         if used_bits < 8 && bytes[0] >> used_bits != 0 {
@@ -127,7 +128,7 @@ pub(crate) fn opacity_blocks(
                     ctx,
                     &rules::OVERLAPPING_DATA,
                     Severity::Info,
-                    TriangleEntry::new(at, m),
+                    at.member("triangleArray").index(m),
                     || format!("its data [{start}, {end}) overlaps that of triangleArray[{other_m}] (ending at {other_end})"),
                     "triangleArray",
                 );

@@ -10,7 +10,7 @@ use ommcheck_vuids::vuid::{
 
 use crate::checks::common::{
     self, readable_entries, usage_counts_match_triangles, CleanRun, CommandBufferVuids, Tally,
-    TriangleEntry, TriangleHistogram,
+    TriangleHistogram,
 };
 use crate::checks::usage_counts::{self, EntryVuids, PointerVuids};
 use crate::checks::usage_keys::{self, UsageKeys};
@@ -23,6 +23,7 @@ use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapTriangle};
+use crate::report::location::Locate;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
@@ -161,7 +162,7 @@ impl Validator {
         let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
         triangle_counts.clear();
         for (i, info) in infos.iter().enumerate() {
-            let at = common::Element("pInfos", i);
+            let at = "pInfos".index(i);
             let mut triangles = 0;
             let content = build_info(&mut ctx, at, info, Side::Host, &mut triangles);
             triangle_counts.push(triangles);
@@ -323,7 +324,7 @@ pub(crate) fn cmd_build_micromaps_rules(
     let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
     triangle_counts.clear();
     for (i, info) in infos.iter().enumerate() {
-        let at = common::Element("pInfos", i);
+        let at = "pInfos".index(i);
         let mut triangles = 0;
         let content = build_info(ctx, at, info, Side::Device, &mut triangles);
         triangle_counts.push(triangles);
@@ -351,27 +352,27 @@ pub(crate) fn cmd_build_micromaps_rules(
             ctx,
             info.data,
             cmd::pInfos_10896,
-            common::At(at, ".data.deviceAddress"),
+            at.text(".data.deviceAddress"),
         );
         common::valid_device_address(
             ctx,
             info.triangle_array,
             cmd::pInfos_10897,
-            common::At(at, ".triangleArray.deviceAddress"),
+            at.text(".triangleArray.deviceAddress"),
         );
         common::aligned(
             ctx,
             info.data,
             256,
             cmd::pInfos_07515,
-            common::At(at, ".data.deviceAddress"),
+            at.text(".data.deviceAddress"),
         );
         common::aligned(
             ctx,
             info.triangle_array,
             256,
             cmd::pInfos_07515,
-            common::At(at, ".triangleArray.deviceAddress"),
+            at.text(".triangleArray.deviceAddress"),
         );
         for (address, member) in [(info.data, "data"), (info.triangle_array, "triangleArray")] {
             common::device_address_usage(
@@ -403,7 +404,7 @@ pub(crate) fn cmd_build_micromaps_rules(
                 BUFFER_USAGE_STORAGE_BUFFER_BIT,
                 "VK_BUFFER_USAGE_STORAGE_BUFFER_BIT",
                 cmd::pInfos_07511,
-                common::At(at, ".scratchData.deviceAddress"),
+                at.text(".scratchData.deviceAddress"),
             );
         }
         let alignment = u64::from(
@@ -416,7 +417,7 @@ pub(crate) fn cmd_build_micromaps_rules(
             info.scratch_data,
             alignment,
             cmd::pInfos_07514,
-            common::At(at, ".scratchData.deviceAddress"),
+            at.text(".scratchData.deviceAddress"),
         );
     }
     overlaps(ctx, infos, Side::Device);
@@ -794,7 +795,7 @@ fn triangle_array(
             host,
             info.triangle_array,
             &skipped,
-            common::At(at, ".triangleArray"),
+            at.text(".triangleArray"),
         );
         return None;
     };
@@ -805,7 +806,7 @@ fn triangle_array(
         .chain(host_address(host::pInfos_07553, data.is_some()))
         .collect();
     if data.is_none() {
-        common::unreadable(ctx, host, info.data, &data_rules, common::At(at, ".data"));
+        common::unreadable(ctx, host, info.data, &data_rules, at.text(".data"));
     } else {
         ctx.checked(&data_rules);
     }
@@ -847,7 +848,7 @@ fn triangle_array(
         next += 1;
         let findings_before = (ctx.report.findings.len(), tally.failures());
         // Written out only for a finding: most entries have none.
-        let loc = TriangleEntry::new(at, m);
+        let loc = at.member("triangleArray").index(m);
         let entry = m
             .checked_mul(stride)
             .and_then(|offset| usize::try_from(offset).ok())

@@ -18,8 +18,8 @@ use ommcheck_vuids::khr;
 use std::fmt::Display;
 
 use super::{
-    array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, Index, Member,
-    MAX_ELEMENTS, MAX_HOST_BYTES,
+    array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, MAX_ELEMENTS,
+    MAX_HOST_BYTES,
 };
 use crate::build_inputs::indirect::IndirectRanges;
 use crate::build_inputs::{geometry_reads, DeviceBuild, Extent, ReadKind};
@@ -33,6 +33,7 @@ use crate::model::accel::{
     STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT, STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
 };
 use crate::model::CommandBuffer;
+use crate::report::location::Locate;
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
 use crate::state::HostRange;
@@ -90,16 +91,11 @@ pub unsafe fn build_geometry_info(
     let count = info.geometry_count;
     let reads = !info.p_geometries.is_null() || !info.pp_geometries.is_null();
     let bounded = if reads {
-        geometry_bound(
-            count,
-            function,
-            Member(location, ".geometryCount"),
-            findings,
-        )
+        geometry_bound(count, function, location.text(".geometryCount"), findings)
     } else {
         count
     };
-    let array_at = Member(location, ".pGeometries");
+    let array_at = location.text(".pGeometries");
     // SAFETY: the caller guarantees `pGeometries` is NULL or valid for
     // `geometryCount` elements; `bounded` is at most that many.
     let geometries =
@@ -109,11 +105,11 @@ pub unsafe fn build_geometry_info(
             .enumerate()
             // SAFETY: each element is a geometry the caller guarantees valid.
             .map(|(g, geometry)| unsafe {
-                read_geometry(geometry, function, Index(array_at, g), findings)
+                read_geometry(geometry, function, array_at.index(g), findings)
             })
             .collect::<Vec<_>>()
     });
-    let pointers_at = Member(location, ".ppGeometries");
+    let pointers_at = location.text(".ppGeometries");
     // SAFETY: the caller guarantees `ppGeometries` is NULL or valid for
     // `geometryCount` pointers; `bounded` is at most that many.
     let pointers =
@@ -126,7 +122,7 @@ pub unsafe fn build_geometry_info(
                 // caller guarantees valid; a NULL one is kept as None.
                 let geometry = unsafe { pointer.as_ref() }?;
                 // SAFETY: as above.
-                Some(unsafe { read_geometry(geometry, function, Index(pointers_at, g), findings) })
+                Some(unsafe { read_geometry(geometry, function, pointers_at.index(g), findings) })
             })
             .collect::<Vec<_>>()
     });
@@ -208,10 +204,7 @@ unsafe fn read_geometry(
                     .address
                     .cast::<khr::AccelerationStructureGeometryMicromapDataKHR>()
             };
-            let at = Member(
-                location,
-                ".pNext<VkAccelerationStructureGeometryMicromapDataKHR>",
-            );
+            let at = location.text(".pNext<VkAccelerationStructureGeometryMicromapDataKHR>");
             // SAFETY: forwarded from the caller.
             micromap = Some(unsafe { geometry_micromap_data(data, function, at, findings) });
         } else {
@@ -224,7 +217,7 @@ unsafe fn read_geometry(
             // SAFETY: the caller guarantees the union holds the member
             // `geometryType` selects: triangles.
             let triangles = unsafe { &geometry.geometry.triangles };
-            let at = Member(location, ".geometry.triangles");
+            let at = location.text(".geometry.triangles");
             // SAFETY: forwarded from the caller.
             GeometryData::Triangles(unsafe { triangles_data(triangles, function, at, findings) })
         }
@@ -342,10 +335,8 @@ unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
                 };
-                let loc = Member(
-                    location,
-                    ".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>",
-                );
+                let loc =
+                    location.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
                 data.opacity_ext = Some(TrianglesOpacityMicromapExt {
                     s_type: a.s_type.as_raw(),
                     next: Vec::new(),
@@ -394,10 +385,8 @@ unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>>()
                 };
-                let loc = Member(
-                    location,
-                    ".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>",
-                );
+                let loc =
+                    location.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
                 let (bias_and_scale, vector, primitive_flags, index_buffer) = (
                     address(&a.displacement_bias_and_scale_buffer),
                     address(&a.displacement_vector_buffer),
@@ -460,7 +449,7 @@ unsafe fn build_geometry_infos(
         .enumerate()
         // SAFETY: forwarded from the caller.
         .map(|(i, info)| unsafe {
-            build_geometry_info(info, function, Index("pInfos", i), findings)
+            build_geometry_info(info, function, "pInfos".index(i), findings)
         })
         .collect()
 }
@@ -485,7 +474,7 @@ unsafe fn read_build_range_infos(
         .enumerate()
         .map(|(i, info)| {
             let pointer = pointers.get(i).copied().unwrap_or(std::ptr::null());
-            let location = Index("ppBuildRangeInfos", i);
+            let location = "ppBuildRangeInfos".index(i);
             let count = if pointer.is_null() {
                 info.geometry_count
             } else {

@@ -16,13 +16,14 @@ pub mod objects;
 pub mod pipeline;
 
 use std::ffi::c_void;
-use std::fmt::{self, Display};
+use std::fmt::Display;
 
 use ash::vk;
 
 use crate::build_inputs::DeviceBuild;
 use crate::model::micromap::SpareInfos;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
+use crate::report::location::Locate;
 use crate::report::{Finding, Report, Severity};
 use crate::rules;
 use crate::state::HostRange;
@@ -42,30 +43,6 @@ pub const MAX_CHAIN: usize = 64;
 /// The most bytes of host memory read for one array of a host command.
 /// Small under cargo-fuzz, as [`MAX_ELEMENTS`] is.
 pub const MAX_HOST_BYTES: u64 = if cfg!(fuzzing) { 1 << 16 } else { 1 << 28 };
-
-/// A location in the application's arguments, as findings name it:
-/// `{parent}{member}`, the member with its leading `.` (`pInfos[0]` and
-/// `.pUsageCounts`). Readers pass locations as values like this one and
-/// [`Index`], written out only when a finding names them, so a call that
-/// has no findings builds no location strings.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Member<P>(pub P, pub &'static str);
-
-impl<P: Display> Display for Member<P> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}{}", self.0, self.1)
-    }
-}
-
-/// Element `.1` of the array at `.0`: `{array}[{index}]` (see [`Member`]).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Index<P>(pub P, pub usize);
-
-impl<P: Display> Display for Index<P> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}[{}]", self.0, self.1)
-    }
-}
 
 /// One structure of a pNext chain: its sType and where it is.
 pub(crate) struct Link {
@@ -269,7 +246,7 @@ pub(crate) unsafe fn usage_counts(
             array,
             count,
             function,
-            Member(location, ".pUsageCounts"),
+            location.text(".pUsageCounts"),
             findings,
         )
     };
@@ -279,7 +256,7 @@ pub(crate) unsafe fn usage_counts(
             pointers,
             count,
             function,
-            Member(location, ".ppUsageCounts"),
+            location.text(".ppUsageCounts"),
             findings,
         )
     };
@@ -415,7 +392,7 @@ pub(crate) unsafe fn micromap_build_infos(
             .unwrap_or_default();
         // SAFETY: forwarded from the caller.
         let info = unsafe {
-            micromap_build_info_into(usages, info, function, Index("pInfos", i), findings)
+            micromap_build_info_into(usages, info, function, "pInfos".index(i), findings)
         };
         match read.get_mut(i) {
             Some(slot) => *slot = info,
@@ -823,7 +800,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(i, info)| unsafe {
-                    micromap_build_info(info, "f", Index("pInfos", i), &mut findings)
+                    micromap_build_info(info, "f", "pInfos".index(i), &mut findings)
                 })
                 .collect();
             assert_eq!(read, fresh, "{count} infos");
