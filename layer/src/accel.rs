@@ -19,8 +19,8 @@ use ommcheck::Report;
 
 use crate::commands;
 use crate::dispatch::{next_fn, DeviceFns, DeviceState};
-use crate::intercept::{as_void, check, deferrable, device_and, device_object, track};
-use crate::{guarded, read};
+use crate::intercept::{as_void, check, deferrable, device_and, device_object, guarded, track};
+use crate::read;
 
 /// `vkCreateAccelerationStructure2KHR` (VK_KHR_opacity_micromap), newer than ash 0.38.
 pub type PfnCreateAccelerationStructure2KHR = unsafe extern "system" fn(

@@ -22,10 +22,10 @@ use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;
 use crate::dispatch::{next_fn, DeviceData, DeviceFns};
-use crate::intercept::{as_void, device_and};
+use crate::intercept::{as_void, device_and, guarded};
+use crate::read;
 use crate::readback::{Plan, Readback};
 use crate::shadow::Transfer;
-use crate::{guarded, read};
 
 /// The next layer's command pool, command buffer and submission functions.
 pub struct CommandFns {

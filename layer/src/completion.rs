@@ -18,10 +18,10 @@ use ash::vk::Handle as _;
 use foldhash::HashMap;
 
 use crate::commands::KeptBuild;
-use crate::dispatch::{aliased_intercepts, DeviceData, DeviceFns};
-use crate::intercept::device_and;
+use crate::dispatch::{DeviceData, DeviceFns};
+use crate::intercept::{aliased_intercepts, device_and, guarded, panic_message};
+use crate::read;
 use crate::report::Message;
-use crate::{guarded, panic_message, read};
 
 /// A submitted build whose read-back inputs are checked at completion.
 #[derive(Debug)]

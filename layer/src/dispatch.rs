@@ -30,26 +30,6 @@ macro_rules! next_fn {
 }
 pub(crate) use next_fn;
 
-/// A command and its aliases (its KHR or EXT spellings): intercepts
-/// that share one body, `$with(name, pick, args)`, each with its own name
-/// and the next layer's function at its path in [`DeviceFns`].
-macro_rules! aliased_intercepts {
-    (@alias $with:ident $params:tt $ret:ty;) => {};
-    (@alias $with:ident ($($arg:ident: $ty:ty),*) $ret:ty;
-        $ours:ident = $name:literal, $($field:ident).+; $($rest:tt)*
-    ) => {
-        pub unsafe extern "system" fn $ours($($arg: $ty),*) -> $ret {
-            // SAFETY: forwarded from the application.
-            unsafe { $with($name, |f| f.$($field).+, $($arg),*) }
-        }
-        $crate::dispatch::aliased_intercepts!(@alias $with ($($arg: $ty),*) $ret; $($rest)*);
-    };
-    ($($with:ident $params:tt -> $ret:ty { $($aliases:tt)* })*) => {$(
-        $crate::dispatch::aliased_intercepts!(@alias $with $params $ret; $($aliases)*);
-    )*};
-}
-pub(crate) use aliased_intercepts;
-
 /// The next layer's instance functions.
 pub struct InstanceFns {
     pub destroy_instance: Option<vk::PFN_vkDestroyInstance>,

@@ -9,9 +9,9 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::dispatch::{next_fn, InstanceData, InstanceFns, INSTANCES};
-use crate::intercept::as_void;
+use crate::intercept::{as_void, guarded};
 use crate::report::Reporter;
-use crate::{abi, device, guarded, read, settings};
+use crate::{abi, device, read, settings};
 
 /// This layer's function for an instance-level command name.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {

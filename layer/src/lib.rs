@@ -60,59 +60,17 @@ pub mod testing;
 mod transfer;
 mod work;
 
-use std::any::Any;
 use std::ffi::{c_char, CStr};
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use ash::vk;
-use ommcheck::Severity;
 
 use abi::{NegotiateLayerInterface, LAYER_INTERFACE_VERSION, LAYER_NEGOTIATE_INTERFACE_STRUCT};
 use dispatch::{DEVICES, INSTANCES};
-use report::{Message, INTERNAL_ERROR};
+use intercept::guarded;
 
 pub use setting_docs::LAYER_NAME;
 /// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
 pub const LAYER_NAME_C: &CStr = c"VK_LAYER_OMMCHECK_validation";
-
-/// Runs an exported function's `body`; a panic becomes one error message to
-/// every messenger and `on_panic` is returned.
-fn guarded<R>(function: &'static str, on_panic: R, body: impl FnOnce() -> R) -> R {
-    match catch_unwind(AssertUnwindSafe(body)) {
-        Ok(result) => result,
-        Err(payload) => {
-            let message = panic_message(function, payload.as_ref(), "the call failed");
-            // Which instance the call belonged to is lost with the panic.
-            let instances = INSTANCES.all();
-            if instances.is_empty() {
-                eprintln!("{}", message.text);
-            }
-            for instance in instances {
-                instance
-                    .reporter
-                    .deliver(std::slice::from_ref(&message), false);
-            }
-            on_panic
-        }
-    }
-}
-
-/// The message for a caught panic.
-fn panic_message(function: &str, payload: &(dyn Any + Send), outcome: &str) -> Message {
-    let reason = payload
-        .downcast_ref::<&str>()
-        .copied()
-        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
-        .unwrap_or("no reason given");
-    Message::about_layer(
-        INTERNAL_ERROR,
-        Severity::Error,
-        function,
-        &format!(
-            "ommcheck panicked ({reason}); {outcome}. Please report this as a bug in ommcheck."
-        ),
-    )
-}
 
 /// `vkNegotiateLoaderLayerInterfaceVersion`: offers interface version 2
 /// with this layer's `vkGetInstanceProcAddr` and `vkGetDeviceProcAddr`.

@@ -13,8 +13,7 @@ use ommcheck::state::Handle;
 use ommcheck::{Report, Validator};
 
 use crate::dispatch::{DeviceData, DeviceState};
-use crate::guarded;
-use crate::intercept::{check, device_and, device_object, track};
+use crate::intercept::{check, device_and, device_object, guarded, track};
 use crate::work::DeferredPipelines;
 
 /// One of the core's four pipeline-creation checks.

@@ -21,10 +21,10 @@ use ommcheck::Severity;
 
 use crate::commands::{self, KeptBuild, Recorded};
 use crate::dispatch::{DeviceData, DeviceFns, DeviceState};
-use crate::intercept::{as_void, check, device_and};
+use crate::intercept::{as_void, check, device_and, guarded, panic_message};
 use crate::memory_layout::{mapped_window, unreadable_reason};
+use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
-use crate::{guarded, panic_message, read};
 
 /// The next layer's submission function for one of the submit commands.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {

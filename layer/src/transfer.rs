@@ -14,10 +14,10 @@ use ash::vk;
 use ash::vk::Handle as _;
 
 use crate::commands::{self, Recorded};
-use crate::dispatch::{aliased_intercepts, next_fn, DeviceData, DeviceFns, DeviceState};
-use crate::intercept::{as_void, device_and};
+use crate::dispatch::{next_fn, DeviceData, DeviceFns, DeviceState};
+use crate::intercept::{aliased_intercepts, as_void, device_and, guarded};
 use crate::shadow::Transfer;
-use crate::{completion, guarded, read};
+use crate::{completion, read};
 
 macro_rules! memory_commands {
     (

@@ -36,8 +36,7 @@ use ommcheck::state::Handle;
 use ommcheck::Validator;
 
 use crate::dispatch::{DeviceData, DeviceState};
-use crate::guarded;
-use crate::intercept::{check, device_and, track};
+use crate::intercept::{check, device_and, guarded, track};
 
 /// SPIR-V `RayQueryKHR`.
 const CAPABILITY_RAY_QUERY: u32 = 4472;
