@@ -18,7 +18,8 @@ use ash::vk::Handle as _;
 use foldhash::HashMap;
 
 use crate::commands::KeptBuild;
-use crate::dispatch::{DeviceData, DeviceFns};
+use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::DeviceData;
 use crate::intercept::{aliased_intercepts, device_and, guarded, panic_message};
 use crate::read;
 use crate::report::Message;

@@ -14,9 +14,8 @@ use ash::vk::Handle as _;
 use ommcheck::raw::{objects, ReadableHost};
 use ommcheck::Validator;
 
-use crate::dispatch::{
-    next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
-};
+use crate::dispatch::next_fns::{next_fn, DeviceFns};
+use crate::dispatch::{Allocation, DeviceData, DeviceState, DEVICES, INSTANCES};
 use crate::intercept::{
     aliased_intercepts, as_void, check, deferrable, device_and, device_object, guarded, track,
 };

@@ -8,7 +8,8 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::dispatch::{next_fn, InstanceData, InstanceFns, INSTANCES};
+use crate::dispatch::next_fns::{next_fn, InstanceFns};
+use crate::dispatch::{InstanceData, INSTANCES};
 use crate::intercept::{as_void, guarded};
 use crate::report::Reporter;
 use crate::{abi, device, read, settings};

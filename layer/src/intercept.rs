@@ -16,7 +16,8 @@ use ash::vk;
 use ash::vk::Handle as _;
 use ommcheck::{Report, Severity};
 
-use crate::dispatch::{DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES};
+use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::{DeviceData, DeviceState, DEVICES, INSTANCES};
 use crate::report::{Message, Reporter, INTERNAL_ERROR};
 
 /// Runs an exported function's `body`; a panic becomes one error message to

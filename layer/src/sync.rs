@@ -12,7 +12,7 @@ use ommcheck::raw::pipeline::{self as raw, MemoryMarkerInfoAMD};
 use ommcheck::{Report, Validator};
 
 use crate::commands;
-use crate::dispatch::DeviceFns;
+use crate::dispatch::next_fns::DeviceFns;
 use crate::intercept::{aliased_intercepts, check, device_and, guarded};
 
 /// Runs `body` as the check of a command recorded in `command_buffer`,
