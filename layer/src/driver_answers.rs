@@ -17,6 +17,7 @@ use ommcheck::driver::{
     BuildType, DriverQueries, MicromapBuildShape, MicromapBuildSizes, MicromapVersion,
 };
 
+use crate::dispatch::memory_layout;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::intercept::device_and;
 use crate::read;
@@ -275,7 +276,7 @@ pub unsafe fn map_destinations(
             continue;
         };
         let (buffer, offset, size) = (micromap.buffer, micromap.offset, micromap.size);
-        if let Some(address) = crate::memory_layout::mapped_address(state, buffer, offset, size) {
+        if let Some(address) = memory_layout::mapped_address(state, buffer, offset, size) {
             mapped.insert(handle, address as u64);
         }
     }

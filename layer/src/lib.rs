@@ -42,7 +42,6 @@ mod dispatch;
 mod driver_answers;
 mod instance;
 mod intercept;
-mod memory_layout;
 mod pipe;
 mod pipelines;
 mod properties;

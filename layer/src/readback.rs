@@ -30,6 +30,7 @@ use ommcheck::checks::device_contents::{
 use ommcheck::model::accel::GeometryData;
 use ommcheck::{Bytes, Severity};
 
+use crate::dispatch::memory_layout;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
@@ -338,7 +339,7 @@ pub fn plan(
 ) -> Plan {
     let settings = data.instance.reporter.settings();
     let cap = settings.gpu_readback_indirect_max_bytes;
-    let mut windows = match windows(state, build, cap, crate::memory_layout::mapped_window) {
+    let mut windows = match windows(state, build, cap, memory_layout::mapped_window) {
         Ok(windows) => windows,
         Err(reason) => return Plan::NotReadBack("unknown-address", reason),
     };
@@ -347,7 +348,7 @@ pub fn plan(
     }
     if windows
         .iter()
-        .all(|w| crate::memory_layout::host_can_read(state, w.buffer, w.offset, w.len))
+        .all(|w| memory_layout::host_can_read(state, w.buffer, w.offset, w.len))
     {
         return Plan::AtSubmission;
     }
@@ -451,7 +452,7 @@ pub fn unplaced_messages(
         .iter()
         .filter(|read| {
             read.kind == ReadKind::InstancePointers
-                && pointed_instances(state, read, crate::memory_layout::mapped_window).is_none()
+                && pointed_instances(state, read, memory_layout::mapped_window).is_none()
         })
         .map(|read| read.location.clone())
         .collect();

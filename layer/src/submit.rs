@@ -20,10 +20,10 @@ use ommcheck::state::Handle;
 use ommcheck::Severity;
 
 use crate::commands::{self, KeptBuild, Recorded};
+use crate::dispatch::memory_layout::{mapped_window, unreadable_reason};
 use crate::dispatch::next_fns::DeviceFns;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::intercept::{as_void, check, device_and, guarded, panic_message};
-use crate::memory_layout::{mapped_window, unreadable_reason};
 use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
 

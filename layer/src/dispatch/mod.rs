@@ -18,6 +18,7 @@ use crate::abi::dispatch_key;
 use crate::report::Reporter;
 use next_fns::{DeviceFns, InstanceFns};
 
+pub mod memory_layout;
 pub mod next_fns;
 
 /// What the layer keeps of a `VkInstance`.
@@ -45,7 +46,7 @@ pub struct DeviceState {
     pub mappings: HashMap<u64, ReadableHost>,
     /// Where buffers lie in memory and where memory is mapped, for reading
     /// device builds' contents at submission.
-    pub memory_layout: crate::memory_layout::MemoryLayout,
+    pub memory_layout: memory_layout::MemoryLayout,
     /// Bound pipelines, shaders and descriptor sets, and what pipelines' stages use.
     pub pipe: crate::work::PipeState,
     /// What transfers wrote into the windows builds read (route 1).
