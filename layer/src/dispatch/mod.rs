@@ -20,6 +20,7 @@ use next_fns::{DeviceFns, InstanceFns};
 
 pub mod memory_layout;
 pub mod next_fns;
+pub mod next_layer_answers;
 
 /// What the layer keeps of a `VkInstance`.
 pub struct InstanceData {
@@ -55,7 +56,7 @@ pub struct DeviceState {
     pub submissions: crate::completion::Submissions,
     /// The next layer's answers (build sizes, compatibility) the checks use, where the
     /// device can be asked (`driver_answers`).
-    pub driver_answers: Option<std::sync::Arc<crate::driver_answers::NextLayerAnswers>>,
+    pub driver_answers: Option<Arc<next_layer_answers::NextLayerAnswers>>,
 }
 
 /// What the layer keeps of a `VkDevice`.
