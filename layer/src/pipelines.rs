@@ -12,9 +12,9 @@ use ommcheck::raw::pipeline::{self as raw, StructReader};
 use ommcheck::state::Handle;
 use ommcheck::{Report, Validator};
 
+use crate::dispatch::pipe_state::DeferredPipelines;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::intercept::{check, device_and, device_object, guarded, track};
-use crate::work::DeferredPipelines;
 
 /// One of the core's four pipeline-creation checks.
 type CreatePipelines = fn(&mut Validator, &[PipelineCreateInfo], &[Handle]) -> Report;

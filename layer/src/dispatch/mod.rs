@@ -21,6 +21,7 @@ use next_fns::{DeviceFns, InstanceFns};
 pub mod memory_layout;
 pub mod next_fns;
 pub mod next_layer_answers;
+pub mod pipe_state;
 
 /// What the layer keeps of a `VkInstance`.
 pub struct InstanceData {
@@ -49,7 +50,7 @@ pub struct DeviceState {
     /// device builds' contents at submission.
     pub memory_layout: memory_layout::MemoryLayout,
     /// Bound pipelines, shaders and descriptor sets, and what pipelines' stages use.
-    pub pipe: crate::work::PipeState,
+    pub pipe: pipe_state::PipeState,
     /// What transfers wrote into the windows builds read (route 1).
     pub shadows: crate::shadow::Shadows,
     /// Submitted builds whose read-back inputs are checked at completion.
