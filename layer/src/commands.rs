@@ -22,10 +22,11 @@ use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;
 use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::readback_memory::Readback;
 use crate::dispatch::DeviceData;
 use crate::intercept::{as_void, device_and, guarded};
 use crate::read;
-use crate::readback::{Plan, Readback};
+use crate::readback::Plan;
 use crate::shadow::Transfer;
 
 /// This layer's function for a command-pool, command-buffer or submission

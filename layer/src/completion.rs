@@ -474,7 +474,7 @@ mod tests {
     fn resubmitting_without_waiting_keeps_what_is_tracked_bounded() {
         let mut submissions = Submissions::default();
         let build = KeptBuild {
-            readback: Some(Arc::new(crate::readback::Readback::empty())),
+            readback: Some(Arc::new(crate::dispatch::readback_memory::Readback::empty())),
             ..kept()
         };
         let mut last = 0;

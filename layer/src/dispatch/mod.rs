@@ -22,6 +22,7 @@ pub mod memory_layout;
 pub mod next_fns;
 pub mod next_layer_answers;
 pub mod pipe_state;
+pub mod readback_memory;
 
 /// What the layer keeps of a `VkInstance`.
 pub struct InstanceData {
@@ -80,7 +81,7 @@ pub struct DeviceData {
     /// The layer's own memory GPU readbacks copy into (route 2), behind a
     /// lock of its own: a readback gives its range back wherever it is
     /// dropped, also while `state` is held.
-    pub readback_arena: Arc<Mutex<crate::readback::Arena>>,
+    pub readback_arena: Arc<Mutex<readback_memory::Arena>>,
 }
 
 impl DeviceState {
