@@ -22,7 +22,7 @@ use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;
 use crate::dispatch::next_fns::DeviceFns;
-use crate::dispatch::readback_memory::Readback;
+use crate::dispatch::submissions::KeptBuild;
 use crate::dispatch::DeviceData;
 use crate::intercept::{as_void, device_and, guarded};
 use crate::read;
@@ -70,21 +70,6 @@ pub fn intercept(name: &std::ffi::CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdExecuteCommands" => as_void(cmd_execute_commands as vk::PFN_vkCmdExecuteCommands),
         _ => None,
     }
-}
-
-/// A device build recorded into a command buffer, whose contents are
-/// checked each time the command buffer is submitted.
-#[derive(Clone, Debug)]
-pub struct KeptBuild {
-    /// The command buffer as the checks saw it when the build was recorded.
-    pub recorded_in: CommandBuffer,
-    pub build: Arc<DeviceBuild>,
-    /// The copies of its inputs the layer recorded before it (route 2):
-    /// the build is then checked once its submission completes.
-    pub readback: Option<Arc<Readback>>,
-    /// Why its inputs, which the host could not read at recording, were
-    /// not read back: a key naming the cause, and the sentence.
-    pub not_read_back: Option<(&'static str, String)>,
 }
 
 /// What a submission of a command buffer runs that the content checks

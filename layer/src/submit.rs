@@ -19,9 +19,10 @@ use ommcheck::model::SubmitBatch;
 use ommcheck::state::Handle;
 use ommcheck::Severity;
 
-use crate::commands::{self, KeptBuild, Recorded};
+use crate::commands::{self, Recorded};
 use crate::dispatch::memory_layout::{mapped_window, unreadable_reason};
 use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::submissions::KeptBuild;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::intercept::{as_void, check, device_and, guarded, panic_message};
 use crate::read;

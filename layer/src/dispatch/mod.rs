@@ -23,6 +23,7 @@ pub mod next_fns;
 pub mod next_layer_answers;
 pub mod pipe_state;
 pub mod readback_memory;
+pub mod submissions;
 
 /// What the layer keeps of a `VkInstance`.
 pub struct InstanceData {
@@ -55,7 +56,7 @@ pub struct DeviceState {
     /// What transfers wrote into the windows builds read (route 1).
     pub shadows: crate::shadow::Shadows,
     /// Submitted builds whose read-back inputs are checked at completion.
-    pub submissions: crate::completion::Submissions,
+    pub submissions: submissions::Submissions,
     /// The next layer's answers (build sizes, compatibility) the checks use, where the
     /// device can be asked (`driver_answers`).
     pub driver_answers: Option<Arc<next_layer_answers::NextLayerAnswers>>,
