@@ -68,8 +68,7 @@ use dispatch::{DEVICES, INSTANCES};
 use intercept::guarded;
 
 pub use setting_docs::LAYER_NAME;
-/// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
-pub const LAYER_NAME_C: &CStr = c"VK_LAYER_OMMCHECK_validation";
+pub use settings::LAYER_NAME_C;
 
 /// `vkNegotiateLoaderLayerInterfaceVersion`: offers interface version 2
 /// with this layer's `vkGetInstanceProcAddr` and `vkGetDeviceProcAddr`.
@@ -117,7 +116,7 @@ pub unsafe extern "system" fn vkGetInstanceProcAddr(
     guarded("vkGetInstanceProcAddr", None, || {
         // SAFETY: the name is NUL-terminated (the caller's guarantee).
         let name = unsafe { read::name(name) }?;
-        if let Some(function) = instance::intercept(name) {
+        if let Some(function) = proc_addr_function(name).or_else(|| instance::intercept(name)) {
             return Some(function);
         }
         let data = (instance != vk::Instance::null())
@@ -160,9 +159,25 @@ pub unsafe extern "system" fn vkGetDeviceProcAddr(
     })
 }
 
+/// This layer's `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` by name.
+/// They are answered here, beside the functions, so that no module below
+/// imports the crate root.
+fn proc_addr_function(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkGetInstanceProcAddr" => {
+            intercept::as_void(vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr)
+        }
+        b"vkGetDeviceProcAddr" => {
+            intercept::as_void(vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr)
+        }
+        _ => None,
+    }
+}
+
 /// Whether `name` is a command this layer intercepts (for tests and tools).
 pub fn intercepts(name: &CStr) -> bool {
-    instance::intercept(name).is_some()
+    proc_addr_function(name).is_some()
+        || instance::intercept(name).is_some()
         || router::device_command(name).is_some()
         || properties::intercept(name).is_some()
 }
