@@ -6,25 +6,38 @@
 //! application's `VK_EXT_debug_utils` messengers and `VK_EXT_debug_report`
 //! callbacks in the Khronos validation layer's format (docs/layer.md). Every other command passes to the next layer untouched.
 //! All check logic lives in the core; this crate only adapts the loader
-//! interface to it. By module:
+//! interface to it. Its modules, from the bottom up; each imports only
+//! modules earlier in this list (and none imports the crate root), so
+//! every shared type lies below all its users:
 //!
-//! - `instance`, `device`, `dispatch`, `abi`: the loader interface, instance
-//!   and device creation, messengers and debug-report callbacks, buffers, memory, micromap objects and
-//!   micromap builds;
-//! - `accel`: acceleration-structure objects and builds, micromap copies,
-//!   queries, size queries and compatibility;
-//! - `commands`, `submit`: command-pool and command-buffer state, and the
-//!   contents of device builds read at submission from mapped memory or
-//!   from what recorded transfers wrote (`shadow`, `transfer`);
-//! - `readback`, `completion`: device builds whose inputs the host cannot
-//!   read are copied on the GPU into layer memory and checked once their
-//!   submission is known to be complete;
-//! - `pipe`, `pipelines`, `sync`, `work`, `properties`: shaders, pipelines,
-//!   synchronization, the commands that run shaders (with descriptor
-//!   tracking) and the feature and property chains;
-//! - `settings`, `setting_docs`, `report`, `read`: settings (and their
-//!   table, which xtask writes the manifest from), message delivery and
-//!   the small raw reads of the layer's own.
+//! - `setting_docs`, `settings`, `report`, `read`, `abi`, `shadow`:
+//!   settings (and their table, which xtask writes the manifest from),
+//!   message delivery, the small raw reads of the layer's own, the loader's
+//!   structures, and what recorded transfers wrote (route 1);
+//! - `dispatch`: per-instance and per-device data by dispatch key, and
+//!   every type a device's state holds: the next layer's function tables
+//!   (`next_fns`), where buffers lie and memory is mapped
+//!   (`memory_layout`), the driver's answers (`next_layer_answers`), what
+//!   bound shaders reach (`pipe_state`), the layer's readback memory
+//!   (`readback_memory`), and kept builds and pending submissions
+//!   (`submissions`);
+//! - `intercept`: what every intercept uses: the panic guard, finding a
+//!   device and the next layer's function, running a check and delivering
+//!   its findings;
+//! - the intercepts: `readback` (device builds whose inputs the host
+//!   cannot read are copied on the GPU into layer memory), `commands`
+//!   (command pools and buffers, and the builds they keep), `completion`
+//!   (read-back builds checked once their submission is complete),
+//!   `driver_answers`, `sync`, `accel` (acceleration structures, micromap
+//!   copies, queries, size queries and compatibility), `transfer`, `work`
+//!   (the commands that run shaders, with descriptor tracking),
+//!   `pipelines`, `submit` (the contents of device builds read at
+//!   submission), `properties` (feature and property chains), `device`
+//!   (device creation, buffers, memory, micromap objects and builds);
+//! - `pipe`, `router`, `instance`: the tables from a command name to its
+//!   intercept, and instance creation with messengers and debug-report
+//!   callbacks, which the exported functions here use;
+//! - `testing`: hooks for the layer's own tests.
 //!
 //! Every exported or intercepted function runs its body inside
 //! `std::panic::catch_unwind`: a panic becomes one error message and never
