@@ -37,8 +37,7 @@ pub struct FileSettings {
     pub values: Vec<(String, String)>,
 }
 
-/// [`LAYER_NAME`](crate::setting_docs::LAYER_NAME) as the C string
-/// VK_EXT_layer_settings names layers by.
+/// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
 pub const LAYER_NAME_C: &std::ffi::CStr = c"VK_LAYER_OMMCHECK_validation";
 
 /// The settings file's name.

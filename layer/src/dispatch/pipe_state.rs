@@ -119,7 +119,7 @@ pub struct DeferredPipelines {
     pub count: u32,
 }
 
-/// The layer's own tracking for these commands, kept in [`DeviceState`].
+/// The layer's own tracking for these commands, kept in [`DeviceState`](super::DeviceState).
 #[derive(Debug, Default)]
 pub struct PipeState {
     /// Each pipeline's stages, with those of the libraries it links.
