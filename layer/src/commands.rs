@@ -21,84 +21,13 @@ use ommcheck::build_inputs::DeviceBuild;
 use ommcheck::model::CommandBuffer;
 
 use crate::abi::dispatch_key;
-use crate::dispatch::{next_fn, DeviceData, DeviceFns};
-use crate::intercept::{as_void, device_and};
-use crate::readback::{Plan, Readback};
+use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::submissions::KeptBuild;
+use crate::dispatch::DeviceData;
+use crate::intercept::{as_void, device_and, guarded};
+use crate::read;
+use crate::readback::Plan;
 use crate::shadow::Transfer;
-use crate::{guarded, read};
-
-/// The next layer's command pool, command buffer and submission functions.
-pub struct CommandFns {
-    pub create_command_pool: Option<vk::PFN_vkCreateCommandPool>,
-    pub destroy_command_pool: Option<vk::PFN_vkDestroyCommandPool>,
-    pub reset_command_pool: Option<vk::PFN_vkResetCommandPool>,
-    pub allocate_command_buffers: Option<vk::PFN_vkAllocateCommandBuffers>,
-    pub free_command_buffers: Option<vk::PFN_vkFreeCommandBuffers>,
-    pub begin_command_buffer: Option<vk::PFN_vkBeginCommandBuffer>,
-    pub end_command_buffer: Option<vk::PFN_vkEndCommandBuffer>,
-    pub reset_command_buffer: Option<vk::PFN_vkResetCommandBuffer>,
-    pub cmd_begin_render_pass: Option<vk::PFN_vkCmdBeginRenderPass>,
-    pub cmd_begin_render_pass2: Option<vk::PFN_vkCmdBeginRenderPass2>,
-    pub cmd_begin_render_pass2_khr: Option<vk::PFN_vkCmdBeginRenderPass2>,
-    pub cmd_end_render_pass: Option<vk::PFN_vkCmdEndRenderPass>,
-    pub cmd_end_render_pass2: Option<vk::PFN_vkCmdEndRenderPass2>,
-    pub cmd_end_render_pass2_khr: Option<vk::PFN_vkCmdEndRenderPass2>,
-    pub cmd_begin_rendering: Option<vk::PFN_vkCmdBeginRendering>,
-    pub cmd_begin_rendering_khr: Option<vk::PFN_vkCmdBeginRendering>,
-    pub cmd_end_rendering: Option<vk::PFN_vkCmdEndRendering>,
-    pub cmd_end_rendering_khr: Option<vk::PFN_vkCmdEndRendering>,
-    pub cmd_begin_video_coding: Option<vk::PFN_vkCmdBeginVideoCodingKHR>,
-    pub cmd_end_video_coding: Option<vk::PFN_vkCmdEndVideoCodingKHR>,
-    pub cmd_execute_commands: Option<vk::PFN_vkCmdExecuteCommands>,
-    pub queue_submit: Option<vk::PFN_vkQueueSubmit>,
-    pub queue_submit2: Option<vk::PFN_vkQueueSubmit2>,
-    pub queue_submit2_khr: Option<vk::PFN_vkQueueSubmit2>,
-}
-
-impl CommandFns {
-    pub fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> Self {
-        macro_rules! load {
-            ($name:literal, $ty:ty) => {
-                next_fn!(gdpa, device, $name, $ty)
-            };
-        }
-        Self {
-            create_command_pool: load!(c"vkCreateCommandPool", vk::PFN_vkCreateCommandPool),
-            destroy_command_pool: load!(c"vkDestroyCommandPool", vk::PFN_vkDestroyCommandPool),
-            reset_command_pool: load!(c"vkResetCommandPool", vk::PFN_vkResetCommandPool),
-            allocate_command_buffers: load!(
-                c"vkAllocateCommandBuffers",
-                vk::PFN_vkAllocateCommandBuffers
-            ),
-            free_command_buffers: load!(c"vkFreeCommandBuffers", vk::PFN_vkFreeCommandBuffers),
-            begin_command_buffer: load!(c"vkBeginCommandBuffer", vk::PFN_vkBeginCommandBuffer),
-            end_command_buffer: load!(c"vkEndCommandBuffer", vk::PFN_vkEndCommandBuffer),
-            reset_command_buffer: load!(c"vkResetCommandBuffer", vk::PFN_vkResetCommandBuffer),
-            cmd_begin_render_pass: load!(c"vkCmdBeginRenderPass", vk::PFN_vkCmdBeginRenderPass),
-            cmd_begin_render_pass2: load!(c"vkCmdBeginRenderPass2", vk::PFN_vkCmdBeginRenderPass2),
-            cmd_begin_render_pass2_khr: load!(
-                c"vkCmdBeginRenderPass2KHR",
-                vk::PFN_vkCmdBeginRenderPass2
-            ),
-            cmd_end_render_pass: load!(c"vkCmdEndRenderPass", vk::PFN_vkCmdEndRenderPass),
-            cmd_end_render_pass2: load!(c"vkCmdEndRenderPass2", vk::PFN_vkCmdEndRenderPass2),
-            cmd_end_render_pass2_khr: load!(c"vkCmdEndRenderPass2KHR", vk::PFN_vkCmdEndRenderPass2),
-            cmd_begin_rendering: load!(c"vkCmdBeginRendering", vk::PFN_vkCmdBeginRendering),
-            cmd_begin_rendering_khr: load!(c"vkCmdBeginRenderingKHR", vk::PFN_vkCmdBeginRendering),
-            cmd_end_rendering: load!(c"vkCmdEndRendering", vk::PFN_vkCmdEndRendering),
-            cmd_end_rendering_khr: load!(c"vkCmdEndRenderingKHR", vk::PFN_vkCmdEndRendering),
-            cmd_begin_video_coding: load!(
-                c"vkCmdBeginVideoCodingKHR",
-                vk::PFN_vkCmdBeginVideoCodingKHR
-            ),
-            cmd_end_video_coding: load!(c"vkCmdEndVideoCodingKHR", vk::PFN_vkCmdEndVideoCodingKHR),
-            cmd_execute_commands: load!(c"vkCmdExecuteCommands", vk::PFN_vkCmdExecuteCommands),
-            queue_submit: load!(c"vkQueueSubmit", vk::PFN_vkQueueSubmit),
-            queue_submit2: load!(c"vkQueueSubmit2", vk::PFN_vkQueueSubmit2),
-            queue_submit2_khr: load!(c"vkQueueSubmit2KHR", vk::PFN_vkQueueSubmit2),
-        }
-    }
-}
 
 /// This layer's function for a command-pool, command-buffer or submission
 /// command name.
@@ -141,21 +70,6 @@ pub fn intercept(name: &std::ffi::CStr) -> vk::PFN_vkVoidFunction {
         b"vkCmdExecuteCommands" => as_void(cmd_execute_commands as vk::PFN_vkCmdExecuteCommands),
         _ => None,
     }
-}
-
-/// A device build recorded into a command buffer, whose contents are
-/// checked each time the command buffer is submitted.
-#[derive(Clone, Debug)]
-pub struct KeptBuild {
-    /// The command buffer as the checks saw it when the build was recorded.
-    pub recorded_in: CommandBuffer,
-    pub build: Arc<DeviceBuild>,
-    /// The copies of its inputs the layer recorded before it (route 2):
-    /// the build is then checked once its submission completes.
-    pub readback: Option<Arc<Readback>>,
-    /// Why its inputs, which the host could not read at recording, were
-    /// not read back: a key naming the cause, and the sentence.
-    pub not_read_back: Option<(&'static str, String)>,
 }
 
 /// What a submission of a command buffer runs that the content checks

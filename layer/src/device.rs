@@ -14,13 +14,14 @@ use ash::vk::Handle as _;
 use ommcheck::raw::{objects, ReadableHost};
 use ommcheck::Validator;
 
-use crate::dispatch::{
-    aliased_intercepts, next_fn, Allocation, DeviceData, DeviceFns, DeviceState, DEVICES, INSTANCES,
+use crate::dispatch::next_fns::{next_fn, DeviceFns};
+use crate::dispatch::{Allocation, DeviceData, DeviceState, DEVICES, INSTANCES};
+use crate::intercept::{
+    aliased_intercepts, as_void, check, deferrable, device_and, device_object, guarded, track,
 };
-use crate::intercept::{as_void, check, deferrable, device_and, device_object, track};
 use crate::report::Message;
 use crate::shadow::Shadows;
-use crate::{abi, commands, guarded, pipelines, properties, read, readback};
+use crate::{abi, commands, pipelines, properties, read, readback};
 
 /// This layer's function for a device-level command name.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {

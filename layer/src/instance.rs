@@ -8,20 +8,15 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::dispatch::{next_fn, InstanceData, InstanceFns, INSTANCES};
-use crate::intercept::as_void;
+use crate::dispatch::next_fns::{next_fn, InstanceFns};
+use crate::dispatch::{InstanceData, INSTANCES};
+use crate::intercept::{as_void, guarded};
 use crate::report::Reporter;
-use crate::{abi, device, guarded, read, settings};
+use crate::{abi, device, read, settings};
 
 /// This layer's function for an instance-level command name.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
     match name.to_bytes() {
-        b"vkGetInstanceProcAddr" => {
-            as_void(crate::vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr)
-        }
-        b"vkGetDeviceProcAddr" => {
-            as_void(crate::vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr)
-        }
         b"vkCreateInstance" => as_void(create_instance as vk::PFN_vkCreateInstance),
         b"vkDestroyInstance" => as_void(destroy_instance as vk::PFN_vkDestroyInstance),
         b"vkCreateDevice" => as_void(device::create_device as vk::PFN_vkCreateDevice),
@@ -71,7 +66,7 @@ unsafe extern "system" fn create_instance(
             // SAFETY: the application's chain is well formed, as the API requires.
             let callbacks = unsafe { read::chained_callbacks(info.p_next) };
             // SAFETY: as above.
-            let api = unsafe { read::layer_settings(info.p_next, crate::LAYER_NAME_C) };
+            let api = unsafe { read::layer_settings(info.p_next, settings::LAYER_NAME_C) };
             let (settings, mut problems) = settings::for_instance(&api);
             let (reporter, log_problem) = Reporter::new(callbacks, settings);
             problems.extend(log_problem);

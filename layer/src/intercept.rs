@@ -1,21 +1,102 @@
-//! The helpers every intercept module uses: finding a device's data and
-//! the next layer's function, running a check and delivering its findings,
-//! recording what a call did, and handing a command to the loader. They
-//! sit below the intercept modules and the router ([`crate::router`]) that
+//! The helpers every intercept module uses: guarding a call against
+//! panics, finding a device's data and the next layer's function, running
+//! a check and delivering its findings, recording what a call did, and
+//! handing a command to the loader. They sit above [`crate::dispatch`]
+//! and below the intercept modules and the router ([`crate::router`]) that
 //! dispatches to them, so no module imports its own caller.
 
 #![allow(unsafe_code)]
 
+use std::any::Any;
+use std::cell::Cell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 
 use ash::vk;
 use ash::vk::Handle as _;
-use ommcheck::Report;
+use ommcheck::{Report, Severity};
 
-use crate::dispatch::{DeviceData, DeviceFns, DeviceState, DEVICES};
-use crate::report::{Message, Reporter};
-use crate::{panic_message, testing};
+use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::{DeviceData, DeviceState, DEVICES, INSTANCES};
+use crate::report::{Message, Reporter, INTERNAL_ERROR};
+
+/// Runs an exported function's `body`; a panic becomes one error message to
+/// every messenger and `on_panic` is returned.
+pub(crate) fn guarded<R>(function: &'static str, on_panic: R, body: impl FnOnce() -> R) -> R {
+    match catch_unwind(AssertUnwindSafe(body)) {
+        Ok(result) => result,
+        Err(payload) => {
+            let message = panic_message(function, payload.as_ref(), "the call failed");
+            // Which instance the call belonged to is lost with the panic.
+            let instances = INSTANCES.all();
+            if instances.is_empty() {
+                eprintln!("{}", message.text);
+            }
+            for instance in instances {
+                instance
+                    .reporter
+                    .deliver(std::slice::from_ref(&message), false);
+            }
+            on_panic
+        }
+    }
+}
+
+/// The message for a caught panic.
+pub(crate) fn panic_message(function: &str, payload: &(dyn Any + Send), outcome: &str) -> Message {
+    let reason = payload
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("no reason given");
+    Message::about_layer(
+        INTERNAL_ERROR,
+        Severity::Error,
+        function,
+        &format!(
+            "ommcheck panicked ({reason}); {outcome}. Please report this as a bug in ommcheck."
+        ),
+    )
+}
+
+thread_local! {
+    static PANIC_IN_NEXT_CHECK: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Makes the next check this thread runs panic, so tests can see that the
+/// panic becomes one error message and never crosses the FFI boundary
+/// (the layer's tests reach it as `testing::panic_in_next_check`).
+#[doc(hidden)]
+pub fn panic_in_next_check() {
+    PANIC_IN_NEXT_CHECK.set(true);
+}
+
+/// Panics if a test asked for it (see [`panic_in_next_check`]).
+pub(crate) fn panic_if_asked() {
+    if PANIC_IN_NEXT_CHECK.replace(false) {
+        panic!("a panic injected by ommcheck's test hook");
+    }
+}
+
+/// A command and its aliases (its KHR or EXT spellings): intercepts
+/// that share one body, `$with(name, pick, args)`, each with its own name
+/// and the next layer's function at its path in [`DeviceFns`].
+macro_rules! aliased_intercepts {
+    (@alias $with:ident $params:tt $ret:ty;) => {};
+    (@alias $with:ident ($($arg:ident: $ty:ty),*) $ret:ty;
+        $ours:ident = $name:literal, $($field:ident).+; $($rest:tt)*
+    ) => {
+        pub unsafe extern "system" fn $ours($($arg: $ty),*) -> $ret {
+            // SAFETY: forwarded from the application.
+            unsafe { $with($name, |f| f.$($field).+, $($arg),*) }
+        }
+        $crate::intercept::aliased_intercepts!(@alias $with ($($arg: $ty),*) $ret; $($rest)*);
+    };
+    ($($with:ident $params:tt -> $ret:ty { $($aliases:tt)* })*) => {$(
+        $crate::intercept::aliased_intercepts!(@alias $with $params $ret; $($aliases)*);
+    )*};
+}
+pub(crate) use aliased_intercepts;
 
 /// A command as the loader's `PFN_vkVoidFunction`.
 pub fn as_void<F: Copy>(function: F) -> vk::PFN_vkVoidFunction {
@@ -49,7 +130,7 @@ pub(crate) fn check(
     let outcome = {
         let mut state = data.state();
         catch_unwind(AssertUnwindSafe(|| {
-            testing::panic_if_asked();
+            panic_if_asked();
             body(&mut state)
         }))
     };

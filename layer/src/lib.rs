@@ -6,25 +6,38 @@
 //! application's `VK_EXT_debug_utils` messengers and `VK_EXT_debug_report`
 //! callbacks in the Khronos validation layer's format (docs/layer.md). Every other command passes to the next layer untouched.
 //! All check logic lives in the core; this crate only adapts the loader
-//! interface to it. By module:
+//! interface to it. Its modules, from the bottom up; each imports only
+//! modules earlier in this list (and none imports the crate root), so
+//! every shared type lies below all its users:
 //!
-//! - `instance`, `device`, `dispatch`, `abi`: the loader interface, instance
-//!   and device creation, messengers and debug-report callbacks, buffers, memory, micromap objects and
-//!   micromap builds;
-//! - `accel`: acceleration-structure objects and builds, micromap copies,
-//!   queries, size queries and compatibility;
-//! - `commands`, `submit`: command-pool and command-buffer state, and the
-//!   contents of device builds read at submission from mapped memory or
-//!   from what recorded transfers wrote (`shadow`, `transfer`);
-//! - `readback`, `completion`: device builds whose inputs the host cannot
-//!   read are copied on the GPU into layer memory and checked once their
-//!   submission is known to be complete;
-//! - `pipe`, `pipelines`, `sync`, `work`, `properties`: shaders, pipelines,
-//!   synchronization, the commands that run shaders (with descriptor
-//!   tracking) and the feature and property chains;
-//! - `settings`, `setting_docs`, `report`, `read`: settings (and their
-//!   table, which xtask writes the manifest from), message delivery and
-//!   the small raw reads of the layer's own.
+//! - `setting_docs`, `settings`, `report`, `read`, `abi`, `shadow`:
+//!   settings (and their table, which xtask writes the manifest from),
+//!   message delivery, the small raw reads of the layer's own, the loader's
+//!   structures, and what recorded transfers wrote (route 1);
+//! - `dispatch`: per-instance and per-device data by dispatch key, and
+//!   every type a device's state holds: the next layer's function tables
+//!   (`next_fns`), where buffers lie and memory is mapped
+//!   (`memory_layout`), the driver's answers (`next_layer_answers`), what
+//!   bound shaders reach (`pipe_state`), the layer's readback memory
+//!   (`readback_memory`), and kept builds and pending submissions
+//!   (`submissions`);
+//! - `intercept`: what every intercept uses: the panic guard, finding a
+//!   device and the next layer's function, running a check and delivering
+//!   its findings;
+//! - the intercepts: `readback` (device builds whose inputs the host
+//!   cannot read are copied on the GPU into layer memory), `commands`
+//!   (command pools and buffers, and the builds they keep), `completion`
+//!   (read-back builds checked once their submission is complete),
+//!   `driver_answers`, `sync`, `accel` (acceleration structures, micromap
+//!   copies, queries, size queries and compatibility), `transfer`, `work`
+//!   (the commands that run shaders, with descriptor tracking),
+//!   `pipelines`, `submit` (the contents of device builds read at
+//!   submission), `properties` (feature and property chains), `device`
+//!   (device creation, buffers, memory, micromap objects and builds);
+//! - `pipe`, `router`, `instance`: the tables from a command name to its
+//!   intercept, and instance creation with messengers and debug-report
+//!   callbacks, which the exported functions here use;
+//! - `testing`: hooks for the layer's own tests.
 //!
 //! Every exported or intercepted function runs its body inside
 //! `std::panic::catch_unwind`: a panic becomes one error message and never
@@ -42,7 +55,6 @@ mod dispatch;
 mod driver_answers;
 mod instance;
 mod intercept;
-mod memory_layout;
 mod pipe;
 mod pipelines;
 mod properties;
@@ -60,59 +72,16 @@ pub mod testing;
 mod transfer;
 mod work;
 
-use std::any::Any;
 use std::ffi::{c_char, CStr};
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use ash::vk;
-use ommcheck::Severity;
 
 use abi::{NegotiateLayerInterface, LAYER_INTERFACE_VERSION, LAYER_NEGOTIATE_INTERFACE_STRUCT};
 use dispatch::{DEVICES, INSTANCES};
-use report::{Message, INTERNAL_ERROR};
+use intercept::guarded;
 
 pub use setting_docs::LAYER_NAME;
-/// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
-pub const LAYER_NAME_C: &CStr = c"VK_LAYER_OMMCHECK_validation";
-
-/// Runs an exported function's `body`; a panic becomes one error message to
-/// every messenger and `on_panic` is returned.
-fn guarded<R>(function: &'static str, on_panic: R, body: impl FnOnce() -> R) -> R {
-    match catch_unwind(AssertUnwindSafe(body)) {
-        Ok(result) => result,
-        Err(payload) => {
-            let message = panic_message(function, payload.as_ref(), "the call failed");
-            // Which instance the call belonged to is lost with the panic.
-            let instances = INSTANCES.all();
-            if instances.is_empty() {
-                eprintln!("{}", message.text);
-            }
-            for instance in instances {
-                instance
-                    .reporter
-                    .deliver(std::slice::from_ref(&message), false);
-            }
-            on_panic
-        }
-    }
-}
-
-/// The message for a caught panic.
-fn panic_message(function: &str, payload: &(dyn Any + Send), outcome: &str) -> Message {
-    let reason = payload
-        .downcast_ref::<&str>()
-        .copied()
-        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
-        .unwrap_or("no reason given");
-    Message::about_layer(
-        INTERNAL_ERROR,
-        Severity::Error,
-        function,
-        &format!(
-            "ommcheck panicked ({reason}); {outcome}. Please report this as a bug in ommcheck."
-        ),
-    )
-}
+pub use settings::LAYER_NAME_C;
 
 /// `vkNegotiateLoaderLayerInterfaceVersion`: offers interface version 2
 /// with this layer's `vkGetInstanceProcAddr` and `vkGetDeviceProcAddr`.
@@ -160,7 +129,7 @@ pub unsafe extern "system" fn vkGetInstanceProcAddr(
     guarded("vkGetInstanceProcAddr", None, || {
         // SAFETY: the name is NUL-terminated (the caller's guarantee).
         let name = unsafe { read::name(name) }?;
-        if let Some(function) = instance::intercept(name) {
+        if let Some(function) = proc_addr_function(name).or_else(|| instance::intercept(name)) {
             return Some(function);
         }
         let data = (instance != vk::Instance::null())
@@ -203,9 +172,25 @@ pub unsafe extern "system" fn vkGetDeviceProcAddr(
     })
 }
 
+/// This layer's `vkGetInstanceProcAddr` or `vkGetDeviceProcAddr` by name.
+/// They are answered here, beside the functions, so that no module below
+/// imports the crate root.
+fn proc_addr_function(name: &CStr) -> vk::PFN_vkVoidFunction {
+    match name.to_bytes() {
+        b"vkGetInstanceProcAddr" => {
+            intercept::as_void(vkGetInstanceProcAddr as vk::PFN_vkGetInstanceProcAddr)
+        }
+        b"vkGetDeviceProcAddr" => {
+            intercept::as_void(vkGetDeviceProcAddr as vk::PFN_vkGetDeviceProcAddr)
+        }
+        _ => None,
+    }
+}
+
 /// Whether `name` is a command this layer intercepts (for tests and tools).
 pub fn intercepts(name: &CStr) -> bool {
-    instance::intercept(name).is_some()
+    proc_addr_function(name).is_some()
+        || instance::intercept(name).is_some()
         || router::device_command(name).is_some()
         || properties::intercept(name).is_some()
 }

@@ -12,10 +12,9 @@ use ommcheck::model::Handle;
 use ommcheck::raw::pipeline::{self as raw, StructReader};
 use ommcheck::{Report, Validator};
 
+use crate::dispatch::pipe_state::DeferredPipelines;
 use crate::dispatch::{DeviceData, DeviceState};
-use crate::guarded;
-use crate::intercept::{check, device_and, device_object, track};
-use crate::work::DeferredPipelines;
+use crate::intercept::{check, device_and, device_object, guarded, track};
 
 /// One of the core's four pipeline-creation checks.
 type CreatePipelines = fn(&mut Validator, &[PipelineCreateInfo], &[Handle]) -> Report;

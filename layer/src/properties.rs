@@ -22,8 +22,7 @@ use ommcheck::vuids::khr;
 use ommcheck::{Device, Limits, Report, Validator};
 
 use crate::dispatch::{InstanceData, INSTANCES};
-use crate::intercept::{as_void, deliver_checked};
-use crate::{guarded, testing};
+use crate::intercept::{as_void, deliver_checked, guarded, panic_if_asked};
 
 /// This layer's function for a physical-device command name; like device
 /// commands, returned only where the next layer has the command.
@@ -50,7 +49,7 @@ fn check_chain(
 ) -> bool {
     let object = (vk::ObjectType::PHYSICAL_DEVICE, physical_device.as_raw());
     let outcome = catch_unwind(AssertUnwindSafe(|| {
-        testing::panic_if_asked();
+        panic_if_asked();
         body(&mut Validator::new(Device::default()))
     }));
     deliver_checked(&instance.reporter, function, object, outcome)

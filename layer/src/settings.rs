@@ -37,6 +37,9 @@ pub struct FileSettings {
     pub values: Vec<(String, String)>,
 }
 
+/// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
+pub const LAYER_NAME_C: &std::ffi::CStr = c"VK_LAYER_OMMCHECK_validation";
+
 /// The settings file's name.
 pub const SETTINGS_FILE: &str = "vk_layer_settings.txt";
 /// The variable naming the settings file or the directory holding it.

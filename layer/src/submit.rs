@@ -19,12 +19,14 @@ use ommcheck::model::Handle;
 use ommcheck::model::SubmitBatch;
 use ommcheck::Severity;
 
-use crate::commands::{self, KeptBuild, Recorded};
-use crate::dispatch::{DeviceData, DeviceFns, DeviceState};
-use crate::intercept::{as_void, check, device_and};
-use crate::memory_layout::{mapped_window, unreadable_reason};
+use crate::commands::{self, Recorded};
+use crate::dispatch::memory_layout::{mapped_window, unreadable_reason};
+use crate::dispatch::next_fns::DeviceFns;
+use crate::dispatch::submissions::KeptBuild;
+use crate::dispatch::{DeviceData, DeviceState};
+use crate::intercept::{as_void, check, device_and, guarded, panic_message};
+use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
-use crate::{guarded, panic_message, read};
 
 /// The next layer's submission function for one of the submit commands.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {

@@ -12,9 +12,8 @@ use ommcheck::raw::pipeline::{self as raw, MemoryMarkerInfoAMD};
 use ommcheck::{Report, Validator};
 
 use crate::commands;
-use crate::dispatch::{aliased_intercepts, DeviceFns};
-use crate::guarded;
-use crate::intercept::{check, device_and};
+use crate::dispatch::next_fns::DeviceFns;
+use crate::intercept::{aliased_intercepts, check, device_and, guarded};
 
 /// Runs `body` as the check of a command recorded in `command_buffer`,
 /// then calls the next layer's function that `pick` selects with `call`

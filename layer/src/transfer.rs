@@ -1,9 +1,9 @@
 //! The commands that write buffer memory, which route 1 follows
-//! ([`crate::shadow`]), the commands that tell a submission is complete,
-//! which route 2 waits for ([`crate::completion`]), and the next layer's
-//! functions GPU readback records with ([`crate::readback`]): one table
-//! gives each intercepted command's name, the next layer's function and
-//! this layer's intercept.
+//! ([`crate::shadow`]), and this layer's intercept table for them and for
+//! the commands that tell a submission is complete, which route 2 waits
+//! for ([`crate::completion`]). The table is made from the list that makes
+//! the next layer's functions for these commands ([`memory_commands`]),
+//! with those GPU readback records with ([`crate::readback`]).
 
 #![allow(unsafe_code)]
 
@@ -14,67 +14,32 @@ use ash::vk;
 use ash::vk::Handle as _;
 
 use crate::commands::{self, Recorded};
-use crate::dispatch::{aliased_intercepts, next_fn, DeviceData, DeviceFns, DeviceState};
-use crate::intercept::{as_void, device_and};
+use crate::dispatch::next_fns::{memory_commands, DeviceFns};
+use crate::dispatch::{DeviceData, DeviceState};
+use crate::intercept::{aliased_intercepts, as_void, device_and, guarded};
+use crate::read;
 use crate::shadow::Transfer;
-use crate::{completion, guarded, read};
 
-macro_rules! memory_commands {
+// The completion commands' intercepts, found by the names of their fields.
+use crate::completion::*;
+
+macro_rules! intercept_table {
     (
-        intercepted { $($field:ident: $pfn:ty = $name:literal => $ours:path;)* }
-        called { $($called:ident: $called_pfn:ty = $called_name:literal;)* }
+        intercepted { $($field:ident: $pfn:ty = $name:literal;)* }
+        called { $($called:tt)* }
     ) => {
-        /// The next layer's functions for the commands of this table.
-        pub struct MemoryFns {
-            $(pub $field: Option<$pfn>,)*
-            $(pub $called: Option<$called_pfn>,)*
-        }
-
-        impl MemoryFns {
-            pub fn load(gdpa: vk::PFN_vkGetDeviceProcAddr, device: vk::Device) -> Self {
-                Self {
-                    $($field: next_fn!(gdpa, device, $name, $pfn),)*
-                    $($called: next_fn!(gdpa, device, $called_name, $called_pfn),)*
-                }
-            }
-        }
-
-        /// This layer's function for an intercepted command of this table.
+        /// This layer's function for an intercepted command of this table:
+        /// the function named like its field in `MemoryFns`, here or in
+        /// [`crate::completion`].
         pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
             $(if name == $name {
-                return as_void($ours as $pfn);
+                return as_void($field as $pfn);
             })*
             None
         }
     };
 }
-
-memory_commands! {
-    intercepted {
-        cmd_copy_buffer: vk::PFN_vkCmdCopyBuffer = c"vkCmdCopyBuffer" => cmd_copy_buffer;
-        cmd_copy_buffer2: vk::PFN_vkCmdCopyBuffer2 = c"vkCmdCopyBuffer2" => cmd_copy_buffer2;
-        cmd_copy_buffer2_khr: vk::PFN_vkCmdCopyBuffer2 = c"vkCmdCopyBuffer2KHR" => cmd_copy_buffer2_khr;
-        cmd_update_buffer: vk::PFN_vkCmdUpdateBuffer = c"vkCmdUpdateBuffer" => cmd_update_buffer;
-        cmd_fill_buffer: vk::PFN_vkCmdFillBuffer = c"vkCmdFillBuffer" => cmd_fill_buffer;
-        cmd_copy_image_to_buffer: vk::PFN_vkCmdCopyImageToBuffer = c"vkCmdCopyImageToBuffer" => cmd_copy_image_to_buffer;
-        cmd_copy_image_to_buffer2: vk::PFN_vkCmdCopyImageToBuffer2 = c"vkCmdCopyImageToBuffer2" => cmd_copy_image_to_buffer2;
-        cmd_copy_image_to_buffer2_khr: vk::PFN_vkCmdCopyImageToBuffer2 = c"vkCmdCopyImageToBuffer2KHR" => cmd_copy_image_to_buffer2_khr;
-        cmd_copy_query_pool_results: vk::PFN_vkCmdCopyQueryPoolResults = c"vkCmdCopyQueryPoolResults" => cmd_copy_query_pool_results;
-
-        wait_for_fences: vk::PFN_vkWaitForFences = c"vkWaitForFences" => completion::wait_for_fences;
-        get_fence_status: vk::PFN_vkGetFenceStatus = c"vkGetFenceStatus" => completion::get_fence_status;
-        queue_wait_idle: vk::PFN_vkQueueWaitIdle = c"vkQueueWaitIdle" => completion::queue_wait_idle;
-        device_wait_idle: vk::PFN_vkDeviceWaitIdle = c"vkDeviceWaitIdle" => completion::device_wait_idle;
-        wait_semaphores: vk::PFN_vkWaitSemaphores = c"vkWaitSemaphores" => completion::wait_semaphores;
-        wait_semaphores_khr: vk::PFN_vkWaitSemaphores = c"vkWaitSemaphoresKHR" => completion::wait_semaphores_khr;
-        get_semaphore_counter_value: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValue" => completion::get_semaphore_counter_value;
-        get_semaphore_counter_value_khr: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValueKHR" => completion::get_semaphore_counter_value_khr;
-    }
-    called {
-        get_buffer_memory_requirements: vk::PFN_vkGetBufferMemoryRequirements = c"vkGetBufferMemoryRequirements";
-        cmd_pipeline_barrier: vk::PFN_vkCmdPipelineBarrier = c"vkCmdPipelineBarrier";
-    }
-}
+memory_commands!(intercept_table);
 
 /// Records a command that writes buffer memory (from the content tier on),
 /// then records it below.

@@ -9,7 +9,7 @@ use foldhash::{HashMap, HashSet};
 use ommcheck::model::Handle;
 use ommcheck::raw::MAX_HOST_BYTES;
 
-use crate::dispatch::DeviceState;
+use super::DeviceState;
 use crate::read;
 
 /// Where buffers lie in device memory and where memory is mapped.
