@@ -118,11 +118,13 @@
 pub use bytes::Bytes;
 pub use ommcheck_vuids as vuids;
 
+pub mod build_inputs;
 pub mod checks;
 pub mod coverage;
 pub mod device;
 pub mod driver;
 pub mod explain;
+pub mod fixture;
 pub mod model;
 pub mod not_checked;
 pub mod raw;
