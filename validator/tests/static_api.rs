@@ -270,3 +270,55 @@ fn a_fixture_micromap_of_an_unknown_format_panics_with_the_report() {
     };
     f.micromap(&[triangle]);
 }
+
+#[test]
+fn a_khr_micromap_created_from_the_generated_create_info() {
+    let mut f = Fixture::new();
+    let storage = f.buffer(
+        4096,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR,
+    );
+    let range = khr::DeviceAddressRangeKHR {
+        address: storage.address,
+        size: 4096,
+    };
+    let info = khr::AccelerationStructureCreateInfo2KHR::default()
+        .address_range(range)
+        .ty(khr::ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP_KHR);
+    let micromap = f.handle();
+    let valid = f.create_acceleration_structure2_from(&info, micromap);
+    valid.assert_fully_checked();
+    assert!(valid.is_empty(), "{valid}");
+
+    let motion = info.create_flags(vk::AccelerationStructureCreateFlagsKHR::MOTION_NV);
+    let faulty = f.create_acceleration_structure2_from(&motion, vk::Handle::from_raw(0x77));
+    let rule = ommcheck::vuids::vuid::VkAccelerationStructureCreateInfo2KHR::createFlags_11611;
+    assert_eq!(faulty.ids(), [rule.id()]);
+}
+
+#[test]
+fn a_query_pool_created_from_its_create_info_decides_the_query_rules() {
+    use ommcheck::model::micromap_objects::MicromapList;
+    let mut f = Fixture::new();
+    let micromap = f.micromap(&packed_triangles(1, 0, FORMAT_4_STATE));
+    let query_type = vk::QueryType::MICROMAP_SERIALIZATION_SIZE_EXT;
+    let pool = f.handle::<vk::QueryPool>();
+    let info = vk::QueryPoolCreateInfo::default()
+        .query_type(query_type)
+        .query_count(1);
+    f.create_query_pool_from(&info, pool);
+    let mut write = |query_type: vk::QueryType| {
+        f.cmd_write_micromaps_properties(
+            &CommandBuffer::default(),
+            &MicromapList::of(vec![vk::Handle::as_raw(micromap)]),
+            query_type.as_raw(),
+            vk::Handle::as_raw(pool),
+            0,
+        )
+    };
+    let valid = write(query_type);
+    assert!(valid.is_empty(), "{valid}");
+    let faulty = write(vk::QueryType::MICROMAP_COMPACTED_SIZE_EXT);
+    let rule = ommcheck::vuids::vuid::vkCmdWriteMicromapsPropertiesEXT::queryPool_07525;
+    assert!(faulty.contains(rule), "{faulty}");
+}

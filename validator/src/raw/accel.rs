@@ -1050,7 +1050,6 @@ impl Validator {
     ) -> Report {
         let mut findings = Vec::new();
         let model = AccelerationStructureCreateInfo2 {
-            s_type: info.s_type.as_raw(),
             // SAFETY: forwarded from the caller.
             next: unsafe {
                 chain_s_types(
@@ -1060,11 +1059,7 @@ impl Validator {
                     &mut findings,
                 )
             },
-            create_flags: info.create_flags.as_raw(),
-            address: info.address_range.address,
-            size: info.address_range.size,
-            address_flags: info.address_flags.as_raw(),
-            ty: info.ty.as_raw(),
+            ..AccelerationStructureCreateInfo2::from_members(info)
         };
         let mut report = Report::from(findings);
         report.extend(
