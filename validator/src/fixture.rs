@@ -31,7 +31,7 @@ use std::ops::{Deref, DerefMut};
 use ash::vk;
 use ommcheck_vuids::khr;
 
-use crate::build_inputs::AccelerationStructureBuild;
+use crate::acceleration_builds::AccelerationStructureBuild;
 use crate::device::{Device, Profile};
 use crate::model::accel::AccelerationStructureCreateInfo2;
 use crate::model::micromap::opacity_triangle_bytes;

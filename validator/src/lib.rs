@@ -118,7 +118,7 @@
 pub use bytes::Bytes;
 pub use ommcheck_vuids as vuids;
 
-pub mod build_inputs;
+pub mod acceleration_builds;
 pub mod checks;
 pub mod coverage;
 pub mod device;

@@ -1,10 +1,10 @@
-//! The safe static API (`ommcheck::fixture`, `ommcheck::build_inputs`):
+//! The safe static API (`ommcheck::fixture`, `ommcheck::acceleration_builds`):
 //! each entry point with a passing and a failing case, and the same
 //! findings as the raw readers give for the same build written as ash
 //! structures with their pointers.
 
 use ash::vk;
-use ommcheck::build_inputs::{AccelerationStructureBuild, TrianglesGeometry};
+use ommcheck::acceleration_builds::{AccelerationStructureBuild, TrianglesGeometry};
 use ommcheck::fixture::{packed_triangles, Fixture};
 use ommcheck::model::CommandBuffer;
 use ommcheck::vuids::khr;

@@ -15,7 +15,7 @@
 //!
 //! ```
 //! use ash::vk;
-//! use ommcheck::build_inputs::{AccelerationStructureBuild, TrianglesGeometry};
+//! use ommcheck::acceleration_builds::{AccelerationStructureBuild, TrianglesGeometry};
 //! use ommcheck::fixture::{packed_triangles, usage_counts, Fixture};
 //! use ommcheck::model::CommandBuffer;
 //!
@@ -293,7 +293,7 @@ impl Validator {
     /// pInfos, ppBuildRangeInfos)` with one info per element of `builds`,
     /// as [`Self::cmd_build_acceleration_structures`] (the same checks the
     /// raw reader runs). Safe: no pointer is followed (see
-    /// [`crate::build_inputs`]).
+    /// [`crate::acceleration_builds`]).
     pub fn cmd_build_acceleration_structures_from(
         &mut self,
         command_buffer: &CommandBuffer,
