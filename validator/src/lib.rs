@@ -118,12 +118,14 @@
 pub use bytes::Bytes;
 pub use ommcheck_vuids as vuids;
 
+pub mod acceleration_builds;
 pub mod build_inputs;
 pub mod checks;
 pub mod coverage;
 pub mod device;
 pub mod driver;
 pub mod explain;
+pub mod fixture;
 pub mod inspect;
 pub mod model;
 

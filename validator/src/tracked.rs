@@ -17,6 +17,7 @@ use crate::model::micromap_objects::MicromapCreateInfo;
 use crate::report::Report;
 use crate::state::{Buffer, HostRange, MemoryBinding};
 
+mod created_from;
 mod driver_answers;
 
 /// Memory a program holds on the host, as the checker reads it: its bytes

@@ -125,3 +125,42 @@ fn opacity_attachment_chains_into_ash_triangles() {
         khr::STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR
     );
 }
+
+#[test]
+fn builders_set_members_and_chain_with_push_next() {
+    let usage = [khr::MicromapUsageKHR::default()
+        .count(3)
+        .subdivision_level(2)
+        .format(khr::OPACITY_MICROMAP_FORMAT_4_STATE_KHR)];
+    let data = khr::AccelerationStructureGeometryMicromapDataKHR::default()
+        .usage_counts(&usage)
+        .data(0x1000)
+        .triangle_array(0x2000)
+        .triangle_array_stride(8);
+    assert_eq!(data.usage_counts_count, 1);
+    assert_eq!(data.p_usage_counts, usage.as_ptr());
+    assert!(data.pp_usage_counts.is_null());
+    let pointers = [&usage[0]];
+    let by_pointer = data.usage_counts_ptrs(&pointers);
+    assert_eq!(by_pointer.pp_usage_counts, pointers.as_ptr().cast());
+
+    let mut omm = khr::AccelerationStructureTrianglesOpacityMicromapKHR::default()
+        .index_type(vk::IndexType::UINT32)
+        .index_buffer(0x3000)
+        .index_stride(4)
+        .base_triangle(1)
+        .micromap(<vk::AccelerationStructureKHR as vk::Handle>::from_raw(7));
+    assert_eq!(
+        (omm.index_buffer, omm.index_stride, omm.base_triangle),
+        (0x3000, 4, 1)
+    );
+    let triangles =
+        vk::AccelerationStructureGeometryTrianglesDataKHR::default().push_next(&mut omm);
+    assert_eq!(triangles.p_next, (&raw mut omm).cast_const().cast());
+
+    let features = khr::PhysicalDeviceOpacityMicromapFeaturesKHR::default().micromap(true);
+    assert_eq!(features.micromap, vk::TRUE);
+    let mut features = features;
+    let device = vk::DeviceCreateInfo::default().push_next(&mut features);
+    assert!(!device.p_next.is_null());
+}

@@ -262,6 +262,14 @@ impl<'a> Generator<'a> {
             .iter()
             .find(|m| m.name == "sType")
             .and_then(|m| m.values.clone());
+        // As ash does, a structure whose builders store borrowed pointers
+        // (other than pNext) carries their lifetime, so a chain built with
+        // them cannot outlive what it points to.
+        let borrows = !aggregate.is_union
+            && fields
+                .iter()
+                .any(|(_, spelled, member)| member.name != "pNext" && spelled.starts_with('*'));
+        let generics = if borrows { "<'a>" } else { "" };
 
         let w = &mut self.out_types;
         let _ = writeln!(w, "/// `{c_type}`");
@@ -285,14 +293,18 @@ impl<'a> Generator<'a> {
         } else {
             "struct"
         };
-        let _ = writeln!(w, "pub {keyword} {rust_name} {{");
+        let _ = writeln!(w, "pub {keyword} {rust_name}{generics} {{");
         for (field, spelled, _) in &fields {
             let _ = writeln!(w, "    pub {field}: {spelled},");
+        }
+        if borrows {
+            let _ = writeln!(w, "    pub _marker: core::marker::PhantomData<&'a ()>,");
         }
         let _ = writeln!(w, "}}\n");
 
         if manual_default && !aggregate.is_union {
-            let _ = writeln!(w, "impl Default for {rust_name} {{");
+            let anonymous = if borrows { "<'_>" } else { "" };
+            let _ = writeln!(w, "impl Default for {rust_name}{anonymous} {{");
             let _ = writeln!(w, "    fn default() -> Self {{");
             let _ = writeln!(w, "        Self {{");
             for (field, spelled, member) in &fields {
@@ -310,7 +322,13 @@ impl<'a> Generator<'a> {
                 };
                 let _ = writeln!(w, "            {field}: {value},");
             }
+            if borrows {
+                let _ = writeln!(w, "            _marker: core::marker::PhantomData,");
+            }
             let _ = writeln!(w, "        }}\n    }}\n}}\n");
+        }
+        if !aggregate.is_union {
+            write_builders(w, &rust_name, generics, &fields);
         }
         if let Some(s_type) = &s_type {
             let constant = s_type.strip_prefix("VK_").unwrap_or(s_type);
@@ -320,14 +338,16 @@ impl<'a> Generator<'a> {
             );
             let _ = writeln!(
                 w,
-                "unsafe impl vk::TaggedStructure for {rust_name} {{\n    const STRUCTURE_TYPE: vk::StructureType = {constant};\n}}\n"
+                "unsafe impl vk::TaggedStructure for {rust_name}{anonymous} {{\n    const STRUCTURE_TYPE: vk::StructureType = {constant};\n}}\n",
+                anonymous = if borrows { "<'_>" } else { "" }
             );
             for extended in &aggregate.structextends {
                 let trait_name = format!("Extends{}", strip_vk(extended));
                 if self.ash.traits.contains(&trait_name) {
                     let _ = writeln!(
                         w,
-                        "// SAFETY: vk.xml lists `{extended}` in this structure's `structextends`.\nunsafe impl vk::{trait_name} for {rust_name} {{}}\n"
+                        "// SAFETY: vk.xml lists `{extended}` in this structure's `structextends`.\nunsafe impl vk::{trait_name} for {rust_name}{anonymous} {{}}\n",
+                        anonymous = if borrows { "<'_>" } else { "" }
                     );
                 }
             }
@@ -449,6 +469,77 @@ impl<'a> Generator<'a> {
         };
         let (size, _) = self.c_layout(&target)?;
         Ok((self.spell(&target)?, size))
+    }
+}
+
+/// Writes ash-style builder methods for a structure's members: one per
+/// member that is a value (a `VkBool32` taken as `bool`), one taking a
+/// slice for each array member (setting its count member, which gets no
+/// builder of its own), and none for `sType` and `pNext` (`push_next` is
+/// ash's, on the structure a chain extends).
+fn write_builders(
+    w: &mut String,
+    rust_name: &str,
+    generics: &str,
+    fields: &[(String, String, crate::registry::Member)],
+) {
+    // Count members that an array member's `len` names.
+    let counts: BTreeSet<&str> = fields
+        .iter()
+        .filter_map(|(_, _, m)| m.len.as_deref())
+        .map(|len| len.split(',').next().unwrap_or(len))
+        .collect();
+    let mut methods = String::new();
+    for (field, spelled, member) in fields {
+        if member.name == "sType" || member.name == "pNext" || counts.contains(member.name.as_str())
+        {
+            continue;
+        }
+        let name = &member.name;
+        if let Some(len) = member.len.as_deref() {
+            let count = snake_case(len.split(',').next().unwrap_or(len));
+            let element = spelled
+                .trim_start_matches("*const ")
+                .trim_start_matches("*mut ");
+            if member.pointers.len() == 1 {
+                let method = field.strip_prefix("p_").unwrap_or(field);
+                let _ = writeln!(
+                    methods,
+                    "    /// Sets `{name}` to `{method}` and its count to the slice's length.\n    #[inline]\n    pub fn {method}(mut self, {method}: &'a [{element}]) -> Self {{\n        self.{count} = {method}.len() as _;\n        self.{field} = {method}.as_ptr();\n        self\n    }}\n"
+                );
+            } else if member.pointers.len() == 2 {
+                let element = element
+                    .trim_start_matches("*const ")
+                    .trim_start_matches("*mut ");
+                let method = format!("{}_ptrs", field.strip_prefix("pp_").unwrap_or(field));
+                let _ = writeln!(
+                    methods,
+                    "    /// Sets `{name}` to pointers to the elements of `{method}`, and its count to the slice's length.\n    #[inline]\n    pub fn {method}(mut self, {method}: &'a [&'a {element}]) -> Self {{\n        self.{count} = {method}.len() as _;\n        self.{field} = {method}.as_ptr().cast();\n        self\n    }}\n"
+                );
+            }
+            continue;
+        }
+        if spelled.starts_with('*') {
+            // A pointer with no length: no member of the structures
+            // generated today; left to the raw field.
+            continue;
+        }
+        let (ty, value) = if spelled == "vk::Bool32" {
+            ("bool".to_string(), format!("{field}.into()"))
+        } else {
+            (spelled.clone(), field.clone())
+        };
+        let _ = writeln!(
+            methods,
+            "    /// Sets `{name}`.\n    #[inline]\n    pub fn {field}(mut self, {field}: {ty}) -> Self {{\n        self.{field} = {value};\n        self\n    }}\n"
+        );
+    }
+    if !methods.is_empty() {
+        let _ = writeln!(
+            w,
+            "impl{generics} {rust_name}{generics} {{\n{}}}\n",
+            methods.trim_end_matches('\n').to_string() + "\n"
+        );
     }
 }
 

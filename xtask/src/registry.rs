@@ -37,6 +37,9 @@ pub struct Member {
     pub pointers: Vec<bool>,
     /// The fixed `values=` of an sType member.
     pub values: Option<String>,
+    /// The `len=` of an array member: the count member's name, then `,1`
+    /// per further pointer level (`usageCountsCount,1`).
+    pub len: Option<String>,
 }
 
 /// A structure or union.
@@ -403,6 +406,7 @@ impl VkXml {
                     name,
                     type_name,
                     values: def.values.clone(),
+                    len: def.len.clone(),
                 }
             })
             .collect();

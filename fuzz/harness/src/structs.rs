@@ -38,7 +38,7 @@ pub(crate) struct Node {
 pub(crate) type OmmExt = vk::AccelerationStructureTrianglesOpacityMicromapEXT<'static>;
 pub(crate) type Geometry = vk::AccelerationStructureGeometryKHR<'static>;
 pub(crate) type OmmKhr = khr::AccelerationStructureTrianglesOpacityMicromapKHR;
-pub(crate) type MicromapData = khr::AccelerationStructureGeometryMicromapDataKHR;
+pub(crate) type MicromapData = khr::AccelerationStructureGeometryMicromapDataKHR<'static>;
 pub(crate) type Instance = vk::AccelerationStructureInstanceKHR;
 
 /// Every allocation the structures point into; kept alive for the calls.

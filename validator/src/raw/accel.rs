@@ -1091,7 +1091,7 @@ impl Validator {
                     &mut findings,
                 )
             },
-            ..create_info2_members(info)
+            ..AccelerationStructureCreateInfo2::from_members(info)
         };
         let mut report = Report::from(findings);
         report.extend(self.create_acceleration_structure2_rules(&model));
@@ -1106,25 +1106,9 @@ impl Validator {
         acceleration_structure: vk::AccelerationStructureKHR,
     ) {
         self.record_acceleration_structure2_created(
-            &create_info2_members(info),
+            &AccelerationStructureCreateInfo2::from_members(info),
             vk::Handle::as_raw(acceleration_structure),
         );
-    }
-}
-
-/// The members of `VkAccelerationStructureCreateInfo2KHR`, without its
-/// pNext chain.
-fn create_info2_members(
-    info: &khr::AccelerationStructureCreateInfo2KHR,
-) -> AccelerationStructureCreateInfo2 {
-    AccelerationStructureCreateInfo2 {
-        s_type: info.s_type.as_raw(),
-        next: Vec::new(),
-        create_flags: info.create_flags.as_raw(),
-        address: info.address_range.address,
-        size: info.address_range.size,
-        address_flags: info.address_flags.as_raw(),
-        ty: info.ty.as_raw(),
     }
 }
 

@@ -27,7 +27,6 @@ use crate::model::micromap_objects::{
 use crate::model::CommandBuffer;
 use crate::model::Handle;
 use crate::report::{Finding, Report};
-use crate::state::QueryPool;
 use crate::Validator;
 
 /// The bytes of serialized micromap data that say its version: the driver
@@ -385,17 +384,8 @@ impl Validator {
         query_pool: vk::QueryPool,
     ) {
         // SAFETY: forwarded from the caller.
-        let Some(info) = (unsafe { info.as_ref() }) else {
-            return;
-        };
-        if query_pool != vk::QueryPool::null() {
-            self.state.query_pools.insert(
-                vk::Handle::as_raw(query_pool),
-                QueryPool {
-                    query_type: info.query_type.as_raw(),
-                    query_count: info.query_count,
-                },
-            );
+        if let Some(info) = unsafe { info.as_ref() } {
+            self.create_query_pool_from(info, query_pool);
         }
     }
 

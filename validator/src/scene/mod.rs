@@ -20,7 +20,7 @@
 
 pub mod args;
 pub mod format;
-
+mod in_test;
 mod resolve;
 pub mod stats;
 pub mod trace;
@@ -194,20 +194,7 @@ impl Scene {
     /// Resolves every name, address and file of the scene, then checks its
     /// calls in order. A semantic error returns before any finding.
     pub fn check(&self, options: &CheckOptions) -> Result<SceneReport, SceneError> {
-        let checked = resolve::check(&self.file, &self.base_dir, options).map_err(|p| {
-            SceneError::Semantic {
-                path: self.path.clone(),
-                json_path: p.path,
-                message: p.message,
-            }
-        })?;
-        Ok(SceneReport {
-            path: self.path.clone(),
-            calls: checked.calls,
-            objects: checked.objects,
-            findings: checked.report.findings.clone(),
-            report: checked.report,
-        })
+        self.check_into_validator(options).map(|(report, _)| report)
     }
 }
 

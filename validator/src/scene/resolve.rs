@@ -261,11 +261,6 @@ pub struct Run {
     pub rays: Vec<ResolvedRay>,
 }
 
-/// Resolves and checks `scene`; `base_dir` anchors relative file paths.
-pub fn check(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) -> Result<Checked> {
-    run(scene, base_dir, options).map(|run| run.checked)
-}
-
 /// Resolves `scene`, checks its calls in order, then resolves its rays
 /// (which name objects the calls may have created).
 pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) -> Result<Run> {

@@ -182,13 +182,7 @@ impl Scene {
     /// Checks the scene's calls, then simulates each of its rays against
     /// what the calls built. A semantic error returns before anything runs.
     pub fn trace(&self, options: &CheckOptions) -> Result<TraceReport, SceneError> {
-        let run = resolve::run(&self.file, &self.base_dir, options).map_err(|p| {
-            SceneError::Semantic {
-                path: self.path.clone(),
-                json_path: p.path,
-                message: p.message,
-            }
-        })?;
+        let run = self.run(options)?;
         let objects = &run.checked.objects;
         let rays: Vec<RayReport> = run
             .rays

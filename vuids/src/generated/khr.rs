@@ -48,7 +48,7 @@ pub const OPACITY_MICROMAP_SPECIAL_INDEX_FULLY_UNKNOWN_TRANSPARENT_KHR:
 /// `VkAccelerationStructureGeometryMicromapDataKHR`
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
-pub struct AccelerationStructureGeometryMicromapDataKHR {
+pub struct AccelerationStructureGeometryMicromapDataKHR<'a> {
     pub s_type: vk::StructureType,
     pub p_next: *const c_void,
     pub usage_counts_count: u32,
@@ -57,9 +57,10 @@ pub struct AccelerationStructureGeometryMicromapDataKHR {
     pub data: vk::DeviceAddress,
     pub triangle_array: vk::DeviceAddress,
     pub triangle_array_stride: vk::DeviceSize,
+    pub _marker: core::marker::PhantomData<&'a ()>,
 }
 
-impl Default for AccelerationStructureGeometryMicromapDataKHR {
+impl Default for AccelerationStructureGeometryMicromapDataKHR<'_> {
     fn default() -> Self {
         Self {
             s_type: STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR,
@@ -70,13 +71,53 @@ impl Default for AccelerationStructureGeometryMicromapDataKHR {
             data: Default::default(),
             triangle_array: Default::default(),
             triangle_array_stride: Default::default(),
+            _marker: core::marker::PhantomData,
         }
+    }
+}
+
+impl<'a> AccelerationStructureGeometryMicromapDataKHR<'a> {
+    /// Sets `pUsageCounts` to `usage_counts` and its count to the slice's length.
+    #[inline]
+    pub fn usage_counts(mut self, usage_counts: &'a [MicromapUsageKHR]) -> Self {
+        self.usage_counts_count = usage_counts.len() as _;
+        self.p_usage_counts = usage_counts.as_ptr();
+        self
+    }
+
+    /// Sets `ppUsageCounts` to pointers to the elements of `usage_counts_ptrs`, and its count to the slice's length.
+    #[inline]
+    pub fn usage_counts_ptrs(mut self, usage_counts_ptrs: &'a [&'a MicromapUsageKHR]) -> Self {
+        self.usage_counts_count = usage_counts_ptrs.len() as _;
+        self.pp_usage_counts = usage_counts_ptrs.as_ptr().cast();
+        self
+    }
+
+    /// Sets `data`.
+    #[inline]
+    pub fn data(mut self, data: vk::DeviceAddress) -> Self {
+        self.data = data;
+        self
+    }
+
+    /// Sets `triangleArray`.
+    #[inline]
+    pub fn triangle_array(mut self, triangle_array: vk::DeviceAddress) -> Self {
+        self.triangle_array = triangle_array;
+        self
+    }
+
+    /// Sets `triangleArrayStride`.
+    #[inline]
+    pub fn triangle_array_stride(mut self, triangle_array_stride: vk::DeviceSize) -> Self {
+        self.triangle_array_stride = triangle_array_stride;
+        self
     }
 }
 
 // SAFETY: the structure starts with `s_type` and `p_next` like every Vulkan
 // structure ash chains, and `STRUCTURE_TYPE` is its sType from vk.xml.
-unsafe impl vk::TaggedStructure for AccelerationStructureGeometryMicromapDataKHR {
+unsafe impl vk::TaggedStructure for AccelerationStructureGeometryMicromapDataKHR<'_> {
     const STRUCTURE_TYPE: vk::StructureType =
         STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR;
 }
@@ -127,6 +168,43 @@ impl Default for AccelerationStructureTrianglesOpacityMicromapKHR {
     }
 }
 
+impl AccelerationStructureTrianglesOpacityMicromapKHR {
+    /// Sets `indexType`.
+    #[inline]
+    pub fn index_type(mut self, index_type: vk::IndexType) -> Self {
+        self.index_type = index_type;
+        self
+    }
+
+    /// Sets `indexBuffer`.
+    #[inline]
+    pub fn index_buffer(mut self, index_buffer: vk::DeviceAddress) -> Self {
+        self.index_buffer = index_buffer;
+        self
+    }
+
+    /// Sets `indexStride`.
+    #[inline]
+    pub fn index_stride(mut self, index_stride: vk::DeviceSize) -> Self {
+        self.index_stride = index_stride;
+        self
+    }
+
+    /// Sets `baseTriangle`.
+    #[inline]
+    pub fn base_triangle(mut self, base_triangle: u32) -> Self {
+        self.base_triangle = base_triangle;
+        self
+    }
+
+    /// Sets `micromap`.
+    #[inline]
+    pub fn micromap(mut self, micromap: vk::AccelerationStructureKHR) -> Self {
+        self.micromap = micromap;
+        self
+    }
+}
+
 // SAFETY: the structure starts with `s_type` and `p_next` like every Vulkan
 // structure ash chains, and `STRUCTURE_TYPE` is its sType from vk.xml.
 unsafe impl vk::TaggedStructure for AccelerationStructureTrianglesOpacityMicromapKHR {
@@ -149,6 +227,29 @@ pub struct MicromapUsageKHR {
     pub format: vk::OpacityMicromapFormatEXT,
 }
 
+impl MicromapUsageKHR {
+    /// Sets `count`.
+    #[inline]
+    pub fn count(mut self, count: u32) -> Self {
+        self.count = count;
+        self
+    }
+
+    /// Sets `subdivisionLevel`.
+    #[inline]
+    pub fn subdivision_level(mut self, subdivision_level: u32) -> Self {
+        self.subdivision_level = subdivision_level;
+        self
+    }
+
+    /// Sets `format`.
+    #[inline]
+    pub fn format(mut self, format: vk::OpacityMicromapFormatEXT) -> Self {
+        self.format = format;
+        self
+    }
+}
+
 /// `VkPhysicalDeviceOpacityMicromapFeaturesKHR`
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
@@ -165,6 +266,15 @@ impl Default for PhysicalDeviceOpacityMicromapFeaturesKHR {
             p_next: core::ptr::null_mut(),
             micromap: Default::default(),
         }
+    }
+}
+
+impl PhysicalDeviceOpacityMicromapFeaturesKHR {
+    /// Sets `micromap`.
+    #[inline]
+    pub fn micromap(mut self, micromap: bool) -> Self {
+        self.micromap = micromap.into();
+        self
     }
 }
 
@@ -206,6 +316,46 @@ impl Default for PhysicalDeviceOpacityMicromapPropertiesKHR {
     }
 }
 
+impl PhysicalDeviceOpacityMicromapPropertiesKHR {
+    /// Sets `maxOpacity2StateSubdivisionLevel`.
+    #[inline]
+    pub fn max_opacity2_state_subdivision_level(
+        mut self,
+        max_opacity2_state_subdivision_level: u32,
+    ) -> Self {
+        self.max_opacity2_state_subdivision_level = max_opacity2_state_subdivision_level;
+        self
+    }
+
+    /// Sets `maxOpacity4StateSubdivisionLevel`.
+    #[inline]
+    pub fn max_opacity4_state_subdivision_level(
+        mut self,
+        max_opacity4_state_subdivision_level: u32,
+    ) -> Self {
+        self.max_opacity4_state_subdivision_level = max_opacity4_state_subdivision_level;
+        self
+    }
+
+    /// Sets `maxOpacityLossy4StateSubdivisionLevel`.
+    #[inline]
+    pub fn max_opacity_lossy4_state_subdivision_level(
+        mut self,
+        max_opacity_lossy4_state_subdivision_level: u32,
+    ) -> Self {
+        self.max_opacity_lossy4_state_subdivision_level =
+            max_opacity_lossy4_state_subdivision_level;
+        self
+    }
+
+    /// Sets `maxMicromapTriangles`.
+    #[inline]
+    pub fn max_micromap_triangles(mut self, max_micromap_triangles: u64) -> Self {
+        self.max_micromap_triangles = max_micromap_triangles;
+        self
+    }
+}
+
 // SAFETY: the structure starts with `s_type` and `p_next` like every Vulkan
 // structure ash chains, and `STRUCTURE_TYPE` is its sType from vk.xml.
 unsafe impl vk::TaggedStructure for PhysicalDeviceOpacityMicromapPropertiesKHR {
@@ -232,6 +382,15 @@ impl Default for PhysicalDevicePipelineOpacityMicromapFeaturesARM {
             p_next: core::ptr::null_mut(),
             pipeline_opacity_micromap: Default::default(),
         }
+    }
+}
+
+impl PhysicalDevicePipelineOpacityMicromapFeaturesARM {
+    /// Sets `pipelineOpacityMicromap`.
+    #[inline]
+    pub fn pipeline_opacity_micromap(mut self, pipeline_opacity_micromap: bool) -> Self {
+        self.pipeline_opacity_micromap = pipeline_opacity_micromap.into();
+        self
     }
 }
 
@@ -276,6 +435,36 @@ impl Default for AccelerationStructureCreateInfo2KHR {
     }
 }
 
+impl AccelerationStructureCreateInfo2KHR {
+    /// Sets `createFlags`.
+    #[inline]
+    pub fn create_flags(mut self, create_flags: vk::AccelerationStructureCreateFlagsKHR) -> Self {
+        self.create_flags = create_flags;
+        self
+    }
+
+    /// Sets `addressRange`.
+    #[inline]
+    pub fn address_range(mut self, address_range: DeviceAddressRangeKHR) -> Self {
+        self.address_range = address_range;
+        self
+    }
+
+    /// Sets `addressFlags`.
+    #[inline]
+    pub fn address_flags(mut self, address_flags: AddressCommandFlagsKHR) -> Self {
+        self.address_flags = address_flags;
+        self
+    }
+
+    /// Sets `type`.
+    #[inline]
+    pub fn ty(mut self, ty: vk::AccelerationStructureTypeKHR) -> Self {
+        self.ty = ty;
+        self
+    }
+}
+
 // SAFETY: the structure starts with `s_type` and `p_next` like every Vulkan
 // structure ash chains, and `STRUCTURE_TYPE` is its sType from vk.xml.
 unsafe impl vk::TaggedStructure for AccelerationStructureCreateInfo2KHR {
@@ -289,6 +478,22 @@ unsafe impl vk::TaggedStructure for AccelerationStructureCreateInfo2KHR {
 pub struct DeviceAddressRangeKHR {
     pub address: vk::DeviceAddress,
     pub size: vk::DeviceSize,
+}
+
+impl DeviceAddressRangeKHR {
+    /// Sets `address`.
+    #[inline]
+    pub fn address(mut self, address: vk::DeviceAddress) -> Self {
+        self.address = address;
+        self
+    }
+
+    /// Sets `size`.
+    #[inline]
+    pub fn size(mut self, size: vk::DeviceSize) -> Self {
+        self.size = size;
+        self
+    }
 }
 
 /// `VkAddressCommandFlagsKHR`
