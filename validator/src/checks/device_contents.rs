@@ -2,7 +2,7 @@
 //! is submitted. A `vkCmdBuild*` command is checked when it is recorded, but
 //! the memory it reads (triangle arrays, micromap data, index buffers) is
 //! what it holds when the GPU runs the command: an adaptor such as the layer
-//! keeps the build's model ([`DeviceBuild`](crate::build_inputs::DeviceBuild)) and, at submission, hands the
+//! keeps the build's model ([`DeviceBuild`]) and, at submission, hands the
 //! bytes it could read back as buffer contents
 //! ([`Validator::check_device_build_contents`]), which reports what those
 //! contents add to the findings of the recording.

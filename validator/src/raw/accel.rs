@@ -5,7 +5,7 @@
 //! KHR acceleration-structure commands that take ash structures.
 //!
 //! The same bounds as the rest of [`crate::raw`] hold: arrays are read up to
-//! [`MAX_ELEMENTS`] elements (geometries up to [`MAX_GEOMETRIES`]), pNext chains up to [`MAX_CHAIN`] structures
+//! [`MAX_ELEMENTS`] elements (geometries up to [`MAX_GEOMETRIES`]), pNext chains up to [`MAX_CHAIN`](super::MAX_CHAIN) structures
 //! with each address visited once, host memory up to [`MAX_HOST_BYTES`] per
 //! array; what is cut is reported ([`rules::READ_BOUND`],
 //! [`rules::PNEXT_CHAIN`]). Device addresses are numbers, never pointers:

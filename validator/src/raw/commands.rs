@@ -5,7 +5,7 @@
 //! pointer into the owned model and runs the check of the same name.
 //!
 //! The bounds of [`crate::raw`] hold: arrays up to [`MAX_ELEMENTS`]
-//! elements, pNext chains walked as [`super::chain`] walks them. Device
+//! elements, pNext chains walked as `chain` walks them. Device
 //! addresses stay numbers; the host memory read here is a deserialization's
 //! serialized header at its host address, for that call alone.
 
@@ -181,13 +181,13 @@ impl Validator {
     }
 
     /// Checks `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`:
-    /// the serialized data's version, its first [`MICROMAP_VERSION_SIZE`]
+    /// the serialized data's version, its first `MICROMAP_VERSION_SIZE`
     /// bytes at `pInfo->src.hostAddress`, is read for this call.
     ///
     /// # Safety
     /// As [`Self::cmd_copy_memory_to_micromap_raw`], and a non-NULL
     /// `src.hostAddress` must point to serialized micromap data as the API
-    /// requires, whose header is at least [`MICROMAP_VERSION_SIZE`]
+    /// requires, whose header is at least `MICROMAP_VERSION_SIZE`
     /// readable bytes.
     pub unsafe fn copy_memory_to_micromap_raw(
         &mut self,

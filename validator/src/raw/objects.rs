@@ -1,7 +1,7 @@
 //! Reading the create infos of the objects an adaptor tracks for the checks
 //! (devices, buffers, micromaps) from the ash structures an application
 //! hands the driver. Like the rest of [`crate::raw`], every array read is
-//! bounded and every pNext chain walked with [`super::chain`].
+//! bounded and every pNext chain walked with `chain`.
 
 use std::ffi::c_void;
 
