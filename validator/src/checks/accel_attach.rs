@@ -37,7 +37,7 @@ use crate::model::values::FormatKind;
 use crate::model::values::*;
 use crate::model::Handle;
 use crate::report::count as count_of;
-use crate::report::location::{Locate, Location};
+use crate::report::location::{Locate, Location, Member, Text};
 use crate::report::not_checked::Cause;
 use crate::report::{Report, RuleId, Severity};
 use crate::rules;
@@ -261,7 +261,7 @@ struct AttachmentVuids {
 }
 
 /// Where an attachment is: `pInfos[i].pGeometries[g].geometry.triangles.pNext<Vk...>`.
-type AttachmentAt = Location<'static, GeometryAt>;
+type AttachmentAt = Location<GeometryAt, Text<'static>>;
 
 fn attachment_at(geometry: GeometryAt, kind: Kind) -> AttachmentAt {
     geometry.text(kind.step())
@@ -289,7 +289,7 @@ impl Attachment<'_> {
     /// The location of the member `name`, written out only where it is
     /// displayed: for the checks that take a location before they know
     /// whether there is a finding.
-    fn member_at<'n>(&self, name: &'n str) -> Location<'n, AttachmentAt> {
+    fn member_at<'n>(&self, name: &'n str) -> Location<AttachmentAt, Member<'n>> {
         self.at.member(name)
     }
 }

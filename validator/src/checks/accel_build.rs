@@ -54,7 +54,7 @@ use crate::model::values::{
 use crate::model::Handle;
 use crate::model::{CommandBuffer, MicromapTriangle};
 use crate::report::count as count_of;
-use crate::report::location::{Locate, Location};
+use crate::report::location::{Index, Locate, Location, Text};
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
@@ -783,7 +783,7 @@ impl Display for InfoAt {
 
 /// Where one geometry of an info is: `pInfos[i].pGeometries[g]` (or
 /// `ppGeometries[g]`).
-pub(crate) type GeometryAt = Location<'static, Location<'static, InfoAt>>;
+pub(crate) type GeometryAt = Location<Location<InfoAt, Text<'static>>, Index>;
 
 /// Geometry `index` of the info at `info`, in its member `member`
 /// (`pGeometries` or `ppGeometries`).
@@ -792,7 +792,7 @@ pub(crate) fn geometry_at(info: InfoAt, member: &'static str, index: usize) -> G
 }
 
 /// Where a geometry's `VkAccelerationStructureGeometryMicromapDataKHR` is.
-type MicromapAt = Location<'static, GeometryAt>;
+type MicromapAt = Location<GeometryAt, Text<'static>>;
 
 fn micromap_at(geometry: GeometryAt) -> MicromapAt {
     geometry.text(".pNext<VkAccelerationStructureGeometryMicromapDataKHR>")

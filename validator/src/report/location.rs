@@ -18,59 +18,77 @@
 
 use std::fmt::{self, Display};
 
-/// A place in a call's arguments: `parent` followed by one step.
+/// A place in a call's arguments: `parent` followed by one step `S`
+/// ([`Member`], [`Index`] or [`Text`]). Each step is its own type, so a
+/// location is as small as its parts and writes itself out without a
+/// branch.
 #[derive(Clone, Copy, Debug)]
-pub struct Location<'n, P> {
+pub struct Location<P, S> {
     parent: P,
-    step: Step<'n>,
+    step: S,
 }
 
-/// One step from a location to the next.
+/// `.name`: a member.
 #[derive(Clone, Copy, Debug)]
-enum Step<'n> {
-    /// `.name`: a member.
-    Member(&'n str),
-    /// `[i]`: an element.
-    Index(u64),
-    /// Text as it is: members with their own separators
-    /// (`.pNext<VkAccelerationStructureGeometryMicromapDataKHR>`).
-    Text(&'n str),
-}
+pub struct Member<'n>(&'n str);
 
-impl<P: Display> Display for Location<'_, P> {
+/// `[i]`: an element.
+#[derive(Clone, Copy, Debug)]
+pub struct Index(u64);
+
+/// Text as it is: members with their own separators
+/// (`.pNext<VkAccelerationStructureGeometryMicromapDataKHR>`).
+#[derive(Clone, Copy, Debug)]
+pub struct Text<'n>(&'n str);
+
+impl<P: Display, S: Display> Display for Location<P, S> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         self.parent.fmt(f)?;
-        match self.step {
-            Step::Member(name) => write!(f, ".{name}"),
-            Step::Index(i) => write!(f, "[{i}]"),
-            Step::Text(text) => f.write_str(text),
-        }
+        self.step.fmt(f)
+    }
+}
+
+impl Display for Member<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, ".{}", self.0)
+    }
+}
+
+impl Display for Index {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "[{}]", self.0)
+    }
+}
+
+impl Display for Text<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0)
     }
 }
 
 /// The steps from any location (or root) to the next.
 pub trait Locate: Display + Copy + Sized {
     /// The member `name`: `{self}.{name}`.
-    fn member(self, name: &str) -> Location<'_, Self> {
+    fn member(self, name: &str) -> Location<Self, Member<'_>> {
         Location {
             parent: self,
-            step: Step::Member(name),
+            step: Member(name),
         }
     }
 
     /// Element `i`: `{self}[{i}]`.
-    fn index(self, i: impl TryInto<u64>) -> Location<'static, Self> {
+    fn index(self, i: impl TryInto<u64>) -> Location<Self, Index> {
         Location {
             parent: self,
-            step: Step::Index(i.try_into().unwrap_or(u64::MAX)),
+            step: Index(i.try_into().unwrap_or(u64::MAX)),
         }
     }
 
     /// `text` as it is: `{self}{text}`.
-    fn text(self, text: &str) -> Location<'_, Self> {
+    fn text(self, text: &str) -> Location<Self, Text<'_>> {
         Location {
             parent: self,
-            step: Step::Text(text),
+            step: Text(text),
         }
     }
 }
