@@ -1,5 +1,5 @@
 //! `cargo xtask modules`: the import graph between a crate's top-level
-//! modules, and its cycles.
+//! modules (those its root declares), and its cycles.
 //!
 //! Imports point one way: a module imports nothing that imports it back,
 //! directly or through others. This reads each file of a crate's `src/`
@@ -24,7 +24,7 @@ pub const CRATES: [&str; 3] = ["validator/src", "layer/src", "xtask/src"];
 /// Edges between the top-level modules of one crate.
 #[derive(Debug, Default)]
 pub struct Graph {
-    /// Every top-level module (`src/a.rs` or `src/a/`), but the crate roots.
+    /// Every module the crate root declares (`src/a.rs` or `src/a/`).
     pub modules: BTreeSet<String>,
     /// `from` → `to` → the files of `from` that name `to`.
     pub edges: BTreeMap<String, BTreeMap<String, BTreeSet<PathBuf>>>,
@@ -33,19 +33,10 @@ pub struct Graph {
 impl Graph {
     /// Reads the crate whose sources are under `src`.
     pub fn read(src: &Path) -> Result<Self, Error> {
-        let mut graph = Graph::default();
-        for entry in read_dir(src)? {
-            let Some(name) = entry.file_name().map(|n| n.to_string_lossy().into_owned()) else {
-                continue;
-            };
-            let module = match name.strip_suffix(".rs") {
-                Some(stem) if stem != "lib" && stem != "main" => stem.to_string(),
-                Some(_) => continue,
-                None if entry.is_dir() => name,
-                None => continue,
-            };
-            graph.modules.insert(module);
-        }
+        let mut graph = Graph {
+            modules: root_modules(src)?,
+            ..Graph::default()
+        };
         let reexports = root_reexports(src, &graph.modules)?;
         let mut files = Vec::new();
         collect_rs(src, &mut files)?;
@@ -239,8 +230,36 @@ fn collect_rs(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), Error> {
     Ok(())
 }
 
+/// The modules the crate root declares (`mod a;` in `lib.rs`, else in
+/// `main.rs`): a binary's own modules beside a library are not the
+/// library's.
+fn root_modules(src: &Path) -> Result<BTreeSet<String>, Error> {
+    let lib = src.join("lib.rs");
+    let root = if lib.exists() {
+        lib
+    } else {
+        src.join("main.rs")
+    };
+    let tokens: Vec<TokenTree> = TokenStream::from_str(&crate::read(&root)?)
+        .map_err(|e| Error::Tool(format!("{}: not Rust tokens: {e}", root.display())))?
+        .into_iter()
+        .collect();
+    Ok(tokens
+        .windows(3)
+        .filter_map(|w| match w {
+            [TokenTree::Ident(keyword), TokenTree::Ident(name), TokenTree::Punct(semicolon)]
+                if keyword == "mod" && semicolon.as_char() == ';' =>
+            {
+                Some(name.to_string())
+            }
+            _ => None,
+        })
+        .collect())
+}
+
 /// The top-level module a file under `src/` belongs to; None for the crate
-/// roots (`lib.rs`, `main.rs`).
+/// roots (`lib.rs`, `main.rs`) and for files of modules the root does not
+/// declare.
 fn top_module(relative: &Path, modules: &BTreeSet<String>) -> Option<String> {
     let first = relative.components().next()?.as_os_str().to_string_lossy();
     let name = first.strip_suffix(".rs").unwrap_or(&first);
