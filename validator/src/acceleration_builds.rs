@@ -174,17 +174,6 @@ impl AccelerationStructureBuild {
     }
 }
 
-impl From<vk::AccelerationStructureBuildRangeInfoKHR> for BuildRangeInfo {
-    fn from(range: vk::AccelerationStructureBuildRangeInfoKHR) -> Self {
-        BuildRangeInfo {
-            primitive_count: range.primitive_count,
-            primitive_offset: range.primitive_offset,
-            first_vertex: range.first_vertex,
-            transform_offset: range.transform_offset,
-        }
-    }
-}
-
 /// `pUsageCounts` holding `(count, subdivisionLevel, format)` entries.
 fn usage_array(usages: impl Iterator<Item = (u32, u32, u32)>) -> UsageCounts {
     UsageCounts::array(

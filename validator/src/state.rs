@@ -258,6 +258,15 @@ impl State {
         self.buffers.containing(address)
     }
 
+    /// The device address of byte `offset` of `buffer`, where the buffer's
+    /// address is known (None too where the sum passes 2^64).
+    pub fn device_address_in(&self, buffer: Handle, offset: u64) -> Option<u64> {
+        self.buffers
+            .get(&buffer)
+            .and_then(|b| b.device_address)
+            .and_then(|start| start.checked_add(offset))
+    }
+
     /// Whether some buffer holds all of `[address, address + len)`.
     pub fn range_in_one_buffer(&self, address: u64, len: u64) -> bool {
         let Some(end) = address.checked_add(len) else {

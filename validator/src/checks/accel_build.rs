@@ -312,12 +312,7 @@ impl Validator {
         if acceleration_structure == 0 {
             return;
         }
-        let buffer_start = self
-            .state
-            .buffers
-            .get(&info.buffer)
-            .and_then(|b| b.device_address)
-            .and_then(|start| start.checked_add(info.offset));
+        let buffer_start = self.state.device_address_in(info.buffer, info.offset);
         let record = AccelerationStructure {
             ty: info.ty,
             created_with_2: false,

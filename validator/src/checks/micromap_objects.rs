@@ -307,12 +307,7 @@ impl Validator {
 
     /// What the checker remembers of a micromap `info` created.
     fn created_micromap(&self, info: &MicromapCreateInfo, allocator: bool) -> Micromap {
-        let buffer_address = self
-            .state
-            .buffers
-            .get(&info.buffer)
-            .and_then(|b| b.device_address)
-            .and_then(|start| start.checked_add(info.offset));
+        let buffer_address = self.state.device_address_in(info.buffer, info.offset);
         let device_address = if info.device_address != 0 {
             info.device_address
         } else {

@@ -479,6 +479,17 @@ pub struct BuildRangeInfo {
     pub transform_offset: u32,
 }
 
+impl From<vk::AccelerationStructureBuildRangeInfoKHR> for BuildRangeInfo {
+    fn from(range: vk::AccelerationStructureBuildRangeInfoKHR) -> Self {
+        BuildRangeInfo {
+            primitive_count: range.primitive_count,
+            primitive_offset: range.primitive_offset,
+            first_vertex: range.first_vertex,
+            transform_offset: range.transform_offset,
+        }
+    }
+}
+
 pub const STRUCTURE_TYPE_GEOMETRY_MOTION_TRIANGLES_DATA_NV: i32 =
     vk::StructureType::ACCELERATION_STRUCTURE_GEOMETRY_MOTION_TRIANGLES_DATA_NV.as_raw();
 
@@ -688,6 +699,21 @@ pub struct AccelerationStructureCreateInfo2 {
     pub address_flags: u32,
     #[serde(rename = "type")]
     pub ty: i32,
+}
+
+impl AccelerationStructureCreateInfo2 {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &khr::AccelerationStructureCreateInfo2KHR) -> Self {
+        Self {
+            s_type: info.s_type.as_raw(),
+            next: Vec::new(),
+            create_flags: info.create_flags.as_raw(),
+            address: info.address_range.address,
+            size: info.address_range.size,
+            address_flags: info.address_flags.as_raw(),
+            ty: info.ty.as_raw(),
+        }
+    }
 }
 
 impl Default for AccelerationStructureCreateInfo2 {

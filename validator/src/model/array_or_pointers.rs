@@ -48,7 +48,7 @@ impl<'a, T> Iterator for ElementsRead<'a, T> {
     fn size_hint(&self) -> (usize, Option<usize>) {
         (
             self.array.len(),
-            Some(self.array.len() + self.pointers.len()),
+            self.array.len().checked_add(self.pointers.len()),
         )
     }
 }

@@ -483,16 +483,7 @@ unsafe fn read_build_range_infos(
             // SAFETY: forwarded from the caller; at most geometryCount
             // elements are read.
             let ranges = unsafe { read_array(pointer, count, function, location, findings) };
-            ranges.map(|list| {
-                list.into_iter()
-                    .map(|r| BuildRangeInfo {
-                        primitive_count: r.primitive_count,
-                        primitive_offset: r.primitive_offset,
-                        first_vertex: r.first_vertex,
-                        transform_offset: r.transform_offset,
-                    })
-                    .collect()
-            })
+            ranges.map(|list| list.into_iter().map(BuildRangeInfo::from).collect())
         })
         .collect()
 }

@@ -43,18 +43,3 @@ impl Validator {
         self.create_acceleration_structure2(&model, vk::Handle::as_raw(acceleration_structure))
     }
 }
-
-impl AccelerationStructureCreateInfo2 {
-    /// The members of `info`, with no pNext chain (its pointer is not read).
-    pub fn from_members(info: &khr::AccelerationStructureCreateInfo2KHR) -> Self {
-        Self {
-            s_type: info.s_type.as_raw(),
-            next: Vec::new(),
-            create_flags: info.create_flags.as_raw(),
-            address: info.address_range.address,
-            size: info.address_range.size,
-            address_flags: info.address_flags.as_raw(),
-            ty: info.ty.as_raw(),
-        }
-    }
-}
