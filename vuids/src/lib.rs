@@ -1,7 +1,7 @@
 //! The catalog of micromap-related Valid Usage IDs of Vulkan 1.4.360, and the
 //! `VK_KHR_opacity_micromap` declarations that ash 0.38 predates.
 //!
-//! Everything under `generated/` is written by `cargo xtask vuids` from the
+//! Everything under `generated/` is written by `cargo xtask generate` from the
 //! Vulkan registry (`vk.xml` and `validusage.json`); nothing in it is typed by
 //! hand. A check cites a VUID through the typed constants of [`vuid`], so it
 //! cannot cite an id that is not in the catalog:

@@ -29,6 +29,8 @@ pub mod layer;
 #[cfg(feature = "driver")]
 pub mod modules;
 #[cfg(feature = "driver")]
+pub mod names;
+#[cfg(feature = "driver")]
 pub mod registry;
 #[cfg(feature = "driver")]
 pub mod testing;
@@ -158,6 +160,10 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
             PathBuf::from("vuids/src/generated/aliases.rs"),
             rustfmt(&aliases::render(&vk)?)?,
         ),
+        (
+            PathBuf::from("validator/src/model/names/generated.rs"),
+            rustfmt(&names::render(&vk)?)?,
+        ),
     ])
 }
 
@@ -184,7 +190,7 @@ pub fn check_generated(registry: &Path, root: &Path) -> Result<(), Error> {
         Ok(())
     } else {
         Err(Error::Stale(format!(
-            "generated files are stale; run `cargo xtask vuids`: {}",
+            "generated files are stale; run `cargo xtask generate`: {}",
             stale.join(", ")
         )))
     }

@@ -89,8 +89,10 @@ mod driver {
 
     #[derive(Subcommand)]
     enum Task {
-        /// Generate the VUID catalog and the KHR declarations from the Vulkan registry.
-        Vuids {
+        /// Generate the VUID catalog, the KHR declarations, the alias tables
+        /// and the scene's enum and flag names from the Vulkan registry.
+        #[command(visible_alias = "vuids")]
+        Generate {
             /// Directory with vk.xml and validusage.json (a Vulkan SDK has them in
             /// $VULKAN_SDK/share/vulkan/registry).
             #[arg(long, default_value_os_t = xtask::default_registry())]
@@ -177,7 +179,7 @@ mod driver {
         let cli = Cli::parse();
         let root = xtask::workspace_root();
         let result = match cli.command {
-            Task::Vuids { registry, check } => {
+            Task::Generate { registry, check } => {
                 if check {
                     xtask::check_generated(&registry, &root).map(|()| {
                         println!("generated files are up to date with {}", registry.display());

@@ -91,6 +91,35 @@ pub struct VkXml {
     /// Every command name that vk.xml gives as an alias, with the command
     /// it aliases.
     pub command_aliases: BTreeMap<String, String>,
+    /// Every enumerated and bitmask-bits type with its values for Vulkan,
+    /// in the order vk.xml adds them ([`EnumType`]).
+    pub enum_types: HashMap<String, EnumType>,
+}
+
+/// The values of one `<enums>` type (`VkIndexType`, `VkBufferUsageFlagBits2`):
+/// those of its block, then those core versions add, then those extensions
+/// add in extension-number order. Aliases are not values; they stay in
+/// [`VkXml::enum_aliases`].
+#[derive(Debug, Clone, Default)]
+pub struct EnumType {
+    /// `type="bitmask"`.
+    pub bitmask: bool,
+    /// `bitwidth=` (64 for `VkFlags64` bits), 32 when absent.
+    pub bitwidth: u32,
+    pub values: Vec<(String, i128)>,
+}
+
+impl EnumType {
+    fn add(&mut self, name: &str, value: i128) {
+        // Several extensions may require one value; it is one value.
+        if !self.values.iter().any(|(n, _)| n == name) {
+            self.values.push((name.to_string(), value));
+        }
+    }
+}
+
+fn for_vulkan(api: Option<&str>) -> bool {
+    api.is_none_or(|api| api.split(',').any(|a| a == "vulkan"))
 }
 
 fn enum_value(spec: &EnumSpec, owner_number: Option<i64>) -> Option<i128> {
@@ -144,6 +173,7 @@ impl VkXml {
         let mut header_version = String::new();
         let mut enum_aliases = BTreeMap::new();
         let mut command_aliases = BTreeMap::new();
+        let mut enum_types: HashMap<String, EnumType> = HashMap::new();
         for child in registry.0 {
             match child {
                 RegistryChild::Types(block) => {
@@ -168,11 +198,23 @@ impl VkXml {
                     let Some(name) = block.name.clone() else {
                         continue;
                     };
-                    let values = enum_blocks.entry(name).or_default();
+                    let values = enum_blocks.entry(name.clone()).or_default();
+                    let kind = block.kind.as_deref();
+                    let ordered = enum_types.entry(name).or_default();
+                    ordered.bitmask = kind == Some("bitmask");
+                    ordered.bitwidth = block.bitwidth.unwrap_or(32);
+                    let is_type = matches!(kind, Some("enum" | "bitmask"));
                     for child in block.children {
                         if let EnumsChild::Enum(e) = child {
                             if let EnumSpec::Alias { alias, .. } = &e.spec {
                                 enum_aliases.insert(e.name.clone(), alias.clone());
+                            }
+                            if let (true, true, Some(value)) = (
+                                is_type,
+                                for_vulkan(e.api.as_deref()),
+                                enum_value(&e.spec, None),
+                            ) {
+                                ordered.add(&e.name, value);
                             }
                             if let Some(value) = enum_value(&e.spec, None) {
                                 values.insert(e.name, value);
@@ -201,6 +243,41 @@ impl VkXml {
         // "Introduced by" follows the order in which the API grew: core
         // versions first, then extensions by number.
         extensions.sort_by_key(|e| e.number.unwrap_or(i64::MAX));
+
+        // Values core versions and extensions add to enumerated types.
+        let features_for_vulkan = features
+            .iter()
+            .filter(|f| for_vulkan(Some(&f.api)))
+            .map(|f| (&f.children, None));
+        let extensions_for_vulkan = extensions
+            .iter()
+            .filter(|e| for_vulkan(e.supported.as_deref()))
+            .map(|e| (&e.children, e.number));
+        for (children, number) in features_for_vulkan.chain(extensions_for_vulkan) {
+            for child in children {
+                let ExtensionChild::Require { items, api, .. } = child else {
+                    continue;
+                };
+                if !for_vulkan(api.as_deref()) {
+                    continue;
+                }
+                for item in items {
+                    let InterfaceItem::Enum(e) = item else {
+                        continue;
+                    };
+                    if !for_vulkan(e.api.as_deref()) {
+                        continue;
+                    }
+                    if let (Some(extends), Some(value)) =
+                        (extends_of(&e.spec), enum_value(&e.spec, number))
+                    {
+                        if let Some(ordered) = enum_types.get_mut(extends) {
+                            ordered.add(&e.name, value);
+                        }
+                    }
+                }
+            }
+        }
 
         for require in features
             .iter()
@@ -348,6 +425,7 @@ impl VkXml {
             first_required_by,
             enum_aliases,
             command_aliases,
+            enum_types,
         })
     }
 

@@ -1,4 +1,4 @@
-//! Files written by `cargo xtask vuids`; do not edit them by hand.
+//! Files written by `cargo xtask generate`; do not edit them by hand.
 
 pub mod aliases;
 pub mod catalog;
