@@ -33,6 +33,8 @@ pub mod names;
 #[cfg(feature = "driver")]
 pub mod registry;
 #[cfg(feature = "driver")]
+pub mod structs;
+#[cfg(feature = "driver")]
 pub mod testing;
 
 #[cfg(feature = "driver")]
@@ -163,6 +165,26 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
         (
             PathBuf::from("validator/src/model/names/generated.rs"),
             rustfmt(&names::render(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/model/generated.rs"),
+            rustfmt(&structs::render_model(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/raw/generated.rs"),
+            rustfmt(&structs::render_reader(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/scene/format/generated.rs"),
+            rustfmt(&structs::render_scene_form(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/scene/resolve/generated.rs"),
+            rustfmt(&structs::render_resolver(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/scene/write/generated.rs"),
+            rustfmt(&structs::render_writer(&vk)?)?,
         ),
     ])
 }

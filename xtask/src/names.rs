@@ -195,6 +195,11 @@ fn table(vk: &VkXml, spec: &KindSpec) -> Result<Table, Error> {
     })
 }
 
+/// Whether `spec`'s values are 64-bit (`VkFlags64`).
+pub fn is_wide(vk: &VkXml, spec: &KindSpec) -> bool {
+    table(vk, spec).is_ok_and(|t| t.repr == "U64")
+}
+
 /// The `_EXT` alias of a micromap value named `..._KHR`, where vk.xml has one.
 fn ext_spelling(vk: &VkXml, name: &str) -> Option<String> {
     let stem = name.strip_suffix("_KHR")?;

@@ -12,6 +12,11 @@ use crate::model::array_or_pointers::ElementsRead;
 use crate::model::micromap::UsageCounts;
 use crate::model::Handle;
 
+pub use crate::model::generated::{
+    AccelerationStructureCreateInfo, CopyAccelerationStructureInfo,
+    CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo,
+};
+
 pub const ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL: i32 =
     vk::AccelerationStructureTypeKHR::TOP_LEVEL.as_raw();
 pub const ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL: i32 =
@@ -637,52 +642,6 @@ pub const COPY_MODE_COMPACT: i32 = vk::CopyAccelerationStructureModeKHR::COMPACT
 pub const COPY_MODE_SERIALIZE: i32 = vk::CopyAccelerationStructureModeKHR::SERIALIZE.as_raw();
 pub const COPY_MODE_DESERIALIZE: i32 = vk::CopyAccelerationStructureModeKHR::DESERIALIZE.as_raw();
 
-/// `VkAccelerationStructureCreateInfoKHR`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct AccelerationStructureCreateInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub create_flags: u32,
-    pub buffer: Handle,
-    pub offset: u64,
-    pub size: u64,
-    #[serde(rename = "type")]
-    pub ty: i32,
-    pub device_address: u64,
-}
-
-impl AccelerationStructureCreateInfo {
-    /// The members of `info`, with no pNext chain (its pointer is not read).
-    pub fn from_members(info: &vk::AccelerationStructureCreateInfoKHR<'_>) -> Self {
-        Self {
-            s_type: info.s_type.as_raw(),
-            next: Vec::new(),
-            create_flags: info.create_flags.as_raw(),
-            buffer: vk::Handle::as_raw(info.buffer),
-            offset: info.offset,
-            size: info.size,
-            ty: info.ty.as_raw(),
-            device_address: info.device_address,
-        }
-    }
-}
-
-impl Default for AccelerationStructureCreateInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO,
-            next: Vec::new(),
-            create_flags: 0,
-            buffer: 0,
-            offset: 0,
-            size: 0,
-            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
-            device_address: 0,
-        }
-    }
-}
-
 /// `VkAccelerationStructureCreateInfo2KHR` (`VK_KHR_device_address_commands`):
 /// the structure lives in a device-address range instead of a buffer.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -726,77 +685,6 @@ impl Default for AccelerationStructureCreateInfo2 {
             size: 0,
             address_flags: 0,
             ty: ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
-        }
-    }
-}
-
-/// `VkCopyAccelerationStructureInfoKHR`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct CopyAccelerationStructureInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub src: Handle,
-    pub dst: Handle,
-    pub mode: i32,
-}
-
-impl Default for CopyAccelerationStructureInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_INFO,
-            next: Vec::new(),
-            src: 0,
-            dst: 0,
-            mode: COPY_MODE_CLONE,
-        }
-    }
-}
-
-/// `VkCopyAccelerationStructureToMemoryInfoKHR`; `dst` is a device or host
-/// address, depending on the command.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct CopyAccelerationStructureToMemoryInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub src: Handle,
-    pub dst: u64,
-    pub mode: i32,
-}
-
-impl Default for CopyAccelerationStructureToMemoryInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_COPY_ACCELERATION_STRUCTURE_TO_MEMORY_INFO,
-            next: Vec::new(),
-            src: 0,
-            dst: 0,
-            mode: COPY_MODE_SERIALIZE,
-        }
-    }
-}
-
-/// `VkCopyMemoryToAccelerationStructureInfoKHR`; `src` is a device or host
-/// address, depending on the command.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct CopyMemoryToAccelerationStructureInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub src: u64,
-    pub dst: Handle,
-    pub mode: i32,
-}
-
-impl Default for CopyMemoryToAccelerationStructureInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_COPY_MEMORY_TO_ACCELERATION_STRUCTURE_INFO,
-            next: Vec::new(),
-            src: 0,
-            dst: 0,
-            mode: COPY_MODE_DESERIALIZE,
         }
     }
 }

@@ -4,8 +4,11 @@
 use ash::vk;
 use serde::{Deserialize, Serialize};
 
-use crate::model::values::MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
 use crate::model::Handle;
+
+pub use crate::model::generated::{
+    CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo, MicromapCreateInfo,
+};
 
 pub const STRUCTURE_TYPE_MICROMAP_CREATE_INFO_EXT: i32 =
     vk::StructureType::MICROMAP_CREATE_INFO_EXT.as_raw();
@@ -105,124 +108,6 @@ impl AllocationCallbacks {
             Some("only one of pfnInternalAllocation and pfnInternalFree is set")
         } else {
             None
-        }
-    }
-}
-
-/// `VkMicromapCreateInfoEXT`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct MicromapCreateInfo {
-    pub s_type: i32,
-    /// sTypes of the structures in the pNext chain, in order.
-    pub next: Vec<i32>,
-    pub create_flags: u32,
-    pub buffer: Handle,
-    pub offset: u64,
-    pub size: u64,
-    #[serde(rename = "type")]
-    pub ty: i32,
-    pub device_address: u64,
-}
-
-impl MicromapCreateInfo {
-    /// The members of `info`, with no pNext chain (its pointer is not read).
-    pub fn from_members(info: &vk::MicromapCreateInfoEXT<'_>) -> Self {
-        Self {
-            s_type: info.s_type.as_raw(),
-            next: Vec::new(),
-            create_flags: info.create_flags.as_raw(),
-            buffer: vk::Handle::as_raw(info.buffer),
-            offset: info.offset,
-            size: info.size,
-            ty: info.ty.as_raw(),
-            device_address: info.device_address,
-        }
-    }
-}
-
-impl Default for MicromapCreateInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_MICROMAP_CREATE_INFO_EXT,
-            next: Vec::new(),
-            create_flags: 0,
-            buffer: 0,
-            offset: 0,
-            size: 0,
-            ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
-            device_address: 0,
-        }
-    }
-}
-
-/// `VkCopyMicromapInfoEXT`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct CopyMicromapInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub src: Handle,
-    pub dst: Handle,
-    pub mode: i32,
-}
-
-impl Default for CopyMicromapInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_COPY_MICROMAP_INFO_EXT,
-            next: Vec::new(),
-            src: 0,
-            dst: 0,
-            mode: COPY_MICROMAP_MODE_CLONE_EXT,
-        }
-    }
-}
-
-/// `VkCopyMicromapToMemoryInfoEXT`; `dst` is a device or host address,
-/// depending on the command.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct CopyMicromapToMemoryInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub src: Handle,
-    pub dst: u64,
-    pub mode: i32,
-}
-
-impl Default for CopyMicromapToMemoryInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_COPY_MICROMAP_TO_MEMORY_INFO_EXT,
-            next: Vec::new(),
-            src: 0,
-            dst: 0,
-            mode: COPY_MICROMAP_MODE_SERIALIZE_EXT,
-        }
-    }
-}
-
-/// `VkCopyMemoryToMicromapInfoEXT`; `src` is a device or host address,
-/// depending on the command.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct CopyMemoryToMicromapInfo {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub src: u64,
-    pub dst: Handle,
-    pub mode: i32,
-}
-
-impl Default for CopyMemoryToMicromapInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_COPY_MEMORY_TO_MICROMAP_INFO_EXT,
-            next: Vec::new(),
-            src: 0,
-            dst: 0,
-            mode: COPY_MICROMAP_MODE_DESERIALIZE_EXT,
         }
     }
 }

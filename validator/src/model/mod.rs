@@ -6,6 +6,7 @@
 pub mod accel;
 pub mod array_or_pointers;
 pub mod command;
+pub mod generated;
 pub mod micromap;
 pub mod micromap_objects;
 pub mod names;

@@ -12,7 +12,7 @@ use std::marker::PhantomData;
 
 use schemars::{json_schema, JsonSchema, Schema, SchemaGenerator};
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize, Serializer};
 
 mod generated;
 pub use generated::*;
@@ -277,6 +277,41 @@ impl<'de, K: Kind> Visitor<'de> for ValueVisitor<K> {
 impl<'de, K: Kind> Deserialize<'de> for Value<K> {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         deserializer.deserialize_any(ValueVisitor(PhantomData))
+    }
+}
+
+/// The form a scene writer gives a value, which reads back to it: an
+/// enum's name; a bitmask's bit names joined by ` | ` when every bit has
+/// one; else the number.
+impl<K: Kind> Value<K> {
+    pub fn written(&self) -> Written {
+        if let Some(name) = name_of::<K>(self.raw) {
+            return Written::Name(name.to_string());
+        }
+        if K::BITMASK && self.raw > 0 {
+            let bits = (0..64)
+                .map(|bit| 1i64 << bit)
+                .filter(|bit| self.raw & bit != 0);
+            let names: Option<Vec<&str>> = bits.map(name_of::<K>).collect();
+            if let Some(names) = names {
+                return Written::Name(names.join(" | "));
+            }
+        }
+        Written::Number(self.raw)
+    }
+}
+
+/// A value as a scene writes it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(untagged)]
+pub enum Written {
+    Name(String),
+    Number(i64),
+}
+
+impl<K: Kind> Serialize for Value<K> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        self.written().serialize(serializer)
     }
 }
 

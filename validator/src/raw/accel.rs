@@ -17,6 +17,7 @@ use ommcheck_vuids::khr;
 
 use std::fmt::Display;
 
+use super::generated::acceleration_structure_create_info;
 use super::{
     array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, MAX_ELEMENTS,
     MAX_HOST_BYTES,
@@ -1015,17 +1016,14 @@ impl Validator {
         info: &vk::AccelerationStructureCreateInfoKHR<'_>,
     ) -> Report {
         let mut findings = Vec::new();
-        let model = AccelerationStructureCreateInfo {
-            // SAFETY: forwarded from the caller.
-            next: unsafe {
-                chain_s_types(
-                    info.p_next,
-                    "vkCreateAccelerationStructureKHR",
-                    "pCreateInfo",
-                    &mut findings,
-                )
-            },
-            ..AccelerationStructureCreateInfo::from_members(info)
+        // SAFETY: forwarded from the caller.
+        let model = unsafe {
+            acceleration_structure_create_info(
+                info,
+                "vkCreateAccelerationStructureKHR",
+                "pCreateInfo",
+                &mut findings,
+            )
         };
         let mut report = Report::from(findings);
         report.extend(self.create_acceleration_structure_rules(&model));

@@ -12,17 +12,18 @@
 use ash::vk;
 use ash::vk::Handle as _;
 
-use super::accel::{address, scratch_address, HostRead};
+use super::accel::HostRead;
+use super::generated::{
+    copy_acceleration_structure_info, copy_acceleration_structure_to_memory_info,
+    copy_memory_to_acceleration_structure_info, copy_memory_to_micromap_info, copy_micromap_info,
+    copy_micromap_to_memory_info,
+};
 use super::{
     bounded_len, chain_s_types, micromap_build_info, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
 };
-use crate::model::accel::{
-    CopyAccelerationStructureInfo, CopyAccelerationStructureToMemoryInfo,
-    CopyMemoryToAccelerationStructureInfo,
-};
+use crate::model::accel::CopyMemoryToAccelerationStructureInfo;
 use crate::model::micromap_objects::{
-    CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo, MicromapBuildSizesInfo,
-    MicromapList, MicromapVersionInfo,
+    CopyMemoryToMicromapInfo, MicromapBuildSizesInfo, MicromapList, MicromapVersionInfo,
 };
 use crate::model::CommandBuffer;
 use crate::model::Handle;
@@ -44,7 +45,7 @@ unsafe fn optional<T, M>(info: *const T, read: impl FnOnce(&T) -> M) -> Option<M
 
 /// Reads one command's info structure into the model; what it cannot
 /// read goes to the findings.
-type ReadInfo<T, M> = unsafe fn(&T, &'static str, &mut Vec<Finding>) -> M;
+type ReadInfo<T, M> = unsafe fn(&T, &'static str, &'static str, &mut Vec<Finding>) -> M;
 
 /// Reads the info at `info` (None for NULL) with `read` and runs `check`
 /// on the model; the reading's findings come first. `check` is given the
@@ -60,7 +61,7 @@ unsafe fn read_then_check<T, M>(
 ) -> Report {
     let mut findings = Vec::new();
     // SAFETY: forwarded from the caller.
-    let model = unsafe { optional(info, |i| read(i, function, &mut findings)) };
+    let model = unsafe { optional(info, |i| read(i, function, "pInfo", &mut findings)) };
     let report = check(model.as_ref(), &mut findings);
     with_findings(findings, report)
 }
@@ -409,11 +410,16 @@ impl Validator {
         let function = "vkCmdCopyAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
         unsafe {
-            read_then_check(info, function, copy_as_info, |model, _| {
-                unchecked_if_none(model, |m| {
-                    self.cmd_copy_acceleration_structure(command_buffer, m)
-                })
-            })
+            read_then_check(
+                info,
+                function,
+                copy_acceleration_structure_info,
+                |model, _| {
+                    unchecked_if_none(model, |m| {
+                        self.cmd_copy_acceleration_structure(command_buffer, m)
+                    })
+                },
+            )
         }
     }
 
@@ -428,9 +434,12 @@ impl Validator {
         let function = "vkCopyAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
         unsafe {
-            read_then_check(info, function, copy_as_info, |model, _| {
-                unchecked_if_none(model, |m| self.copy_acceleration_structure(m))
-            })
+            read_then_check(
+                info,
+                function,
+                copy_acceleration_structure_info,
+                |model, _| unchecked_if_none(model, |m| self.copy_acceleration_structure(m)),
+            )
         }
     }
 
@@ -447,11 +456,16 @@ impl Validator {
         let function = "vkCmdCopyAccelerationStructureToMemoryKHR";
         // SAFETY: forwarded from the caller.
         unsafe {
-            read_then_check(info, function, copy_as_to_memory_info, |model, _| {
-                unchecked_if_none(model, |m| {
-                    self.cmd_copy_acceleration_structure_to_memory(command_buffer, m)
-                })
-            })
+            read_then_check(
+                info,
+                function,
+                copy_acceleration_structure_to_memory_info,
+                |model, _| {
+                    unchecked_if_none(model, |m| {
+                        self.cmd_copy_acceleration_structure_to_memory(command_buffer, m)
+                    })
+                },
+            )
         }
     }
 
@@ -468,11 +482,16 @@ impl Validator {
         let function = "vkCmdCopyMemoryToAccelerationStructureKHR";
         // SAFETY: forwarded from the caller.
         unsafe {
-            read_then_check(info, function, copy_memory_to_as_info, |model, _| {
-                unchecked_if_none(model, |m| {
-                    self.cmd_copy_memory_to_acceleration_structure(command_buffer, m)
-                })
-            })
+            read_then_check(
+                info,
+                function,
+                copy_memory_to_acceleration_structure_info,
+                |model, _| {
+                    unchecked_if_none(model, |m| {
+                        self.cmd_copy_memory_to_acceleration_structure(command_buffer, m)
+                    })
+                },
+            )
         }
     }
 
@@ -515,7 +534,14 @@ impl Validator {
             }
         };
         // SAFETY: forwarded from the caller.
-        unsafe { read_then_check(info, function, copy_memory_to_as_info, check) }
+        unsafe {
+            read_then_check(
+                info,
+                function,
+                copy_memory_to_acceleration_structure_info,
+                check,
+            )
+        }
     }
 
     /// Checks `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer,
@@ -625,108 +651,6 @@ fn with_findings(findings: Vec<Finding>, report: Report) -> Report {
     let mut out = Report::from(findings);
     out.extend(report);
     out
-}
-
-/// # Safety
-/// `info`'s pNext chain must be well formed.
-unsafe fn copy_micromap_info(
-    info: &vk::CopyMicromapInfoEXT<'_>,
-    function: &'static str,
-    findings: &mut Vec<Finding>,
-) -> CopyMicromapInfo {
-    CopyMicromapInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
-        src: vk::Handle::as_raw(info.src),
-        dst: vk::Handle::as_raw(info.dst),
-        mode: info.mode.as_raw(),
-    }
-}
-
-/// # Safety
-/// `info`'s pNext chain must be well formed.
-unsafe fn copy_micromap_to_memory_info(
-    info: &vk::CopyMicromapToMemoryInfoEXT<'_>,
-    function: &'static str,
-    findings: &mut Vec<Finding>,
-) -> CopyMicromapToMemoryInfo {
-    CopyMicromapToMemoryInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
-        src: vk::Handle::as_raw(info.src),
-        dst: scratch_address(&info.dst),
-        mode: info.mode.as_raw(),
-    }
-}
-
-/// # Safety
-/// `info`'s pNext chain must be well formed.
-unsafe fn copy_memory_to_micromap_info(
-    info: &vk::CopyMemoryToMicromapInfoEXT<'_>,
-    function: &'static str,
-    findings: &mut Vec<Finding>,
-) -> CopyMemoryToMicromapInfo {
-    CopyMemoryToMicromapInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
-        src: address(&info.src),
-        dst: vk::Handle::as_raw(info.dst),
-        mode: info.mode.as_raw(),
-    }
-}
-
-/// # Safety
-/// `info`'s pNext chain must be well formed.
-unsafe fn copy_as_info(
-    info: &vk::CopyAccelerationStructureInfoKHR<'_>,
-    function: &'static str,
-    findings: &mut Vec<Finding>,
-) -> CopyAccelerationStructureInfo {
-    CopyAccelerationStructureInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
-        src: vk::Handle::as_raw(info.src),
-        dst: vk::Handle::as_raw(info.dst),
-        mode: info.mode.as_raw(),
-    }
-}
-
-/// # Safety
-/// `info`'s pNext chain must be well formed.
-unsafe fn copy_as_to_memory_info(
-    info: &vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
-    function: &'static str,
-    findings: &mut Vec<Finding>,
-) -> CopyAccelerationStructureToMemoryInfo {
-    CopyAccelerationStructureToMemoryInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
-        src: vk::Handle::as_raw(info.src),
-        dst: scratch_address(&info.dst),
-        mode: info.mode.as_raw(),
-    }
-}
-
-/// # Safety
-/// `info`'s pNext chain must be well formed.
-unsafe fn copy_memory_to_as_info(
-    info: &vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
-    function: &'static str,
-    findings: &mut Vec<Finding>,
-) -> CopyMemoryToAccelerationStructureInfo {
-    CopyMemoryToAccelerationStructureInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, "pInfo", findings) },
-        src: address(&info.src),
-        dst: vk::Handle::as_raw(info.dst),
-        mode: info.mode.as_raw(),
-    }
 }
 
 /// The bytes of the serialized header at host address `src` that the

@@ -12,6 +12,7 @@
 
 pub mod accel;
 pub mod commands;
+mod generated;
 pub mod objects;
 pub mod pipeline;
 

@@ -7,9 +7,10 @@ use std::ffi::c_void;
 
 use ash::vk;
 
-use super::{bounded_len, chain, chain_s_types, read_array};
+use super::generated::micromap_create_info;
+use super::{bounded_len, chain, read_array};
 use crate::device::{Device, Features, Limits};
-use crate::model::micromap_objects::{AllocationCallbacks, MicromapCreateInfo};
+use crate::model::micromap_objects::AllocationCallbacks;
 use crate::report::{Finding, Report};
 use crate::state::Buffer;
 use crate::Validator;
@@ -233,21 +234,6 @@ pub unsafe fn allocation_callbacks(
     })
 }
 
-/// Reads a `VkMicromapCreateInfoEXT`.
-///
-/// # Safety
-/// `info`'s pNext chain must be well formed (cycles and length are tolerated).
-pub unsafe fn micromap_create_info(
-    info: &vk::MicromapCreateInfoEXT<'_>,
-    findings: &mut Vec<Finding>,
-) -> MicromapCreateInfo {
-    MicromapCreateInfo {
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, "vkCreateMicromapEXT", "pCreateInfo", findings) },
-        ..MicromapCreateInfo::from_members(info)
-    }
-}
-
 impl Validator {
     /// Checks `vkCreateMicromapEXT(device, pCreateInfo, pAllocator,
     /// pMicromap)` as a layer receives it, before the driver runs:
@@ -256,8 +242,8 @@ impl Validator {
     /// [`Validator::record_micromap`].
     ///
     /// # Safety
-    /// A non-NULL `info` must point to a `VkMicromapCreateInfoEXT` valid as
-    /// for [`micromap_create_info`], a non-NULL `allocator` to a readable
+    /// A non-NULL `info` must point to a `VkMicromapCreateInfoEXT` with a
+    /// well-formed pNext chain, a non-NULL `allocator` to a readable
     /// `VkAllocationCallbacks`.
     pub unsafe fn create_micromap_raw(
         &mut self,
@@ -270,7 +256,9 @@ impl Validator {
         // SAFETY: forwarded from the caller.
         let model = unsafe { info.as_ref() }
             // SAFETY: forwarded from the caller.
-            .map(|info| unsafe { micromap_create_info(info, &mut findings) });
+            .map(|info| unsafe {
+                micromap_create_info(info, "vkCreateMicromapEXT", "pCreateInfo", &mut findings)
+            });
         // SAFETY: forwarded from the caller.
         let callbacks = unsafe { allocation_callbacks(allocator) };
         // Handle 0: checked as a call with a pMicromap, recorded by nothing.
@@ -298,7 +286,9 @@ impl Validator {
     ) {
         let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
-        let model = unsafe { micromap_create_info(info, &mut findings) };
+        let model = unsafe {
+            micromap_create_info(info, "vkCreateMicromapEXT", "pCreateInfo", &mut findings)
+        };
         self.record_micromap(vk::Handle::as_raw(micromap), &model, with_allocator);
     }
 

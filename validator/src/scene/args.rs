@@ -8,7 +8,8 @@ use std::marker::PhantomData;
 use schemars::{json_schema, JsonSchema, Schema, SchemaGenerator};
 use serde::de::value::MapAccessDeserializer;
 use serde::de::{self, DeserializeOwned, Deserializer, MapAccess, Visitor};
-use serde::Deserialize;
+use serde::ser::{SerializeMap, Serializer};
+use serde::{Deserialize, Serialize};
 
 /// A handle member: an object's name, a raw handle value, or `null`
 /// (VK_NULL_HANDLE); `Omitted` when the member is absent.
@@ -57,6 +58,25 @@ impl<'de> Visitor<'de> for HandleVisitor {
 impl<'de> Deserialize<'de> for HandleArg {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         deserializer.deserialize_any(HandleVisitor)
+    }
+}
+
+impl HandleArg {
+    /// Absent from the scene (a writer leaves the member out).
+    pub fn is_omitted(&self) -> bool {
+        matches!(self, HandleArg::Omitted)
+    }
+}
+
+/// As read: a name, a number, or null (an omitted member writes as null
+/// where it is written at all).
+impl Serialize for HandleArg {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            HandleArg::Omitted | HandleArg::Null => serializer.serialize_none(),
+            HandleArg::Name(name) => serializer.serialize_str(name),
+            HandleArg::Raw(raw) => serializer.serialize_u64(*raw),
+        }
     }
 }
 
@@ -161,6 +181,25 @@ impl<'de> Visitor<'de> for AddressVisitor {
 impl<'de> Deserialize<'de> for AddressArg {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         deserializer.deserialize_any(AddressVisitor)
+    }
+}
+
+/// As read: a number, null, or `{"buffer"|"host": NAME, "offset": N}`
+/// (the offset left out when 0).
+impl Serialize for AddressArg {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let (key, name, offset) = match self {
+            AddressArg::Null => return serializer.serialize_none(),
+            AddressArg::Raw(raw) => return serializer.serialize_u64(*raw),
+            AddressArg::Buffer { name, offset } => ("buffer", name, *offset),
+            AddressArg::Host { name, offset } => ("host", name, *offset),
+        };
+        let mut map = serializer.serialize_map(Some(if offset == 0 { 1 } else { 2 }))?;
+        map.serialize_entry(key, name)?;
+        if offset != 0 {
+            map.serialize_entry("offset", &offset)?;
+        }
+        map.end()
     }
 }
 

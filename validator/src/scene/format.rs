@@ -6,7 +6,7 @@
 
 use schemars::JsonSchema;
 use serde::de::{self, Deserializer};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::args::{deserialize_tagged, AddressArg, HandleArg, Tagged};
 use crate::checks::pipeline_sync::WorkCommand;
@@ -494,7 +494,7 @@ fn yes() -> bool {
 /// A structure of a pNext chain, named by its `sType`. The structures
 /// ommcheck reads have their members; any other sType is recorded as chained
 /// (its members are ignored).
-#[derive(Debug, JsonSchema)]
+#[derive(Debug, JsonSchema, Serialize)]
 #[serde(tag = "sType")]
 pub enum ChainStruct {
     #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")]
@@ -514,7 +514,7 @@ pub enum ChainStruct {
 
 /// A chained structure ommcheck does not read, or (with `structure`) one
 /// of the structures it reads, written with another structure's sType.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct OtherStruct {
     pub s_type: Value<names::StructureType>,
@@ -526,7 +526,7 @@ pub struct OtherStruct {
     /// `VkAccelerationStructureGeometryMicromapDataKHR` (with their members),
     /// or a micromap feature or property structure
     /// (`VkPhysicalDeviceOpacityMicromapFeaturesEXT`, ...).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub structure: Option<String>,
 }
 
@@ -630,7 +630,7 @@ impl<'de> Deserialize<'de> for ChainStruct {
 }
 
 /// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct UsageDesc {
     pub count: u32,
@@ -668,27 +668,6 @@ pub struct MicromapBuildInfoDesc {
     pub triangle_array_stride: u64,
 }
 
-/// `VkMicromapCreateInfoEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct MicromapCreateInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub create_flags: Value<names::MicromapCreateFlags>,
-    #[serde(default)]
-    pub buffer: HandleArg,
-    #[serde(default)]
-    pub offset: u64,
-    #[serde(default)]
-    pub size: u64,
-    #[serde(rename = "type")]
-    pub ty: Option<Value<names::MicromapType>>,
-    #[serde(default)]
-    pub device_address: AddressArg,
-}
-
 /// `VkAllocationCallbacks`: each function pointer as a number (0: NULL).
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
@@ -707,51 +686,6 @@ pub struct AllocationCallbacksDesc {
 
 fn some_function() -> u64 {
     0x1000
-}
-
-/// `VkCopyMicromapInfoEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct CopyMicromapInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub src: HandleArg,
-    #[serde(default)]
-    pub dst: HandleArg,
-    /// Default VK_COPY_MICROMAP_MODE_CLONE_EXT.
-    pub mode: Option<Value<names::CopyMicromapMode>>,
-}
-
-/// `VkCopyMicromapToMemoryInfoEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct CopyMicromapToMemoryInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub src: HandleArg,
-    #[serde(default)]
-    pub dst: AddressArg,
-    /// Default VK_COPY_MICROMAP_MODE_SERIALIZE_EXT.
-    pub mode: Option<Value<names::CopyMicromapMode>>,
-}
-
-/// `VkCopyMemoryToMicromapInfoEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct CopyMemoryToMicromapInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub src: AddressArg,
-    #[serde(default)]
-    pub dst: HandleArg,
-    /// Default VK_COPY_MICROMAP_MODE_DESERIALIZE_EXT.
-    pub mode: Option<Value<names::CopyMicromapMode>>,
 }
 
 /// `VkMicromapBuildSizesInfoEXT` as handed in (its sizes are outputs).
@@ -873,7 +807,7 @@ pub struct InstancesDesc {
 }
 
 /// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TrianglesOpacityMicromapExtDesc {
     /// The sType written, when it is not this structure's own: set only for
@@ -898,7 +832,7 @@ pub struct TrianglesOpacityMicromapExtDesc {
 
 /// `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an
 /// acceleration structure of type OPACITY_MICROMAP.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TrianglesOpacityMicromapKhrDesc {
     /// The sType written, when it is not this structure's own: set only for
@@ -919,7 +853,7 @@ pub struct TrianglesOpacityMicromapKhrDesc {
 }
 
 /// `VkAccelerationStructureTrianglesDisplacementMicromapNV`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TrianglesDisplacementMicromapNvDesc {
     /// The sType written, when it is not this structure's own: set only for
@@ -959,7 +893,7 @@ pub struct TrianglesDisplacementMicromapNvDesc {
 }
 
 /// `VkAccelerationStructureGeometryMicromapDataKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct GeometryMicromapDataDesc {
     /// The sType written, when it is not this structure's own: set only for
@@ -992,27 +926,6 @@ pub struct BuildRangeDesc {
     pub transform_offset: u32,
 }
 
-/// `VkAccelerationStructureCreateInfoKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct AccelerationStructureCreateInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub create_flags: Value<names::AccelerationStructureCreateFlags>,
-    #[serde(default)]
-    pub buffer: HandleArg,
-    #[serde(default)]
-    pub offset: u64,
-    #[serde(default)]
-    pub size: u64,
-    #[serde(rename = "type")]
-    pub ty: Value<names::AccelerationStructureType>,
-    #[serde(default)]
-    pub device_address: AddressArg,
-}
-
 /// `VkDeviceAddressRangeKHR`.
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
@@ -1037,51 +950,6 @@ pub struct AccelerationStructureCreateInfo2Desc {
     pub address_flags: Value<names::AddressCommandFlags>,
     #[serde(rename = "type")]
     pub ty: Value<names::AccelerationStructureType>,
-}
-
-/// `VkCopyAccelerationStructureInfoKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct CopyAccelerationStructureInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub src: HandleArg,
-    #[serde(default)]
-    pub dst: HandleArg,
-    /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_CLONE_KHR.
-    pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
-}
-
-/// `VkCopyAccelerationStructureToMemoryInfoKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct CopyAccelerationStructureToMemoryInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub src: HandleArg,
-    #[serde(default)]
-    pub dst: AddressArg,
-    /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_SERIALIZE_KHR.
-    pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
-}
-
-/// `VkCopyMemoryToAccelerationStructureInfoKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct CopyMemoryToAccelerationStructureInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(default)]
-    pub src: AddressArg,
-    #[serde(default)]
-    pub dst: HandleArg,
-    /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR.
-    pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
 }
 
 /// A command buffer parameter: the name of one in `commandBuffers`, an
@@ -1788,8 +1656,10 @@ impl<'de> Deserialize<'de> for Call {
 
 // Device, pipeline, shader, synchronization, query and cluster calls.
 mod driver;
+pub mod generated;
 mod pipeline;
 pub use driver::*;
+pub use generated::*;
 pub use pipeline::*;
 // Command buffer, submission, wait and query-reset calls.
 mod execution;

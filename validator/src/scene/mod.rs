@@ -24,12 +24,15 @@ mod in_test;
 mod resolve;
 pub mod stats;
 pub mod trace;
+pub mod write;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+#[cfg(test)]
+use resolve::resolve_alone;
 pub use resolve::{
     read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay,
     DEVICE_HANDLE, MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,

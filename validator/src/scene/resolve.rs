@@ -16,17 +16,14 @@ use crate::checks::Validator;
 use crate::device::{Device, Limits, Profile};
 use crate::inspect::simulate::{HitInput, HitQuery};
 use crate::model::accel::{
-    AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
-    BuildGeometryInfo, BuildRangeInfo, CopyAccelerationStructureInfo,
-    CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo, Geometry,
+    AabbsData, AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo, Geometry,
     GeometryData, GeometryMicromapData, InstancesData, TrianglesData,
     TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
 };
 use crate::model::command::{queue, CommandBuffer};
 use crate::model::micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
 use crate::model::micromap_objects::{
-    AllocationCallbacks, CopyMemoryToMicromapInfo, CopyMicromapInfo, CopyMicromapToMemoryInfo,
-    MicromapBuildSizesInfo, MicromapCreateInfo, MicromapList, MicromapVersionInfo,
+    AllocationCallbacks, MicromapBuildSizesInfo, MicromapList, MicromapVersionInfo,
 };
 use crate::model::Handle;
 use crate::report::{ObjectRef, Report};
@@ -50,6 +47,7 @@ type Result<T> = std::result::Result<T, Problem>;
 
 mod driver;
 mod execution;
+mod generated;
 mod pipeline;
 
 fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> {
@@ -227,7 +225,7 @@ impl PieceBytes {
     }
 }
 
-struct Resolver<'a> {
+pub(in crate::scene) struct Resolver<'a> {
     base_dir: &'a Path,
     objects: BTreeMap<String, Object>,
     /// Declaration order, for the report's legend.
@@ -241,6 +239,35 @@ struct Resolver<'a> {
     bound: BTreeMap<Handle, pipeline::Bound>,
     contents_total: u64,
     validator: Validator,
+}
+
+impl<'a> Resolver<'a> {
+    fn new(base_dir: &'a Path, validator: Validator) -> Self {
+        Resolver {
+            base_dir,
+            objects: BTreeMap::new(),
+            order: Vec::new(),
+            next_handle: BTreeMap::new(),
+            buffer_addresses: BTreeMap::new(),
+            host_addresses: BTreeMap::new(),
+            command_buffers: BTreeMap::new(),
+            bound: BTreeMap::new(),
+            contents_total: 0,
+            validator,
+        }
+    }
+}
+
+/// Runs `resolve` with the resolver of a scene that declares nothing, so
+/// that handles and addresses resolve only as numbers (the writer's
+/// round-trip tests).
+#[cfg(test)]
+pub(in crate::scene) fn resolve_alone<T>(
+    resolve: impl FnOnce(&Resolver<'_>) -> Result<T>,
+) -> std::result::Result<T, String> {
+    let validator = Validator::new(crate::Device::with_everything(crate::Profile::SpecMinimum));
+    resolve(&Resolver::new(Path::new("."), validator))
+        .map_err(|p| format!("{}: {}", p.path, p.message))
 }
 
 /// A ray of the scene resolved to a simulator query.
@@ -267,18 +294,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
     let device = device(scene.device.as_ref(), base_dir, options.limits.as_ref())?;
     let mut validator = Validator::new(device);
     validator.set_tier(options.tier);
-    let mut resolver = Resolver {
-        base_dir,
-        objects: BTreeMap::new(),
-        order: Vec::new(),
-        next_handle: BTreeMap::new(),
-        buffer_addresses: BTreeMap::new(),
-        host_addresses: BTreeMap::new(),
-        command_buffers: BTreeMap::new(),
-        bound: BTreeMap::new(),
-        contents_total: 0,
-        validator,
-    };
+    let mut resolver = Resolver::new(base_dir, validator);
     resolver.declare(scene)?;
     resolver.state_driver_answers(&scene.driver_answers)?;
     let mut report = Report::new();
@@ -1608,46 +1624,6 @@ impl Resolver<'_> {
             .collect()
     }
 
-    /// A `VkCopyAccelerationStructureToMemoryInfoKHR` at `at`.
-    fn copy_as_to_memory_info(
-        &self,
-        d: &super::format::CopyAccelerationStructureToMemoryInfoDesc,
-        at: &str,
-    ) -> Result<CopyAccelerationStructureToMemoryInfo> {
-        let defaults = CopyAccelerationStructureToMemoryInfo::default();
-        Ok(CopyAccelerationStructureToMemoryInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            src: self.handle(
-                &d.src,
-                ObjectKind::AccelerationStructure,
-                &format!("{at}.src"),
-            )?,
-            dst: self.address(&d.dst, &format!("{at}.dst"))?,
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-        })
-    }
-
-    /// A `VkCopyMemoryToAccelerationStructureInfoKHR` at `at`.
-    fn copy_memory_to_as_info(
-        &self,
-        d: &super::format::CopyMemoryToAccelerationStructureInfoDesc,
-        at: &str,
-    ) -> Result<CopyMemoryToAccelerationStructureInfo> {
-        let defaults = CopyMemoryToAccelerationStructureInfo::default();
-        Ok(CopyMemoryToAccelerationStructureInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            src: self.address(&d.src, &format!("{at}.src"))?,
-            dst: self.handle(
-                &d.dst,
-                ObjectKind::AccelerationStructure,
-                &format!("{at}.dst"),
-            )?,
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-        })
-    }
-
     fn micromap_list(
         &self,
         count: Option<u32>,
@@ -1675,63 +1651,6 @@ impl Resolver<'_> {
         })
     }
 
-    fn copy_micromap_info(&self, d: &CopyMicromapInfoDesc, at: &str) -> Result<CopyMicromapInfo> {
-        let defaults = CopyMicromapInfo::default();
-        Ok(CopyMicromapInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            src: self.handle(&d.src, ObjectKind::Micromap, &format!("{at}.src"))?,
-            dst: self.handle(&d.dst, ObjectKind::Micromap, &format!("{at}.dst"))?,
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-        })
-    }
-
-    fn copy_micromap_to_memory_info(
-        &self,
-        d: &CopyMicromapToMemoryInfoDesc,
-        at: &str,
-    ) -> Result<CopyMicromapToMemoryInfo> {
-        let defaults = CopyMicromapToMemoryInfo::default();
-        Ok(CopyMicromapToMemoryInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            src: self.handle(&d.src, ObjectKind::Micromap, &format!("{at}.src"))?,
-            dst: self.address(&d.dst, &format!("{at}.dst"))?,
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-        })
-    }
-
-    fn copy_memory_to_micromap_info(
-        &self,
-        d: &CopyMemoryToMicromapInfoDesc,
-        at: &str,
-    ) -> Result<CopyMemoryToMicromapInfo> {
-        let defaults = CopyMemoryToMicromapInfo::default();
-        Ok(CopyMemoryToMicromapInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            src: self.address(&d.src, &format!("{at}.src"))?,
-            dst: self.handle(&d.dst, ObjectKind::Micromap, &format!("{at}.dst"))?,
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-        })
-    }
-
-    fn copy_as_info(
-        &self,
-        d: &CopyAccelerationStructureInfoDesc,
-        at: &str,
-    ) -> Result<CopyAccelerationStructureInfo> {
-        let defaults = CopyAccelerationStructureInfo::default();
-        let kind = ObjectKind::AccelerationStructure;
-        Ok(CopyAccelerationStructureInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            src: self.handle(&d.src, kind, &format!("{at}.src"))?,
-            dst: self.handle(&d.dst, kind, &format!("{at}.dst"))?,
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-        })
-    }
-
     fn option<T, D>(
         &self,
         value: &Option<D>,
@@ -1748,28 +1667,11 @@ impl Resolver<'_> {
         Ok(match call {
             Call::CreateMicromap(c) => {
                 let device = self.device_handle(&c.device, &device_at)?;
-                let info = match &c.p_create_info {
-                    Some(d) => {
-                        let at = format!("{at}.pCreateInfo");
-                        let defaults = MicromapCreateInfo::default();
-                        Some(MicromapCreateInfo {
-                            s_type: s_type(d.s_type, defaults.s_type),
-                            next: chain(&d.p_next),
-                            create_flags: d.create_flags.as_u32(),
-                            buffer: self.handle(
-                                &d.buffer,
-                                ObjectKind::Buffer,
-                                &format!("{at}.buffer"),
-                            )?,
-                            offset: d.offset,
-                            size: d.size,
-                            ty: d.ty.map_or(defaults.ty, Value::as_i32),
-                            device_address: self
-                                .address(&d.device_address, &format!("{at}.deviceAddress"))?,
-                        })
-                    }
-                    None => None,
-                };
+                let info = self.option(
+                    &c.p_create_info,
+                    &format!("{at}.pCreateInfo"),
+                    Self::micromap_create_info,
+                )?;
                 let handle = match &c.p_micromap {
                     Some(name) => {
                         Some(self.bind(name, ObjectKind::Micromap, &format!("{at}.pMicromap"))?)
@@ -1919,22 +1821,7 @@ impl Resolver<'_> {
                 self.device_handle(&c.device, &device_at)?;
                 let d = &c.p_create_info;
                 let info_at = format!("{at}.pCreateInfo");
-                let defaults = AccelerationStructureCreateInfo::default();
-                let info = AccelerationStructureCreateInfo {
-                    s_type: s_type(d.s_type, defaults.s_type),
-                    next: chain(&d.p_next),
-                    create_flags: d.create_flags.as_u32(),
-                    buffer: self.handle(
-                        &d.buffer,
-                        ObjectKind::Buffer,
-                        &format!("{info_at}.buffer"),
-                    )?,
-                    offset: d.offset,
-                    size: d.size,
-                    ty: d.ty.as_i32(),
-                    device_address: self
-                        .address(&d.device_address, &format!("{info_at}.deviceAddress"))?,
-                };
+                let info = self.acceleration_structure_create_info(d, &info_at)?;
                 let handle = match &c.p_acceleration_structure {
                     Some(name) => self.bind(
                         name,
@@ -2017,38 +1904,38 @@ impl Resolver<'_> {
             }
             Call::CmdCopyAccelerationStructure(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let info = self.copy_as_info(&c.p_info, &p_info)?;
+                let info = self.copy_acceleration_structure_info(&c.p_info, &p_info)?;
                 self.validator
                     .cmd_copy_acceleration_structure(&command_buffer, &info)
             }
             Call::CopyAccelerationStructure(c) => {
                 self.device_handle(&c.device, &device_at)?;
                 self.deferred_operation(&c.deferred_operation, at)?;
-                let info = self.copy_as_info(&c.p_info, &p_info)?;
+                let info = self.copy_acceleration_structure_info(&c.p_info, &p_info)?;
                 self.validator.copy_acceleration_structure(&info)
             }
             Call::CmdCopyAccelerationStructureToMemory(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let info = self.copy_as_to_memory_info(&c.p_info, &p_info)?;
+                let info = self.copy_acceleration_structure_to_memory_info(&c.p_info, &p_info)?;
                 self.validator
                     .cmd_copy_acceleration_structure_to_memory(&command_buffer, &info)
             }
             Call::CmdCopyMemoryToAccelerationStructure(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let info = self.copy_memory_to_as_info(&c.p_info, &p_info)?;
+                let info = self.copy_memory_to_acceleration_structure_info(&c.p_info, &p_info)?;
                 self.validator
                     .cmd_copy_memory_to_acceleration_structure(&command_buffer, &info)
             }
             Call::CopyAccelerationStructureToMemory(c) => {
                 self.device_handle(&c.device, &device_at)?;
                 self.deferred_operation(&c.deferred_operation, at)?;
-                let info = self.copy_as_to_memory_info(&c.p_info, &p_info)?;
+                let info = self.copy_acceleration_structure_to_memory_info(&c.p_info, &p_info)?;
                 self.validator.copy_acceleration_structure_to_memory(&info)
             }
             Call::CopyMemoryToAccelerationStructure(c) => {
                 self.device_handle(&c.device, &device_at)?;
                 self.deferred_operation(&c.deferred_operation, at)?;
-                let info = self.copy_memory_to_as_info(&c.p_info, &p_info)?;
+                let info = self.copy_memory_to_acceleration_structure_info(&c.p_info, &p_info)?;
                 self.validator.copy_memory_to_acceleration_structure(&info)
             }
             Call::WriteAccelerationStructuresProperties(c) => {

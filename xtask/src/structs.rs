@@ -1,0 +1,680 @@
+//! The structures whose every form is generated from one description: the
+//! model type (`validator/src/model/generated.rs`), the reader from ash
+//! structures (`validator/src/raw/generated.rs`), the scene form
+//! (`validator/src/scene/format/generated.rs`), the scene → model resolver
+//! (`validator/src/scene/resolve/generated.rs`) and the model → scene
+//! writer (`validator/src/scene/write/generated.rs`).
+//!
+//! vk.xml gives each structure's members and their types; [`STRUCTS`] adds
+//! what it does not say: the Rust name, the defaults a scene may leave out,
+//! and the members a scene must state. A member's type decides its form in
+//! every file ([`Form`]); a structure with a member of another type is not
+//! one of these and stays hand-written.
+
+use std::fmt::Write as _;
+
+use crate::names::KINDS;
+use crate::registry::{Member, VkXml};
+use crate::Error;
+
+/// One structure described for the generator.
+pub struct StructSpec {
+    /// The vk.xml name.
+    pub vk: &'static str,
+    /// The model's name; the scene form is this + `Desc`, the resolver and
+    /// reader functions its snake case.
+    pub rust: &'static str,
+    /// Said after the structure's name in the docs; may be empty.
+    pub doc: &'static str,
+    /// Enum members and the value (vk.xml name) they have when left out
+    /// (by a scene or by `..Default::default()`); others are 0.
+    pub defaults: &'static [(&'static str, &'static str)],
+    /// Members a scene must state.
+    pub required: &'static [&'static str],
+}
+
+/// A copy info: `mode`'s default is the one copy its command makes.
+macro_rules! copy {
+    ($vk:literal, $rust:literal, $doc:literal, $mode:literal $(,)?) => {
+        StructSpec {
+            vk: $vk,
+            rust: $rust,
+            doc: $doc,
+            defaults: &[("mode", $mode)],
+            required: &[],
+        }
+    };
+}
+
+/// The generated structures.
+pub const STRUCTS: &[StructSpec] = &[
+    StructSpec {
+        vk: "VkMicromapCreateInfoEXT",
+        rust: "MicromapCreateInfo",
+        doc: "",
+        defaults: &[("type", "VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT")],
+        required: &[],
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureCreateInfoKHR",
+        rust: "AccelerationStructureCreateInfo",
+        doc: "",
+        defaults: &[("type", "VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR")],
+        required: &["type"],
+    },
+    copy!(
+        "VkCopyMicromapInfoEXT",
+        "CopyMicromapInfo",
+        "",
+        "VK_COPY_MICROMAP_MODE_CLONE_EXT",
+    ),
+    copy!(
+        "VkCopyMicromapToMemoryInfoEXT",
+        "CopyMicromapToMemoryInfo",
+        "`dst` is a device or host address, depending on the command.",
+        "VK_COPY_MICROMAP_MODE_SERIALIZE_EXT",
+    ),
+    copy!(
+        "VkCopyMemoryToMicromapInfoEXT",
+        "CopyMemoryToMicromapInfo",
+        "`src` is a device or host address, depending on the command.",
+        "VK_COPY_MICROMAP_MODE_DESERIALIZE_EXT",
+    ),
+    copy!(
+        "VkCopyAccelerationStructureInfoKHR",
+        "CopyAccelerationStructureInfo",
+        "",
+        "VK_COPY_ACCELERATION_STRUCTURE_MODE_CLONE_KHR",
+    ),
+    copy!(
+        "VkCopyAccelerationStructureToMemoryInfoKHR",
+        "CopyAccelerationStructureToMemoryInfo",
+        "`dst` is a device or host address, depending on the command.",
+        "VK_COPY_ACCELERATION_STRUCTURE_MODE_SERIALIZE_KHR",
+    ),
+    copy!(
+        "VkCopyMemoryToAccelerationStructureInfoKHR",
+        "CopyMemoryToAccelerationStructureInfo",
+        "`src` is a device or host address, depending on the command.",
+        "VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR",
+    ),
+];
+
+/// The objects scene names can denote, by the handle type vk.xml gives:
+/// the resolver's `ObjectKind` variant.
+const HANDLE_KINDS: &[(&str, &str)] = &[
+    ("VkBuffer", "Buffer"),
+    ("VkMicromapEXT", "Micromap"),
+    ("VkAccelerationStructureKHR", "AccelerationStructure"),
+    ("VkQueryPool", "QueryPool"),
+    ("VkDeferredOperationKHR", "DeferredOperation"),
+];
+
+/// What a member is, which decides its form in every generated file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Form {
+    /// `sType`, with the structure's own value.
+    SType(i128),
+    /// `pNext`: the model keeps the chain's sTypes.
+    Next,
+    /// A handle naming an object of this `ObjectKind`.
+    Handle(&'static str),
+    /// A device or host address (`VkDeviceOrHostAddress[Const]KHR`: `const_`
+    /// tells which) or a `VkDeviceAddress` (`union: false`).
+    Address { union: bool, const_: bool },
+    /// A 32-bit enum of this `names` kind; `required`: a scene must state
+    /// it (the model's default still applies to code that builds one).
+    Enum {
+        kind: &'static str,
+        default: EnumDefault,
+        required: bool,
+    },
+    /// A bitmask of this `names` kind; `wide`: 64-bit.
+    Flags { kind: &'static str, wide: bool },
+    /// A plain number; `wide`: 64-bit.
+    Number { wide: bool },
+}
+
+/// The value an enum member has when it is left out.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EnumDefault {
+    /// 0, like any member left out.
+    Zero,
+    /// This value (its vk.xml name and number).
+    Value(String, i128),
+}
+
+/// One member of a generated structure.
+pub struct Field {
+    /// The vk.xml name (`deviceAddress`), which the scene uses too.
+    pub name: String,
+    /// The Rust name (`device_address`; `type` is `ty`).
+    pub rust: String,
+    pub form: Form,
+}
+
+/// The `names` kind whose type is `type_name`, following type aliases.
+fn kind_of(vk: &VkXml, type_name: &str) -> Option<&'static str> {
+    let same = |a: &str, b: &str| {
+        a == b
+            || vk.types.get(a).and_then(|t| t.alias.as_deref()) == Some(b)
+            || vk.types.get(b).and_then(|t| t.alias.as_deref()) == Some(a)
+    };
+    KINDS
+        .iter()
+        .find(|k| same(k.type_name, type_name))
+        .map(|k| k.rust)
+}
+
+/// The value of the enum value `name` in any type.
+fn value_of(vk: &VkXml, name: &str) -> Option<i128> {
+    let name = vk
+        .enum_aliases
+        .get(name)
+        .map(String::as_str)
+        .unwrap_or(name);
+    vk.enum_types
+        .values()
+        .flat_map(|t| &t.values)
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+}
+
+fn form(vk: &VkXml, spec: &StructSpec, member: &Member) -> Result<Form, Error> {
+    let unsupported = || {
+        Error::Registry(format!(
+            "{}.{} ({}): no generated form for this member type; write the structure by hand",
+            spec.vk, member.name, member.type_name
+        ))
+    };
+    if member.name == "sType" {
+        let value = member
+            .values
+            .as_deref()
+            .and_then(|v| value_of(vk, v))
+            .ok_or_else(unsupported)?;
+        return Ok(Form::SType(value));
+    }
+    if member.name == "pNext" {
+        return Ok(Form::Next);
+    }
+    if !member.pointers.is_empty() || member.len.is_some() {
+        return Err(unsupported());
+    }
+    let ty = member.type_name.as_str();
+    if let Some((_, kind)) = HANDLE_KINDS.iter().find(|(t, _)| *t == ty) {
+        return Ok(Form::Handle(kind));
+    }
+    match ty {
+        "VkDeviceOrHostAddressKHR" => {
+            return Ok(Form::Address {
+                union: true,
+                const_: false,
+            })
+        }
+        "VkDeviceOrHostAddressConstKHR" => {
+            return Ok(Form::Address {
+                union: true,
+                const_: true,
+            })
+        }
+        "VkDeviceAddress" => {
+            return Ok(Form::Address {
+                union: false,
+                const_: true,
+            })
+        }
+        "uint32_t" => return Ok(Form::Number { wide: false }),
+        "uint64_t" | "VkDeviceSize" => return Ok(Form::Number { wide: true }),
+        _ => {}
+    }
+    match vk.category(ty) {
+        Some("enum") => {
+            let kind = kind_of(vk, ty).ok_or_else(unsupported)?;
+            let default = match spec.defaults.iter().find(|(m, _)| *m == member.name) {
+                Some((_, value)) => EnumDefault::Value(
+                    value.to_string(),
+                    value_of(vk, value).ok_or_else(|| {
+                        Error::Registry(format!("{}: no enum value {value}", spec.vk))
+                    })?,
+                ),
+                None => EnumDefault::Zero,
+            };
+            let required = spec.required.contains(&member.name.as_str());
+            Ok(Form::Enum {
+                kind,
+                default,
+                required,
+            })
+        }
+        Some("bitmask") => {
+            let kind = kind_of(vk, ty).ok_or_else(unsupported)?;
+            let wide = KINDS
+                .iter()
+                .find(|k| k.rust == kind)
+                .is_some_and(|k| crate::names::is_wide(vk, k));
+            Ok(Form::Flags { kind, wide })
+        }
+        _ => Err(unsupported()),
+    }
+}
+
+/// The members of `spec`'s structure with their forms.
+pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
+    let aggregate = vk
+        .aggregate(spec.vk)
+        .ok_or_else(|| Error::Registry(format!("no structure {}", spec.vk)))?;
+    aggregate
+        .members
+        .iter()
+        .map(|member| {
+            Ok(Field {
+                rust: match member.name.as_str() {
+                    "sType" => "s_type".to_string(),
+                    "pNext" => "next".to_string(),
+                    name => crate::khr::snake_case(name),
+                },
+                form: form(vk, spec, member)?,
+                name: member.name.clone(),
+            })
+        })
+        .collect()
+}
+
+fn header(out: &mut String, doc: &str) {
+    out.push_str(
+        "// @generated by `cargo xtask generate` from vk.xml and xtask/src/structs.rs; do not edit.\n",
+    );
+    for line in doc.lines() {
+        let _ = writeln!(out, "//! {line}");
+    }
+    out.push('\n');
+}
+
+fn doc(spec: &StructSpec) -> String {
+    if spec.doc.is_empty() {
+        format!("`{}`.", spec.vk)
+    } else {
+        format!("`{}`; {}", spec.vk, spec.doc)
+    }
+}
+
+fn function(spec: &StructSpec) -> String {
+    crate::khr::snake_case(spec.rust)
+}
+
+fn rename(field: &Field) -> &'static str {
+    if field.rust == "ty" {
+        "    #[serde(rename = \"type\")]\n"
+    } else {
+        ""
+    }
+}
+
+/// The expression reading `field` of the ash structure `info` into the
+/// model (its pNext chain aside). A union of addresses goes through the
+/// raw reader's `address`/`scratch_address`, which only `raw` may call.
+fn ash_member(field: &Field) -> String {
+    let member = format!("info.{}", field.rust);
+    match &field.form {
+        Form::SType(_) | Form::Enum { .. } | Form::Flags { .. } => format!("{member}.as_raw()"),
+        Form::Handle(_) => format!("vk::Handle::as_raw({member})"),
+        Form::Address {
+            union: true,
+            const_: true,
+        } => format!("address(&{member})"),
+        Form::Address {
+            union: true,
+            const_: false,
+        } => format!("scratch_address(&{member})"),
+        Form::Address { union: false, .. } | Form::Number { .. } | Form::Next => member,
+    }
+}
+
+/// `validator/src/model/generated.rs`.
+pub fn render_model(vk: &VkXml) -> Result<String, Error> {
+    let mut out = String::new();
+    header(
+        &mut out,
+        "Model types of the structures `xtask/src/structs.rs` describes: every\n\
+         member as the application wrote it, pNext as its chain's sTypes.",
+    );
+    out.push_str("use ash::vk;\nuse serde::{Deserialize, Serialize};\n\nuse super::Handle;\n\n");
+    for spec in STRUCTS {
+        let fields = fields(vk, spec)?;
+        let _ = writeln!(
+            out,
+            "/// {}\n#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]\n\
+             #[serde(default, rename_all = \"camelCase\")]\npub struct {} {{",
+            doc(spec),
+            spec.rust
+        );
+        let mut defaults = String::new();
+        for field in &fields {
+            let (ty, default) = match &field.form {
+                Form::SType(value) => ("i32", value.to_string()),
+                Form::Next => ("Vec<i32>", "Vec::new()".to_string()),
+                Form::Handle(_) => ("Handle", "0".to_string()),
+                Form::Address { .. }
+                | Form::Number { wide: true }
+                | Form::Flags { wide: true, .. } => ("u64", "0".to_string()),
+                Form::Number { wide: false } | Form::Flags { wide: false, .. } => {
+                    ("u32", "0".to_string())
+                }
+                Form::Enum {
+                    default: EnumDefault::Value(name, value),
+                    ..
+                } => ("i32", format!("{value}, // {name}")),
+                Form::Enum { .. } => ("i32", "0".to_string()),
+            };
+            if let Form::Next = field.form {
+                out.push_str("    /// sTypes of the structures in the pNext chain, in order.\n");
+            }
+            let _ = writeln!(out, "{}    pub {}: {ty},", rename(field), field.rust);
+            let comma = if default.contains(',') { "" } else { "," };
+            let _ = writeln!(defaults, "            {}: {default}{comma}", field.rust);
+        }
+        let _ = writeln!(
+            out,
+            "}}\n\nimpl Default for {} {{\n    fn default() -> Self {{\n        Self {{\n{defaults}        }}\n    }}\n}}\n",
+            spec.rust
+        );
+        // Safe code can read every member but a union (which needs to know
+        // which member is live) and the pNext chain (a pointer).
+        let unions = fields
+            .iter()
+            .any(|f| matches!(f.form, Form::Address { union: true, .. }));
+        if !unions {
+            let ash = spec.vk.strip_prefix("Vk").unwrap_or(spec.vk);
+            let _ = writeln!(
+                out,
+                "impl {} {{\n    /// The members of `info`, with no pNext chain (its pointer is not read).\n    \
+                 pub fn from_members(info: &vk::{ash}<'_>) -> Self {{\n        Self {{",
+                spec.rust
+            );
+            for field in &fields {
+                let value = match &field.form {
+                    Form::Next => "Vec::new()".to_string(),
+                    _ => ash_member(field),
+                };
+                let _ = writeln!(out, "            {}: {value},", field.rust);
+            }
+            out.push_str("        }\n    }\n}\n\n");
+        }
+    }
+    Ok(out)
+}
+
+/// `validator/src/scene/format/generated.rs`.
+pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
+    let mut out = String::new();
+    header(
+        &mut out,
+        "Scene forms of the structures `xtask/src/structs.rs` describes: members\n\
+         by their spec names, handles by object name, addresses by buffer and\n\
+         offset, enums and flags by name.",
+    );
+    out.push_str(
+        "use schemars::JsonSchema;\nuse serde::{Deserialize, Serialize};\n\n\
+         use super::ChainStruct;\nuse crate::model::names::{self, Value};\n\
+         use crate::scene::args::{AddressArg, HandleArg};\n\n",
+    );
+    for spec in STRUCTS {
+        let _ = writeln!(
+            out,
+            "/// {}\n#[derive(Debug, Deserialize, Serialize, JsonSchema)]\n\
+             #[serde(deny_unknown_fields, rename_all = \"camelCase\")]\npub struct {}Desc {{",
+            doc(spec),
+            spec.rust
+        );
+        for field in fields(vk, spec)? {
+            let name = crate::khr::snake_case(&field.name);
+            let (attributes, ty) = match &field.form {
+                Form::SType(_) => (
+                    "    #[serde(skip_serializing_if = \"Option::is_none\")]\n".to_string(),
+                    "Option<Value<names::StructureType>>".to_string(),
+                ),
+                Form::Next => (
+                    "    #[serde(default, skip_serializing_if = \"Vec::is_empty\")]\n".to_string(),
+                    "Vec<ChainStruct>".to_string(),
+                ),
+                Form::Handle(_) => (
+                    "    #[serde(default, skip_serializing_if = \"HandleArg::is_omitted\")]\n"
+                        .to_string(),
+                    "HandleArg".to_string(),
+                ),
+                Form::Address { .. } => (
+                    "    #[serde(default)]\n".to_string(),
+                    "AddressArg".to_string(),
+                ),
+                Form::Number { wide } => (
+                    "    #[serde(default)]\n".to_string(),
+                    if *wide { "u64" } else { "u32" }.to_string(),
+                ),
+                Form::Flags { kind, .. } => (
+                    "    #[serde(default)]\n".to_string(),
+                    format!("Value<names::{kind}>"),
+                ),
+                Form::Enum {
+                    kind,
+                    required: true,
+                    ..
+                } => (String::new(), format!("Value<names::{kind}>")),
+                Form::Enum {
+                    kind,
+                    default: EnumDefault::Value(default, _),
+                    ..
+                } => (
+                    format!(
+                        "    /// Default {default}.\n    #[serde(skip_serializing_if = \"Option::is_none\")]\n"
+                    ),
+                    format!("Option<Value<names::{kind}>>"),
+                ),
+                Form::Enum { kind, .. } => (
+                    "    #[serde(default)]\n".to_string(),
+                    format!("Value<names::{kind}>"),
+                ),
+            };
+            let _ = writeln!(out, "{attributes}{}    pub {name}: {ty},", rename(&field));
+        }
+        out.push_str("}\n\n");
+    }
+    Ok(out)
+}
+
+/// `validator/src/scene/resolve/generated.rs`.
+pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
+    let mut out = String::new();
+    header(
+        &mut out,
+        "The scene → model resolvers of the structures `xtask/src/structs.rs`\n\
+         describes: names become handles and addresses, absent members their\n\
+         defaults.",
+    );
+    out.push_str(
+        "use super::{chain, s_type, ObjectKind, Resolver, Result};\n\
+         use crate::model::generated as model;\nuse crate::model::names::Value;\n\
+         use crate::scene::format::generated as scene;\n\n\
+         impl Resolver<'_> {\n",
+    );
+    for spec in STRUCTS {
+        let fields = fields(vk, spec)?;
+        let _ = writeln!(
+            out,
+            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}(&self, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
+             let defaults = model::{}::default();\n        Ok(model::{} {{",
+            doc(spec).trim_end_matches('.'),
+            function(spec),
+            spec.rust,
+            spec.rust,
+            spec.rust,
+            spec.rust
+        );
+        for field in &fields {
+            let d = format!("d.{}", crate::khr::snake_case(&field.name));
+            let at = format!("&format!(\"{{at}}.{}\")", field.name);
+            let value = match &field.form {
+                Form::SType(_) => format!("s_type({d}, defaults.s_type)"),
+                Form::Next => format!("chain(&{d})"),
+                Form::Handle(kind) => format!("self.handle(&{d}, ObjectKind::{kind}, {at})?"),
+                Form::Address { .. } => format!("self.address(&{d}, {at})?"),
+                Form::Number { .. } => d,
+                Form::Flags { wide: true, .. } => format!("{d}.as_u64()"),
+                Form::Flags { wide: false, .. } => format!("{d}.as_u32()"),
+                Form::Enum {
+                    default: EnumDefault::Value(..),
+                    required: false,
+                    ..
+                } => format!("{d}.map_or(defaults.{}, Value::as_i32)", field.rust),
+                Form::Enum { .. } => format!("{d}.as_i32()"),
+            };
+            let _ = writeln!(out, "            {}: {value},", field.rust);
+        }
+        out.push_str("        })\n    }\n\n");
+    }
+    out.push_str("}\n");
+    Ok(out)
+}
+
+/// `validator/src/raw/generated.rs`.
+pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
+    let mut out = String::new();
+    header(
+        &mut out,
+        "Readers of the structures `xtask/src/structs.rs` describes, from the\n\
+         ash structures an application hands in: members as written, the\n\
+         pNext chain walked as `chain_s_types` walks it, addresses as numbers.",
+    );
+    out.push_str(
+        "use ash::vk;\n\nuse super::accel::{address, scratch_address};\nuse super::chain_s_types;\n\
+         use crate::model::generated as model;\nuse crate::report::Finding;\n\n",
+    );
+    for spec in STRUCTS {
+        let fields = fields(vk, spec)?;
+        let ash = spec.vk.strip_prefix("Vk").unwrap_or(spec.vk);
+        let _ = writeln!(
+            out,
+            "/// Reads a {} (at `at`, as findings name it).\n///\n/// # Safety\n\
+             /// `info`'s pNext chain must be well formed.\n\
+             pub(crate) unsafe fn {}(info: &vk::{ash}<'_>, function: &'static str, at: &'static str, findings: &mut Vec<Finding>) -> model::{} {{\n    \
+             model::{} {{",
+            doc(spec).trim_end_matches('.'),
+            function(spec),
+            spec.rust,
+            spec.rust,
+        );
+        for field in &fields {
+            let value = match &field.form {
+                Form::Next => {
+                    "unsafe { chain_s_types(info.p_next, function, at, findings) }".to_string()
+                }
+                _ => ash_member(field),
+            };
+            if let Form::Next = field.form {
+                out.push_str("        // SAFETY: forwarded from the caller.\n");
+            }
+            let _ = writeln!(out, "        {}: {value},", field.rust);
+        }
+        out.push_str("    }\n}\n\n");
+    }
+    Ok(out)
+}
+
+/// `validator/src/scene/write/generated.rs`.
+pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
+    let mut out = String::new();
+    header(
+        &mut out,
+        "The model → scene writers of the structures `xtask/src/structs.rs`\n\
+         describes: what the resolver reads back to the same model. Members\n\
+         at their defaults are left out where the scene form allows it.",
+    );
+    out.push_str(
+        "use super::{chain_entry, Names};\nuse crate::model::generated as model;\n\
+         use crate::model::names::Value;\nuse crate::scene::format::generated as scene;\n\
+         use crate::scene::ObjectKind;\n\n",
+    );
+    for spec in STRUCTS {
+        let fields = fields(vk, spec)?;
+        let _ = writeln!(
+            out,
+            "impl scene::{}Desc {{\n    /// The scene form of a {}, naming objects and addresses by `names`.\n    \
+             pub fn written(model: &model::{}, names: &dyn Names) -> Self {{\n        \
+             let defaults = model::{}::default();\n        Self {{",
+            spec.rust,
+            doc(spec).trim_end_matches('.'),
+            spec.rust,
+            spec.rust
+        );
+        for field in &fields {
+            let m = format!("model.{}", field.rust);
+            let value = match &field.form {
+                Form::SType(_) => {
+                    format!("({m} != defaults.s_type).then(|| Value::new(i64::from({m})))")
+                }
+                Form::Next => format!("{m}.iter().copied().map(chain_entry).collect()"),
+                Form::Handle(kind) => format!("names.handle(ObjectKind::{kind}, {m})"),
+                Form::Address { .. } => format!("names.address({m})"),
+                Form::Number { .. } => m,
+                Form::Flags { wide: true, .. } => {
+                    format!("Value::new(i64::try_from({m}).unwrap_or(i64::MAX))")
+                }
+                Form::Flags { wide: false, .. } => format!("Value::new(i64::from({m}))"),
+                Form::Enum {
+                    default: EnumDefault::Value(..),
+                    required: false,
+                    ..
+                } => format!(
+                    "({m} != defaults.{}).then(|| Value::new(i64::from({m})))",
+                    field.rust
+                ),
+                Form::Enum { .. } => format!("Value::new(i64::from({m}))"),
+            };
+            let _ = writeln!(
+                out,
+                "            {}: {value},",
+                crate::khr::snake_case(&field.name)
+            );
+        }
+        out.push_str("        }\n    }\n}\n\n");
+    }
+    // Every generated structure reads back to the model it was written from.
+    out.push_str(
+        "#[cfg(test)]\nmod tests {\n    use super::super::{Names, Numbers};\n    \
+         use crate::model::generated as model;\n    use crate::scene::format::generated as scene;\n\n",
+    );
+    for spec in STRUCTS {
+        let fields = fields(vk, spec)?;
+        let _ = writeln!(
+            out,
+            "    #[test]\n    fn {}_reads_back_as_written() {{\n        let model = model::{} {{",
+            function(spec),
+            spec.rust
+        );
+        for (i, field) in fields.iter().enumerate() {
+            let i = i as u64 + 1;
+            let value = match &field.form {
+                Form::SType(_) => continue,
+                // An sType of no structure the scene form reads.
+                Form::Next => "vec![1_000_001_000]".to_string(),
+                Form::Handle(_) => format!("0x1000 + {i}"),
+                Form::Address { .. } => format!("0x2000_0000 + {i}"),
+                Form::Number { .. } | Form::Flags { .. } | Form::Enum { .. } => i.to_string(),
+            };
+            let _ = writeln!(out, "            {}: {value},", field.rust);
+        }
+        let _ = writeln!(
+            out,
+            "            ..Default::default()\n        }};\n        \
+             let names: &dyn Names = &Numbers;\n        \
+             let json = serde_json::to_string(&scene::{}Desc::written(&model, names)).unwrap();\n        \
+             let read: scene::{}Desc = serde_json::from_str(&json).unwrap();\n        \
+             assert_eq!(crate::scene::resolve_alone(|r| r.{}(&read, \"x\")), Ok(model), \"{{json}}\");\n    }}\n",
+            spec.rust,
+            spec.rust,
+            function(spec)
+        );
+    }
+    out.push_str("}\n");
+    Ok(out)
+}
