@@ -848,6 +848,7 @@ pub fn for_instance(api: &ApiSettings) -> Parsed {
     );
     problems.append(&mut parsed.problems);
     parsed.problems = problems;
+    // A file that could not be read was not read: its problem says so.
     parsed.file = path.filter(|_| !file.path.as_os_str().is_empty());
     parsed
 }
