@@ -192,7 +192,12 @@ unsafe extern "system" fn destroy_device(
         };
         // The layer's readback memory goes before the device does.
         commands::forget_device(device);
-        data.state().submissions = Default::default();
+        let totals = {
+            let mut state = data.state();
+            state.submissions = Default::default();
+            readback::not_checked_totals(device.as_raw(), state.memory_layout.not_checked_counts())
+        };
+        data.instance.reporter.deliver(&totals, false);
         data.readback_arena
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)

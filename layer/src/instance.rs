@@ -7,11 +7,12 @@ use std::ffi::CStr;
 use std::sync::Arc;
 
 use ash::vk;
+use ommcheck::Severity;
 
 use crate::dispatch::next_fns::{next_fn, InstanceFns};
 use crate::dispatch::{InstanceData, INSTANCES};
 use crate::intercept::{as_void, guarded};
-use crate::report::Reporter;
+use crate::report::{Message, Reporter, EFFECTIVE_SETTINGS};
 use crate::{abi, device, read, settings};
 
 /// This layer's function for an instance-level command name.
@@ -67,10 +68,22 @@ unsafe extern "system" fn create_instance(
             let callbacks = unsafe { read::chained_callbacks(info.p_next) };
             // SAFETY: as above.
             let api = unsafe { read::layer_settings(info.p_next, settings::LAYER_NAME_C) };
-            let (settings, mut problems) = settings::for_instance(&api);
-            let (reporter, log_problem) = Reporter::new(callbacks, settings);
+            let parsed = settings::for_instance(&api);
+            let effective = parsed.effective_text();
+            let mut problems = parsed.problems;
+            let (reporter, log_problem) = Reporter::new(callbacks, parsed.settings);
             problems.extend(log_problem);
             reporter.warn_about_settings(&problems, "vkCreateInstance");
+            // Information, so shown where the report level includes info:
+            // what a user checks first when the layer does not do what
+            // they meant.
+            let effective = Message::about_layer(
+                EFFECTIVE_SETTINGS,
+                Severity::Info,
+                "vkCreateInstance",
+                &effective,
+            );
+            reporter.deliver(&[effective], true);
             // SAFETY: the next layer's vkCreateInstance, with the application's arguments.
             let result = unsafe { create(create_info, allocator, instance_out) };
             if result != vk::Result::SUCCESS {

@@ -10,10 +10,11 @@
 //! modules earlier in this list (and none imports the crate root), so
 //! every shared type lies below all its users:
 //!
-//! - `setting_docs`, `settings`, `report`, `read`, `abi`, `shadow`:
-//!   settings (and their table, which xtask writes the manifest from),
-//!   message delivery, the small raw reads of the layer's own, the loader's
-//!   structures, and what recorded transfers wrote (route 1);
+//! - `ids`, `setting_docs`, `settings`, `report`, `read`, `abi`, `shadow`:
+//!   the ids of the layer's messages about itself, settings (and their
+//!   table, which xtask writes the manifest from), message delivery, the
+//!   small raw reads of the layer's own, the loader's structures, and what
+//!   recorded transfers wrote (route 1);
 //! - `dispatch`: per-instance and per-device data by dispatch key, and
 //!   every type a device's state holds: the next layer's function tables
 //!   (`next_fns`), where buffers lie and memory is mapped
@@ -53,6 +54,7 @@ mod completion;
 mod device;
 mod dispatch;
 mod driver_answers;
+pub mod ids;
 mod instance;
 mod intercept;
 mod pipe;

@@ -266,7 +266,7 @@ pub fn plan(
     }
 }
 
-/// The information that inputs of `build` (recorded in `command_buffer`)
+/// The warning that inputs of `build` (recorded in `command_buffer`)
 /// whose place is known only when the GPU runs it are not checked: once
 /// per device and cause ([`CONTENTS_NOT_CHECKED`]), said at recording.
 /// Neither route reads them: transfers and readback follow the windows
@@ -321,16 +321,17 @@ pub fn unplaced_messages(
             continue;
         }
         let text = format!(
-            "the inputs at {} of a build recorded in VkCommandBuffer {:#x} are not checked: {why}. This is reported once per device and reason.",
+            "the inputs at {} of a build recorded in VkCommandBuffer {:#x} are not checked: {why}. {}",
             locations.join(", "),
-            command_buffer.as_raw()
+            command_buffer.as_raw(),
+            once_per_cause(cause)
         );
         messages.push(not_checked(function, command_buffer.as_raw(), &text));
     }
     messages
 }
 
-/// The information that inputs an indirect build's range infos place
+/// The warning that inputs an indirect build's range infos place
 /// outside the bytes the layer read (`unread`, from
 /// [`ommcheck::Validator::check_device_build_contents_unread`]) are not
 /// checked: once per device ([`CONTENTS_NOT_CHECKED`], cause
@@ -346,19 +347,52 @@ pub fn unread_message(
         return None;
     }
     let text = format!(
-        "the inputs {} of an indirect build recorded in VkCommandBuffer {command_buffer:#x} are not checked at {when}: the build range infos lie, or place them, outside the bytes the layer read. The layer reads each input whose extent the range infos decide from its start towards the end of its buffer, at most gpu_readback_indirect_max_bytes ({GPU_READBACK_INDIRECT_MAX_BYTES}) bytes; raise it if the ranges reach further. This is reported once per device and reason.",
-        unread.join("; ")
+        "the inputs {} of an indirect build recorded in VkCommandBuffer {command_buffer:#x} are not checked at {when}: the build range infos lie, or place them, outside the bytes the layer read. The layer reads each input whose extent the range infos decide from its start towards the end of its buffer, at most gpu_readback_indirect_max_bytes ({GPU_READBACK_INDIRECT_MAX_BYTES}) bytes; raise it if the ranges reach further. {}",
+        unread.join("; "),
+        once_per_cause("indirect-unread")
     );
     Some(not_checked(build.function(), command_buffer, &text))
 }
 
-/// A [`CONTENTS_NOT_CHECKED`] information about a build of `command_buffer`.
-fn not_checked(function: &'static str, command_buffer: u64, text: &str) -> Message {
-    let mut message = Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Info, function, text);
+/// A [`CONTENTS_NOT_CHECKED`] warning about a build of `command_buffer`.
+/// A warning, not information, so that it shows at the default report
+/// level: a clean default report must mean checked.
+pub fn not_checked(function: &'static str, command_buffer: u64, text: &str) -> Message {
+    let mut message = Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Warning, function, text);
     message
         .objects
         .push((vk::ObjectType::COMMAND_BUFFER, command_buffer));
     message
+}
+
+/// The sentence that ends each [`CONTENTS_NOT_CHECKED`] warning: how
+/// often it is said and where the count of the builds it affected is.
+pub fn once_per_cause(cause: &str) -> String {
+    format!("This is reported once per device and cause (`{cause}`); where more builds follow, vkDestroyDevice reports how many in all.")
+}
+
+/// The [`CONTENTS_NOT_CHECKED`] warnings of `device`'s destruction: for
+/// each cause that kept more than one build from being checked, how many
+/// (`counts`, from `MemoryLayout::not_checked_counts`). A cause that
+/// affected one build says nothing more: its first warning said it all.
+pub fn not_checked_totals(device: u64, counts: &[(&'static str, u64)]) -> Vec<Message> {
+    counts
+        .iter()
+        .filter(|(_, count)| *count > 1)
+        .map(|(cause, count)| {
+            let text = format!(
+                "the contents of {count} device builds on VkDevice {device:#x} were not checked for the cause `{cause}`, whose first build was reported with the reason. A build counts each time the layer could not read it: at each submission, or at each recording for inputs only the GPU places."
+            );
+            let mut message = Message::about_layer(
+                CONTENTS_NOT_CHECKED,
+                Severity::Warning,
+                "vkDestroyDevice",
+                &text,
+            );
+            message.objects.push((vk::ObjectType::DEVICE, device));
+            message
+        })
+        .collect()
 }
 
 /// Records the barrier, the copies and the barrier of `readback` into
@@ -468,6 +502,45 @@ pub fn with_transfer_source<'a>(
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn causes_are_counted_and_totals_said_where_more_than_one_build_was_affected() {
+        let mut layout = crate::dispatch::memory_layout::MemoryLayout::default();
+        assert!(layout.first_report("not-planned"));
+        assert!(!layout.first_report("not-planned"));
+        assert!(layout.first_report("indirect-unread"));
+        assert!(!layout.first_report("not-planned"));
+        let counts = layout.not_checked_counts();
+        assert_eq!(counts, [("not-planned", 3), ("indirect-unread", 1)]);
+        let totals = not_checked_totals(0xd, counts);
+        assert_eq!(totals.len(), 1, "{totals:?}");
+        assert_eq!(totals[0].id, CONTENTS_NOT_CHECKED);
+        assert_eq!(totals[0].severity, Severity::Warning);
+        assert_eq!(totals[0].objects, [(vk::ObjectType::DEVICE, 0xd)]);
+        assert!(
+            totals[0].text.contains(
+                "vkDestroyDevice(): the contents of 3 device builds on VkDevice 0xd were not checked for the cause `not-planned`"
+            ),
+            "{}",
+            totals[0].text
+        );
+        assert!(not_checked_totals(0xd, &[("not-planned", 1)]).is_empty());
+    }
+
+    #[test]
+    fn a_build_not_checked_is_a_warning_that_says_where_the_count_is() {
+        let message = not_checked(
+            "vkCmdBuildMicromapsEXT",
+            0xc,
+            &once_per_cause("not-planned"),
+        );
+        assert_eq!(message.severity, Severity::Warning);
+        assert_eq!(message.objects, [(vk::ObjectType::COMMAND_BUFFER, 0xc)]);
+        assert!(message
+            .text
+            .starts_with("Validation Warning: [ OMMCHECK-layer-contents-not-checked ]"));
+        assert!(message.text.ends_with("This is reported once per device and cause (`not-planned`); where more builds follow, vkDestroyDevice reports how many in all."), "{}", message.text);
+    }
     use super::*;
 
     #[test]

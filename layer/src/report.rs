@@ -18,16 +18,7 @@ use ommcheck::{Finding, Severity};
 
 use crate::settings::Settings;
 
-/// The id of a message about the layer itself (a caught panic).
-pub const INTERNAL_ERROR: &str = "OMMCHECK-layer-internal-error";
-/// The id of a message about a setting the layer could not use.
-pub const SETTINGS_PROBLEM: &str = "OMMCHECK-layer-settings";
-/// The id of the information that a device build's contents (triangle
-/// arrays, micromap data, index buffers) could not be read at submission,
-/// so their content rules were not checked: the memory holding them is
-/// device-local, not mapped, or not known to the layer. Reported once per
-/// device, naming the first such build and why.
-pub const CONTENTS_NOT_CHECKED: &str = "OMMCHECK-layer-contents-not-checked";
+pub use crate::ids::{CONTENTS_NOT_CHECKED, EFFECTIVE_SETTINGS, INTERNAL_ERROR, SETTINGS_PROBLEM};
 
 /// One message to deliver.
 #[derive(Clone, Debug, PartialEq)]
@@ -606,6 +597,7 @@ mod tests {
                         (name == crate::settings::MESSAGE_ID_FILTER)
                             .then(|| SETTINGS_PROBLEM.to_uppercase())
                     },
+                    variable_names: &[],
                     api: &Vec::new(),
                     file: &Default::default(),
                 },

@@ -58,8 +58,8 @@ pub const DOCUMENTED: [SettingDoc; 11] = [
         default_json: r#"["error", "warning"]"#,
         flags: &[
             ("error", "Report violations of valid usage."),
-            ("warning", "Report what is valid but likely wrong, and problems with the layer's settings. `warn` is accepted too."),
-            ("info", "Report what the layer could not check and why."),
+            ("warning", "Report what is valid but likely wrong, device builds whose contents the layer could not read (once per device and cause, with a count at vkDestroyDevice), and problems with the layer's settings. `warn` is accepted too."),
+            ("info", "Report which rules could not be checked for each call and why, and, at vkCreateInstance, the settings in effect and where each came from."),
         ],
     },
     SettingDoc {

@@ -6,12 +6,21 @@
 //! vkconfig writes (lines `ommcheck_validation.<key> = <value>`), then the
 //! default. A value that cannot be used is reported as a warning and the
 //! next source's value applies, so a bad value never silences the layer.
+//! A mistaken name is never silent either: an `OMMCHECK_*` variable, a
+//! `VkLayerSettingEXT` or a settings-file key that names no setting, a
+//! settings-file line whose prefix looks like a mistyped
+//! [`FILE_PREFIX`], a `message_id_filter` entry that names no message the
+//! layer reports, and a `VK_LAYER_SETTINGS_PATH` that names nothing are
+//! each reported once, with the nearest name where one is close.
 //! Settings are per instance; their names, types and defaults are in
 //! [`DOCUMENTED`], and docs/layer.md describes them.
 
+use std::fmt;
 use std::path::{Path, PathBuf};
 
 use ommcheck::report::message_id;
+use ommcheck::vuids::Vuid;
+use ommcheck::{not_checked::Cause, rules, suggest};
 use ommcheck::{Device, Limits, Profile, Severity, Tier};
 
 pub use crate::setting_docs::*;
@@ -35,6 +44,11 @@ pub type ApiSettings = Vec<(String, Vec<ApiValue>)>;
 pub struct FileSettings {
     pub path: PathBuf,
     pub values: Vec<(String, String)>,
+    /// The names (`prefix.key`, or a bare key) of lines meant for this
+    /// layer that it does not read: a prefix a few edits from
+    /// [`FILE_PREFIX`] or holding `ommcheck`, or one of its keys with no
+    /// prefix. Other layers' lines are not among them.
+    pub mistyped: Vec<String>,
 }
 
 /// [`LAYER_NAME`] as the C string VK_EXT_layer_settings names layers by.
@@ -68,28 +82,92 @@ impl MessageFilter {
     /// (signed, as `messageIdNumber` is) decimal numbers, and names.
     fn parse(value: &str) -> Result<Self, String> {
         let mut filter = Self::default();
-        for word in value.split(',').map(str::trim).filter(|w| !w.is_empty()) {
-            let lower = word.to_ascii_lowercase();
-            if let Some(hex) = lower.strip_prefix("0x") {
-                let number = u32::from_str_radix(hex, 16)
-                    .map_err(|_| format!("`{word}` is not a 32-bit hexadecimal MessageID"))?;
-                filter.numbers.push(number);
-            } else if lower
-                .trim_start_matches('-')
-                .bytes()
-                .all(|b| b.is_ascii_digit())
-            {
-                let number = lower
-                    .parse::<u32>()
-                    .or_else(|_| lower.parse::<i32>().map(|n| n as u32))
-                    .map_err(|_| format!("`{word}` is not a 32-bit MessageID"))?;
-                filter.numbers.push(number);
-            } else {
-                filter.names.push(lower);
+        for word in filter_words(value) {
+            match filter_word(word)? {
+                FilterWord::Name(name) => filter.names.push(name.to_ascii_lowercase()),
+                FilterWord::Number(number) => filter.numbers.push(number),
             }
         }
         Ok(filter)
     }
+}
+
+/// The entries of a comma-separated `message_id_filter` value.
+fn filter_words(value: &str) -> impl Iterator<Item = &str> {
+    value.split(',').map(str::trim).filter(|w| !w.is_empty())
+}
+
+/// One entry of `message_id_filter`.
+enum FilterWord<'a> {
+    /// A VUID or rule id, as written.
+    Name(&'a str),
+    Number(u32),
+}
+
+/// An entry as a MessageID number (`0x`-prefixed hexadecimal, or decimal,
+/// signed as `messageIdNumber` is) or else a name.
+fn filter_word(word: &str) -> Result<FilterWord<'_>, String> {
+    let lower = word.to_ascii_lowercase();
+    if let Some(hex) = lower.strip_prefix("0x") {
+        let number = u32::from_str_radix(hex, 16)
+            .map_err(|_| format!("`{word}` is not a 32-bit hexadecimal MessageID"))?;
+        Ok(FilterWord::Number(number))
+    } else if lower
+        .trim_start_matches('-')
+        .bytes()
+        .all(|b| b.is_ascii_digit())
+    {
+        let number = lower
+            .parse::<u32>()
+            .or_else(|_| lower.parse::<i32>().map(|n| n as u32))
+            .map_err(|_| format!("`{word}` is not a 32-bit MessageID"))?;
+        Ok(FilterWord::Number(number))
+    } else {
+        Ok(FilterWord::Name(word))
+    }
+}
+
+/// Every id the layer can report: the catalog's VUIDs, the rules of ours,
+/// the core's not-checked information and the layer's own ids.
+fn reportable_ids() -> impl Iterator<Item = &'static str> {
+    Vuid::all()
+        .map(Vuid::id)
+        .chain(rules::ALL.iter().map(|rule| rule.id))
+        .chain(Cause::ALL.iter().map(|cause| cause.rule().id))
+        .chain(crate::ids::ALL)
+}
+
+/// A sentence for each entry of a `message_id_filter` value (given as
+/// `from`) that names no message the layer can report, so mutes nothing:
+/// a misspelled id would otherwise leave its message on without a word.
+fn unmatched_filter_entries(value: &str, from: &str) -> Vec<String> {
+    let mut problems = Vec::new();
+    for word in filter_words(value) {
+        match filter_word(word) {
+            Ok(FilterWord::Name(name)) => {
+                if reportable_ids().any(|id| id.eq_ignore_ascii_case(name)) {
+                    continue;
+                }
+                let hint = suggest::did_you_mean(name, reportable_ids(), 1)
+                    .map(|hint| format!("; {hint}"))
+                    .unwrap_or_default();
+                problems.push(format!(
+                    "{from} names `{name}`, which is no message this layer reports, so it mutes nothing{hint}"
+                ));
+            }
+            Ok(FilterWord::Number(number)) => {
+                if reportable_ids().any(|id| message_id(id) == number) {
+                    continue;
+                }
+                problems.push(format!(
+                    "{from} names MessageID `{word}` ({number:#010x}), which is the number of no message this layer reports, so it mutes nothing"
+                ));
+            }
+            // The whole value was rejected already, with the reason.
+            Err(_) => {}
+        }
+    }
+    problems
 }
 
 /// What the layer does with a reported message itself (`debug_action`);
@@ -208,18 +286,91 @@ impl Settings {
 pub struct Sources<'a> {
     /// The environment (a lookup, so tests can give their own).
     pub variable: &'a dyn Fn(&str) -> Option<String>,
+    /// The names of the environment's variables, so that an `OMMCHECK_*`
+    /// one that names no setting is reported.
+    pub variable_names: &'a [String],
     pub api: &'a ApiSettings,
     pub file: &'a FileSettings,
 }
 
+/// Where the value of a setting in effect came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Origin {
+    /// The environment variable of this name.
+    Environment(String),
+    /// The application's `VkLayerSettingsCreateInfoEXT`.
+    Api,
+    /// The settings file at this path.
+    File(PathBuf),
+    Default,
+}
+
+impl fmt::Display for Origin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Origin::Environment(name) => write!(f, "environment {name}"),
+            Origin::Api => f.write_str("VK_EXT_layer_settings"),
+            Origin::File(path) => write!(f, "file {}", path.display()),
+            Origin::Default => f.write_str("default"),
+        }
+    }
+}
+
+/// A setting as it took effect: its value as given (or the default's JSON
+/// text) and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Effective {
+    pub key: &'static str,
+    pub value: String,
+    pub origin: Origin,
+    /// The words naming the source in warnings (`OMMCHECK_TIER`,
+    /// `VkLayerSettingEXT tier`, `<file>: ommcheck_validation.tier`).
+    from: String,
+}
+
+/// What the settings sources add up to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Parsed {
+    pub settings: Settings,
+    /// A sentence for each value or name that could not be used.
+    pub problems: Vec<String>,
+    /// Every setting, in [`DOCUMENTED`] order, as it took effect.
+    pub effective: Vec<Effective>,
+    /// The settings file read, if any.
+    pub file: Option<PathBuf>,
+}
+
+impl Parsed {
+    /// The text of the information at `vkCreateInstance` that lists the
+    /// settings in effect and where each came from, as vkconfig shows them.
+    pub fn effective_text(&self) -> String {
+        let settings: Vec<String> = self
+            .effective
+            .iter()
+            .map(|e| match e.origin {
+                Origin::Default => format!("{} = {} (default)", e.key, e.value),
+                _ => format!("{} = {:?} ({})", e.key, e.value, e.origin),
+            })
+            .collect();
+        let file = match &self.file {
+            Some(path) => format!("{} read", path.display()),
+            None => format!("no {SETTINGS_FILE} found"),
+        };
+        format!(
+            "the settings in effect, each with where its value came from (environment, VK_EXT_layer_settings, file or default; the first of these that gives a usable value wins): {}; {file}",
+            settings.join("; ")
+        )
+    }
+}
+
 impl Sources<'_> {
     /// Every value given for `doc`, in order of precedence, each with the
-    /// words naming where it came from.
-    fn values(&self, doc: &SettingDoc) -> Vec<(String, String)> {
+    /// words naming where it came from and its [`Origin`].
+    fn values(&self, doc: &SettingDoc) -> Vec<(String, Origin, String)> {
         let mut values = Vec::new();
         for name in [doc.env.to_string(), khronos_style_variable(doc.key)] {
             if let Some(value) = (self.variable)(&name) {
-                values.push((name, value));
+                values.push((name.clone(), Origin::Environment(name), value));
             }
         }
         if let Some((_, given)) = self.api.iter().rev().find(|(name, _)| name == doc.key) {
@@ -232,11 +383,16 @@ impl Sources<'_> {
                     ApiValue::Text(t) => t.clone(),
                 })
                 .collect();
-            values.push((format!("VkLayerSettingEXT {}", doc.key), text.join(",")));
+            values.push((
+                format!("VkLayerSettingEXT {}", doc.key),
+                Origin::Api,
+                text.join(","),
+            ));
         }
         if let Some((_, value)) = self.file.values.iter().rev().find(|(k, _)| k == doc.key) {
             values.push((
                 format!("{}: {FILE_PREFIX}.{}", self.file.path.display(), doc.key),
+                Origin::File(self.file.path.clone()),
                 value.clone(),
             ));
         }
@@ -245,31 +401,52 @@ impl Sources<'_> {
 
     /// The first of `doc`'s values that `parse` accepts, or None (the
     /// default applies). Each rejected value adds a sentence to `problems`
-    /// saying why and what applies instead.
+    /// saying why and what applies instead; the outcome is added to
+    /// `effective`.
     fn resolve<T>(
         &self,
-        doc: &SettingDoc,
+        doc: &'static SettingDoc,
         problems: &mut Vec<String>,
+        effective: &mut Vec<Effective>,
         parse: impl Fn(&str) -> Result<T, String>,
     ) -> Option<T> {
         let mut rejected = Vec::new();
         let mut chosen = None;
-        for (from, value) in self.values(doc) {
+        for (from, origin, value) in self.values(doc) {
             match parse(&value) {
                 Ok(parsed) => {
-                    chosen = Some((parsed, from));
+                    chosen = Some((parsed, from, origin, value));
                     break;
                 }
                 Err(why) => rejected.push(format!("{from}={value:?}: {why}")),
             }
         }
         let instead = match &chosen {
-            Some((_, from)) => format!("using {from}"),
+            Some((_, from, _, _)) => format!("using {from}"),
             None if matches!(doc.default_json, r#""""# | "[]") => "using the default".to_string(),
             None => format!("using the default, {}", doc.default_json),
         };
         problems.extend(rejected.into_iter().map(|r| format!("{r}; {instead}")));
-        chosen.map(|(parsed, _)| parsed)
+        match chosen {
+            Some((parsed, from, origin, value)) => {
+                effective.push(Effective {
+                    key: doc.key,
+                    value: value.trim().to_string(),
+                    origin,
+                    from,
+                });
+                Some(parsed)
+            }
+            None => {
+                effective.push(Effective {
+                    key: doc.key,
+                    value: doc.default_json.to_string(),
+                    origin: Origin::Default,
+                    from: String::new(),
+                });
+                None
+            }
+        }
     }
 }
 
@@ -286,32 +463,119 @@ fn doc(env: &str) -> &'static SettingDoc {
         .expect("every variable is documented")
 }
 
+/// `; did you mean `X`?` with the setting key closest to `key`, written
+/// as `write` writes a key, or nothing when none is close.
+fn nearest_key(key: &str, write: impl Fn(&str) -> String) -> String {
+    suggest::closest(key, DOCUMENTED.iter().map(|d| d.key), 1)
+        .first()
+        .map(|near| format!("; did you mean `{}`?", write(near)))
+        .unwrap_or_default()
+}
+
+/// Prefixes of `OMMCHECK_*` variables that belong to the project's tests
+/// and tools (`OMMCHECK_TEST_MOCK_ICD`, `OMMCHECK_UPDATE_SCHEMA`), not to
+/// the layer: they are set around applications under test, so warning of
+/// them would be noise.
+const TOOL_VARIABLE_PREFIXES: [&str; 2] = ["OMMCHECK_TEST_", "OMMCHECK_UPDATE_"];
+
+/// A sentence for each variable in `names` that looks meant for this
+/// layer (`OMMCHECK_*`, or the Khronos-style `VK_OMMCHECK_VALIDATION_*`)
+/// but names no setting, with the nearest setting's variable.
+fn unknown_variables(names: &[String]) -> Vec<String> {
+    let khronos_prefix = khronos_style_variable("");
+    let mut names: Vec<&String> = names.iter().collect();
+    names.sort();
+    names.dedup();
+    let mut problems = Vec::new();
+    for name in names {
+        // The Khronos-style prefix starts with VK_, so it is tried first.
+        let hint = if let Some(rest) = name.strip_prefix(&khronos_prefix) {
+            if DOCUMENTED
+                .iter()
+                .any(|d| khronos_style_variable(d.key) == *name)
+            {
+                continue;
+            }
+            nearest_key(&rest.to_ascii_lowercase(), khronos_style_variable)
+        } else if let Some(rest) = name.strip_prefix("OMMCHECK_") {
+            if DOCUMENTED.iter().any(|d| d.env == name)
+                || TOOL_VARIABLE_PREFIXES.iter().any(|p| name.starts_with(p))
+            {
+                continue;
+            }
+            // Compared without the prefix every variable shares, which
+            // would make any two names look alike.
+            let suffixes = DOCUMENTED.iter().map(|d| &d.env["OMMCHECK_".len()..]);
+            suggest::closest(rest, suffixes, 1)
+                .first()
+                .map(|near| format!("; did you mean `OMMCHECK_{near}`?"))
+                .unwrap_or_default()
+        } else {
+            continue;
+        };
+        problems.push(format!(
+            "the environment variable {name} is not a setting of this layer; ignored{hint}"
+        ));
+    }
+    problems
+}
+
+/// A sentence for each name in `sources` (other than variables) that
+/// names no setting: application settings, file keys and file lines with
+/// a mistyped prefix.
+fn unknown_names(sources: &Sources<'_>) -> Vec<String> {
+    let mut problems = Vec::new();
+    for (name, _) in sources.api {
+        if DOCUMENTED.iter().all(|d| d.key != name) {
+            let hint = nearest_key(name, str::to_string);
+            problems.push(format!(
+                "VkLayerSettingEXT `{name}` is not a setting of this layer; ignored{hint}"
+            ));
+        }
+    }
+    let file = sources.file.path.display();
+    for (key, _) in &sources.file.values {
+        if DOCUMENTED.iter().all(|d| d.key != key) {
+            let hint = nearest_key(key, |near| format!("{FILE_PREFIX}.{near}"));
+            problems.push(format!(
+                "{file}: `{FILE_PREFIX}.{key}` is not a setting of this layer; ignored{hint}"
+            ));
+        }
+    }
+    for name in &sources.file.mistyped {
+        let key = name.rsplit_once('.').map_or(name.as_str(), |(_, key)| key);
+        let hint = nearest_key(key.trim(), |near| format!("{FILE_PREFIX}.{near}"));
+        problems.push(format!(
+            "{file}: `{name}` is not read by this layer, whose lines start with `{FILE_PREFIX}.`; ignored{hint}"
+        ));
+    }
+    problems
+}
+
 /// Settings from `sources`, reading a JSON limits file through
-/// `read_file`, with a sentence for each value that could not be used.
+/// `read_file`, with a sentence for each value that could not be used
+/// and each name that names no setting.
 pub fn parse(
     sources: &Sources<'_>,
     read_file: impl Fn(&Path) -> std::io::Result<String>,
 ) -> (Settings, Vec<String>) {
+    let parsed = parse_explained(sources, read_file);
+    (parsed.settings, parsed.problems)
+}
+
+/// [`parse`], with where each setting in effect came from.
+pub fn parse_explained(
+    sources: &Sources<'_>,
+    read_file: impl Fn(&Path) -> std::io::Result<String>,
+) -> Parsed {
     let mut settings = Settings::default();
-    let mut problems = Vec::new();
-    for (name, _) in sources.api {
-        if DOCUMENTED.iter().all(|d| d.key != name) {
-            problems.push(format!(
-                "VkLayerSettingEXT `{name}` is not a setting of this layer; ignored"
-            ));
-        }
-    }
-    for (key, _) in &sources.file.values {
-        if DOCUMENTED.iter().all(|d| d.key != key) {
-            problems.push(format!(
-                "{}: `{FILE_PREFIX}.{key}` is not a setting of this layer; ignored",
-                sources.file.path.display()
-            ));
-        }
-    }
+    let mut problems = unknown_variables(sources.variable_names);
+    problems.extend(unknown_names(sources));
+    let mut effective = Vec::new();
     let problems_ref = &mut problems;
+    let effective_ref = &mut effective;
     let mut get = |env: &str, parse: &dyn Fn(&str) -> Result<Setter, String>| {
-        if let Some(set) = sources.resolve(doc(env), problems_ref, parse) {
+        if let Some(set) = sources.resolve(doc(env), problems_ref, effective_ref, parse) {
             set(&mut settings);
         }
     };
@@ -371,7 +635,20 @@ pub fn parse(
         let bytes = whole_number::<u64>(v)?;
         Ok(Box::new(move |s| s.gpu_readback_indirect_max_bytes = bytes))
     });
-    (settings, problems)
+    // In manifest order, as vkconfig lists them.
+    effective.sort_by_key(|e| DOCUMENTED.iter().position(|d| d.key == e.key));
+    if let Some(filter) = effective
+        .iter()
+        .find(|e| e.key == doc(MESSAGE_ID_FILTER).key && e.origin != Origin::Default)
+    {
+        problems.extend(unmatched_filter_entries(&filter.value, &filter.from));
+    }
+    Parsed {
+        settings,
+        problems,
+        effective,
+        file: None,
+    }
 }
 
 /// What a value accepted for a setting does to the settings.
@@ -432,21 +709,41 @@ fn boolean(value: &str) -> Result<bool, String> {
 /// `#` starts a comment, as in the Khronos layers' reader; blank lines and
 /// other layers' lines are skipped.
 pub fn parse_file(path: &Path, text: &str) -> FileSettings {
-    let values = text
+    let mut file = FileSettings {
+        path: path.to_path_buf(),
+        ..FileSettings::default()
+    };
+    let lines = text
         .lines()
         .filter_map(|line| line.split('#').next())
-        .filter_map(|line| line.split_once('='))
-        .filter_map(|(name, value)| {
-            let (prefix, key) = name.trim().split_once('.')?;
-            prefix
-                .eq_ignore_ascii_case(FILE_PREFIX)
-                .then(|| (key.trim().to_string(), value.trim().to_string()))
-        })
-        .collect();
-    FileSettings {
-        path: path.to_path_buf(),
-        values,
+        .filter_map(|line| line.split_once('='));
+    for (name, value) in lines {
+        let name = name.trim();
+        match name.split_once('.') {
+            Some((prefix, key)) if prefix.eq_ignore_ascii_case(FILE_PREFIX) => {
+                file.values
+                    .push((key.trim().to_string(), value.trim().to_string()));
+            }
+            Some((prefix, _)) if looks_like_our_prefix(prefix) => {
+                file.mistyped.push(name.to_string());
+            }
+            None if DOCUMENTED.iter().any(|d| d.key == name) => {
+                file.mistyped.push(name.to_string());
+            }
+            _ => {}
+        }
     }
+    file
+}
+
+/// Whether a settings-file prefix other than [`FILE_PREFIX`] looks meant
+/// for this layer: within 3 edits of it (`omcheck_validation`,
+/// `ommcheck_validaton`), or naming ommcheck (`ommcheck`,
+/// `vk_layer_ommcheck_validation`). Other layers' prefixes
+/// (`khronos_validation`, `lunarg_api_dump`) are many edits away.
+fn looks_like_our_prefix(prefix: &str) -> bool {
+    let prefix = prefix.trim().to_ascii_lowercase();
+    strsim::damerau_levenshtein(&prefix, FILE_PREFIX) <= 3 || prefix.contains("ommcheck")
 }
 
 /// Where vkconfig keeps the settings file it writes on Linux:
@@ -482,21 +779,53 @@ pub fn settings_file_path(
         .find(|path| path.is_file())
 }
 
+/// Why the `VK_LAYER_SETTINGS_PATH` value `named` leads to no settings
+/// file, if it does not: it names nothing, or a directory without
+/// `vk_layer_settings.txt`. `is_file` and `is_dir` ask the file system
+/// (tests give their own). An empty value counts as unset.
+pub fn settings_path_problem(
+    named: &Path,
+    is_file: impl Fn(&Path) -> bool,
+    is_dir: impl Fn(&Path) -> bool,
+) -> Option<String> {
+    if named.as_os_str().is_empty() || is_file(named) {
+        None
+    } else if is_dir(named) {
+        let file = named.join(SETTINGS_FILE);
+        (!is_file(&file)).then(|| {
+            format!(
+                "{SETTINGS_PATH_VAR}={} names a directory without {SETTINGS_FILE}; no settings are read from it",
+                named.display()
+            )
+        })
+    } else {
+        Some(format!(
+            "{SETTINGS_PATH_VAR}={} names no file or directory; no settings are read from it",
+            named.display()
+        ))
+    }
+}
+
 /// The settings of an instance: this process's environment, then `api`,
 /// then the settings file (read at each `vkCreateInstance`).
-pub fn for_instance(api: &ApiSettings) -> (Settings, Vec<String>) {
+pub fn for_instance(api: &ApiSettings) -> Parsed {
+    let named = std::env::var_os(SETTINGS_PATH_VAR).map(PathBuf::from);
+    let mut problems: Vec<String> = named
+        .as_deref()
+        .and_then(|named| settings_path_problem(named, Path::is_file, Path::is_dir))
+        .into_iter()
+        .collect();
     let path = settings_file_path(
         vkconfig_dir(
             std::env::var_os("XDG_DATA_HOME").map(PathBuf::from),
             std::env::var_os("HOME").map(PathBuf::from),
         ),
-        std::env::var_os(SETTINGS_PATH_VAR).map(PathBuf::from),
+        named,
         std::env::current_dir().ok(),
     );
-    let mut problems = Vec::new();
-    let file = match path {
-        Some(path) => match std::fs::read_to_string(&path) {
-            Ok(text) => parse_file(&path, &text),
+    let file = match &path {
+        Some(path) => match std::fs::read_to_string(path) {
+            Ok(text) => parse_file(path, &text),
             Err(e) => {
                 problems.push(format!("{} cannot be read ({e}); ignored", path.display()));
                 FileSettings::default()
@@ -504,16 +833,24 @@ pub fn for_instance(api: &ApiSettings) -> (Settings, Vec<String>) {
         },
         None => FileSettings::default(),
     };
-    let (settings, mut more) = parse(
+    // Names that are not UTF-8 cannot be ours.
+    let variable_names: Vec<String> = std::env::vars_os()
+        .filter_map(|(name, _)| name.into_string().ok())
+        .collect();
+    let mut parsed = parse_explained(
         &Sources {
             variable: &|name| std::env::var(name).ok(),
+            variable_names: &variable_names,
             api,
             file: &file,
         },
         |path| std::fs::read_to_string(path),
     );
-    problems.append(&mut more);
-    (settings, problems)
+    problems.append(&mut parsed.problems);
+    parsed.problems = problems;
+    // A file that could not be read was not read: its problem says so.
+    parsed.file = path.filter(|_| !file.path.as_os_str().is_empty());
+    parsed
 }
 
 #[cfg(test)]
@@ -533,9 +870,11 @@ mod tests {
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect();
+        let names: Vec<String> = vars.keys().cloned().collect();
         parse(
             &Sources {
                 variable: &|name| vars.get(name).cloned(),
+                variable_names: &names,
                 api,
                 file,
             },
@@ -592,7 +931,7 @@ mod tests {
                 (LOG_FILE, "/tmp/omm.log"),
                 (REPORT, "error, INFO"),
                 (PROFILE, "permissive"),
-                (MESSAGE_ID_FILTER, "OMMCHECK-a"),
+                (MESSAGE_ID_FILTER, "OMMCHECK-attach-index-in-range"),
                 (DEBUG_ACTION, "break"),
                 (TIER, "state"),
                 (GPU_READBACK, "false"),
@@ -606,7 +945,9 @@ mod tests {
         assert_eq!(settings.log_file, Some(PathBuf::from("/tmp/omm.log")));
         assert_eq!(settings.report, [Severity::Error, Severity::Info]);
         assert_eq!(settings.limits, Profile::Permissive.limits());
-        assert!(settings.message_filter.mutes("OMMCHECK-a"));
+        assert!(settings
+            .message_filter
+            .mutes("OMMCHECK-attach-index-in-range"));
         assert_eq!(
             settings.actions,
             Actions {
@@ -765,12 +1106,20 @@ mod tests {
             (number as i32).to_string(),
         ] {
             let (settings, problems) = parse_with(
-                &[(MESSAGE_ID_FILTER, &format!("OMMCHECK-other, {value}"))],
+                &[(
+                    MESSAGE_ID_FILTER,
+                    &format!("OMMCHECK-attach-index-in-range, {value}"),
+                )],
                 None,
             );
             assert!(problems.is_empty(), "{value}: {problems:?}");
             assert!(settings.message_filter.mutes(vuid), "{value}");
-            assert!(settings.message_filter.mutes("OMMCHECK-other"), "{value}");
+            assert!(
+                settings
+                    .message_filter
+                    .mutes("OMMCHECK-attach-index-in-range"),
+                "{value}"
+            );
             assert!(
                 !settings
                     .message_filter
@@ -816,8 +1165,8 @@ mod tests {
             (
                 "message_id_filter",
                 vec![
-                    ApiValue::Text("OMMCHECK-a".into()),
-                    ApiValue::Text("OMMCHECK-b".into()),
+                    ApiValue::Text("OMMCHECK-attach-index-in-range".into()),
+                    ApiValue::Text("OMMCHECK-layer-contents-not-checked".into()),
                 ],
             ),
         ]);
@@ -828,7 +1177,9 @@ mod tests {
         assert!(settings.actions.break_into_debugger);
         assert_eq!(settings.limits, Profile::Permissive.limits());
         assert_eq!(settings.tier, Tier::State);
-        assert!(settings.message_filter.mutes("OMMCHECK-b"));
+        assert!(settings
+            .message_filter
+            .mutes("OMMCHECK-layer-contents-not-checked"));
     }
 
     #[test]
@@ -950,7 +1301,7 @@ khronos_validation.tier = nonsense
         assert_eq!(settings.tier, Tier::State);
         assert_eq!(
             problems,
-            ["s.txt: `ommcheck_validation.teir` is not a setting of this layer; ignored"]
+            ["s.txt: `ommcheck_validation.teir` is not a setting of this layer; ignored; did you mean `ommcheck_validation.tier`?"]
         );
     }
 
@@ -995,5 +1346,222 @@ khronos_validation.tier = nonsense
             Some(PathBuf::from("/home/u/.local/share/vulkan/settings.d"))
         );
         assert_eq!(vkconfig_dir(None, None), None);
+    }
+
+    #[test]
+    fn an_unknown_ommcheck_variable_warns_with_the_nearest_setting() {
+        let (settings, problems) = parse_with(&[("OMMCHECK_REPROT", "info")], None);
+        assert_eq!(settings, Settings::default());
+        assert_eq!(
+            problems,
+            ["the environment variable OMMCHECK_REPROT is not a setting of this layer; ignored; did you mean `OMMCHECK_REPORT`?"]
+        );
+        let (_, problems) = parse_with(&[("VK_OMMCHECK_VALIDATION_REPORT", "info")], None);
+        assert_eq!(
+            problems,
+            ["the environment variable VK_OMMCHECK_VALIDATION_REPORT is not a setting of this layer; ignored; did you mean `VK_OMMCHECK_VALIDATION_REPORT_FLAGS`?"]
+        );
+        // Nothing close: said without a guess.
+        let (_, problems) = parse_with(&[("OMMCHECK_ZZZZZZZZZZZZ", "1")], None);
+        assert_eq!(
+            problems,
+            ["the environment variable OMMCHECK_ZZZZZZZZZZZZ is not a setting of this layer; ignored"]
+        );
+    }
+
+    #[test]
+    fn known_test_tool_and_other_variables_do_not_warn() {
+        let mut vars: Vec<(&str, &str)> = DOCUMENTED.iter().map(|d| (d.env, "")).collect();
+        let khronos: Vec<String> = DOCUMENTED
+            .iter()
+            .map(|d| khronos_style_variable(d.key))
+            .collect();
+        vars.extend(khronos.iter().map(|name| (name.as_str(), "")));
+        vars.extend([
+            ("OMMCHECK_TEST_MOCK_ICD", "/x.json"),
+            ("OMMCHECK_UPDATE_SCHEMA", "1"),
+            ("PATH", "/bin"),
+            ("VK_LAYER_SETTINGS_PATH", "/x"),
+        ]);
+        let names: Vec<String> = vars.iter().map(|(name, _)| name.to_string()).collect();
+        assert!(unknown_variables(&names).is_empty());
+    }
+
+    #[test]
+    fn a_mistyped_file_prefix_warns_and_other_layers_lines_do_not() {
+        let file = parse_file(
+            Path::new("vk_layer_settings.txt"),
+            "omcheck_validation.report_flags = error,warning,info\n\
+             report_flags = info\n\
+             vk_layer_ommcheck_validation.tier = params\n\
+             khronos_validation.report_flags = error\n\
+             lunarg_api_dump.output_format = text\n",
+        );
+        assert!(file.values.is_empty(), "{file:?}");
+        let (settings, problems) = parse_from(&[], &Vec::new(), &file, None);
+        assert_eq!(settings, Settings::default());
+        assert_eq!(
+            problems,
+            [
+                "vk_layer_settings.txt: `omcheck_validation.report_flags` is not read by this layer, whose lines start with `ommcheck_validation.`; ignored; did you mean `ommcheck_validation.report_flags`?",
+                "vk_layer_settings.txt: `report_flags` is not read by this layer, whose lines start with `ommcheck_validation.`; ignored; did you mean `ommcheck_validation.report_flags`?",
+                "vk_layer_settings.txt: `vk_layer_ommcheck_validation.tier` is not read by this layer, whose lines start with `ommcheck_validation.`; ignored; did you mean `ommcheck_validation.tier`?",
+            ]
+        );
+        for prefix in ["khronos_validation", "lunarg_api_dump", "lunarg_monitor"] {
+            assert!(!looks_like_our_prefix(prefix), "{prefix}");
+        }
+    }
+
+    #[test]
+    fn an_unknown_application_setting_warns_with_the_nearest_key() {
+        let given = api(&[("report_flag", text("info"))]);
+        let (_, problems) = parse_from(&[], &given, &FileSettings::default(), None);
+        assert_eq!(
+            problems,
+            ["VkLayerSettingEXT `report_flag` is not a setting of this layer; ignored; did you mean `report_flags`?"]
+        );
+    }
+
+    #[test]
+    fn a_filter_entry_that_names_no_message_warns_and_the_rest_still_mutes() {
+        let (settings, problems) = parse_with(
+            &[(
+                MESSAGE_ID_FILTER,
+                "OMMCHECK-build-triangle-data-in-rnage, VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516, 0x12345678",
+            )],
+            None,
+        );
+        assert!(settings
+            .message_filter
+            .mutes("VUID-VkMicromapBuildInfoEXT-pUsageCounts-07516"));
+        assert_eq!(
+            problems,
+            [
+                "OMMCHECK_MESSAGE_ID_FILTER names `OMMCHECK-build-triangle-data-in-rnage`, which is no message this layer reports, so it mutes nothing; did you mean `OMMCHECK-build-triangle-data-in-range`?",
+                "OMMCHECK_MESSAGE_ID_FILTER names MessageID `0x12345678` (0x12345678), which is the number of no message this layer reports, so it mutes nothing",
+            ]
+        );
+        // The file and the application's setting are checked alike.
+        let file = parse_file(
+            Path::new("s.txt"),
+            "ommcheck_validation.message_id_filter = OMMCHECK-layer-contents-not-chekced\n",
+        );
+        let (_, problems) = parse_from(&[], &Vec::new(), &file, None);
+        assert_eq!(
+            problems,
+            ["s.txt: ommcheck_validation.message_id_filter names `OMMCHECK-layer-contents-not-chekced`, which is no message this layer reports, so it mutes nothing; did you mean `OMMCHECK-layer-contents-not-checked`?"]
+        );
+        let given = api(&[("message_id_filter", text("OMMCHECK-nope"))]);
+        let (_, problems) = parse_from(&[], &given, &FileSettings::default(), None);
+        assert_eq!(
+            problems,
+            ["VkLayerSettingEXT message_id_filter names `OMMCHECK-nope`, which is no message this layer reports, so it mutes nothing"]
+        );
+    }
+
+    #[test]
+    fn a_filter_of_reportable_ids_and_their_numbers_does_not_warn() {
+        let ids = [
+            "VUID-vkCmdBuildMicromapsEXT-pInfos-07461",
+            "ommcheck-build-triangle-data-in-range",
+            "OMMCHECK-not-checked-contents",
+            crate::ids::CONTENTS_NOT_CHECKED,
+            crate::ids::EFFECTIVE_SETTINGS,
+        ];
+        let number = message_id(ids[0]);
+        let value = format!(
+            "{}, {number:#x}, {}",
+            ids.join(","),
+            message_id(ids[3]) as i32
+        );
+        let (_, problems) = parse_with(&[(MESSAGE_ID_FILTER, &value)], None);
+        assert!(problems.is_empty(), "{problems:?}");
+    }
+
+    #[test]
+    fn a_settings_path_that_names_nothing_warns() {
+        let files = [
+            Path::new("/etc/s.txt"),
+            Path::new("/etc/d/vk_layer_settings.txt"),
+        ];
+        let dirs = [Path::new("/etc/d"), Path::new("/etc/empty")];
+        let problem = |named: &str| {
+            settings_path_problem(
+                Path::new(named),
+                |p| files.contains(&p),
+                |p| dirs.contains(&p),
+            )
+        };
+        assert_eq!(
+            problem("/etc/missing"),
+            Some("VK_LAYER_SETTINGS_PATH=/etc/missing names no file or directory; no settings are read from it".into())
+        );
+        assert_eq!(
+            problem("/etc/empty"),
+            Some("VK_LAYER_SETTINGS_PATH=/etc/empty names a directory without vk_layer_settings.txt; no settings are read from it".into())
+        );
+        assert_eq!(problem("/etc/s.txt"), None);
+        assert_eq!(problem("/etc/d"), None);
+        assert_eq!(problem(""), None);
+    }
+
+    #[test]
+    fn the_effective_settings_say_where_each_came_from() {
+        let file = parse_file(
+            Path::new("/etc/vk_layer_settings.txt"),
+            "ommcheck_validation.tier = state\nommcheck_validation.report_flags = error\n",
+        );
+        let given = api(&[("duplicate_message_limit", vec![ApiValue::Int(3)])]);
+        let (vars, api_given) = (&[(REPORT, "error,warning,info")], &given);
+        let names = vec![REPORT.to_string()];
+        let parsed = parse_explained(
+            &Sources {
+                variable: &|name| {
+                    vars.iter()
+                        .find(|(n, _)| *n == name)
+                        .map(|(_, v)| v.to_string())
+                },
+                variable_names: &names,
+                api: api_given,
+                file: &file,
+            },
+            |_| Err(std::io::ErrorKind::NotFound.into()),
+        );
+        assert!(parsed.problems.is_empty(), "{:?}", parsed.problems);
+        let keys: Vec<&str> = parsed.effective.iter().map(|e| e.key).collect();
+        let documented: Vec<&str> = DOCUMENTED.iter().map(|d| d.key).collect();
+        assert_eq!(keys, documented);
+        let origin = |key: &str| {
+            parsed
+                .effective
+                .iter()
+                .find(|e| e.key == key)
+                .map(|e| e.origin.clone())
+        };
+        assert_eq!(
+            origin("report_flags"),
+            Some(Origin::Environment(REPORT.into()))
+        );
+        assert_eq!(origin("duplicate_message_limit"), Some(Origin::Api));
+        assert_eq!(
+            origin("tier"),
+            Some(Origin::File("/etc/vk_layer_settings.txt".into()))
+        );
+        assert_eq!(origin("gpu_readback"), Some(Origin::Default));
+        let text = Parsed {
+            file: Some("/etc/vk_layer_settings.txt".into()),
+            ..parsed
+        }
+        .effective_text();
+        for part in [
+            r#"report_flags = "error,warning,info" (environment OMMCHECK_REPORT)"#,
+            r#"duplicate_message_limit = "3" (VK_EXT_layer_settings)"#,
+            r#"tier = "state" (file /etc/vk_layer_settings.txt)"#,
+            "gpu_readback = true (default)",
+            "/etc/vk_layer_settings.txt read",
+        ] {
+            assert!(text.contains(part), "{part}: {text}");
+        }
     }
 }

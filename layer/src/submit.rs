@@ -6,7 +6,8 @@
 //! ([`ommcheck::Validator::check_device_build_contents`]). Builds whose
 //! inputs the layer copies on the GPU ([`crate::readback`], route 2) wait
 //! for completion instead ([`crate::completion`]). Contents neither route
-//! can read are reported once per device and reason ([`CONTENTS_NOT_CHECKED`]).
+//! can read are reported once per device and reason
+//! ([`crate::report::CONTENTS_NOT_CHECKED`]).
 
 #![allow(unsafe_code)]
 
@@ -17,7 +18,6 @@ use ash::vk::Handle as _;
 use ommcheck::build_inputs::KnownBytes;
 use ommcheck::model::Handle;
 use ommcheck::model::SubmitBatch;
-use ommcheck::Severity;
 
 use crate::commands::{self, Recorded};
 use crate::dispatch::memory_layout::{mapped_window, unreadable_reason};
@@ -26,7 +26,7 @@ use crate::dispatch::submissions::KeptBuild;
 use crate::dispatch::{DeviceData, DeviceState};
 use crate::intercept::{as_void, check, device_and, guarded, panic_message};
 use crate::read;
-use crate::report::{Message, CONTENTS_NOT_CHECKED};
+use crate::report::Message;
 
 /// The next layer's submission function for one of the submit commands.
 pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
@@ -126,12 +126,14 @@ fn check_kept(
             );
             if state.memory_layout.first_report(key) {
                 let text = format!(
-                    "the inputs of a build recorded in VkCommandBuffer {command_buffer:#x} could not be read at {submit_function} ({reason}), nor read back on the GPU: {why_not_read_back}; the build's content rules are not checked. This is reported once per device and reason."
+                    "the inputs of a build recorded in VkCommandBuffer {command_buffer:#x} could not be read at {submit_function} ({reason}), nor read back on the GPU: {why_not_read_back}; the build's content rules are not checked. {}",
+                    crate::readback::once_per_cause(key)
                 );
-                let mut message =
-                    Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Info, function, &text);
-                message.objects.push(object);
-                messages.push(message);
+                messages.push(crate::readback::not_checked(
+                    function,
+                    command_buffer,
+                    &text,
+                ));
             }
         }
         messages

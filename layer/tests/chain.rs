@@ -10,6 +10,8 @@
 
 mod fake;
 
+use std::ffi::CStr;
+
 use ash::vk;
 use ash::vk::Handle as _;
 use fake::{calls, device_fn, instance_fn, Chain, DeviceBuild, USAGE};
@@ -651,4 +653,83 @@ fn a_host_deserialization_reads_the_blocks_of_its_header() {
         ["VUID-VkCopyMemoryToAccelerationStructureInfoKHR-dst-11585"]
     );
     assert_eq!(calls("vkCopyMemoryToAccelerationStructureKHR").len(), 3);
+}
+
+/// What a messenger chained to `VkInstanceCreateInfo` receives at
+/// `vkCreateInstance` when the application gives `settings` (name and
+/// string value) through VK_EXT_layer_settings: the severity and text of
+/// each message, by id.
+fn instance_creation_messages(settings: &[(&CStr, &CStr)]) -> Vec<(String, String, String)> {
+    let collector = Box::<fake::Collector>::default();
+    let chain = fake::app::with_settings(settings, |next| {
+        let messenger = vk::DebugUtilsMessengerCreateInfoEXT {
+            p_next: next,
+            message_severity: vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            message_type: vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
+            pfn_user_callback: Some(fake::collect),
+            p_user_data: (&*collector as *const fake::Collector).cast_mut().cast(),
+            ..Default::default()
+        };
+        Chain::with_instance_next(
+            (&messenger as *const vk::DebugUtilsMessengerCreateInfoEXT).cast(),
+        )
+    });
+    // Chained messengers hear only instance creation and destruction.
+    DeviceBuild::new(&chain).record_with_both_usage_pointers(&chain);
+    collector
+        .take()
+        .into_iter()
+        .map(|m| (m.id, format!("{:?}", m.severity), m.text))
+        .collect()
+}
+
+/// With information reported, vkCreateInstance lists the settings in
+/// effect and where each came from; at the default report level it does
+/// not, and correct settings draw no warning.
+#[test]
+fn the_effective_settings_are_listed_at_instance_creation_when_info_is_reported() {
+    let said = instance_creation_messages(&[(c"report_flags", c"error,warning,info")]);
+    assert_eq!(said.len(), 1, "{said:#?}");
+    let (id, severity, text) = &said[0];
+    assert_eq!(id, "OMMCHECK-layer-effective-settings");
+    assert_eq!(severity, "INFO");
+    for part in [
+        r#"vkCreateInstance(): the settings in effect"#,
+        r#"report_flags = "error,warning,info" (VK_EXT_layer_settings)"#,
+        "tier = \"content\" (default)",
+    ] {
+        assert!(text.contains(part), "{part}: {text}");
+    }
+    assert_eq!(
+        instance_creation_messages(&[(c"tier", c"content")]),
+        Vec::new()
+    );
+}
+
+/// A filter entry that names no message is a settings warning at
+/// vkCreateInstance, with the id it was likely meant to be, whatever the
+/// report level; one that names a message is not.
+#[test]
+fn a_misspelled_filter_id_given_by_the_application_is_reported_at_instance_creation() {
+    let said = instance_creation_messages(&[(
+        c"message_id_filter",
+        c"OMMCHECK-build-triangle-data-in-rnage",
+    )]);
+    assert_eq!(said.len(), 1, "{said:#?}");
+    let (id, severity, text) = &said[0];
+    assert_eq!(
+        (id.as_str(), severity.as_str()),
+        ("OMMCHECK-layer-settings", "WARNING")
+    );
+    assert!(
+        text.ends_with("VkLayerSettingEXT message_id_filter names `OMMCHECK-build-triangle-data-in-rnage`, which is no message this layer reports, so it mutes nothing; did you mean `OMMCHECK-build-triangle-data-in-range`?"),
+        "{text}"
+    );
+    let said = instance_creation_messages(&[(
+        c"message_id_filter",
+        c"OMMCHECK-build-triangle-data-in-range",
+    )]);
+    assert_eq!(said, Vec::new());
 }

@@ -248,12 +248,24 @@ impl App {
         ids
     }
 
-    /// The information messages since the last call, errors and warnings
-    /// asserted absent.
-    fn info_only(&self) -> Vec<fake::Received> {
-        let errors = self.chain.collector.take();
-        assert!(errors.is_empty(), "{errors:#?}");
-        self.info.take()
+    /// The warnings since the last call, each asserted to be a warning
+    /// that contents were not checked (the layer's, at the default report
+    /// level) and information and errors asserted absent.
+    fn not_checked_only(&self) -> Vec<fake::Received> {
+        let info = self.info.take();
+        assert!(info.is_empty(), "{info:#?}");
+        let warnings = self.chain.collector.take();
+        for warning in &warnings {
+            assert_eq!(
+                (warning.id.as_str(), warning.severity),
+                (
+                    CONTENTS_NOT_CHECKED,
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                ),
+                "{warning:#?}"
+            );
+        }
+        warnings
     }
 
     fn f<F: Copy>(&self, name: &CStr) -> F {
@@ -1479,49 +1491,87 @@ fn a_readback_over_gpu_readback_max_bytes_is_reported_not_checked_naming_the_set
     chain.end(command_buffer);
     // Whether it is said at recording, submission or completion is the
     // layer's choice: all three are gathered.
-    let mut info = setup.app.info_only();
+    let mut warnings = setup.app.not_checked_only();
     let fence = chain.fence();
     assert_eq!(
         chain.submit_with(command_buffer, fence),
         vk::Result::SUCCESS
     );
-    info.extend(setup.app.info_only());
+    warnings.extend(setup.app.not_checked_only());
     assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
-    info.extend(setup.app.info_only());
-    assert_eq!(info.len(), 1, "{info:#?}");
-    assert_eq!(info[0].id, CONTENTS_NOT_CHECKED);
+    warnings.extend(setup.app.not_checked_only());
+    assert_eq!(warnings.len(), 1, "{warnings:#?}");
     assert!(
-        info[0].text.contains("gpu_readback_max_bytes"),
+        warnings[0].text.contains("gpu_readback_max_bytes"),
         "{}",
-        info[0].text
+        warnings[0].text
     );
 }
 
 /// With `gpu_readback` off, inputs a shader wrote are what neither route
-/// can read: one information message per device (two submissions, one
-/// message) names the build, the reason, and the setting that would
-/// check them; no finding is made up.
+/// can read: one warning per device and cause (three submissions, one
+/// warning) names the build, the reason, and the setting that would
+/// check them; no finding is made up. vkDestroyDevice then says how many
+/// builds the cause kept from being checked in all.
 #[test]
 fn with_readback_off_shader_written_inputs_are_reported_not_checked_naming_gpu_readback() {
     let setup = Setup::new(false, &[]);
     let faulty = Rule::IndexPastMicromap.contents(true);
     let command_buffer = setup.recorded(Route::Shader, &faulty);
     let chain = setup.chain();
-    let mut info = Vec::new();
-    for _ in 0..2 {
+    let mut warnings = Vec::new();
+    for _ in 0..3 {
         let fence = chain.fence();
         assert_eq!(
             chain.submit_with(command_buffer, fence),
             vk::Result::SUCCESS
         );
         assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
-        info.extend(setup.app.info_only());
+        warnings.extend(setup.app.not_checked_only());
     }
-    assert_eq!(info.len(), 1, "{info:#?}");
-    assert_eq!(info[0].id, CONTENTS_NOT_CHECKED);
+    assert_eq!(warnings.len(), 1, "{warnings:#?}");
     for words in ["vkCmdBuild", "device-local", "gpu_readback"] {
-        assert!(info[0].text.contains(words), "{words}: {}", info[0].text);
+        assert!(
+            warnings[0].text.contains(words),
+            "{words}: {}",
+            warnings[0].text
+        );
     }
+    let destroy: vk::PFN_vkDestroyDevice = setup.app.f(c"vkDestroyDevice");
+    // SAFETY: the chain's device, destroyed once; nothing uses it after.
+    unsafe { destroy(chain.device, std::ptr::null()) };
+    // The command buffer holds two builds (the micromap's and the
+    // structure's that attaches it), each counted at each of the three
+    // submissions.
+    let totals = setup.app.not_checked_only();
+    assert_eq!(totals.len(), 1, "{totals:#?}");
+    assert!(
+        totals[0].text.contains(&format!(
+            "vkDestroyDevice(): the contents of 6 device builds on VkDevice {:#x} were not checked for the cause `readback-off`",
+            chain.device.as_raw()
+        )),
+        "{}",
+        totals[0].text
+    );
+}
+
+/// A device whose builds were all checked says nothing when destroyed.
+#[test]
+fn a_device_whose_builds_were_all_checked_says_nothing_when_destroyed() {
+    let setup = Setup::new(true, &[]);
+    let valid = Rule::IndexPastMicromap.contents(false);
+    let command_buffer = setup.recorded(Route::Shader, &valid);
+    let chain = setup.chain();
+    let fence = chain.fence();
+    assert_eq!(
+        chain.submit_with(command_buffer, fence),
+        vk::Result::SUCCESS
+    );
+    assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
+    let destroy: vk::PFN_vkDestroyDevice = setup.app.f(c"vkDestroyDevice");
+    // SAFETY: the chain's device, destroyed once; nothing uses it after.
+    unsafe { destroy(chain.device, std::ptr::null()) };
+    assert_eq!(setup.app.reported(), Vec::<String>::new());
 }
 
 /// The layer writes only its own memory: the application's device-local
@@ -1877,20 +1927,26 @@ fn indices_an_indirect_build_reads_past_the_cap_are_reported_not_checked_naming_
     let setup = indirect_setup(true, RangesIn::DeviceLocal, &extra);
     let command_buffer = setup.recorded(Route::Shader, &Rule::IndexPastMicromap.contents(true));
     submit_for(&setup.app, command_buffer, Completion::WaitForFences)();
-    let info: Vec<fake::Received> = setup
-        .app
-        .info_only()
-        .into_iter()
-        .filter(|m| m.id == CONTENTS_NOT_CHECKED)
-        .collect();
-    assert_eq!(info.len(), 1, "{info:#?}");
+    // The core's own not-checked information comes too; the layer's
+    // warning is what shows at the default report level.
+    let info = setup.app.info.take();
+    assert!(
+        info.iter().all(|m| m.id == "OMMCHECK-not-checked-contents"),
+        "{info:#?}"
+    );
+    let warnings = setup.app.not_checked_only();
+    assert_eq!(warnings.len(), 1, "{warnings:#?}");
     for words in [
         "gpu_readback_indirect_max_bytes",
         "OMMCHECK_GPU_READBACK_INDIRECT_MAX_BYTES",
         "pInfos[0].pGeometries[0].geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.indexBuffer (8 bytes",
         "vkWaitForFences",
     ] {
-        assert!(info[0].text.contains(words), "{words}: {}", info[0].text);
+        assert!(
+            warnings[0].text.contains(words),
+            "{words}: {}",
+            warnings[0].text
+        );
     }
     // Under the default cap the same build is checked.
     let reported = indirect_route_2(true, RangesIn::DeviceLocal, &[]);

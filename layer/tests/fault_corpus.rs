@@ -79,8 +79,12 @@ fn checker_ids(scene: &Value, tier: Tier) -> BTreeSet<String> {
         .collect()
 }
 
+/// An error or warning about a rule: not information, nor the layer's
+/// warning that it could not check contents (which `failures_of` checks
+/// on its own).
 fn is_finding(message: &&fake::Received) -> bool {
     message.severity != vk::DebugUtilsMessageSeverityFlagsEXT::INFO
+        && message.id != CONTENTS_NOT_CHECKED
 }
 
 fn ids<'a>(messages: impl Iterator<Item = &'a fake::Received>) -> BTreeSet<String> {

@@ -170,3 +170,37 @@ fn a_mistyped_profile_name_gets_a_did_you_mean() {
     assert_eq!(code, 2);
     assert!(stderr.contains("did you mean `spec-minimum`?"), "{stderr}");
 }
+
+/// What a scene did not let the checker decide shows in `check`'s default
+/// output: each not-checked information is printed, as every finding is
+/// (the CLI filters no severity), and the last line counts the rules not
+/// checked. The example without its buffers' contents decides none of its
+/// content rules; with them it decides all.
+#[test]
+fn rules_not_checked_show_in_the_default_text_output() {
+    let (code, example, stderr) = ommcheck(&["example"]);
+    assert_eq!(code, 0, "{stderr}");
+    let mut scene: serde_json::Value = serde_json::from_str(&example).expect("the example scene");
+    for buffer in scene["buffers"].as_array_mut().expect("buffers") {
+        buffer.as_object_mut().expect("a buffer").remove("contents");
+    }
+    let path =
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("example-without-contents.json");
+    std::fs::write(&path, scene.to_string()).expect("writing the scene");
+    let (code, stdout, stderr) = ommcheck(&["check", path.to_str().expect("a UTF-8 path")]);
+    // No error is found: the example's faults are all in the contents.
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stdout.contains("Validation Information: [ OMMCHECK-not-checked-contents ]"),
+        "{stdout}"
+    );
+    let last = stdout.trim_end().lines().last().expect("a summary line");
+    assert!(
+        last.contains(" rules checked, ") && !last.ends_with(" 0 not checked"),
+        "{last}"
+    );
+
+    let (_, stdout, _) = ommcheck(&["check", "--example"]);
+    assert!(!stdout.contains("OMMCHECK-not-checked-"), "{stdout}");
+    assert!(stdout.trim_end().ends_with(" 0 not checked"), "{stdout}");
+}

@@ -322,3 +322,46 @@ fn a_query_pool_created_from_its_create_info_decides_the_query_rules() {
     let rule = ommcheck::vuids::vuid::vkCmdWriteMicromapsPropertiesEXT::queryPool_07525;
     assert!(faulty.contains(rule), "{faulty}");
 }
+
+/// What was not checked shows in a report's defaults: its text prints the
+/// not-checked information (a report filters no severity), its summary
+/// counts the rules, and the report is not empty, so a test asserting
+/// `report.is_empty()` fails instead of passing in silence.
+#[test]
+fn rules_not_checked_show_in_a_reports_text_and_summary() {
+    use ommcheck::model::{MicromapBuildInfo, MicromapUsage, UsageCounts};
+    use ommcheck::{Device, Validator};
+
+    let mut v = Validator::new(Device::default());
+    let build = MicromapBuildInfo {
+        usage_counts: UsageCounts::array(vec![MicromapUsage {
+            count: 1,
+            subdivision_level: 0,
+            format: 2,
+        }]),
+        data: 0x1000,
+        triangle_array: 0x2000,
+        ..Default::default()
+    };
+    // No buffer was described: the triangle array cannot be read.
+    let report = v.cmd_build_micromaps(&CommandBuffer::default(), &[build]);
+    assert!(!report.is_empty());
+    let text = report.to_string();
+    assert!(
+        text.contains("Validation Information: [ OMMCHECK-not-checked-"),
+        "{text}"
+    );
+    assert!(
+        text.contains(rules::TRIANGLE_DATA_RANGE.id),
+        "the rule not checked is named: {text}"
+    );
+    let summary = report.summary();
+    assert!(summary.rules_not_checked > 0, "{summary:?}");
+    assert!(
+        summary
+            .to_string()
+            .ends_with(&format!(", {} not checked", summary.rules_not_checked)),
+        "{summary}"
+    );
+    assert!(report.require_fully_checked().is_err());
+}

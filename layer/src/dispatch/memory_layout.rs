@@ -5,7 +5,7 @@
 
 #![allow(unsafe_code)]
 
-use foldhash::{HashMap, HashSet};
+use foldhash::HashMap;
 use ommcheck::model::Handle;
 use ommcheck::raw::MAX_HOST_BYTES;
 
@@ -19,8 +19,10 @@ pub struct MemoryLayout {
     bound: HashMap<u64, (u64, u64)>,
     /// Memory → offset of its mapping (the host range is in `DeviceState::mappings`).
     mapped_at: HashMap<u64, u64>,
-    /// The causes [`crate::report::CONTENTS_NOT_CHECKED`] was reported for on this device.
-    reported_unreadable: HashSet<&'static str>,
+    /// The causes [`crate::report::CONTENTS_NOT_CHECKED`] was reported for
+    /// on this device, each with the builds it kept from being checked
+    /// (few causes: a list keeps them in the order first reported).
+    not_checked: Vec<(&'static str, u64)>,
 }
 
 impl MemoryLayout {
@@ -40,10 +42,27 @@ impl MemoryLayout {
         self.mapped_at.remove(&memory);
     }
 
-    /// Whether [`crate::report::CONTENTS_NOT_CHECKED`] is still to be reported for
-    /// `cause` on this device (it is once per device and cause); true once.
+    /// Counts one more build whose contents `cause` kept from being
+    /// checked; true for the first of `cause` on this device, which is
+    /// when [`crate::report::CONTENTS_NOT_CHECKED`] is reported (once per
+    /// device and cause; [`Self::not_checked_counts`] gives the totals).
     pub fn first_report(&mut self, cause: &'static str) -> bool {
-        self.reported_unreadable.insert(cause)
+        match self.not_checked.iter_mut().find(|(c, _)| *c == cause) {
+            Some((_, count)) => {
+                *count = count.saturating_add(1);
+                false
+            }
+            None => {
+                self.not_checked.push((cause, 1));
+                true
+            }
+        }
+    }
+
+    /// Each cause of [`Self::first_report`] with the builds it counted, in
+    /// the order first reported.
+    pub fn not_checked_counts(&self) -> &[(&'static str, u64)] {
+        &self.not_checked
     }
 
     /// Whether `buffer`'s memory is mapped now.
