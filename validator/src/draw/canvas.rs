@@ -4,6 +4,7 @@
 //! bitmaps, not as SVG `<text>`: a PNG then needs no font, and looks the
 //! same on every machine, which the reference pictures of the tests rely on.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use crate::sim::opacity::OpacityState;
@@ -69,10 +70,16 @@ pub fn fill(state: CellState) -> Fill {
     }
 }
 
-/// An SVG picture being drawn, in pixels.
+/// An SVG picture being drawn, in pixels, in three layers: the tiles (the
+/// cells' fills, which never overlap, batched into one path per fill so
+/// that a picture of 10^5 cells stays small and shows no seams between
+/// cells of one state), their edges (one path per stroke), and everything
+/// else in the order drawn.
 pub struct Canvas {
     pub width: u32,
     pub height: u32,
+    tiles: BTreeMap<(Colour, Option<&'static str>), String>,
+    edges: BTreeMap<(Colour, String), String>,
     body: String,
     /// What the picture shows, in words: the SVG's `<title>` and `<desc>`.
     title: String,
@@ -101,6 +108,8 @@ impl Canvas {
         Self {
             width,
             height,
+            tiles: BTreeMap::new(),
+            edges: BTreeMap::new(),
             body: String::new(),
             title: title.to_string(),
             desc: Vec::new(),
@@ -113,9 +122,14 @@ impl Canvas {
         self.desc.push(line.to_string());
     }
 
-    /// A triangle filled as `fill` says, with an optional outline.
-    pub fn triangle(&mut self, p: [(f64, f64); 3], fill: &Fill, outline: Option<(Colour, f64)>) {
-        self.polygon(&p, fill, outline);
+    /// A tile: a triangle filled as `fill` says, under everything else.
+    pub fn tile(&mut self, p: [(f64, f64); 3], fill: &Fill) {
+        subpath(self.tiles.entry((fill.colour, fill.hatch)).or_default(), &p);
+    }
+
+    /// A tile's edges, over every tile.
+    pub fn edge(&mut self, p: [(f64, f64); 3], colour: Colour, width: f64) {
+        subpath(self.edges.entry((colour, num(width))).or_default(), &p);
     }
 
     pub fn polygon(&mut self, p: &[(f64, f64)], fill: &Fill, outline: Option<(Colour, f64)>) {
@@ -253,10 +267,36 @@ impl Canvas {
             "<rect width=\"{}\" height=\"{}\" fill=\"#ffffff\"/>",
             self.width, self.height
         );
+        for ((colour, hatch), d) in &self.tiles {
+            let _ = writeln!(out, "<path d=\"{d}\" fill=\"{colour}\"/>");
+            if let Some(hatch) = hatch {
+                let _ = writeln!(out, "<path d=\"{d}\" fill=\"url(#{hatch})\"/>");
+            }
+        }
+        for ((colour, width), d) in &self.edges {
+            let _ = writeln!(
+                out,
+                "<path d=\"{d}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"{width}\" stroke-linejoin=\"round\"/>"
+            );
+        }
         out.push_str(&self.body);
         out.push_str("</svg>\n");
         out
     }
+}
+
+/// Appends the closed polygon `p` to the path data `d`.
+fn subpath(d: &mut String, p: &[(f64, f64)]) {
+    for (n, (x, y)) in p.iter().enumerate() {
+        let _ = write!(
+            d,
+            "{}{} {}",
+            if n == 0 { "M" } else { "L" },
+            num(*x),
+            num(*y)
+        );
+    }
+    d.push('Z');
 }
 
 fn points(p: &[(f64, f64)]) -> String {

@@ -8,7 +8,7 @@ use std::collections::{BTreeSet, HashMap};
 
 use crate::sim::decode::MicromapContent;
 use crate::sim::opacity::{OpacityState, Slot, SpecialIndex};
-use crate::sim::trace::{fetch_slot, Attachment, TraceError};
+use crate::sim::trace::{fetch_slot, Attachment};
 
 use super::canvas::{fill, Canvas, Fill, EDGE, MISSING, PROBLEM, TEXT};
 use super::cells::{self, CellState, Problem, TriangleCells, READ_BUDGET};
@@ -121,24 +121,30 @@ fn frame(
         .ceil();
     let chars = ((width - 2.0 * MARGIN) / (8.0 * CAPTION)) as usize;
     let lines: Vec<String> = captions.iter().flat_map(|c| wrap(c, chars)).collect();
+    // The legend's entries, in rows that fit the width.
+    let mut entries = Vec::new();
+    let (mut x, mut row) = (MARGIN, 0.0);
+    for state in legend {
+        let f = fill(*state);
+        let entry = 24.0 + Canvas::text_width(CAPTION, f.name);
+        if x > MARGIN && x + entry > width - MARGIN {
+            (x, row) = (MARGIN, row + 1.0);
+        }
+        entries.push((x, row, f));
+        x += entry + 20.0;
+    }
+    let legend_rows = entries.last().map_or(0.0, |(_, row, _)| row + 1.0);
     let top = MARGIN + 8.0 * TITLE + 16.0;
     let legend_y = top + body.1 + 16.0;
-    let captions_y = legend_y + 30.0;
+    let captions_y = legend_y + 26.0 * legend_rows + 4.0;
     let height = (captions_y + LINE * lines.len() as f64 + MARGIN).ceil();
     let mut canvas = Canvas::new(width as u32, height as u32, title);
     canvas.text((MARGIN, MARGIN), TITLE, title, TEXT);
-    let mut x = MARGIN;
-    for state in legend {
-        let f = fill(*state);
-        let square = [
-            (x, legend_y),
-            (x + 18.0, legend_y),
-            (x + 18.0, legend_y + 18.0),
-            (x, legend_y + 18.0),
-        ];
-        canvas.polygon(&square, &f, Some((EDGE, 1.0)));
-        canvas.text((x + 24.0, legend_y + 3.0), CAPTION, f.name, TEXT);
-        x += 24.0 + Canvas::text_width(CAPTION, f.name) + 20.0;
+    for (x, row, f) in &entries {
+        let y = legend_y + 26.0 * row;
+        let square = [(*x, y), (x + 18.0, y), (x + 18.0, y + 18.0), (*x, y + 18.0)];
+        canvas.polygon(&square, f, Some((EDGE, 1.0)));
+        canvas.text((x + 24.0, y + 3.0), CAPTION, f.name, TEXT);
     }
     for (n, line) in lines.iter().enumerate() {
         canvas.text((MARGIN, captions_y + LINE * n as f64), CAPTION, line, TEXT);
@@ -180,7 +186,7 @@ fn side(p: &[(f64, f64); 3]) -> f64 {
 fn draw_triangle(canvas: &mut Canvas, t: &TriangleCells, at: [(f64, f64); 3], style: Style) {
     let outer = side(&at);
     if let Some(problem) = t.problem {
-        canvas.polygon(&at, &missing(), None);
+        canvas.tile(at, &missing());
         canvas.outline(&at, PROBLEM, (outer / 60.0).clamp(1.0, 3.0));
         let label = match problem {
             Problem::Format(f) => format!("format {f}"),
@@ -191,15 +197,17 @@ fn draw_triangle(canvas: &mut Canvas, t: &TriangleCells, at: [(f64, f64); 3], st
     }
     let cell_side = outer / f64::from(1u32 << t.shown);
     match t.uniform() {
-        Some(state) => canvas.triangle(at, &fill(state), None),
+        Some(state) => canvas.tile(at, &fill(state)),
         None => {
             for cell in &t.cells {
                 let Some(p) = cells::corners(cell.index, t.shown, at) else {
                     continue;
                 };
                 let f = fill(cell.state);
-                let edge = (cell_side >= 12.0).then_some((EDGE, 0.5));
-                canvas.triangle(p, &f, edge);
+                canvas.tile(p, &f);
+                if cell_side >= 12.0 {
+                    canvas.edge(p, EDGE, 0.5);
+                }
                 if cell.mixed && cell_side >= 10.0 {
                     canvas.dot(centroid(&p), (cell_side / 14.0).max(1.0), f.ink);
                 }
@@ -212,8 +220,8 @@ fn draw_triangle(canvas: &mut Canvas, t: &TriangleCells, at: [(f64, f64); 3], st
     }
     if t.past_end {
         canvas.outline(&at, PROBLEM, (outer / 60.0).clamp(1.5, 4.0));
-    } else {
-        canvas.outline(&at, EDGE, (outer / 300.0).clamp(0.5, 1.5));
+    } else if outer >= 16.0 {
+        canvas.edge(at, EDGE, (outer / 300.0).clamp(0.5, 1.5));
     }
 }
 
@@ -417,15 +425,12 @@ pub fn geometry(
     let selected: Vec<Selected> = (0..drawn)
         .map(|t| match fetch_slot(attachment, t) {
             Ok(Slot::Special(s)) => Selected::Special(s),
-            Ok(Slot::Micromap(m)) if content.is_none() => {
-                let _ = m;
-                Selected::Unread
-            }
+            Ok(Slot::Micromap(_)) if content.is_none() => Selected::Unread,
             Ok(Slot::Micromap(m)) if m >= micromap_count => Selected::OutOfRange(m),
             Ok(Slot::Micromap(m)) => Selected::Triangle(m),
-            Err(TraceError::IndexOutOfRange { .. } | TraceError::IndexUnreadable) | Err(_) => {
-                Selected::Unread
-            }
+            // Past the index buffer's known contents, or an index type no
+            // attachment may use: the checks report it; here it is unread.
+            Err(_) => Selected::Unread,
         })
         .collect();
     let squares = drawn.div_ceil(2).max(1);
@@ -542,6 +547,8 @@ pub fn geometry(
     let (mut canvas, (x0, y0)) =
         frame(&title, (cols * s, rows * s), &captions, &legend(&refs, &[]));
     let labels = s >= 96.0;
+    // Red outlines are drawn last, so that no neighbour covers them.
+    let mut marked: Vec<([(f64, f64); 3], f64)> = Vec::new();
     for (t, sel) in (0u64..).zip(&selected) {
         let q = t / 2;
         let (x, y) = (
@@ -557,6 +564,9 @@ pub fn geometry(
             Selected::Triangle(m) => {
                 if let Some(cells) = decoded.get(m) {
                     draw_triangle(&mut canvas, cells, at, Style { numbers: false });
+                    if cells.past_end || cells.problem.is_some() {
+                        marked.push((at, (s / 60.0).clamp(1.0, 4.0)));
+                    }
                 }
                 format!("{t}: [{m}]")
             }
@@ -564,23 +574,27 @@ pub fn geometry(
                 let f = sp
                     .state()
                     .map_or_else(missing, |st| fill(CellState::State(st)));
-                canvas.triangle(at, &f, None);
-                canvas.outline(&at, EDGE, (s / 200.0).clamp(0.3, 1.0));
+                canvas.tile(at, &f);
+                if s >= 16.0 {
+                    canvas.edge(at, EDGE, (s / 200.0).clamp(0.3, 1.0));
+                }
                 format!("{t}: {}", sp.value())
             }
             Selected::OutOfRange(m) => {
-                canvas.triangle(at, &missing(), None);
+                canvas.tile(at, &missing());
                 let c = centroid(&at);
                 let r = s / 6.0;
                 let width = (s / 40.0).clamp(0.8, 3.0);
                 canvas.line((c.0 - r, c.1 - r), (c.0 + r, c.1 + r), PROBLEM, width);
                 canvas.line((c.0 - r, c.1 + r), (c.0 + r, c.1 - r), PROBLEM, width);
-                canvas.outline(&at, PROBLEM, width);
+                marked.push((at, width));
                 format!("{t}: [{m}]")
             }
             Selected::Unread => {
-                canvas.triangle(at, &missing(), None);
-                canvas.outline(&at, EDGE, (s / 200.0).clamp(0.3, 1.0));
+                canvas.tile(at, &missing());
+                if s >= 16.0 {
+                    canvas.edge(at, EDGE, (s / 200.0).clamp(0.3, 1.0));
+                }
                 format!("{t}: ?")
             }
         };
@@ -589,12 +603,6 @@ pub fn geometry(
             // much of: toward vertex 0.
             let c = centroid(&at);
             let toward = ((c.0 + at[0].0) / 2.0, (c.1 + at[0].1) / 2.0);
-            let ink = match sel {
-                Selected::Special(sp) => {
-                    sp.state().map_or(TEXT, |st| fill(CellState::State(st)).ink)
-                }
-                _ => TEXT,
-            };
             let width = Canvas::text_width(1.0, &label);
             let (bx, by) = (toward.0 - width / 2.0 - 2.0, toward.1 - 6.0);
             canvas.polygon(
@@ -607,13 +615,16 @@ pub fn geometry(
                 &Fill {
                     colour: "#ffffff",
                     hatch: None,
-                    ink,
+                    ink: TEXT,
                     name: "label",
                 },
                 None,
             );
             canvas.text_centred(toward, 1.0, &label, TEXT);
         }
+    }
+    for (at, width) in &marked {
+        canvas.outline(at, PROBLEM, *width);
     }
     canvas
 }
