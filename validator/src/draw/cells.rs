@@ -169,8 +169,9 @@ pub fn cells(
                 }
             }
             let held = counts.iter().filter(|n| **n > 0).count();
-            // The last maximum: ties go to the higher state value.
-            let most = (0..4).rev().max_by_key(|s| counts[*s]).unwrap_or(0);
+            // `max_by_key` keeps the last maximum: ties go to the higher
+            // state value.
+            let most = (0..4).max_by_key(|s| counts[*s]).unwrap_or(0);
             Cell {
                 index: k,
                 state: if past {

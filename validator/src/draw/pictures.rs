@@ -148,7 +148,10 @@ fn frame(
     }
     for (n, line) in lines.iter().enumerate() {
         canvas.text((MARGIN, captions_y + LINE * n as f64), CAPTION, line, TEXT);
-        canvas.describe(line);
+    }
+    // The description holds the captions unwrapped, for search and screen readers.
+    for caption in captions {
+        canvas.describe(caption);
     }
     (canvas, (((width - body.0) / 2.0).floor(), top))
 }
