@@ -107,20 +107,24 @@ impl Drawable {
         })
     }
 
-    fn names_of(&self, kinds: &[&str]) -> Vec<&str> {
+    /// The object named `name` among those `accept` takes; the error
+    /// suggests the closest of them.
+    fn find(
+        &self,
+        name: &str,
+        accept: impl Fn(&NamedObject) -> bool,
+        what: &str,
+    ) -> Result<&NamedObject, DrawError> {
         self.objects
             .iter()
-            .filter(|o| kinds.contains(&o.kind))
-            .map(|o| o.name.as_str())
-            .collect()
-    }
-
-    fn find(&self, name: &str, kinds: &[&str], what: &str) -> Result<&NamedObject, DrawError> {
-        self.objects
-            .iter()
-            .find(|o| o.name == name && kinds.contains(&o.kind))
+            .find(|o| o.name == name && accept(o))
             .ok_or_else(|| {
-                let names = self.names_of(kinds);
+                let names: Vec<&str> = self
+                    .objects
+                    .iter()
+                    .filter(|o| accept(o))
+                    .map(|o| o.name.as_str())
+                    .collect();
                 let hint = crate::suggest::did_you_mean(name, names.iter().copied(), 3)
                     .map(|s| format!("; {s}"))
                     .unwrap_or_else(|| {
@@ -136,7 +140,18 @@ impl Drawable {
 
     /// The built content of the micromap the scene names `name`.
     pub fn micromap(&self, name: &str) -> Result<&MicromapContent, DrawError> {
-        let object = self.find(name, &[MICROMAP, STRUCTURE], "micromap")?;
+        // A KHR opacity micromap is an acceleration structure built from
+        // micromap content; a BLAS is not a micromap.
+        let state = self.validator.state();
+        let khr_micromap = |o: &NamedObject| {
+            o.kind == STRUCTURE
+                && state
+                    .acceleration_structures
+                    .get(&o.handle)
+                    .and_then(|s| s.built.as_ref())
+                    .is_some_and(|b| b.content.is_some())
+        };
+        let object = self.find(name, |o| o.kind == MICROMAP || khr_micromap(o), "micromap")?;
         let state = self.validator.state();
         let built = if object.kind == MICROMAP {
             state
@@ -180,7 +195,7 @@ impl Drawable {
     }
 
     fn geometry(&self, name: &str, index: u32) -> Result<canvas::Canvas, DrawError> {
-        let object = self.find(name, &[STRUCTURE], "acceleration structure")?;
+        let object = self.find(name, |o| o.kind == STRUCTURE, "acceleration structure")?;
         let state = self.validator.state();
         let built = state
             .acceleration_structures
