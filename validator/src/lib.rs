@@ -123,6 +123,7 @@ pub mod build_inputs;
 pub mod checks;
 pub mod coverage;
 pub mod device;
+pub mod draw;
 pub mod driver;
 pub mod explain;
 pub mod fixture;

@@ -87,6 +87,44 @@ enum Command {
         scenes: Vec<std::path::PathBuf>,
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
+        /// Instead of the census, print every micro-triangle's state of
+        /// every opacity micromap built, in JSON (whatever --format says):
+        /// per triangle a string of digits in the specification's order,
+        /// 0 transparent, 1 opaque, 2 unknown-transparent, 3 unknown-opaque.
+        #[arg(long)]
+        states: bool,
+    },
+    /// Draw a micromap or a BLAS geometry as SVG or PNG.
+    ///
+    /// --micromap NAME draws the micromap's triangles as a grid, or one of
+    /// them with --triangle; --acceleration-structure NAME draws one of its
+    /// geometries with the micromap triangle each geometry triangle selects.
+    /// Colours, the downsampling rule of deep levels and the marks of
+    /// problems: docs/pictures.md. Exit status: 0, or 2 when the scene
+    /// could not be read, nothing matches the names, or the file could not
+    /// be written.
+    Draw {
+        /// A scene file (JSON; see docs/scene-format.md).
+        scene: std::path::PathBuf,
+        /// The picture: SVG or PNG, by the file's extension.
+        #[arg(long, value_name = "FILE.svg|FILE.png")]
+        out: std::path::PathBuf,
+        /// The micromap to draw, by its scene name.
+        #[arg(
+            long,
+            required_unless_present = "acceleration_structure",
+            conflicts_with = "acceleration_structure"
+        )]
+        micromap: Option<String>,
+        /// Only this triangle of the micromap (its index in the triangle array).
+        #[arg(long, requires = "micromap")]
+        triangle: Option<u64>,
+        /// The bottom-level acceleration structure to draw, by its scene name.
+        #[arg(long, value_name = "NAME")]
+        acceleration_structure: Option<String>,
+        /// Its geometry (default 0).
+        #[arg(long, requires = "acceleration_structure", default_value_t = 0)]
+        geometry: u32,
     },
     /// Map barycentrics to a micro-triangle index, or an index to its micro-triangle.
     Index {
@@ -137,7 +175,29 @@ fn main() -> ExitCode {
             tier,
         } => check_command(example, &scenes, format, profile.as_deref(), deny, tier),
         Command::Trace { scenes, format } => trace_command(&scenes, format),
-        Command::Stats { scenes, format } => stats_command(&scenes, format),
+        Command::Stats {
+            scenes,
+            states: true,
+            ..
+        } => states_command(&scenes),
+        Command::Stats { scenes, format, .. } => stats_command(&scenes, format),
+        Command::Draw {
+            scene,
+            out,
+            micromap,
+            triangle,
+            acceleration_structure,
+            geometry,
+        } => {
+            let pick = match (micromap, acceleration_structure) {
+                (Some(name), _) => ommcheck::draw::Pick::Micromap { name, triangle },
+                (None, Some(name)) => ommcheck::draw::Pick::Geometry { name, geometry },
+                (None, None) => {
+                    unreachable!("clap requires --micromap or --acceleration-structure")
+                }
+            };
+            draw_command(&scene, &out, &pick)
+        }
         Command::Index {
             level,
             uv,
@@ -328,6 +388,57 @@ fn stats_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
     ) {
         Ok(()) => ExitCode::SUCCESS,
         Err(status) => status,
+    }
+}
+
+/// `ommcheck stats --states`: every scene's micromaps' states, in JSON.
+fn states_command(paths: &[std::path::PathBuf]) -> ExitCode {
+    let mut scenes = Vec::with_capacity(paths.len());
+    for path in paths {
+        match Scene::load(path) {
+            Ok(scene) => scenes.push(scene),
+            Err(error) => {
+                eprintln!("ommcheck: {error}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    let output = match ommcheck::draw::states::states_of(&scenes) {
+        Ok(output) => output,
+        Err(error) => {
+            eprintln!("ommcheck: {error}");
+            return ExitCode::from(2);
+        }
+    };
+    match serde_json::to_string_pretty(&output) {
+        Ok(json) => {
+            println!("{json}");
+            ExitCode::SUCCESS
+        }
+        Err(error) => {
+            eprintln!("ommcheck: cannot write the states: {error}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// `ommcheck draw`: runs the scene's calls, draws what the pick names and
+/// writes it as the extension of `out` says.
+fn draw_command(
+    path: &std::path::Path,
+    out: &std::path::Path,
+    pick: &ommcheck::draw::Pick,
+) -> ExitCode {
+    let drawn = Scene::load(path)
+        .map_err(ommcheck::draw::DrawError::Scene)
+        .and_then(|scene| ommcheck::draw::draw(&scene, pick))
+        .and_then(|picture| picture.write(out));
+    match drawn {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("ommcheck: {error}");
+            ExitCode::from(2)
+        }
     }
 }
 

@@ -154,6 +154,7 @@ fn help_lists_each_command_in_one_line() {
         "  trace    Check each scene's calls, then simulate each of its `rays`\n",
         "  example  Print the built-in example scene: `ommcheck example > scene.json`\n",
         "  vuid     Explain a rule: enforced or not, at which tier, and by the Khronos layer\n",
+        "  draw     Draw a micromap or a BLAS geometry as SVG or PNG\n",
     ] {
         assert!(stdout.contains(line), "{line:?} missing from\n{stdout}");
     }

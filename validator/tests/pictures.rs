@@ -1,0 +1,281 @@
+//! `ommcheck draw` and `ommcheck stats --states`: each picture kind against
+//! its reference PNG in tests/pictures/, and the states dump against the
+//! simulator's lookups.
+//!
+//! A picture matches its reference when both have the same size and at
+//! most [`MAX_DIFFERING`] of its pixels differ from the reference's by
+//! more than [`CHANNEL_TOLERANCE`] in a channel: anti-aliasing may differ
+//! by a step between renderer builds, a changed picture differs in whole
+//! shapes. After a deliberate change, look at the pictures the failing
+//! test wrote to target/pictures-actual/ and bless them:
+//! `OMMCHECK_BLESS=1 cargo test -p ommcheck --test pictures`.
+
+#[path = "support/picture_scenes.rs"]
+mod picture_scenes;
+
+use std::path::{Path, PathBuf};
+
+use ommcheck::draw::{self, Pick};
+use ommcheck::scene::Scene;
+use ommcheck::sim::index::MicroTriangle;
+use ommcheck::sim::opacity::Slot;
+
+/// The largest difference in one channel (of 255) a pixel may have and
+/// still match.
+const CHANNEL_TOLERANCE: u8 = 24;
+/// The most pixels that may not match, as a fraction of all.
+const MAX_DIFFERING: f64 = 0.002;
+
+fn references() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/pictures")
+}
+
+/// Renders `picture` and compares it with the reference `name`.png, or
+/// writes the reference when `OMMCHECK_BLESS` is set.
+fn assert_matches_reference(picture: &draw::Picture, name: &str) {
+    let png = picture.png().expect("the picture renders");
+    let reference = references().join(format!("{name}.png"));
+    if std::env::var_os("OMMCHECK_BLESS").is_some() {
+        std::fs::create_dir_all(references()).unwrap();
+        std::fs::write(&reference, &png).unwrap();
+        return;
+    }
+    let actual_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/pictures-actual");
+    let keep_actual = || {
+        std::fs::create_dir_all(&actual_dir).unwrap();
+        let path = actual_dir.join(format!("{name}.png"));
+        std::fs::write(&path, &png).unwrap();
+        path
+    };
+    let bless =
+        "if the change is meant, bless it: OMMCHECK_BLESS=1 cargo test -p ommcheck --test pictures";
+    let Ok(expected) = std::fs::read(&reference) else {
+        let path = keep_actual();
+        panic!(
+            "no reference {} (the picture is at {}); {bless}",
+            reference.display(),
+            path.display()
+        );
+    };
+    let decode = |bytes: &[u8]| resvg::tiny_skia::Pixmap::decode_png(bytes).expect("a PNG");
+    let (actual, expected) = (decode(&png), decode(&expected));
+    let same_size = (actual.width(), actual.height()) == (expected.width(), expected.height());
+    let differing = if same_size {
+        actual
+            .data()
+            .chunks_exact(4)
+            .zip(expected.data().chunks_exact(4))
+            .filter(|(a, e)| {
+                a.iter()
+                    .zip(*e)
+                    .any(|(a, e)| a.abs_diff(*e) > CHANNEL_TOLERANCE)
+            })
+            .count()
+    } else {
+        usize::MAX
+    };
+    let allowed = (MAX_DIFFERING * (expected.width() * expected.height()) as f64) as usize;
+    if differing > allowed {
+        let path = keep_actual();
+        panic!(
+            "{name}: {} (reference {}x{}, picture {}x{}); the picture is at {}, the reference at {}; {bless}",
+            if same_size {
+                format!("{differing} pixels differ by more than {CHANNEL_TOLERANCE}, {allowed} may")
+            } else {
+                "the sizes differ".to_string()
+            },
+            expected.width(),
+            expected.height(),
+            actual.width(),
+            actual.height(),
+            path.display(),
+            reference.display()
+        );
+    }
+}
+
+fn micromap(name: &str, triangle: Option<u64>) -> Pick {
+    Pick::Micromap {
+        name: name.into(),
+        triangle,
+    }
+}
+
+/// The scene's picture's SVG text, after checking it against its
+/// reference, and its description (the captions).
+fn drawn(scene: &Scene, pick: &Pick, reference: &str) -> (String, String) {
+    let picture = draw::draw(scene, pick).unwrap_or_else(|e| panic!("{e}"));
+    assert_matches_reference(&picture, reference);
+    let desc = picture
+        .svg
+        .split_once("<desc>")
+        .and_then(|(_, rest)| rest.split_once("</desc>"))
+        .map(|(desc, _)| desc.to_string())
+        .unwrap_or_default();
+    (picture.svg, desc)
+}
+
+#[test]
+fn one_micromap_triangle_is_numbered_in_the_spec_order() {
+    let (svg, desc) = drawn(
+        &Scene::example(),
+        &micromap("foliage-omm", Some(2)),
+        "micromap-triangle",
+    );
+    assert!(desc.contains("numbered in the specification"), "{desc}");
+    assert!(
+        !desc.contains("Downsampled"),
+        "a level-3 triangle is drawn exactly"
+    );
+    // Its unknown states are hatched.
+    assert!(svg.contains("url(#hatch-ut)"));
+}
+
+#[test]
+fn a_whole_micromap_marks_the_triangle_whose_data_runs_past_the_end() {
+    let (svg, desc) = drawn(
+        &Scene::example(),
+        &micromap("foliage-omm", None),
+        "micromap-grid",
+    );
+    assert!(
+        desc.contains(
+            "Data past the end of the data the checker has (red outline, hatched red): triangle 3."
+        ),
+        "{desc}"
+    );
+    assert!(svg.contains("url(#hatch-past)"));
+}
+
+#[test]
+fn a_geometry_shows_special_and_out_of_range_indices() {
+    let pick = Pick::Geometry {
+        name: "foliage-blas".into(),
+        geometry: 0,
+    };
+    let (_, desc) = drawn(&Scene::example(), &pick, "geometry");
+    // The example's index buffer: 0, 1, 2, 3, 4 (past the four triangles), -2.
+    assert!(desc.contains("red X (triangle 4 selects 4)"), "{desc}");
+    assert!(desc.contains("1 of -2"), "{desc}");
+}
+
+fn generated(name: &str, spec: &picture_scenes::Spec) -> Scene {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../target/picture-scenes")
+        .join(name);
+    Scene::load(&picture_scenes::write(&dir, name, spec)).unwrap()
+}
+
+#[test]
+fn a_level_12_triangle_is_downsampled_by_the_stated_rule() {
+    let scene = generated(
+        "level12",
+        &picture_scenes::Spec {
+            level: 12,
+            micromap_triangles: 1,
+            geometry_triangles: 0,
+        },
+    );
+    let (svg, desc) = drawn(&scene, &micromap("disc", Some(0)), "level-12");
+    assert!(
+        desc.contains("level 12 drawn at level 6: each cell holds 4096"),
+        "{desc}"
+    );
+    // Bounded: 4096 cells, not 16M micro-triangles.
+    assert!(svg.len() < 1 << 20, "{} bytes of SVG", svg.len());
+}
+
+#[test]
+fn draw_writes_svg_or_png_by_the_extension_and_names_what_is_missing() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/pictures-cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("example.json");
+    std::fs::write(&scene, ommcheck::scene::EXAMPLE).unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_ommcheck"))
+            .arg("draw")
+            .arg(&scene)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    for extension in ["svg", "png"] {
+        let out = dir.join(format!("grid.{extension}"));
+        let _ = std::fs::remove_file(&out);
+        let output = run(&["--micromap", "foliage-omm", "--out", out.to_str().unwrap()]);
+        assert!(output.status.success(), "{output:?}");
+        let bytes = std::fs::read(&out).unwrap();
+        match extension {
+            "svg" => assert!(bytes.starts_with(b"<svg")),
+            _ => assert!(bytes.starts_with(b"\x89PNG")),
+        }
+    }
+    let output = run(&["--micromap", "foliage-om", "--out", "x.png"]);
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("did you mean `foliage-omm`"), "{stderr}");
+    let output = run(&["--micromap", "foliage-omm", "--out", "x.gif"]);
+    assert_eq!(output.status.code(), Some(2));
+}
+
+#[test]
+fn the_states_dump_agrees_with_the_simulators_lookups() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/pictures-cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("states-example.json");
+    std::fs::write(&path, ommcheck::scene::EXAMPLE).unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_ommcheck"))
+        .args(["stats", "--states"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{output:?}");
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let micromap = &json["scenes"][0]["micromaps"][0];
+    assert_eq!(micromap["name"], "foliage-omm");
+    let triangles = micromap["triangles"].as_array().unwrap();
+    assert_eq!(triangles.len(), 4);
+
+    // Each state against the simulator's answer for a hit at the
+    // micro-triangle's centroid.
+    let scene = Scene::load(&path).unwrap();
+    let (report, validator) = scene.check_into_validator(&Default::default()).unwrap();
+    let handle = report.handle("foliage-omm").unwrap();
+    let content = validator.state().micromaps[&handle]
+        .built
+        .as_ref()
+        .and_then(|b| b.content.clone())
+        .unwrap();
+    for (m, triangle) in triangles.iter().enumerate() {
+        let level = triangle["subdivisionLevel"].as_u64().unwrap() as u32;
+        let states = triangle["states"].as_str().unwrap();
+        let past_end = triangle["pastEnd"].as_u64().unwrap();
+        assert_eq!(states.len() as u64 + past_end, 1 << (2 * level));
+        for (k, digit) in states.chars().enumerate() {
+            let corners = MicroTriangle::from_index(k as u32, level)
+                .unwrap()
+                .vertices(level);
+            let u = corners.iter().map(|c| c.0).sum::<f64>() / 3.0;
+            let v = corners.iter().map(|c| c.1).sum::<f64>() / 3.0;
+            let simulated = content.states(Slot::Micromap(m as u64), u as f32, v as f32, 0.0);
+            match simulated {
+                Ok(set) => {
+                    let value = *set.iter().next().unwrap() as u32;
+                    assert_eq!(set.len(), 1);
+                    assert_eq!(digit.to_digit(10), Some(value), "triangle {m}, index {k}");
+                }
+                // The simulator reads a triangle only when all its data is
+                // there; the dump lists what there is.
+                Err(_) => assert!(past_end > 0, "triangle {m}"),
+            }
+        }
+    }
+    // Triangle 3's 16 bytes start at 248 of the 256-byte data buffer: 8
+    // bytes, 32 states of 2 bits, are there.
+    let last = &triangles[3];
+    let offset = last["dataOffset"].as_u64().unwrap();
+    assert_eq!(
+        last["states"].as_str().unwrap().len() as u64,
+        (256 - offset) * 4
+    );
+}
