@@ -27,6 +27,8 @@ mod host;
 pub mod khr;
 pub mod layer;
 #[cfg(feature = "driver")]
+pub mod lines;
+#[cfg(feature = "driver")]
 pub mod modules;
 #[cfg(feature = "driver")]
 pub mod names;

@@ -105,6 +105,10 @@ mod driver {
         /// validator/src, layer/src and xtask/src in layers from the bottom;
         /// fail on an import cycle.
         Modules,
+        /// Count the core's hand-written lines (blank, comment, inline-test
+        /// and generated lines left out): validator/src/{scene,raw,model}
+        /// and all of validator/src.
+        Lines,
         /// Write VUID-COVERAGE.md (every catalog VUID's status) and docs/rules.md's table of our rules.
         Coverage,
         /// Build the Vulkan layer in release and write its manifest,
@@ -238,6 +242,7 @@ mod driver {
                     })
             }
             Task::Modules => xtask::modules::run(&root).map(|report| print!("{report}")),
+            Task::Lines => xtask::lines::report(&root).map(|report| println!("{report}")),
             Task::Layer { args } => return super::layer_command(&args),
             Task::Accuracy { seed } => {
                 let classes = xtask::faults::classes().len();
