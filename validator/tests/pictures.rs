@@ -155,7 +155,7 @@ fn a_geometry_shows_special_and_out_of_range_indices() {
     };
     let (_, desc) = drawn(&Scene::example(), &pick, "geometry");
     // The example's index buffer: 0, 1, 2, 3, 4 (past the four triangles), -2.
-    assert!(desc.contains("red X (triangle 4 selects 4)"), "{desc}");
+    assert!(desc.contains("red X: 1 (triangle 4 selects 4)"), "{desc}");
     assert!(desc.contains("1 of -2"), "{desc}");
 }
 

@@ -483,7 +483,10 @@ pub fn geometry(
             Selected::Unread => counts[3] += 1,
         }
     }
-    let mut what = vec![format!("{} select micromap triangles", counts[0])];
+    let mut what = vec![format!(
+        "Geometry triangles selecting a micromap triangle: {}",
+        counts[0]
+    )];
     if counts[1] > 0 {
         let by: Vec<String> = (1..=5)
             .zip(specials)
@@ -491,7 +494,7 @@ pub fn geometry(
             .map(|(v, n)| format!("{n} of -{v}"))
             .collect();
         what.push(format!(
-            "{} use special indices, drawn filled with their state and labelled ({})",
+            "using a special index, drawn filled with its state and labelled: {} ({})",
             counts[1],
             by.join(", ")
         ));
@@ -507,14 +510,14 @@ pub fn geometry(
             .take(4)
             .collect();
         what.push(format!(
-            "{} select a triangle past the micromap's {micromap_count}: red X ({})",
+            "selecting a triangle past the micromap's {micromap_count}, red X: {} ({})",
             counts[2],
             first.join(", ")
         ));
     }
     if counts[3] > 0 {
         what.push(format!(
-            "{} have an index the checker could not read or no micromap: grey, '?'",
+            "with an index the checker could not read or no micromap, grey '?': {}",
             counts[3]
         ));
     }
