@@ -76,7 +76,10 @@ fn a_structure_with_an_array_is_refused_by_name() {
         Ok(_) => panic!("VkMicromapBuildInfoEXT has arrays; it must not be generated"),
         Err(e) => e.to_string(),
     };
-    assert!(error.contains("VkMicromapBuildInfoEXT.pUsageCounts"), "{error}");
+    assert!(
+        error.contains("VkMicromapBuildInfoEXT.pUsageCounts"),
+        "{error}"
+    );
     assert!(error.contains("write the structure by hand"), "{error}");
     // Every structure STRUCTS lists has a form for each member.
     for spec in xtask::structs::STRUCTS {
