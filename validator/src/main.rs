@@ -9,6 +9,7 @@ use ommcheck::scene::{
     CheckOptions, LimitsOverride, Output, Scene, SceneReport, StatsReport, StatsSummary, Summary,
     TraceReport, TraceSummary,
 };
+use rayon::prelude::*;
 
 /// A checker for Vulkan opacity-micromap API usage.
 #[derive(Parser)]
@@ -40,7 +41,9 @@ enum Command {
         /// `ommcheck example` prints it).
         #[arg(long)]
         example: bool,
-        /// Scene files to check (JSON; see docs/scene-format.md).
+        /// Scene files to check (JSON; see docs/scene-format.md), or
+        /// directories: every `.json` file under one is a scene, checked in
+        /// path order.
         scenes: Vec<std::path::PathBuf>,
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -268,39 +271,43 @@ fn check_command(
         },
     };
     let options = CheckOptions { limits, tier };
-    let mut scenes = Vec::new();
-    if example {
-        scenes.push(Scene::example());
-    }
-    for path in paths {
-        match Scene::load(path) {
-            Ok(scene) => scenes.push(scene),
-            Err(error) => {
-                eprintln!("ommcheck: {error}");
-                return ExitCode::from(2);
-            }
+    let paths = match scene_files(paths) {
+        Ok(paths) => paths,
+        Err(message) => {
+            eprintln!("ommcheck: {message}");
+            return ExitCode::from(2);
         }
-    }
-    let mut reports: Vec<SceneReport> = Vec::new();
+    };
     let scene_bytes: u64 = paths
         .iter()
         .filter_map(|p| std::fs::metadata(p).ok())
         .map(|m| m.len())
         .sum();
-    let progress = progress::for_scenes(scenes.len() as u64, scene_bytes);
-    for scene in &scenes {
-        let checked = scene.check(&options);
+    let progress = progress::for_scenes(paths.len() as u64 + u64::from(example), scene_bytes);
+    // Each scene is read and checked on its own, on every core; the
+    // reports keep the input order, and the first scene (in that order)
+    // that cannot be read or resolved decides the error.
+    let check = |scene: Result<Scene, String>| {
+        let checked = scene.and_then(|scene| scene.check(&options).map_err(|e| e.to_string()));
         progress.inc(1);
+        checked
+    };
+    let example_report = example.then(|| check(Ok(Scene::example())));
+    let file_reports: Vec<Result<SceneReport, String>> = paths
+        .par_iter()
+        .map(|path| check(Scene::load(path).map_err(|e| e.to_string())))
+        .collect();
+    progress.finish_and_clear();
+    let mut reports: Vec<SceneReport> = Vec::new();
+    for checked in example_report.into_iter().chain(file_reports) {
         match checked {
             Ok(report) => reports.push(report),
             Err(error) => {
-                progress.finish_and_clear();
                 eprintln!("ommcheck: {error}");
                 return ExitCode::from(2);
             }
         }
     }
-    progress.finish_and_clear();
     let summary = Summary::of(&reports);
     if let Err(status) = print_reports(
         format,
@@ -317,6 +324,38 @@ fn check_command(
     } else {
         ExitCode::SUCCESS
     }
+}
+
+/// The scene files `paths` name: a file as given, a directory as every
+/// `.json` file under it (at any depth), in path order.
+fn scene_files(paths: &[std::path::PathBuf]) -> Result<Vec<std::path::PathBuf>, String> {
+    let mut files = Vec::new();
+    for path in paths {
+        if !path.is_dir() {
+            files.push(path.clone());
+            continue;
+        }
+        let mut found = Vec::new();
+        let mut pending = vec![path.clone()];
+        while let Some(dir) = pending.pop() {
+            let entries = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            for entry in entries {
+                let entry = entry.map_err(|e| format!("{}: {e}", dir.display()))?;
+                let path = entry.path();
+                if path.is_dir() {
+                    pending.push(path);
+                } else if path.extension().is_some_and(|e| e == "json") {
+                    found.push(path);
+                }
+            }
+        }
+        if found.is_empty() {
+            return Err(format!("{}: no scene (.json) files", path.display()));
+        }
+        found.sort();
+        files.extend(found);
+    }
+    Ok(files)
 }
 
 /// `ommcheck trace`: reads every scene first (status 2 before anything runs

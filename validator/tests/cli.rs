@@ -205,3 +205,51 @@ fn rules_not_checked_show_in_the_default_text_output() {
     assert!(!stdout.contains("OMMCHECK-not-checked-"), "{stdout}");
     assert!(stdout.trim_end().ends_with(" 0 not checked"), "{stdout}");
 }
+
+/// The repository's `tests/scenes/corpus/<dir>`.
+fn corpus(dir: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/scenes/corpus")
+        .join(dir)
+}
+
+#[test]
+fn a_directory_is_checked_scene_by_scene_in_path_order() {
+    let dir = corpus("ext-build");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    files.sort();
+    assert!(files.len() > 4, "the corpus directory has scenes");
+    let (code, stdout, stderr) = ommcheck(&["check", "--format", "json", dir.to_str().unwrap()]);
+    assert!(code == 0 || code == 1, "{stderr}");
+    let whole: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    // The same reports, in the same order, as naming each file.
+    let mut args = vec!["check", "--format", "json"];
+    args.extend(files.iter().map(|f| f.to_str().unwrap()));
+    let (_, stdout, _) = ommcheck(&args);
+    let one_by_one: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(whole, one_by_one);
+    let paths: Vec<&str> = whole["scenes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["path"].as_str().unwrap())
+        .collect();
+    let mut sorted = paths.clone();
+    sorted.sort();
+    assert_eq!(paths, sorted);
+    assert_eq!(paths.len(), files.len());
+}
+
+#[test]
+fn a_directory_without_scenes_is_an_error() {
+    let empty = std::env::temp_dir().join(format!("ommcheck-empty-{}", std::process::id()));
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, _, stderr) = ommcheck(&["check", empty.to_str().unwrap()]);
+    std::fs::remove_dir_all(&empty).unwrap();
+    assert_eq!(code, 2);
+    assert!(stderr.contains("no scene (.json) files"), "{stderr}");
+}
