@@ -1,5 +1,6 @@
 //! The `ommcheck` command line.
 
+use std::io::Write as _;
 use std::process::ExitCode;
 
 mod progress;
@@ -327,7 +328,9 @@ fn check_command(
 }
 
 /// The scene files `paths` name: a file as given, a directory as every
-/// `.json` file under it (at any depth), in path order.
+/// `.json` file under it (at any depth), in path order. Links to
+/// directories below a given directory are not followed, so a link back
+/// up the tree cannot make the walk endless.
 fn scene_files(paths: &[std::path::PathBuf]) -> Result<Vec<std::path::PathBuf>, String> {
     let mut files = Vec::new();
     for path in paths {
@@ -342,7 +345,8 @@ fn scene_files(paths: &[std::path::PathBuf]) -> Result<Vec<std::path::PathBuf>, 
             for entry in entries {
                 let entry = entry.map_err(|e| format!("{}: {e}", dir.display()))?;
                 let path = entry.path();
-                if path.is_dir() {
+                // `file_type` does not follow links, unlike `Path::is_dir`.
+                if entry.file_type().is_ok_and(|t| t.is_dir()) {
                     pending.push(path);
                 } else if path.extension().is_some_and(|e| e == "json") {
                     found.push(path);
@@ -449,11 +453,17 @@ fn states_command(paths: &[std::path::PathBuf]) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match serde_json::to_string_pretty(&output) {
-        Ok(json) => {
-            println!("{json}");
-            ExitCode::SUCCESS
-        }
+    // Written as it is serialized: the listing can be hundreds of MiB.
+    let mut stdout = std::io::BufWriter::new(std::io::stdout().lock());
+    let written = serde_json::to_writer_pretty(&mut stdout, &output)
+        .map_err(|e| e.to_string())
+        .and_then(|()| {
+            writeln!(stdout)
+                .and_then(|()| stdout.flush())
+                .map_err(|e| e.to_string())
+        });
+    match written {
+        Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("ommcheck: cannot write the states: {error}");
             ExitCode::from(2)

@@ -253,3 +253,20 @@ fn a_directory_without_scenes_is_an_error() {
     assert_eq!(code, 2);
     assert!(stderr.contains("no scene (.json) files"), "{stderr}");
 }
+
+/// A link from inside a directory back to it is not followed: the walk
+/// ends, and the scene is checked once.
+#[test]
+fn a_link_back_up_the_directory_is_not_followed() {
+    let dir = std::env::temp_dir().join(format!("ommcheck-loop-{}", std::process::id()));
+    let inner = dir.join("inner");
+    std::fs::create_dir_all(&inner).unwrap();
+    let (_, example, _) = ommcheck(&["example"]);
+    std::fs::write(inner.join("example.json"), example).unwrap();
+    std::os::unix::fs::symlink(&dir, inner.join("up")).unwrap();
+    let (code, stdout, stderr) = ommcheck(&["check", "--format", "json", dir.to_str().unwrap()]);
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(code, 1, "the example has errors: {stderr}");
+    let report: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(report["scenes"].as_array().map(Vec::len), Some(1));
+}

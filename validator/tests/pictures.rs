@@ -7,8 +7,8 @@
 //! more than [`CHANNEL_TOLERANCE`] in a channel: anti-aliasing may differ
 //! by a step between renderer builds, a changed picture differs in whole
 //! shapes. After a deliberate change, look at the pictures the failing
-//! test wrote to target/pictures-actual/ and bless them:
-//! `OMMCHECK_BLESS=1 cargo test -p ommcheck --test pictures`.
+//! test wrote to target/pictures-actual/ and accept them:
+//! `OMMCHECK_UPDATE_PICTURES=1 cargo test -p ommcheck --test pictures`.
 
 #[path = "support/picture_scenes.rs"]
 mod picture_scenes;
@@ -31,11 +31,11 @@ fn references() -> PathBuf {
 }
 
 /// Renders `picture` and compares it with the reference `name`.png, or
-/// writes the reference when `OMMCHECK_BLESS` is set.
+/// writes the reference when `OMMCHECK_UPDATE_PICTURES` is set (as `OMMCHECK_UPDATE_SCHEMA` does for the schema; the layer leaves `OMMCHECK_UPDATE_*` variables alone).
 fn assert_matches_reference(picture: &draw::Picture, name: &str) {
     let png = picture.png().expect("the picture renders");
     let reference = references().join(format!("{name}.png"));
-    if std::env::var_os("OMMCHECK_BLESS").is_some() {
+    if std::env::var_os("OMMCHECK_UPDATE_PICTURES").is_some() {
         std::fs::create_dir_all(references()).unwrap();
         std::fs::write(&reference, &png).unwrap();
         return;
@@ -47,12 +47,12 @@ fn assert_matches_reference(picture: &draw::Picture, name: &str) {
         std::fs::write(&path, &png).unwrap();
         path
     };
-    let bless =
-        "if the change is meant, bless it: OMMCHECK_BLESS=1 cargo test -p ommcheck --test pictures";
+    let accept =
+        "if the change is meant, accept it: OMMCHECK_UPDATE_PICTURES=1 cargo test -p ommcheck --test pictures";
     let Ok(expected) = std::fs::read(&reference) else {
         let path = keep_actual();
         panic!(
-            "no reference {} (the picture is at {}); {bless}",
+            "no reference {} (the picture is at {}); {accept}",
             reference.display(),
             path.display()
         );
@@ -78,7 +78,7 @@ fn assert_matches_reference(picture: &draw::Picture, name: &str) {
     if differing > allowed {
         let path = keep_actual();
         panic!(
-            "{name}: {} (reference {}x{}, picture {}x{}); the picture is at {}, the reference at {}; {bless}",
+            "{name}: {} (reference {}x{}, picture {}x{}); the picture is at {}, the reference at {}; {accept}",
             if same_size {
                 format!("{differing} pixels differ by more than {CHANNEL_TOLERANCE}, {allowed} may")
             } else {

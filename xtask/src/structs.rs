@@ -616,8 +616,10 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                 Form::Handle(kind) => format!("names.handle(ObjectKind::{kind}, {m})"),
                 Form::Address { .. } => format!("names.address({m})"),
                 Form::Number { .. } => m,
+                // The bits as they are: bit 63, which no Vulkan flag uses,
+                // then reads back as an error rather than as other bits.
                 Form::Flags { wide: true, .. } => {
-                    format!("Value::new(i64::try_from({m}).unwrap_or(i64::MAX))")
+                    format!("Value::new(i64::from_ne_bytes({m}.to_ne_bytes()))")
                 }
                 Form::Flags { wide: false, .. } => format!("Value::new(i64::from({m}))"),
                 Form::Enum {

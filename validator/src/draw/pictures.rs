@@ -83,6 +83,24 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
     lines
 }
 
+/// The (level, level drawn, micro-triangles read per cell) of each decoded
+/// triangle, which [`rule_caption`] states.
+fn rules_of<'a>(
+    triangles: impl IntoIterator<Item = &'a TriangleCells>,
+) -> BTreeSet<(u32, u32, u64)> {
+    triangles
+        .into_iter()
+        .filter(|t| t.problem.is_none())
+        .map(|t| {
+            (
+                u32::from(t.triangle.subdivision_level),
+                t.shown,
+                t.read_per_cell,
+            )
+        })
+        .collect()
+}
+
 /// The downsampling rule in one sentence, for captions.
 pub fn rule_caption(shown: &BTreeSet<(u32, u32, u64)>) -> Option<String> {
     let inexact: Vec<String> = shown
@@ -355,21 +373,10 @@ pub fn micromap_grid(name: &str, content: &MicromapContent) -> Canvas {
     let problems = triangles.iter().filter(|t| t.problem.is_some()).count();
     if problems > 0 {
         captions.push(format!(
-            "{problems} triangles have no opacity format or a level above 12 (grey, red outline, labelled)."
+            "Triangles with no opacity format or a level above 12 (grey, red outline, labelled): {problems}."
         ));
     }
-    let rules: BTreeSet<(u32, u32, u64)> = triangles
-        .iter()
-        .filter(|t| t.problem.is_none())
-        .map(|t| {
-            (
-                u32::from(t.triangle.subdivision_level),
-                t.shown,
-                t.read_per_cell,
-            )
-        })
-        .collect();
-    captions.extend(rule_caption(&rules));
+    captions.extend(rule_caption(&rules_of(&triangles)));
     let title = format!("micromap '{name}', {count} triangles");
     let refs: Vec<&TriangleCells> = triangles.iter().collect();
     let (mut canvas, (x0, y0)) = frame(
@@ -536,18 +543,7 @@ pub fn geometry(
             past.join(", ")
         ));
     }
-    let rules: BTreeSet<(u32, u32, u64)> = decoded
-        .values()
-        .filter(|t| t.problem.is_none())
-        .map(|t| {
-            (
-                u32::from(t.triangle.subdivision_level),
-                t.shown,
-                t.read_per_cell,
-            )
-        })
-        .collect();
-    captions.extend(rule_caption(&rules));
+    captions.extend(rule_caption(&rules_of(decoded.values())));
     let title = format!("'{}' geometry {}", names.structure, names.geometry);
     let refs: Vec<&TriangleCells> = decoded.values().collect();
     let (mut canvas, (x0, y0)) =

@@ -16,6 +16,15 @@ use crate::sim::opacity::{bits_per_state, state_at};
 use super::cells;
 use super::Drawable;
 
+/// The most states one listing holds, over all its triangles: 2^28 digits,
+/// the states of sixteen level-12 triangles. Triangles past it are listed
+/// without states, saying why, so that a scene whose many triangles share
+/// one block of data cannot make the listing take unbounded memory.
+pub const MAX_LISTED_STATES: u64 = 1 << 28;
+
+/// Said of a triangle whose states are past [`MAX_LISTED_STATES`].
+const OVER_BUDGET: &str = "not listed: the listing already holds 2^28 states";
+
 /// What the digits of `states` stand for, by value.
 pub const LEGEND: [&str; 4] = [
     "transparent",
@@ -78,8 +87,9 @@ pub struct TriangleStates {
     pub problem: Option<&'static str>,
 }
 
-/// The states of triangle `m` (its entry `triangle`) of `content`.
-fn triangle_states(content: &MicromapContent, m: u64) -> Option<TriangleStates> {
+/// The states of triangle `m` (its entry `triangle`) of `content`, taken
+/// from what is left of the listing's `budget` of states.
+fn triangle_states(content: &MicromapContent, m: u64, budget: &mut u64) -> Option<TriangleStates> {
     let triangle = cells::entry(content, m)?;
     let format = u32::from(triangle.format);
     let level = u32::from(triangle.subdivision_level);
@@ -100,8 +110,15 @@ fn triangle_states(content: &MicromapContent, m: u64) -> Option<TriangleStates> 
         out.problem = Some("level above 12");
         return Some(out);
     }
-    let bytes = cells::triangle_bytes(content, &triangle);
     let count = 1u32 << (2 * level);
+    match budget.checked_sub(u64::from(count)) {
+        Some(left) => *budget = left,
+        None => {
+            out.problem = Some(OVER_BUDGET);
+            return Some(out);
+        }
+    }
+    let bytes = cells::triangle_bytes(content, &triangle);
     out.states.reserve(count as usize);
     for k in 0..count {
         match state_at(bytes, format, k) {
@@ -117,8 +134,9 @@ fn triangle_states(content: &MicromapContent, m: u64) -> Option<TriangleStates> 
 }
 
 impl Drawable {
-    /// Every opacity micromap the scene built, with its states.
-    pub fn states(&self) -> Vec<MicromapStates> {
+    /// Every opacity micromap the scene built, with its states, as far as
+    /// `budget` (states left to list) goes.
+    pub fn states(&self, budget: &mut u64) -> Vec<MicromapStates> {
         let state = self.validator.state();
         let name = |kind: &str, handle: Handle| {
             self.objects
@@ -156,7 +174,11 @@ impl Drawable {
                     content_known: content.is_some(),
                     repeated: content.and_then(|c| c.repeated),
                     triangles: content
-                        .map(|c| (0..listed).filter_map(|m| triangle_states(c, m)).collect())
+                        .map(|c| {
+                            (0..listed)
+                                .filter_map(|m| triangle_states(c, m, budget))
+                                .collect()
+                        })
                         .unwrap_or_default(),
                 }
             })
@@ -171,11 +193,12 @@ pub fn states_of(scenes: &[Scene]) -> Result<StatesOutput, SceneError> {
         legend: LEGEND,
         scenes: Vec::with_capacity(scenes.len()),
     };
+    let mut budget = MAX_LISTED_STATES;
     for scene in scenes {
         let drawable = Drawable::run(scene)?;
         out.scenes.push(SceneStates {
             path: scene.path.clone(),
-            micromaps: drawable.states(),
+            micromaps: drawable.states(&mut budget),
         });
     }
     Ok(out)
@@ -209,14 +232,40 @@ mod tests {
             ],
             Bytes::from(vec![0b1110_0100u8, 0b0001_1011]),
         );
-        let first = triangle_states(&content, 0).unwrap();
+        let budget = &mut MAX_LISTED_STATES.clone();
+        let first = triangle_states(&content, 0, budget).unwrap();
         assert_eq!((first.states.as_str(), first.past_end), ("0123", 0));
         // Level 2, 4-state: 4 bytes needed from offset 1, 1 there.
-        let second = triangle_states(&content, 1).unwrap();
+        let second = triangle_states(&content, 1, budget).unwrap();
         assert_eq!((second.states.as_str(), second.past_end), ("3210", 12));
-        let third = triangle_states(&content, 2).unwrap();
+        let third = triangle_states(&content, 2, budget).unwrap();
         assert_eq!(third.problem, Some("not an opacity format"));
         assert!(third.states.is_empty());
-        assert!(triangle_states(&content, 3).is_none());
+        assert!(triangle_states(&content, 3, budget).is_none());
+        assert_eq!(*budget, MAX_LISTED_STATES - 4 - 16);
+    }
+
+    /// Past the budget a triangle is listed without states, saying why;
+    /// one that fits is listed whole.
+    #[test]
+    fn triangles_past_the_budget_are_listed_without_states() {
+        let content = MicromapContent::new(
+            vec![
+                MicromapTriangle {
+                    data_offset: 0,
+                    subdivision_level: 1,
+                    format: 2,
+                };
+                2
+            ],
+            Bytes::from(vec![0b1110_0100u8]),
+        );
+        let budget = &mut 6;
+        let first = triangle_states(&content, 0, budget).unwrap();
+        assert_eq!((first.states.as_str(), first.problem), ("0123", None));
+        let second = triangle_states(&content, 1, budget).unwrap();
+        assert_eq!(second.problem, Some(OVER_BUDGET));
+        assert!(second.states.is_empty());
+        assert_eq!(*budget, 2);
     }
 }
