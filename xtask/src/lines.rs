@@ -63,7 +63,12 @@ pub fn count_source(source: &str) -> usize {
 
 /// The counted lines of every hand-written `.rs` file under `dir`.
 pub fn count_dir(dir: &Path) -> Result<usize, Error> {
-    let mut total = 0;
+    Ok(count_files(dir)?.iter().map(|(_, lines)| lines).sum())
+}
+
+/// Every hand-written `.rs` file under `dir` with its counted lines.
+pub fn count_files(dir: &Path) -> Result<Vec<(std::path::PathBuf, usize)>, Error> {
+    let mut files = Vec::new();
     let entries = std::fs::read_dir(dir).map_err(|source| Error::Io {
         path: dir.to_path_buf(),
         source,
@@ -77,31 +82,48 @@ pub fn count_dir(dir: &Path) -> Result<usize, Error> {
             .path();
         if path.is_dir() {
             if path.file_name().is_some_and(|name| name != "generated") {
-                total += count_dir(&path)?;
+                files.extend(count_files(&path)?);
             }
         } else if path.extension().is_some_and(|e| e == "rs") {
             let source = crate::read(&path)?;
             if !is_generated(&source) {
-                total += count_source(&source);
+                files.push((path, count_source(&source)));
             }
         }
     }
-    Ok(total)
+    Ok(files)
 }
 
 /// The report `cargo xtask lines` prints.
-pub fn report(root: &Path) -> Result<String, Error> {
+/// With `files`, each hand-written file of scene/, raw/ and model/ follows,
+/// largest first.
+pub fn report(root: &Path, files: bool) -> Result<String, Error> {
     let core = root.join("validator/src");
     let mut parts = Vec::new();
+    let mut listed = Vec::new();
     let mut sum = 0;
     for part in ["scene", "raw", "model"] {
-        let lines = count_dir(&core.join(part))?;
+        let counted = count_files(&core.join(part))?;
+        let lines: usize = counted.iter().map(|(_, lines)| lines).sum();
         sum += lines;
         parts.push(format!("{part} {lines}"));
+        listed.extend(counted);
     }
+    listed.sort_by(|a, b| b.1.cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    let listing: String = if files {
+        listed
+            .iter()
+            .map(|(path, lines)| {
+                let shown = path.strip_prefix(root).unwrap_or(path);
+                format!("\n{lines:>6} {}", shown.display())
+            })
+            .collect()
+    } else {
+        String::new()
+    };
     Ok(format!(
         "hand-written lines (blank, comment, inline-test and generated lines left out):\n\
-         validator/src/{{scene,raw,model}}: {sum} ({})\nvalidator/src: {}",
+         validator/src/{{scene,raw,model}}: {sum} ({})\nvalidator/src: {}{listing}",
         parts.join(", "),
         count_dir(&core)?
     ))

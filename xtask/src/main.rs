@@ -108,7 +108,12 @@ mod driver {
         /// Count the core's hand-written lines (blank, comment, inline-test
         /// and generated lines left out): validator/src/{scene,raw,model}
         /// and all of validator/src.
-        Lines,
+        Lines {
+            /// Also list each hand-written file of scene/, raw/ and model/
+            /// with its count, largest first.
+            #[arg(long)]
+            files: bool,
+        },
         /// Write VUID-COVERAGE.md (every catalog VUID's status) and docs/rules.md's table of our rules.
         Coverage,
         /// Build the Vulkan layer in release and write its manifest,
@@ -242,7 +247,9 @@ mod driver {
                     })
             }
             Task::Modules => xtask::modules::run(&root).map(|report| print!("{report}")),
-            Task::Lines => xtask::lines::report(&root).map(|report| println!("{report}")),
+            Task::Lines { files } => {
+                xtask::lines::report(&root, files).map(|report| println!("{report}"))
+            }
             Task::Layer { args } => return super::layer_command(&args),
             Task::Accuracy { seed } => {
                 let classes = xtask::faults::classes().len();
