@@ -26,11 +26,20 @@ pub struct StructSpec {
     pub rust: &'static str,
     /// Said after the structure's name in the docs; may be empty.
     pub doc: &'static str,
-    /// Enum members and the value (vk.xml name) they have when left out
-    /// (by a scene or by `..Default::default()`); others are 0.
+    /// Members and the value they have when left out (by a scene or by
+    /// `..Default::default()`): an enum's by its vk.xml name, a number's as
+    /// a decimal; others are 0.
     pub defaults: &'static [(&'static str, &'static str)],
     /// Members a scene must state.
     pub required: &'static [&'static str],
+    /// The structure the raw reader takes, where it is not ash's
+    /// `vk::<name><'_>`: the KHR micromap structures ash lacks are in
+    /// `ommcheck_vuids::khr` (`khr::...`).
+    pub ash: &'static str,
+    /// Read from another structure's pNext chain: a scene names it by its
+    /// sType (a `ChainStruct` entry, with no `sType`/`pNext` members of its
+    /// own), and its own pNext belongs to the chain its parent walks.
+    pub chained: bool,
 }
 
 /// A copy info: `mode`'s default is the one copy its command makes.
@@ -42,6 +51,8 @@ macro_rules! copy {
             doc: $doc,
             defaults: &[("mode", $mode)],
             required: &[],
+            ash: "",
+            chained: false,
         }
     };
 }
@@ -54,6 +65,8 @@ pub const STRUCTS: &[StructSpec] = &[
         doc: "",
         defaults: &[("type", "VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT")],
         required: &[],
+        ash: "",
+        chained: false,
     },
     StructSpec {
         vk: "VkAccelerationStructureCreateInfoKHR",
@@ -61,6 +74,8 @@ pub const STRUCTS: &[StructSpec] = &[
         doc: "",
         defaults: &[("type", "VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR")],
         required: &["type"],
+        ash: "",
+        chained: false,
     },
     copy!(
         "VkCopyMicromapInfoEXT",
@@ -98,6 +113,47 @@ pub const STRUCTS: &[StructSpec] = &[
         "`src` is a device or host address, depending on the command.",
         "VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR",
     ),
+    StructSpec {
+        vk: "VkAccelerationStructureTrianglesOpacityMicromapEXT",
+        rust: "TrianglesOpacityMicromapExt",
+        doc: "",
+        defaults: &[("indexType", "VK_INDEX_TYPE_UINT32"), ("indexStride", "4")],
+        required: &[],
+        ash: "",
+        chained: true,
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureTrianglesOpacityMicromapKHR",
+        rust: "TrianglesOpacityMicromapKhr",
+        doc: "`micromap` is an acceleration structure of type OPACITY_MICROMAP.",
+        defaults: &[("indexType", "VK_INDEX_TYPE_UINT32"), ("indexStride", "4")],
+        required: &[],
+        ash: "khr::AccelerationStructureTrianglesOpacityMicromapKHR",
+        chained: true,
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureTrianglesDisplacementMicromapNV",
+        rust: "TrianglesDisplacementMicromapNv",
+        doc: "",
+        defaults: &[
+            ("displacementBiasAndScaleFormat", "VK_FORMAT_R16G16_SFLOAT"),
+            ("displacementVectorFormat", "VK_FORMAT_R16G16B16A16_SFLOAT"),
+            ("indexType", "VK_INDEX_TYPE_UINT32"),
+            ("indexStride", "4"),
+        ],
+        required: &[],
+        ash: "",
+        chained: true,
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureGeometryMicromapDataKHR",
+        rust: "GeometryMicromapData",
+        doc: "In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`.",
+        defaults: &[("triangleArrayStride", "8")],
+        required: &[],
+        ash: "khr::AccelerationStructureGeometryMicromapDataKHR<'_>",
+        chained: true,
+    },
 ];
 
 /// The objects scene names can denote, by the handle type vk.xml gives:
@@ -131,8 +187,12 @@ pub enum Form {
     },
     /// A bitmask of this `names` kind; `wide`: 64-bit.
     Flags { kind: &'static str, wide: bool },
-    /// A plain number; `wide`: 64-bit.
-    Number { wide: bool },
+    /// A plain number; `wide`: 64-bit; `default`: its value when left out
+    /// (else 0).
+    Number { wide: bool, default: Option<u64> },
+    /// `usageCountsCount` with `pUsageCounts` and `ppUsageCounts`: one
+    /// `UsageCounts` in the model, three members in a scene.
+    UsageCounts,
 }
 
 /// The value an enum member has when it is left out.
@@ -224,8 +284,21 @@ fn form(vk: &VkXml, spec: &StructSpec, member: &Member) -> Result<Form, Error> {
                 const_: true,
             })
         }
-        "uint32_t" => return Ok(Form::Number { wide: false }),
-        "uint64_t" | "VkDeviceSize" => return Ok(Form::Number { wide: true }),
+        "uint32_t" | "uint64_t" | "VkDeviceSize" => {
+            let default = match spec.defaults.iter().find(|(m, _)| *m == member.name) {
+                Some((_, value)) => Some(value.parse().map_err(|_| {
+                    Error::Registry(format!(
+                        "{}.{}: default {value} is no number",
+                        spec.vk, member.name
+                    ))
+                })?),
+                None => None,
+            };
+            return Ok(Form::Number {
+                wide: ty != "uint32_t",
+                default,
+            });
+        }
         _ => {}
     }
     match vk.category(ty) {
@@ -267,7 +340,21 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
     aggregate
         .members
         .iter()
+        // The arrays `usageCountsCount` counts go with it.
+        .filter(|member| {
+            member
+                .len
+                .as_deref()
+                .is_none_or(|len| !len.starts_with("usageCountsCount"))
+        })
         .map(|member| {
+            if member.name == "usageCountsCount" {
+                return Ok(Field {
+                    name: "usageCounts".to_string(),
+                    rust: "usage_counts".to_string(),
+                    form: Form::UsageCounts,
+                });
+            }
             Ok(Field {
                 rust: match member.name.as_str() {
                     "sType" => "s_type".to_string(),
@@ -328,6 +415,20 @@ fn ash_member(field: &Field) -> String {
             const_: false,
         } => format!("scratch_address(&{member})"),
         Form::Address { union: false, .. } | Form::Number { .. } | Form::Next => member,
+        // Both usage structures are three 32-bit members, so the EXT
+        // reader reads the KHR one as well.
+        Form::UsageCounts => "unsafe { usage_counts(Vec::new(), info.usage_counts_count, \
+             info.p_usage_counts.cast(), info.pp_usage_counts.cast(), function, at, findings) }"
+            .to_string(),
+    }
+}
+
+/// The Rust type of the structure the raw reader takes.
+fn ash_type(spec: &StructSpec) -> String {
+    if spec.ash.is_empty() {
+        format!("vk::{}<'_>", spec.vk.strip_prefix("Vk").unwrap_or(spec.vk))
+    } else {
+        spec.ash.to_string()
     }
 }
 
@@ -339,7 +440,10 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
         "Model types of the structures `xtask/src/structs.rs` describes: every\n\
          member as the application wrote it, pNext as its chain's sTypes.",
     );
-    out.push_str("use ash::vk;\nuse serde::{Deserialize, Serialize};\n\nuse super::Handle;\n\n");
+    out.push_str(
+        "use ash::vk;\nuse ommcheck_vuids::khr;\nuse serde::{Deserialize, Serialize};\n\n\
+         use super::micromap::UsageCounts;\nuse super::Handle;\n\n",
+    );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
         let _ = writeln!(
@@ -355,12 +459,17 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                 Form::SType(value) => ("i32", value.to_string()),
                 Form::Next => ("Vec<i32>", "Vec::new()".to_string()),
                 Form::Handle(_) => ("Handle", "0".to_string()),
+                Form::Number {
+                    wide,
+                    default: Some(value),
+                } => (if *wide { "u64" } else { "u32" }, value.to_string()),
                 Form::Address { .. }
-                | Form::Number { wide: true }
+                | Form::Number { wide: true, .. }
                 | Form::Flags { wide: true, .. } => ("u64", "0".to_string()),
-                Form::Number { wide: false } | Form::Flags { wide: false, .. } => {
+                Form::Number { wide: false, .. } | Form::Flags { wide: false, .. } => {
                     ("u32", "0".to_string())
                 }
+                Form::UsageCounts => ("UsageCounts", "UsageCounts::default()".to_string()),
                 Form::Enum {
                     default: EnumDefault::Value(name, value),
                     ..
@@ -380,17 +489,20 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
             spec.rust
         );
         // Safe code can read every member but a union (which needs to know
-        // which member is live) and the pNext chain (a pointer).
-        let unions = fields
-            .iter()
-            .any(|f| matches!(f.form, Form::Address { union: true, .. }));
-        if !unions {
-            let ash = spec.vk.strip_prefix("Vk").unwrap_or(spec.vk);
+        // which member is live), the pNext chain and arrays (pointers).
+        let unsafe_members = fields.iter().any(|f| {
+            matches!(
+                f.form,
+                Form::Address { union: true, .. } | Form::UsageCounts
+            )
+        });
+        if !unsafe_members {
             let _ = writeln!(
                 out,
                 "impl {} {{\n    /// The members of `info`, with no pNext chain (its pointer is not read).\n    \
-                 pub fn from_members(info: &vk::{ash}<'_>) -> Self {{\n        Self {{",
-                spec.rust
+                 pub fn from_members(info: &{}) -> Self {{\n        Self {{",
+                spec.rust,
+                ash_type(spec)
             );
             for field in &fields {
                 let value = match &field.form {
@@ -416,7 +528,7 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
     );
     out.push_str(
         "use schemars::JsonSchema;\nuse serde::{Deserialize, Serialize};\n\n\
-         use super::ChainStruct;\nuse crate::model::names::{self, Value};\n\
+         use super::{ChainStruct, UsageDesc};\nuse crate::model::names::{self, Value};\n\
          use crate::scene::args::{AddressArg, HandleArg};\n\n",
     );
     for spec in STRUCTS {
@@ -430,6 +542,36 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
         for field in fields(vk, spec)? {
             let name = crate::khr::snake_case(&field.name);
             let (attributes, ty) = match &field.form {
+                Form::SType(_) if spec.chained => {
+                    out.push_str(
+                        "    /// The sType written, when it is not this structure's own: set only for\n    \
+                         /// a chain entry that names the structure with `\"structure\"`.\n    \
+                         #[serde(skip)]\n    #[schemars(skip)]\n    pub given_s_type: Option<i32>,\n",
+                    );
+                    continue;
+                }
+                Form::Next if spec.chained => continue,
+                Form::UsageCounts => {
+                    out.push_str(
+                        "    /// Default: the length of pUsageCounts or ppUsageCounts.\n    \
+                         #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
+                         pub usage_counts_count: Option<u32>,\n    \
+                         #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
+                         pub p_usage_counts: Option<Vec<UsageDesc>>,\n    \
+                         #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
+                         pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,\n",
+                    );
+                    continue;
+                }
+                Form::Number {
+                    wide,
+                    default: Some(value),
+                } => (
+                    format!(
+                        "    /// Default {value}.\n    #[serde(skip_serializing_if = \"Option::is_none\")]\n"
+                    ),
+                    format!("Option<{}>", if *wide { "u64" } else { "u32" }),
+                ),
                 Form::SType(_) => (
                     "    #[serde(skip_serializing_if = \"Option::is_none\")]\n".to_string(),
                     "Option<Value<names::StructureType>>".to_string(),
@@ -447,7 +589,7 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
                     "    #[serde(default)]\n".to_string(),
                     "AddressArg".to_string(),
                 ),
-                Form::Number { wide } => (
+                Form::Number { wide, .. } => (
                     "    #[serde(default)]\n".to_string(),
                     if *wide { "u64" } else { "u32" }.to_string(),
                 ),
@@ -492,7 +634,7 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
          defaults.",
     );
     out.push_str(
-        "use super::{chain, s_type, ObjectKind, Resolver, Result};\n\
+        "use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
          use crate::model::generated as model;\nuse crate::model::names::Value;\n\
          use crate::scene::format::generated as scene;\n\n\
          impl Resolver<'_> {\n",
@@ -514,11 +656,22 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
             let d = format!("d.{}", crate::khr::snake_case(&field.name));
             let at = format!("&format!(\"{{at}}.{}\")", field.name);
             let value = match &field.form {
+                Form::SType(_) if spec.chained => {
+                    "d.given_s_type.unwrap_or(defaults.s_type)".to_string()
+                }
+                Form::Next if spec.chained => "Vec::new()".to_string(),
                 Form::SType(_) => format!("s_type({d}, defaults.s_type)"),
                 Form::Next => format!("chain(&{d})"),
                 Form::Handle(kind) => format!("self.handle(&{d}, ObjectKind::{kind}, {at})?"),
                 Form::Address { .. } => format!("self.address(&{d}, {at})?"),
+                Form::Number {
+                    default: Some(_), ..
+                } => format!("{d}.unwrap_or(defaults.{})", field.rust),
                 Form::Number { .. } => d,
+                Form::UsageCounts => {
+                    "usage_counts(d.usage_counts_count, &d.p_usage_counts, &d.pp_usage_counts, at)?"
+                        .to_string()
+                }
                 Form::Flags { wide: true, .. } => format!("{d}.as_u64()"),
                 Form::Flags { wide: false, .. } => format!("{d}.as_u32()"),
                 Form::Enum {
@@ -546,31 +699,45 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
          pNext chain walked as `chain_s_types` walks it, addresses as numbers.",
     );
     out.push_str(
-        "use ash::vk;\n\nuse super::accel::{address, scratch_address};\nuse super::chain_s_types;\n\
+        "// A structure with no pNext chain or arrays of its own reads no memory:\n// its `function`, `at` and `findings` go unused.\n#![allow(unused_imports, unused_variables, clippy::ptr_arg)]\n\nuse std::fmt::Display;\n\nuse ash::vk;\nuse ommcheck_vuids::khr;\n\n\
+         use super::accel::{address, scratch_address};\nuse super::{chain_s_types, usage_counts};\n\
          use crate::model::generated as model;\nuse crate::report::Finding;\n\n",
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
-        let ash = spec.vk.strip_prefix("Vk").unwrap_or(spec.vk);
+        let safety = if spec.chained {
+            "/// Its own pNext chain is part of the chain the caller walks."
+        } else {
+            "/// `info`'s pNext chain must be well formed."
+        };
+        let arrays = if fields.iter().any(|f| f.form == Form::UsageCounts) {
+            "\n/// Its usage-count pointers must be NULL or valid for `usageCountsCount`\n\
+             /// elements, as the API requires."
+        } else {
+            ""
+        };
         let _ = writeln!(
             out,
             "/// Reads a {} (at `at`, as findings name it).\n///\n/// # Safety\n\
-             /// `info`'s pNext chain must be well formed.\n\
-             pub(crate) unsafe fn {}(info: &vk::{ash}<'_>, function: &'static str, at: &'static str, findings: &mut Vec<Finding>) -> model::{} {{\n    \
+             {safety}{arrays}\n\
+             pub(crate) unsafe fn {}(info: &{}, function: &'static str, at: impl Display + Copy, findings: &mut Vec<Finding>) -> model::{} {{\n    \
              model::{} {{",
             doc(spec).trim_end_matches('.'),
             function(spec),
+            ash_type(spec),
             spec.rust,
             spec.rust,
         );
         for field in &fields {
             let value = match &field.form {
+                Form::Next if spec.chained => "Vec::new()".to_string(),
                 Form::Next => {
                     "unsafe { chain_s_types(info.p_next, function, at, findings) }".to_string()
                 }
                 _ => ash_member(field),
             };
-            if let Form::Next = field.form {
+            if matches!(field.form, Form::Next if !spec.chained) || field.form == Form::UsageCounts
+            {
                 out.push_str("        // SAFETY: forwarded from the caller.\n");
             }
             let _ = writeln!(out, "        {}: {value},", field.rust);
@@ -590,7 +757,7 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
          at their defaults are left out where the scene form allows it.",
     );
     out.push_str(
-        "use super::{chain_entry, Names};\nuse crate::model::generated as model;\n\
+        "use super::{chain_entry, usage_counts_count, usage_desc, Names};\nuse crate::model::generated as model;\n\
          use crate::model::names::Value;\nuse crate::scene::format::generated as scene;\n\
          use crate::scene::ObjectKind;\n\n",
     );
@@ -609,6 +776,27 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
         for field in &fields {
             let m = format!("model.{}", field.rust);
             let value = match &field.form {
+                Form::SType(_) if spec.chained => {
+                    let _ = writeln!(
+                        out,
+                        "            given_s_type: ({m} != defaults.s_type).then_some({m}),"
+                    );
+                    continue;
+                }
+                // A chained structure's own pNext is its parent's chain.
+                Form::Next if spec.chained => continue,
+                Form::UsageCounts => {
+                    let _ = writeln!(
+                        out,
+                        "            usage_counts_count: usage_counts_count(&{m}),\n            \
+                         p_usage_counts: {m}.array.as_ref().map(|a| a.iter().map(usage_desc).collect()),\n            \
+                         pp_usage_counts: {m}.pointers.as_ref().map(|p| p.iter().map(|u| u.as_ref().map(usage_desc)).collect()),"
+                    );
+                    continue;
+                }
+                Form::Number {
+                    default: Some(_), ..
+                } => format!("({m} != defaults.{}).then_some({m})", field.rust),
                 Form::SType(_) => {
                     format!("({m} != defaults.s_type).then(|| Value::new(i64::from({m})))")
                 }
@@ -657,11 +845,19 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
             let i = i as u64 + 1;
             let value = match &field.form {
                 Form::SType(_) => continue,
+                Form::Next if spec.chained => continue,
                 // An sType of no structure the scene form reads.
                 Form::Next => "vec![1_000_001_000]".to_string(),
                 Form::Handle(_) => format!("0x1000 + {i}"),
                 Form::Address { .. } => format!("0x2000_0000 + {i}"),
                 Form::Number { .. } | Form::Flags { .. } | Form::Enum { .. } => i.to_string(),
+                // A count beyond the arrays, a one-element array and a NULL
+                // pointer element: each member must come back.
+                Form::UsageCounts => format!(
+                    "crate::model::micromap::UsageCounts {{ count: {i}, \
+                     array: Some(vec![crate::model::micromap::MicromapUsage {{ count: 1, subdivision_level: 2, format: 1 }}]), \
+                     pointers: Some(vec![None]) }}"
+                ),
             };
             let _ = writeln!(out, "            {}: {value},", field.rust);
         }

@@ -9,12 +9,13 @@ use ommcheck_vuids::khr;
 use serde::{Deserialize, Serialize};
 
 use crate::model::array_or_pointers::ElementsRead;
-use crate::model::micromap::UsageCounts;
 use crate::model::Handle;
 
 pub use crate::model::generated::{
     AccelerationStructureCreateInfo, CopyAccelerationStructureInfo,
     CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo,
+    GeometryMicromapData, TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt,
+    TrianglesOpacityMicromapKhr,
 };
 
 pub const ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL: i32 =
@@ -285,108 +286,6 @@ impl Default for TrianglesData {
     }
 }
 
-/// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct TrianglesOpacityMicromapExt {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub index_type: i32,
-    pub index_buffer: u64,
-    pub index_stride: u64,
-    pub base_triangle: u32,
-    pub usage_counts: UsageCounts,
-    pub micromap: Handle,
-}
-
-impl Default for TrianglesOpacityMicromapExt {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT,
-            next: Vec::new(),
-            index_type: INDEX_TYPE_UINT32,
-            index_buffer: 0,
-            index_stride: 4,
-            base_triangle: 0,
-            usage_counts: UsageCounts::default(),
-            micromap: 0,
-        }
-    }
-}
-
-/// `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an
-/// acceleration structure of type OPACITY_MICROMAP.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct TrianglesOpacityMicromapKhr {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub index_type: i32,
-    pub index_buffer: u64,
-    pub index_stride: u64,
-    pub base_triangle: u32,
-    pub micromap: Handle,
-}
-
-impl Default for TrianglesOpacityMicromapKhr {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
-            next: Vec::new(),
-            index_type: INDEX_TYPE_UINT32,
-            index_buffer: 0,
-            index_stride: 4,
-            base_triangle: 0,
-            micromap: 0,
-        }
-    }
-}
-
-/// `VkAccelerationStructureTrianglesDisplacementMicromapNV`.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct TrianglesDisplacementMicromapNv {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub displacement_bias_and_scale_format: i32,
-    pub displacement_vector_format: i32,
-    pub displacement_bias_and_scale_buffer: u64,
-    pub displacement_bias_and_scale_stride: u64,
-    pub displacement_vector_buffer: u64,
-    pub displacement_vector_stride: u64,
-    pub displaced_micromap_primitive_flags: u64,
-    pub displaced_micromap_primitive_flags_stride: u64,
-    pub index_type: i32,
-    pub index_buffer: u64,
-    pub index_stride: u64,
-    pub base_triangle: u32,
-    pub usage_counts: UsageCounts,
-    pub micromap: Handle,
-}
-
-impl Default for TrianglesDisplacementMicromapNv {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
-            next: Vec::new(),
-            displacement_bias_and_scale_format: vk::Format::R16G16_SFLOAT.as_raw(),
-            displacement_vector_format: vk::Format::R16G16B16A16_SFLOAT.as_raw(),
-            displacement_bias_and_scale_buffer: 0,
-            displacement_bias_and_scale_stride: 0,
-            displacement_vector_buffer: 0,
-            displacement_vector_stride: 0,
-            displaced_micromap_primitive_flags: 0,
-            displaced_micromap_primitive_flags_stride: 0,
-            index_type: INDEX_TYPE_UINT32,
-            index_buffer: 0,
-            index_stride: 4,
-            base_triangle: 0,
-            usage_counts: UsageCounts::default(),
-            micromap: 0,
-        }
-    }
-}
-
 /// `VkAccelerationStructureGeometryAabbsDataKHR`.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
@@ -445,32 +344,6 @@ impl Instance {
             flags: (offset_and_flags >> 24) as u8,
             acceleration_structure_reference: reference,
         })
-    }
-}
-
-/// `VkAccelerationStructureGeometryMicromapDataKHR` (in a geometry's pNext
-/// chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`).
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct GeometryMicromapData {
-    pub s_type: i32,
-    pub next: Vec<i32>,
-    pub usage_counts: UsageCounts,
-    pub data: u64,
-    pub triangle_array: u64,
-    pub triangle_array_stride: u64,
-}
-
-impl Default for GeometryMicromapData {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
-            next: Vec::new(),
-            usage_counts: UsageCounts::default(),
-            data: 0,
-            triangle_array: 0,
-            triangle_array_stride: 8,
-        }
     }
 }
 

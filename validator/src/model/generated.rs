@@ -3,8 +3,10 @@
 //! member as the application wrote it, pNext as its chain's sTypes.
 
 use ash::vk;
+use ommcheck_vuids::khr;
 use serde::{Deserialize, Serialize};
 
+use super::micromap::UsageCounts;
 use super::Handle;
 
 /// `VkMicromapCreateInfoEXT`.
@@ -267,6 +269,151 @@ impl Default for CopyMemoryToAccelerationStructureInfo {
             src: 0,
             dst: 0,
             mode: 3, // VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR
+        }
+    }
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct TrianglesOpacityMicromapExt {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub index_type: i32,
+    pub index_buffer: u64,
+    pub index_stride: u64,
+    pub base_triangle: u32,
+    pub usage_counts: UsageCounts,
+    pub micromap: Handle,
+}
+
+impl Default for TrianglesOpacityMicromapExt {
+    fn default() -> Self {
+        Self {
+            s_type: 1000396009,
+            next: Vec::new(),
+            index_type: 1, // VK_INDEX_TYPE_UINT32
+            index_buffer: 0,
+            index_stride: 4,
+            base_triangle: 0,
+            usage_counts: UsageCounts::default(),
+            micromap: 0,
+        }
+    }
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an acceleration structure of type OPACITY_MICROMAP.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct TrianglesOpacityMicromapKhr {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub index_type: i32,
+    pub index_buffer: u64,
+    pub index_stride: u64,
+    pub base_triangle: u32,
+    pub micromap: Handle,
+}
+
+impl Default for TrianglesOpacityMicromapKhr {
+    fn default() -> Self {
+        Self {
+            s_type: 1000623003,
+            next: Vec::new(),
+            index_type: 1, // VK_INDEX_TYPE_UINT32
+            index_buffer: 0,
+            index_stride: 4,
+            base_triangle: 0,
+            micromap: 0,
+        }
+    }
+}
+
+impl TrianglesOpacityMicromapKhr {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &khr::AccelerationStructureTrianglesOpacityMicromapKHR) -> Self {
+        Self {
+            s_type: info.s_type.as_raw(),
+            next: Vec::new(),
+            index_type: info.index_type.as_raw(),
+            index_buffer: info.index_buffer,
+            index_stride: info.index_stride,
+            base_triangle: info.base_triangle,
+            micromap: vk::Handle::as_raw(info.micromap),
+        }
+    }
+}
+
+/// `VkAccelerationStructureTrianglesDisplacementMicromapNV`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct TrianglesDisplacementMicromapNv {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub displacement_bias_and_scale_format: i32,
+    pub displacement_vector_format: i32,
+    pub displacement_bias_and_scale_buffer: u64,
+    pub displacement_bias_and_scale_stride: u64,
+    pub displacement_vector_buffer: u64,
+    pub displacement_vector_stride: u64,
+    pub displaced_micromap_primitive_flags: u64,
+    pub displaced_micromap_primitive_flags_stride: u64,
+    pub index_type: i32,
+    pub index_buffer: u64,
+    pub index_stride: u64,
+    pub base_triangle: u32,
+    pub usage_counts: UsageCounts,
+    pub micromap: Handle,
+}
+
+impl Default for TrianglesDisplacementMicromapNv {
+    fn default() -> Self {
+        Self {
+            s_type: 1000397002,
+            next: Vec::new(),
+            displacement_bias_and_scale_format: 83, // VK_FORMAT_R16G16_SFLOAT
+            displacement_vector_format: 97,         // VK_FORMAT_R16G16B16A16_SFLOAT
+            displacement_bias_and_scale_buffer: 0,
+            displacement_bias_and_scale_stride: 0,
+            displacement_vector_buffer: 0,
+            displacement_vector_stride: 0,
+            displaced_micromap_primitive_flags: 0,
+            displaced_micromap_primitive_flags_stride: 0,
+            index_type: 1, // VK_INDEX_TYPE_UINT32
+            index_buffer: 0,
+            index_stride: 4,
+            base_triangle: 0,
+            usage_counts: UsageCounts::default(),
+            micromap: 0,
+        }
+    }
+}
+
+/// `VkAccelerationStructureGeometryMicromapDataKHR`; In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct GeometryMicromapData {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub usage_counts: UsageCounts,
+    pub data: u64,
+    pub triangle_array: u64,
+    pub triangle_array_stride: u64,
+}
+
+impl Default for GeometryMicromapData {
+    fn default() -> Self {
+        Self {
+            s_type: 1000623002,
+            next: Vec::new(),
+            usage_counts: UsageCounts::default(),
+            data: 0,
+            triangle_array: 0,
+            triangle_array_stride: 8,
         }
     }
 }

@@ -17,18 +17,19 @@ use ommcheck_vuids::khr;
 
 use std::fmt::Display;
 
-use super::generated::acceleration_structure_create_info;
+use super::generated::{
+    acceleration_structure_create_info, geometry_micromap_data, triangles_displacement_micromap_nv,
+    triangles_opacity_micromap_ext, triangles_opacity_micromap_khr,
+};
 use super::{
-    array_slice, bounded_len, chain, chain_s_types, read_array, usage_counts, MAX_ELEMENTS,
-    MAX_HOST_BYTES,
+    array_slice, bounded_len, chain, chain_s_types, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
 };
 use crate::build_inputs::indirect::IndirectRanges;
 use crate::build_inputs::{geometry_reads, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
-    BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, GeometryMicromapData, Instance,
-    InstancesData, TrianglesData, TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt,
-    TrianglesOpacityMicromapKhr, ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS,
+    BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, Instance, InstancesData,
+    TrianglesData, ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS,
     GEOMETRY_TYPE_INSTANCES, GEOMETRY_TYPE_TRIANGLES, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
     STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
     STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT, STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
@@ -253,44 +254,6 @@ unsafe fn read_geometry(
     }
 }
 
-/// Reads a `VkAccelerationStructureGeometryMicromapDataKHR` at `location`.
-/// Its own pNext chain is part of the geometry's, walked by the caller.
-///
-/// # Safety
-/// Its usage-count pointers must be NULL or valid for `usageCountsCount`
-/// elements, as the API requires.
-unsafe fn geometry_micromap_data(
-    data: &khr::AccelerationStructureGeometryMicromapDataKHR,
-    function: &'static str,
-    location: impl Display + Copy,
-    findings: &mut Vec<Finding>,
-) -> GeometryMicromapData {
-    // VkMicromapUsageKHR and VkMicromapUsageEXT have the same layout: three
-    // 32-bit members (count, subdivisionLevel, format).
-    let array = data.p_usage_counts.cast::<vk::MicromapUsageEXT>();
-    let pointers = data.pp_usage_counts.cast::<*const vk::MicromapUsageEXT>();
-    GeometryMicromapData {
-        s_type: data.s_type.as_raw(),
-        next: Vec::new(),
-        // SAFETY: forwarded from the caller; the element types have the
-        // same layout (above).
-        usage_counts: unsafe {
-            usage_counts(
-                Vec::new(),
-                data.usage_counts_count,
-                array,
-                pointers,
-                function,
-                location,
-                findings,
-            )
-        },
-        data: data.data,
-        triangle_array: data.triangle_array,
-        triangle_array_stride: data.triangle_array_stride,
-    }
-}
-
 /// Reads `VkAccelerationStructureGeometryTrianglesDataKHR` at `location`
 /// (`...geometry.triangles`) and the attachments in its pNext chain: the
 /// first EXT and KHR opacity and NV displacement structures into their
@@ -336,29 +299,11 @@ unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
                 };
-                let loc =
+                let at =
                     location.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
-                data.opacity_ext = Some(TrianglesOpacityMicromapExt {
-                    s_type: a.s_type.as_raw(),
-                    next: Vec::new(),
-                    index_type: a.index_type.as_raw(),
-                    index_buffer: address(&a.index_buffer),
-                    index_stride: a.index_stride,
-                    base_triangle: a.base_triangle,
-                    // SAFETY: forwarded from the caller.
-                    usage_counts: unsafe {
-                        usage_counts(
-                            Vec::new(),
-                            a.usage_counts_count,
-                            a.p_usage_counts,
-                            a.pp_usage_counts,
-                            function,
-                            loc,
-                            findings,
-                        )
-                    },
-                    micromap: vk::Handle::as_raw(a.micromap),
-                });
+                // SAFETY: forwarded from the caller.
+                data.opacity_ext =
+                    Some(unsafe { triangles_opacity_micromap_ext(a, function, at, findings) });
             }
             STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR if data.opacity_khr.is_none() => {
                 // SAFETY: a structure in a valid chain with this sType is a
@@ -368,15 +313,11 @@ unsafe fn triangles_data(
                         .address
                         .cast::<khr::AccelerationStructureTrianglesOpacityMicromapKHR>()
                 };
-                data.opacity_khr = Some(TrianglesOpacityMicromapKhr {
-                    s_type: a.s_type.as_raw(),
-                    next: Vec::new(),
-                    index_type: a.index_type.as_raw(),
-                    index_buffer: a.index_buffer,
-                    index_stride: a.index_stride,
-                    base_triangle: a.base_triangle,
-                    micromap: vk::Handle::as_raw(a.micromap),
-                });
+                let at =
+                    location.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapKHR>");
+                // SAFETY: forwarded from the caller.
+                data.opacity_khr =
+                    Some(unsafe { triangles_opacity_micromap_khr(a, function, at, findings) });
             }
             STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV if data.displacement_nv.is_none() => {
                 // SAFETY: a structure in a valid chain with this sType is a
@@ -386,46 +327,11 @@ unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>>()
                 };
-                let loc =
+                let at =
                     location.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
-                let (bias_and_scale, vector, primitive_flags, index_buffer) = (
-                    address(&a.displacement_bias_and_scale_buffer),
-                    address(&a.displacement_vector_buffer),
-                    address(&a.displaced_micromap_primitive_flags),
-                    address(&a.index_buffer),
-                );
-                data.displacement_nv = Some(TrianglesDisplacementMicromapNv {
-                    s_type: a.s_type.as_raw(),
-                    next: Vec::new(),
-                    displacement_bias_and_scale_format: a
-                        .displacement_bias_and_scale_format
-                        .as_raw(),
-                    displacement_vector_format: a.displacement_vector_format.as_raw(),
-                    displacement_bias_and_scale_buffer: bias_and_scale,
-                    displacement_bias_and_scale_stride: a.displacement_bias_and_scale_stride,
-                    displacement_vector_buffer: vector,
-                    displacement_vector_stride: a.displacement_vector_stride,
-                    displaced_micromap_primitive_flags: primitive_flags,
-                    displaced_micromap_primitive_flags_stride: a
-                        .displaced_micromap_primitive_flags_stride,
-                    index_type: a.index_type.as_raw(),
-                    index_buffer,
-                    index_stride: a.index_stride,
-                    base_triangle: a.base_triangle,
-                    // SAFETY: forwarded from the caller.
-                    usage_counts: unsafe {
-                        usage_counts(
-                            Vec::new(),
-                            a.usage_counts_count,
-                            a.p_usage_counts,
-                            a.pp_usage_counts,
-                            function,
-                            loc,
-                            findings,
-                        )
-                    },
-                    micromap: vk::Handle::as_raw(a.micromap),
-                });
+                // SAFETY: forwarded from the caller.
+                data.displacement_nv =
+                    Some(unsafe { triangles_displacement_micromap_nv(a, function, at, findings) });
             }
             other => data.next.push(other),
         }

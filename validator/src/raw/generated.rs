@@ -3,10 +3,17 @@
 //! ash structures an application hands in: members as written, the
 //! pNext chain walked as `chain_s_types` walks it, addresses as numbers.
 
+// A structure with no pNext chain or arrays of its own reads no memory:
+// its `function`, `at` and `findings` go unused.
+#![allow(unused_imports, unused_variables, clippy::ptr_arg)]
+
+use std::fmt::Display;
+
 use ash::vk;
+use ommcheck_vuids::khr;
 
 use super::accel::{address, scratch_address};
-use super::chain_s_types;
+use super::{chain_s_types, usage_counts};
 use crate::model::generated as model;
 use crate::report::Finding;
 
@@ -17,7 +24,7 @@ use crate::report::Finding;
 pub(crate) unsafe fn micromap_create_info(
     info: &vk::MicromapCreateInfoEXT<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::MicromapCreateInfo {
     model::MicromapCreateInfo {
@@ -40,7 +47,7 @@ pub(crate) unsafe fn micromap_create_info(
 pub(crate) unsafe fn acceleration_structure_create_info(
     info: &vk::AccelerationStructureCreateInfoKHR<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::AccelerationStructureCreateInfo {
     model::AccelerationStructureCreateInfo {
@@ -63,7 +70,7 @@ pub(crate) unsafe fn acceleration_structure_create_info(
 pub(crate) unsafe fn copy_micromap_info(
     info: &vk::CopyMicromapInfoEXT<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::CopyMicromapInfo {
     model::CopyMicromapInfo {
@@ -83,7 +90,7 @@ pub(crate) unsafe fn copy_micromap_info(
 pub(crate) unsafe fn copy_micromap_to_memory_info(
     info: &vk::CopyMicromapToMemoryInfoEXT<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::CopyMicromapToMemoryInfo {
     model::CopyMicromapToMemoryInfo {
@@ -103,7 +110,7 @@ pub(crate) unsafe fn copy_micromap_to_memory_info(
 pub(crate) unsafe fn copy_memory_to_micromap_info(
     info: &vk::CopyMemoryToMicromapInfoEXT<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::CopyMemoryToMicromapInfo {
     model::CopyMemoryToMicromapInfo {
@@ -123,7 +130,7 @@ pub(crate) unsafe fn copy_memory_to_micromap_info(
 pub(crate) unsafe fn copy_acceleration_structure_info(
     info: &vk::CopyAccelerationStructureInfoKHR<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::CopyAccelerationStructureInfo {
     model::CopyAccelerationStructureInfo {
@@ -143,7 +150,7 @@ pub(crate) unsafe fn copy_acceleration_structure_info(
 pub(crate) unsafe fn copy_acceleration_structure_to_memory_info(
     info: &vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::CopyAccelerationStructureToMemoryInfo {
     model::CopyAccelerationStructureToMemoryInfo {
@@ -163,7 +170,7 @@ pub(crate) unsafe fn copy_acceleration_structure_to_memory_info(
 pub(crate) unsafe fn copy_memory_to_acceleration_structure_info(
     info: &vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
     function: &'static str,
-    at: &'static str,
+    at: impl Display + Copy,
     findings: &mut Vec<Finding>,
 ) -> model::CopyMemoryToAccelerationStructureInfo {
     model::CopyMemoryToAccelerationStructureInfo {
@@ -173,5 +180,137 @@ pub(crate) unsafe fn copy_memory_to_acceleration_structure_info(
         src: address(&info.src),
         dst: vk::Handle::as_raw(info.dst),
         mode: info.mode.as_raw(),
+    }
+}
+
+/// Reads a `VkAccelerationStructureTrianglesOpacityMicromapEXT` (at `at`, as findings name it).
+///
+/// # Safety
+/// Its own pNext chain is part of the chain the caller walks.
+/// Its usage-count pointers must be NULL or valid for `usageCountsCount`
+/// elements, as the API requires.
+pub(crate) unsafe fn triangles_opacity_micromap_ext(
+    info: &vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::TrianglesOpacityMicromapExt {
+    model::TrianglesOpacityMicromapExt {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        index_type: info.index_type.as_raw(),
+        index_buffer: address(&info.index_buffer),
+        index_stride: info.index_stride,
+        base_triangle: info.base_triangle,
+        // SAFETY: forwarded from the caller.
+        usage_counts: unsafe {
+            usage_counts(
+                Vec::new(),
+                info.usage_counts_count,
+                info.p_usage_counts.cast(),
+                info.pp_usage_counts.cast(),
+                function,
+                at,
+                findings,
+            )
+        },
+        micromap: vk::Handle::as_raw(info.micromap),
+    }
+}
+
+/// Reads a `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an acceleration structure of type OPACITY_MICROMAP (at `at`, as findings name it).
+///
+/// # Safety
+/// Its own pNext chain is part of the chain the caller walks.
+pub(crate) unsafe fn triangles_opacity_micromap_khr(
+    info: &khr::AccelerationStructureTrianglesOpacityMicromapKHR,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::TrianglesOpacityMicromapKhr {
+    model::TrianglesOpacityMicromapKhr {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        index_type: info.index_type.as_raw(),
+        index_buffer: info.index_buffer,
+        index_stride: info.index_stride,
+        base_triangle: info.base_triangle,
+        micromap: vk::Handle::as_raw(info.micromap),
+    }
+}
+
+/// Reads a `VkAccelerationStructureTrianglesDisplacementMicromapNV` (at `at`, as findings name it).
+///
+/// # Safety
+/// Its own pNext chain is part of the chain the caller walks.
+/// Its usage-count pointers must be NULL or valid for `usageCountsCount`
+/// elements, as the API requires.
+pub(crate) unsafe fn triangles_displacement_micromap_nv(
+    info: &vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::TrianglesDisplacementMicromapNv {
+    model::TrianglesDisplacementMicromapNv {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        displacement_bias_and_scale_format: info.displacement_bias_and_scale_format.as_raw(),
+        displacement_vector_format: info.displacement_vector_format.as_raw(),
+        displacement_bias_and_scale_buffer: address(&info.displacement_bias_and_scale_buffer),
+        displacement_bias_and_scale_stride: info.displacement_bias_and_scale_stride,
+        displacement_vector_buffer: address(&info.displacement_vector_buffer),
+        displacement_vector_stride: info.displacement_vector_stride,
+        displaced_micromap_primitive_flags: address(&info.displaced_micromap_primitive_flags),
+        displaced_micromap_primitive_flags_stride: info.displaced_micromap_primitive_flags_stride,
+        index_type: info.index_type.as_raw(),
+        index_buffer: address(&info.index_buffer),
+        index_stride: info.index_stride,
+        base_triangle: info.base_triangle,
+        // SAFETY: forwarded from the caller.
+        usage_counts: unsafe {
+            usage_counts(
+                Vec::new(),
+                info.usage_counts_count,
+                info.p_usage_counts.cast(),
+                info.pp_usage_counts.cast(),
+                function,
+                at,
+                findings,
+            )
+        },
+        micromap: vk::Handle::as_raw(info.micromap),
+    }
+}
+
+/// Reads a `VkAccelerationStructureGeometryMicromapDataKHR`; In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR` (at `at`, as findings name it).
+///
+/// # Safety
+/// Its own pNext chain is part of the chain the caller walks.
+/// Its usage-count pointers must be NULL or valid for `usageCountsCount`
+/// elements, as the API requires.
+pub(crate) unsafe fn geometry_micromap_data(
+    info: &khr::AccelerationStructureGeometryMicromapDataKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::GeometryMicromapData {
+    model::GeometryMicromapData {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        // SAFETY: forwarded from the caller.
+        usage_counts: unsafe {
+            usage_counts(
+                Vec::new(),
+                info.usage_counts_count,
+                info.p_usage_counts.cast(),
+                info.pp_usage_counts.cast(),
+                function,
+                at,
+                findings,
+            )
+        },
+        data: info.data,
+        triangle_array: info.triangle_array,
+        triangle_array_stride: info.triangle_array_stride,
     }
 }

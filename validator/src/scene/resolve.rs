@@ -17,8 +17,7 @@ use crate::device::{Device, Limits, Profile};
 use crate::inspect::simulate::{HitInput, HitQuery};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo, Geometry,
-    GeometryData, GeometryMicromapData, InstancesData, TrianglesData,
-    TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
+    GeometryData, InstancesData, TrianglesData,
 };
 use crate::model::command::{queue, CommandBuffer};
 use crate::model::micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
@@ -1320,93 +1319,16 @@ impl Resolver<'_> {
             let next_at = format!("{at}.pNext[{k}]");
             match next {
                 ChainStruct::TrianglesOpacityMicromapExt(e) if data.opacity_ext.is_none() => {
-                    let defaults = TrianglesOpacityMicromapExt::default();
-                    data.opacity_ext = Some(TrianglesOpacityMicromapExt {
-                        s_type: e.given_s_type.unwrap_or(defaults.s_type),
-                        index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
-                        index_buffer: self
-                            .address(&e.index_buffer, &format!("{next_at}.indexBuffer"))?,
-                        index_stride: e.index_stride.unwrap_or(defaults.index_stride),
-                        base_triangle: e.base_triangle,
-                        usage_counts: usage_counts(
-                            e.usage_counts_count,
-                            &e.p_usage_counts,
-                            &e.pp_usage_counts,
-                            &next_at,
-                        )?,
-                        micromap: self.handle(
-                            &e.micromap,
-                            ObjectKind::Micromap,
-                            &format!("{next_at}.micromap"),
-                        )?,
-                        ..defaults
-                    });
+                    data.opacity_ext = Some(self.triangles_opacity_micromap_ext(e, &next_at)?);
                 }
                 ChainStruct::TrianglesOpacityMicromapKhr(e) if data.opacity_khr.is_none() => {
-                    let defaults = TrianglesOpacityMicromapKhr::default();
-                    data.opacity_khr = Some(TrianglesOpacityMicromapKhr {
-                        s_type: e.given_s_type.unwrap_or(defaults.s_type),
-                        index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
-                        index_buffer: self
-                            .address(&e.index_buffer, &format!("{next_at}.indexBuffer"))?,
-                        index_stride: e.index_stride.unwrap_or(defaults.index_stride),
-                        base_triangle: e.base_triangle,
-                        micromap: self.handle(
-                            &e.micromap,
-                            ObjectKind::AccelerationStructure,
-                            &format!("{next_at}.micromap"),
-                        )?,
-                        ..defaults
-                    });
+                    data.opacity_khr = Some(self.triangles_opacity_micromap_khr(e, &next_at)?);
                 }
                 ChainStruct::TrianglesDisplacementMicromapNv(e)
                     if data.displacement_nv.is_none() =>
                 {
-                    let defaults = TrianglesDisplacementMicromapNv::default();
-                    let address = |arg: &AddressArg, member: &str| {
-                        self.address(arg, &format!("{next_at}.{member}"))
-                    };
-                    data.displacement_nv = Some(TrianglesDisplacementMicromapNv {
-                        s_type: e.given_s_type.unwrap_or(defaults.s_type),
-                        displacement_bias_and_scale_format: e
-                            .displacement_bias_and_scale_format
-                            .map_or(defaults.displacement_bias_and_scale_format, Value::as_i32),
-                        displacement_vector_format: e
-                            .displacement_vector_format
-                            .map_or(defaults.displacement_vector_format, Value::as_i32),
-                        displacement_bias_and_scale_buffer: address(
-                            &e.displacement_bias_and_scale_buffer,
-                            "displacementBiasAndScaleBuffer",
-                        )?,
-                        displacement_bias_and_scale_stride: e.displacement_bias_and_scale_stride,
-                        displacement_vector_buffer: address(
-                            &e.displacement_vector_buffer,
-                            "displacementVectorBuffer",
-                        )?,
-                        displacement_vector_stride: e.displacement_vector_stride,
-                        displaced_micromap_primitive_flags: address(
-                            &e.displaced_micromap_primitive_flags,
-                            "displacedMicromapPrimitiveFlags",
-                        )?,
-                        displaced_micromap_primitive_flags_stride: e
-                            .displaced_micromap_primitive_flags_stride,
-                        index_type: e.index_type.map_or(defaults.index_type, Value::as_i32),
-                        index_buffer: address(&e.index_buffer, "indexBuffer")?,
-                        index_stride: e.index_stride.unwrap_or(defaults.index_stride),
-                        base_triangle: e.base_triangle,
-                        usage_counts: usage_counts(
-                            e.usage_counts_count,
-                            &e.p_usage_counts,
-                            &e.pp_usage_counts,
-                            &next_at,
-                        )?,
-                        micromap: self.handle(
-                            &e.micromap,
-                            ObjectKind::Micromap,
-                            &format!("{next_at}.micromap"),
-                        )?,
-                        ..defaults
-                    });
+                    data.displacement_nv =
+                        Some(self.triangles_displacement_micromap_nv(e, &next_at)?);
                 }
                 // A structure the model holds once, given again, or one that
                 // does not extend triangles data: chained as is, for the
@@ -1429,23 +1351,7 @@ impl Resolver<'_> {
             match next {
                 ChainStruct::GeometryMicromapData(m) if geometry.micromap.is_none() => {
                     let next_at = format!("{at}.pNext[{k}]");
-                    let defaults = GeometryMicromapData::default();
-                    geometry.micromap = Some(GeometryMicromapData {
-                        s_type: m.given_s_type.unwrap_or(defaults.s_type),
-                        usage_counts: usage_counts(
-                            m.usage_counts_count,
-                            &m.p_usage_counts,
-                            &m.pp_usage_counts,
-                            &next_at,
-                        )?,
-                        data: self.address(&m.data, &format!("{next_at}.data"))?,
-                        triangle_array: self
-                            .address(&m.triangle_array, &format!("{next_at}.triangleArray"))?,
-                        triangle_array_stride: m
-                            .triangle_array_stride
-                            .unwrap_or(defaults.triangle_array_stride),
-                        ..defaults
-                    });
+                    geometry.micromap = Some(self.geometry_micromap_data(m, &next_at)?);
                 }
                 other => geometry.next.push(chain_s_type(other)),
             }

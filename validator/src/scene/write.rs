@@ -5,10 +5,11 @@
 //! of the run, the names of its objects and memory, comes through
 //! [`Names`].
 
+use crate::model::micromap::{MicromapUsage, UsageCounts};
 use crate::model::names::Value;
 use crate::model::Handle;
 use crate::scene::args::{AddressArg, HandleArg};
-use crate::scene::format::{ChainStruct, OtherStruct};
+use crate::scene::format::{ChainStruct, OtherStruct, UsageDesc};
 use crate::scene::ObjectKind;
 
 mod generated;
@@ -50,6 +51,26 @@ pub(crate) fn chain_entry(s_type: i32) -> ChainStruct {
         s_type: Value::new(i64::from(s_type)),
         structure: None,
     })
+}
+
+/// `usageCountsCount` where the resolver would not take it from the
+/// arrays' length (None: it would).
+pub(crate) fn usage_counts_count(counts: &UsageCounts) -> Option<u32> {
+    let implied = match (&counts.array, &counts.pointers) {
+        (Some(array), _) => array.len(),
+        (None, Some(pointers)) => pointers.len(),
+        (None, None) => 0,
+    };
+    (u32::try_from(implied) != Ok(counts.count)).then_some(counts.count)
+}
+
+/// The scene form of one `VkMicromapUsageEXT`.
+pub(crate) fn usage_desc(usage: &MicromapUsage) -> UsageDesc {
+    UsageDesc {
+        count: usage.count,
+        subdivision_level: usage.subdivision_level,
+        format: Value::new(i64::from(usage.format)),
+    }
 }
 
 #[cfg(test)]

@@ -6,7 +6,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::ChainStruct;
+use super::{ChainStruct, UsageDesc};
 use crate::model::names::{self, Value};
 use crate::scene::args::{AddressArg, HandleArg};
 
@@ -156,4 +156,130 @@ pub struct CopyMemoryToAccelerationStructureInfoDesc {
     /// Default VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesOpacityMicromapExtDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
+    /// Default VK_INDEX_TYPE_UINT32.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_buffer: AddressArg,
+    /// Default 4.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_stride: Option<u64>,
+    #[serde(default)]
+    pub base_triangle: u32,
+    /// Default: the length of pUsageCounts or ppUsageCounts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usage_counts_count: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub micromap: HandleArg,
+}
+
+/// `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an acceleration structure of type OPACITY_MICROMAP.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesOpacityMicromapKhrDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
+    /// Default VK_INDEX_TYPE_UINT32.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_buffer: AddressArg,
+    /// Default 4.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_stride: Option<u64>,
+    #[serde(default)]
+    pub base_triangle: u32,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub micromap: HandleArg,
+}
+
+/// `VkAccelerationStructureTrianglesDisplacementMicromapNV`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesDisplacementMicromapNvDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
+    /// Default VK_FORMAT_R16G16_SFLOAT.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub displacement_bias_and_scale_format: Option<Value<names::Format>>,
+    /// Default VK_FORMAT_R16G16B16A16_SFLOAT.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub displacement_vector_format: Option<Value<names::Format>>,
+    #[serde(default)]
+    pub displacement_bias_and_scale_buffer: AddressArg,
+    #[serde(default)]
+    pub displacement_bias_and_scale_stride: u64,
+    #[serde(default)]
+    pub displacement_vector_buffer: AddressArg,
+    #[serde(default)]
+    pub displacement_vector_stride: u64,
+    #[serde(default)]
+    pub displaced_micromap_primitive_flags: AddressArg,
+    #[serde(default)]
+    pub displaced_micromap_primitive_flags_stride: u64,
+    /// Default VK_INDEX_TYPE_UINT32.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_buffer: AddressArg,
+    /// Default 4.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_stride: Option<u64>,
+    #[serde(default)]
+    pub base_triangle: u32,
+    /// Default: the length of pUsageCounts or ppUsageCounts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usage_counts_count: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub micromap: HandleArg,
+}
+
+/// `VkAccelerationStructureGeometryMicromapDataKHR`; In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeometryMicromapDataDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
+    /// Default: the length of pUsageCounts or ppUsageCounts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usage_counts_count: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default)]
+    pub data: AddressArg,
+    #[serde(default)]
+    pub triangle_array: AddressArg,
+    /// Default 8.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub triangle_array_stride: Option<u64>,
 }

@@ -3,7 +3,7 @@
 //! describes: names become handles and addresses, absent members their
 //! defaults.
 
-use super::{chain, s_type, ObjectKind, Resolver, Result};
+use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
@@ -156,6 +156,121 @@ impl Resolver<'_> {
                 &format!("{at}.dst"),
             )?,
             mode: d.mode.map_or(defaults.mode, Value::as_i32),
+        })
+    }
+
+    /// A `VkAccelerationStructureTrianglesOpacityMicromapEXT` at `at`.
+    pub(in crate::scene) fn triangles_opacity_micromap_ext(
+        &self,
+        d: &scene::TrianglesOpacityMicromapExtDesc,
+        at: &str,
+    ) -> Result<model::TrianglesOpacityMicromapExt> {
+        let defaults = model::TrianglesOpacityMicromapExt::default();
+        Ok(model::TrianglesOpacityMicromapExt {
+            s_type: d.given_s_type.unwrap_or(defaults.s_type),
+            next: Vec::new(),
+            index_type: d.index_type.map_or(defaults.index_type, Value::as_i32),
+            index_buffer: self.address(&d.index_buffer, &format!("{at}.indexBuffer"))?,
+            index_stride: d.index_stride.unwrap_or(defaults.index_stride),
+            base_triangle: d.base_triangle,
+            usage_counts: usage_counts(
+                d.usage_counts_count,
+                &d.p_usage_counts,
+                &d.pp_usage_counts,
+                at,
+            )?,
+            micromap: self.handle(&d.micromap, ObjectKind::Micromap, &format!("{at}.micromap"))?,
+        })
+    }
+
+    /// A `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an acceleration structure of type OPACITY_MICROMAP at `at`.
+    pub(in crate::scene) fn triangles_opacity_micromap_khr(
+        &self,
+        d: &scene::TrianglesOpacityMicromapKhrDesc,
+        at: &str,
+    ) -> Result<model::TrianglesOpacityMicromapKhr> {
+        let defaults = model::TrianglesOpacityMicromapKhr::default();
+        Ok(model::TrianglesOpacityMicromapKhr {
+            s_type: d.given_s_type.unwrap_or(defaults.s_type),
+            next: Vec::new(),
+            index_type: d.index_type.map_or(defaults.index_type, Value::as_i32),
+            index_buffer: self.address(&d.index_buffer, &format!("{at}.indexBuffer"))?,
+            index_stride: d.index_stride.unwrap_or(defaults.index_stride),
+            base_triangle: d.base_triangle,
+            micromap: self.handle(
+                &d.micromap,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.micromap"),
+            )?,
+        })
+    }
+
+    /// A `VkAccelerationStructureTrianglesDisplacementMicromapNV` at `at`.
+    pub(in crate::scene) fn triangles_displacement_micromap_nv(
+        &self,
+        d: &scene::TrianglesDisplacementMicromapNvDesc,
+        at: &str,
+    ) -> Result<model::TrianglesDisplacementMicromapNv> {
+        let defaults = model::TrianglesDisplacementMicromapNv::default();
+        Ok(model::TrianglesDisplacementMicromapNv {
+            s_type: d.given_s_type.unwrap_or(defaults.s_type),
+            next: Vec::new(),
+            displacement_bias_and_scale_format: d
+                .displacement_bias_and_scale_format
+                .map_or(defaults.displacement_bias_and_scale_format, Value::as_i32),
+            displacement_vector_format: d
+                .displacement_vector_format
+                .map_or(defaults.displacement_vector_format, Value::as_i32),
+            displacement_bias_and_scale_buffer: self.address(
+                &d.displacement_bias_and_scale_buffer,
+                &format!("{at}.displacementBiasAndScaleBuffer"),
+            )?,
+            displacement_bias_and_scale_stride: d.displacement_bias_and_scale_stride,
+            displacement_vector_buffer: self.address(
+                &d.displacement_vector_buffer,
+                &format!("{at}.displacementVectorBuffer"),
+            )?,
+            displacement_vector_stride: d.displacement_vector_stride,
+            displaced_micromap_primitive_flags: self.address(
+                &d.displaced_micromap_primitive_flags,
+                &format!("{at}.displacedMicromapPrimitiveFlags"),
+            )?,
+            displaced_micromap_primitive_flags_stride: d.displaced_micromap_primitive_flags_stride,
+            index_type: d.index_type.map_or(defaults.index_type, Value::as_i32),
+            index_buffer: self.address(&d.index_buffer, &format!("{at}.indexBuffer"))?,
+            index_stride: d.index_stride.unwrap_or(defaults.index_stride),
+            base_triangle: d.base_triangle,
+            usage_counts: usage_counts(
+                d.usage_counts_count,
+                &d.p_usage_counts,
+                &d.pp_usage_counts,
+                at,
+            )?,
+            micromap: self.handle(&d.micromap, ObjectKind::Micromap, &format!("{at}.micromap"))?,
+        })
+    }
+
+    /// A `VkAccelerationStructureGeometryMicromapDataKHR`; In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR` at `at`.
+    pub(in crate::scene) fn geometry_micromap_data(
+        &self,
+        d: &scene::GeometryMicromapDataDesc,
+        at: &str,
+    ) -> Result<model::GeometryMicromapData> {
+        let defaults = model::GeometryMicromapData::default();
+        Ok(model::GeometryMicromapData {
+            s_type: d.given_s_type.unwrap_or(defaults.s_type),
+            next: Vec::new(),
+            usage_counts: usage_counts(
+                d.usage_counts_count,
+                &d.p_usage_counts,
+                &d.pp_usage_counts,
+                at,
+            )?,
+            data: self.address(&d.data, &format!("{at}.data"))?,
+            triangle_array: self.address(&d.triangle_array, &format!("{at}.triangleArray"))?,
+            triangle_array_stride: d
+                .triangle_array_stride
+                .unwrap_or(defaults.triangle_array_stride),
         })
     }
 }

@@ -3,7 +3,7 @@
 //! describes: what the resolver reads back to the same model. Members
 //! at their defaults are left out where the scene form allows it.
 
-use super::{chain_entry, Names};
+use super::{chain_entry, usage_counts_count, usage_desc, Names};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
@@ -129,6 +129,119 @@ impl scene::CopyMemoryToAccelerationStructureInfoDesc {
             src: names.address(model.src),
             dst: names.handle(ObjectKind::AccelerationStructure, model.dst),
             mode: (model.mode != defaults.mode).then(|| Value::new(i64::from(model.mode))),
+        }
+    }
+}
+
+impl scene::TrianglesOpacityMicromapExtDesc {
+    /// The scene form of a `VkAccelerationStructureTrianglesOpacityMicromapEXT`, naming objects and addresses by `names`.
+    pub fn written(model: &model::TrianglesOpacityMicromapExt, names: &dyn Names) -> Self {
+        let defaults = model::TrianglesOpacityMicromapExt::default();
+        Self {
+            given_s_type: (model.s_type != defaults.s_type).then_some(model.s_type),
+            index_type: (model.index_type != defaults.index_type)
+                .then(|| Value::new(i64::from(model.index_type))),
+            index_buffer: names.address(model.index_buffer),
+            index_stride: (model.index_stride != defaults.index_stride)
+                .then_some(model.index_stride),
+            base_triangle: model.base_triangle,
+            usage_counts_count: usage_counts_count(&model.usage_counts),
+            p_usage_counts: model
+                .usage_counts
+                .array
+                .as_ref()
+                .map(|a| a.iter().map(usage_desc).collect()),
+            pp_usage_counts: model
+                .usage_counts
+                .pointers
+                .as_ref()
+                .map(|p| p.iter().map(|u| u.as_ref().map(usage_desc)).collect()),
+            micromap: names.handle(ObjectKind::Micromap, model.micromap),
+        }
+    }
+}
+
+impl scene::TrianglesOpacityMicromapKhrDesc {
+    /// The scene form of a `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an acceleration structure of type OPACITY_MICROMAP, naming objects and addresses by `names`.
+    pub fn written(model: &model::TrianglesOpacityMicromapKhr, names: &dyn Names) -> Self {
+        let defaults = model::TrianglesOpacityMicromapKhr::default();
+        Self {
+            given_s_type: (model.s_type != defaults.s_type).then_some(model.s_type),
+            index_type: (model.index_type != defaults.index_type)
+                .then(|| Value::new(i64::from(model.index_type))),
+            index_buffer: names.address(model.index_buffer),
+            index_stride: (model.index_stride != defaults.index_stride)
+                .then_some(model.index_stride),
+            base_triangle: model.base_triangle,
+            micromap: names.handle(ObjectKind::AccelerationStructure, model.micromap),
+        }
+    }
+}
+
+impl scene::TrianglesDisplacementMicromapNvDesc {
+    /// The scene form of a `VkAccelerationStructureTrianglesDisplacementMicromapNV`, naming objects and addresses by `names`.
+    pub fn written(model: &model::TrianglesDisplacementMicromapNv, names: &dyn Names) -> Self {
+        let defaults = model::TrianglesDisplacementMicromapNv::default();
+        Self {
+            given_s_type: (model.s_type != defaults.s_type).then_some(model.s_type),
+            displacement_bias_and_scale_format: (model.displacement_bias_and_scale_format
+                != defaults.displacement_bias_and_scale_format)
+                .then(|| Value::new(i64::from(model.displacement_bias_and_scale_format))),
+            displacement_vector_format: (model.displacement_vector_format
+                != defaults.displacement_vector_format)
+                .then(|| Value::new(i64::from(model.displacement_vector_format))),
+            displacement_bias_and_scale_buffer: names
+                .address(model.displacement_bias_and_scale_buffer),
+            displacement_bias_and_scale_stride: model.displacement_bias_and_scale_stride,
+            displacement_vector_buffer: names.address(model.displacement_vector_buffer),
+            displacement_vector_stride: model.displacement_vector_stride,
+            displaced_micromap_primitive_flags: names
+                .address(model.displaced_micromap_primitive_flags),
+            displaced_micromap_primitive_flags_stride: model
+                .displaced_micromap_primitive_flags_stride,
+            index_type: (model.index_type != defaults.index_type)
+                .then(|| Value::new(i64::from(model.index_type))),
+            index_buffer: names.address(model.index_buffer),
+            index_stride: (model.index_stride != defaults.index_stride)
+                .then_some(model.index_stride),
+            base_triangle: model.base_triangle,
+            usage_counts_count: usage_counts_count(&model.usage_counts),
+            p_usage_counts: model
+                .usage_counts
+                .array
+                .as_ref()
+                .map(|a| a.iter().map(usage_desc).collect()),
+            pp_usage_counts: model
+                .usage_counts
+                .pointers
+                .as_ref()
+                .map(|p| p.iter().map(|u| u.as_ref().map(usage_desc)).collect()),
+            micromap: names.handle(ObjectKind::Micromap, model.micromap),
+        }
+    }
+}
+
+impl scene::GeometryMicromapDataDesc {
+    /// The scene form of a `VkAccelerationStructureGeometryMicromapDataKHR`; In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`, naming objects and addresses by `names`.
+    pub fn written(model: &model::GeometryMicromapData, names: &dyn Names) -> Self {
+        let defaults = model::GeometryMicromapData::default();
+        Self {
+            given_s_type: (model.s_type != defaults.s_type).then_some(model.s_type),
+            usage_counts_count: usage_counts_count(&model.usage_counts),
+            p_usage_counts: model
+                .usage_counts
+                .array
+                .as_ref()
+                .map(|a| a.iter().map(usage_desc).collect()),
+            pp_usage_counts: model
+                .usage_counts
+                .pointers
+                .as_ref()
+                .map(|p| p.iter().map(|u| u.as_ref().map(usage_desc)).collect()),
+            data: names.address(model.data),
+            triangle_array: names.address(model.triangle_array),
+            triangle_array_stride: (model.triangle_array_stride != defaults.triangle_array_stride)
+                .then_some(model.triangle_array_stride),
         }
     }
 }
@@ -316,6 +429,129 @@ mod tests {
             crate::scene::resolve_alone(
                 |r| r.copy_memory_to_acceleration_structure_info(&read, "x")
             ),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn triangles_opacity_micromap_ext_reads_back_as_written() {
+        let model = model::TrianglesOpacityMicromapExt {
+            index_type: 3,
+            index_buffer: 0x2000_0000 + 4,
+            index_stride: 5,
+            base_triangle: 6,
+            usage_counts: crate::model::micromap::UsageCounts {
+                count: 7,
+                array: Some(vec![crate::model::micromap::MicromapUsage {
+                    count: 1,
+                    subdivision_level: 2,
+                    format: 1,
+                }]),
+                pointers: Some(vec![None]),
+            },
+            micromap: 0x1000 + 8,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::TrianglesOpacityMicromapExtDesc::written(
+            &model, names,
+        ))
+        .unwrap();
+        let read: scene::TrianglesOpacityMicromapExtDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.triangles_opacity_micromap_ext(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn triangles_opacity_micromap_khr_reads_back_as_written() {
+        let model = model::TrianglesOpacityMicromapKhr {
+            index_type: 3,
+            index_buffer: 0x2000_0000 + 4,
+            index_stride: 5,
+            base_triangle: 6,
+            micromap: 0x1000 + 7,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::TrianglesOpacityMicromapKhrDesc::written(
+            &model, names,
+        ))
+        .unwrap();
+        let read: scene::TrianglesOpacityMicromapKhrDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.triangles_opacity_micromap_khr(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn triangles_displacement_micromap_nv_reads_back_as_written() {
+        let model = model::TrianglesDisplacementMicromapNv {
+            displacement_bias_and_scale_format: 3,
+            displacement_vector_format: 4,
+            displacement_bias_and_scale_buffer: 0x2000_0000 + 5,
+            displacement_bias_and_scale_stride: 6,
+            displacement_vector_buffer: 0x2000_0000 + 7,
+            displacement_vector_stride: 8,
+            displaced_micromap_primitive_flags: 0x2000_0000 + 9,
+            displaced_micromap_primitive_flags_stride: 10,
+            index_type: 11,
+            index_buffer: 0x2000_0000 + 12,
+            index_stride: 13,
+            base_triangle: 14,
+            usage_counts: crate::model::micromap::UsageCounts {
+                count: 15,
+                array: Some(vec![crate::model::micromap::MicromapUsage {
+                    count: 1,
+                    subdivision_level: 2,
+                    format: 1,
+                }]),
+                pointers: Some(vec![None]),
+            },
+            micromap: 0x1000 + 16,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::TrianglesDisplacementMicromapNvDesc::written(
+            &model, names,
+        ))
+        .unwrap();
+        let read: scene::TrianglesDisplacementMicromapNvDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.triangles_displacement_micromap_nv(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn geometry_micromap_data_reads_back_as_written() {
+        let model = model::GeometryMicromapData {
+            usage_counts: crate::model::micromap::UsageCounts {
+                count: 3,
+                array: Some(vec![crate::model::micromap::MicromapUsage {
+                    count: 1,
+                    subdivision_level: 2,
+                    format: 1,
+                }]),
+                pointers: Some(vec![None]),
+            },
+            data: 0x2000_0000 + 4,
+            triangle_array: 0x2000_0000 + 5,
+            triangle_array_stride: 6,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::GeometryMicromapDataDesc::written(&model, names))
+            .unwrap();
+        let read: scene::GeometryMicromapDataDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.geometry_micromap_data(&read, "x")),
             Ok(model),
             "{json}"
         );
