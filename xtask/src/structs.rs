@@ -114,6 +114,18 @@ pub const STRUCTS: &[StructSpec] = &[
         "VK_COPY_ACCELERATION_STRUCTURE_MODE_DESERIALIZE_KHR",
     ),
     StructSpec {
+        vk: "VkMicromapBuildInfoEXT",
+        rust: "MicromapBuildInfo",
+        doc: "Addresses are device or host addresses, depending on the command.",
+        defaults: &[
+            ("type", "VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT"),
+            ("mode", "VK_BUILD_MICROMAP_MODE_BUILD_EXT"),
+        ],
+        required: &[],
+        ash: "",
+        chained: false,
+    },
+    StructSpec {
         vk: "VkAccelerationStructureTrianglesOpacityMicromapEXT",
         rust: "TrianglesOpacityMicromapExt",
         doc: "",
@@ -417,7 +429,7 @@ fn ash_member(field: &Field) -> String {
         Form::Address { union: false, .. } | Form::Number { .. } | Form::Next => member,
         // Both usage structures are three 32-bit members, so the EXT
         // reader reads the KHR one as well.
-        Form::UsageCounts => "unsafe { usage_counts(Vec::new(), info.usage_counts_count, \
+        Form::UsageCounts => "unsafe { usage_counts(spare_usages, info.usage_counts_count, \
              info.p_usage_counts.cast(), info.pp_usage_counts.cast(), function, at, findings) }"
             .to_string(),
     }
@@ -701,7 +713,8 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure with no pNext chain or arrays of its own reads no memory:\n// its `function`, `at` and `findings` go unused.\n#![allow(unused_imports, unused_variables, clippy::ptr_arg)]\n\nuse std::fmt::Display;\n\nuse ash::vk;\nuse ommcheck_vuids::khr;\n\n\
          use super::accel::{address, scratch_address};\nuse super::{chain_s_types, usage_counts};\n\
-         use crate::model::generated as model;\nuse crate::report::Finding;\n\n",
+         use crate::model::generated as model;\nuse crate::model::micromap::MicromapUsage;\n\
+         use crate::report::Finding;\n\n",
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
@@ -710,9 +723,17 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         } else {
             "/// `info`'s pNext chain must be well formed."
         };
-        let arrays = if fields.iter().any(|f| f.form == Form::UsageCounts) {
+        let usages = fields.iter().any(|f| f.form == Form::UsageCounts);
+        let arrays = if usages {
             "\n/// Its usage-count pointers must be NULL or valid for `usageCountsCount`\n\
              /// elements, as the API requires."
+        } else {
+            ""
+        };
+        // A build reads its usage counts into an allocation it keeps from
+        // call to call.
+        let spare = if usages {
+            "spare_usages: Vec<MicromapUsage>, "
         } else {
             ""
         };
@@ -720,7 +741,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
             out,
             "/// Reads a {} (at `at`, as findings name it).\n///\n/// # Safety\n\
              {safety}{arrays}\n\
-             pub(crate) unsafe fn {}(info: &{}, function: &'static str, at: impl Display + Copy, findings: &mut Vec<Finding>) -> model::{} {{\n    \
+             pub(crate) unsafe fn {}({spare}info: &{}, function: &'static str, at: impl Display + Copy, findings: &mut Vec<Finding>) -> model::{} {{\n    \
              model::{} {{",
             doc(spec).trim_end_matches('.'),
             function(spec),

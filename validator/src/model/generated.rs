@@ -273,6 +273,43 @@ impl Default for CopyMemoryToAccelerationStructureInfo {
     }
 }
 
+/// `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct MicromapBuildInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    #[serde(rename = "type")]
+    pub ty: i32,
+    pub flags: u32,
+    pub mode: i32,
+    pub dst_micromap: Handle,
+    pub usage_counts: UsageCounts,
+    pub data: u64,
+    pub scratch_data: u64,
+    pub triangle_array: u64,
+    pub triangle_array_stride: u64,
+}
+
+impl Default for MicromapBuildInfo {
+    fn default() -> Self {
+        Self {
+            s_type: 1000396000,
+            next: Vec::new(),
+            ty: 0, // VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT
+            flags: 0,
+            mode: 0, // VK_BUILD_MICROMAP_MODE_BUILD_EXT
+            dst_micromap: 0,
+            usage_counts: UsageCounts::default(),
+            data: 0,
+            scratch_data: 0,
+            triangle_array: 0,
+            triangle_array_stride: 0,
+        }
+    }
+}
+
 /// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, rename_all = "camelCase")]

@@ -3,8 +3,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::model::array_or_pointers::{ElementsCopied, ElementsRead};
+pub use crate::model::generated::MicromapBuildInfo;
 use crate::model::values::*;
-use crate::model::Handle;
 
 /// `VkMicromapUsageEXT` / `VkMicromapUsageKHR`, laid out as they are, so
 /// that reading an application's array of them is a copy of its bytes.
@@ -119,44 +119,6 @@ impl UsageCounts {
 /// indices: the elements of `pUsageCounts`, or the non-NULL elements of
 /// `ppUsageCounts`.
 pub type UsagesRead<'a> = ElementsCopied<'a, MicromapUsage>;
-
-/// `VkMicromapBuildInfoEXT`. Addresses are device or host addresses,
-/// depending on the command.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct MicromapBuildInfo {
-    pub s_type: i32,
-    /// sTypes of the structures in the pNext chain, in order.
-    pub next: Vec<i32>,
-    #[serde(rename = "type")]
-    pub ty: i32,
-    pub flags: u32,
-    pub mode: i32,
-    pub dst_micromap: Handle,
-    pub usage_counts: UsageCounts,
-    pub data: u64,
-    pub scratch_data: u64,
-    pub triangle_array: u64,
-    pub triangle_array_stride: u64,
-}
-
-impl Default for MicromapBuildInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
-            next: Vec::new(),
-            ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
-            flags: 0,
-            mode: BUILD_MICROMAP_MODE_BUILD_EXT,
-            dst_micromap: 0,
-            usage_counts: UsageCounts::default(),
-            data: 0,
-            scratch_data: 0,
-            triangle_array: 0,
-            triangle_array_stride: 0,
-        }
-    }
-}
 
 /// `VkMicromapTriangleEXT` / `VkMicromapTriangleKHR`: 8 bytes, little-endian.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -208,7 +208,8 @@ unsafe fn read_geometry(
             };
             let at = location.text(".pNext<VkAccelerationStructureGeometryMicromapDataKHR>");
             // SAFETY: forwarded from the caller.
-            micromap = Some(unsafe { geometry_micromap_data(data, function, at, findings) });
+            micromap =
+                Some(unsafe { geometry_micromap_data(Vec::new(), data, function, at, findings) });
         } else {
             next.push(link.s_type);
         }
@@ -302,8 +303,9 @@ unsafe fn triangles_data(
                 let at =
                     location.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
                 // SAFETY: forwarded from the caller.
-                data.opacity_ext =
-                    Some(unsafe { triangles_opacity_micromap_ext(a, function, at, findings) });
+                data.opacity_ext = Some(unsafe {
+                    triangles_opacity_micromap_ext(Vec::new(), a, function, at, findings)
+                });
             }
             STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR if data.opacity_khr.is_none() => {
                 // SAFETY: a structure in a valid chain with this sType is a
@@ -330,8 +332,9 @@ unsafe fn triangles_data(
                 let at =
                     location.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
                 // SAFETY: forwarded from the caller.
-                data.displacement_nv =
-                    Some(unsafe { triangles_displacement_micromap_nv(a, function, at, findings) });
+                data.displacement_nv = Some(unsafe {
+                    triangles_displacement_micromap_nv(Vec::new(), a, function, at, findings)
+                });
             }
             other => data.next.push(other),
         }

@@ -15,6 +15,7 @@ use ommcheck_vuids::khr;
 use super::accel::{address, scratch_address};
 use super::{chain_s_types, usage_counts};
 use crate::model::generated as model;
+use crate::model::micromap::MicromapUsage;
 use crate::report::Finding;
 
 /// Reads a `VkMicromapCreateInfoEXT` (at `at`, as findings name it).
@@ -183,6 +184,46 @@ pub(crate) unsafe fn copy_memory_to_acceleration_structure_info(
     }
 }
 
+/// Reads a `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+/// Its usage-count pointers must be NULL or valid for `usageCountsCount`
+/// elements, as the API requires.
+pub(crate) unsafe fn micromap_build_info(
+    spare_usages: Vec<MicromapUsage>,
+    info: &vk::MicromapBuildInfoEXT<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::MicromapBuildInfo {
+    model::MicromapBuildInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, at, findings) },
+        ty: info.ty.as_raw(),
+        flags: info.flags.as_raw(),
+        mode: info.mode.as_raw(),
+        dst_micromap: vk::Handle::as_raw(info.dst_micromap),
+        // SAFETY: forwarded from the caller.
+        usage_counts: unsafe {
+            usage_counts(
+                spare_usages,
+                info.usage_counts_count,
+                info.p_usage_counts.cast(),
+                info.pp_usage_counts.cast(),
+                function,
+                at,
+                findings,
+            )
+        },
+        data: address(&info.data),
+        scratch_data: scratch_address(&info.scratch_data),
+        triangle_array: address(&info.triangle_array),
+        triangle_array_stride: info.triangle_array_stride,
+    }
+}
+
 /// Reads a `VkAccelerationStructureTrianglesOpacityMicromapEXT` (at `at`, as findings name it).
 ///
 /// # Safety
@@ -190,6 +231,7 @@ pub(crate) unsafe fn copy_memory_to_acceleration_structure_info(
 /// Its usage-count pointers must be NULL or valid for `usageCountsCount`
 /// elements, as the API requires.
 pub(crate) unsafe fn triangles_opacity_micromap_ext(
+    spare_usages: Vec<MicromapUsage>,
     info: &vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>,
     function: &'static str,
     at: impl Display + Copy,
@@ -205,7 +247,7 @@ pub(crate) unsafe fn triangles_opacity_micromap_ext(
         // SAFETY: forwarded from the caller.
         usage_counts: unsafe {
             usage_counts(
-                Vec::new(),
+                spare_usages,
                 info.usage_counts_count,
                 info.p_usage_counts.cast(),
                 info.pp_usage_counts.cast(),
@@ -246,6 +288,7 @@ pub(crate) unsafe fn triangles_opacity_micromap_khr(
 /// Its usage-count pointers must be NULL or valid for `usageCountsCount`
 /// elements, as the API requires.
 pub(crate) unsafe fn triangles_displacement_micromap_nv(
+    spare_usages: Vec<MicromapUsage>,
     info: &vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>,
     function: &'static str,
     at: impl Display + Copy,
@@ -269,7 +312,7 @@ pub(crate) unsafe fn triangles_displacement_micromap_nv(
         // SAFETY: forwarded from the caller.
         usage_counts: unsafe {
             usage_counts(
-                Vec::new(),
+                spare_usages,
                 info.usage_counts_count,
                 info.p_usage_counts.cast(),
                 info.pp_usage_counts.cast(),
@@ -289,6 +332,7 @@ pub(crate) unsafe fn triangles_displacement_micromap_nv(
 /// Its usage-count pointers must be NULL or valid for `usageCountsCount`
 /// elements, as the API requires.
 pub(crate) unsafe fn geometry_micromap_data(
+    spare_usages: Vec<MicromapUsage>,
     info: &khr::AccelerationStructureGeometryMicromapDataKHR<'_>,
     function: &'static str,
     at: impl Display + Copy,
@@ -300,7 +344,7 @@ pub(crate) unsafe fn geometry_micromap_data(
         // SAFETY: forwarded from the caller.
         usage_counts: unsafe {
             usage_counts(
-                Vec::new(),
+                spare_usages,
                 info.usage_counts_count,
                 info.p_usage_counts.cast(),
                 info.pp_usage_counts.cast(),

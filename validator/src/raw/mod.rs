@@ -305,53 +305,7 @@ pub unsafe fn micromap_build_info(
     findings: &mut Vec<Finding>,
 ) -> MicromapBuildInfo {
     // SAFETY: forwarded from the caller.
-    unsafe { micromap_build_info_into(Vec::new(), info, function, location, findings) }
-}
-
-/// [`micromap_build_info`], reading the usage counts into `spare_usages`'
-/// allocation.
-///
-/// # Safety
-/// As for [`micromap_build_info`].
-unsafe fn micromap_build_info_into(
-    spare_usages: Vec<MicromapUsage>,
-    info: &vk::MicromapBuildInfoEXT<'_>,
-    function: &'static str,
-    location: impl Display + Copy,
-    findings: &mut Vec<Finding>,
-) -> MicromapBuildInfo {
-    // The host members' provenance is exposed so a host build can read
-    // through the number again (see `build_micromaps_raw`).
-    let (data, scratch_data, triangle_array) = (
-        accel::address(&info.data),
-        accel::scratch_address(&info.scratch_data),
-        accel::address(&info.triangle_array),
-    );
-    MicromapBuildInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, location, findings) },
-        ty: info.ty.as_raw(),
-        flags: info.flags.as_raw(),
-        mode: info.mode.as_raw(),
-        dst_micromap: vk::Handle::as_raw(info.dst_micromap),
-        // SAFETY: forwarded from the caller.
-        usage_counts: unsafe {
-            usage_counts(
-                spare_usages,
-                info.usage_counts_count,
-                info.p_usage_counts,
-                info.pp_usage_counts,
-                function,
-                location,
-                findings,
-            )
-        },
-        data,
-        scratch_data,
-        triangle_array,
-        triangle_array_stride: info.triangle_array_stride,
-    }
+    unsafe { generated::micromap_build_info(Vec::new(), info, function, location, findings) }
 }
 
 /// Reads `infos` (NULL with a non-zero count reads as empty), into the
@@ -393,7 +347,7 @@ pub(crate) unsafe fn micromap_build_infos(
             .unwrap_or_default();
         // SAFETY: forwarded from the caller.
         let info = unsafe {
-            micromap_build_info_into(usages, info, function, "pInfos".index(i), findings)
+            generated::micromap_build_info(usages, info, function, "pInfos".index(i), findings)
         };
         match read.get_mut(i) {
             Some(slot) => *slot = info,

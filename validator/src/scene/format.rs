@@ -638,36 +638,6 @@ pub struct UsageDesc {
     pub format: Value<names::MicromapFormat>,
 }
 
-/// `VkMicromapBuildInfoEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct MicromapBuildInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    /// Default VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT.
-    #[serde(rename = "type")]
-    pub ty: Option<Value<names::MicromapType>>,
-    #[serde(default)]
-    pub flags: Value<names::BuildMicromapFlags>,
-    /// Default VK_BUILD_MICROMAP_MODE_BUILD_EXT.
-    pub mode: Option<Value<names::BuildMicromapMode>>,
-    #[serde(default)]
-    pub dst_micromap: HandleArg,
-    /// Default: the length of pUsageCounts or ppUsageCounts.
-    pub usage_counts_count: Option<u32>,
-    pub p_usage_counts: Option<Vec<UsageDesc>>,
-    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
-    #[serde(default)]
-    pub data: AddressArg,
-    #[serde(default)]
-    pub scratch_data: AddressArg,
-    #[serde(default)]
-    pub triangle_array: AddressArg,
-    #[serde(default)]
-    pub triangle_array_stride: u64,
-}
-
 /// `VkAllocationCallbacks`: each function pointer as a number (0: NULL).
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]

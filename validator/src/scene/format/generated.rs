@@ -158,6 +158,42 @@ pub struct CopyMemoryToAccelerationStructureInfoDesc {
     pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
 }
 
+/// `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct MicromapBuildInfoDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    /// Default VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(rename = "type")]
+    pub ty: Option<Value<names::MicromapType>>,
+    #[serde(default)]
+    pub flags: Value<names::BuildMicromapFlags>,
+    /// Default VK_BUILD_MICROMAP_MODE_BUILD_EXT.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mode: Option<Value<names::BuildMicromapMode>>,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub dst_micromap: HandleArg,
+    /// Default: the length of pUsageCounts or ppUsageCounts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub usage_counts_count: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p_usage_counts: Option<Vec<UsageDesc>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,
+    #[serde(default)]
+    pub data: AddressArg,
+    #[serde(default)]
+    pub scratch_data: AddressArg,
+    #[serde(default)]
+    pub triangle_array: AddressArg,
+    #[serde(default)]
+    pub triangle_array_stride: u64,
+}
+
 /// `VkAccelerationStructureTrianglesOpacityMicromapEXT`.
 #[derive(Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]

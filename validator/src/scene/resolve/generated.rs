@@ -159,6 +159,37 @@ impl Resolver<'_> {
         })
     }
 
+    /// A `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command at `at`.
+    pub(in crate::scene) fn micromap_build_info(
+        &self,
+        d: &scene::MicromapBuildInfoDesc,
+        at: &str,
+    ) -> Result<model::MicromapBuildInfo> {
+        let defaults = model::MicromapBuildInfo::default();
+        Ok(model::MicromapBuildInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            ty: d.ty.map_or(defaults.ty, Value::as_i32),
+            flags: d.flags.as_u32(),
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+            dst_micromap: self.handle(
+                &d.dst_micromap,
+                ObjectKind::Micromap,
+                &format!("{at}.dstMicromap"),
+            )?,
+            usage_counts: usage_counts(
+                d.usage_counts_count,
+                &d.p_usage_counts,
+                &d.pp_usage_counts,
+                at,
+            )?,
+            data: self.address(&d.data, &format!("{at}.data"))?,
+            scratch_data: self.address(&d.scratch_data, &format!("{at}.scratchData"))?,
+            triangle_array: self.address(&d.triangle_array, &format!("{at}.triangleArray"))?,
+            triangle_array_stride: d.triangle_array_stride,
+        })
+    }
+
     /// A `VkAccelerationStructureTrianglesOpacityMicromapEXT` at `at`.
     pub(in crate::scene) fn triangles_opacity_micromap_ext(
         &self,

@@ -133,6 +133,36 @@ impl scene::CopyMemoryToAccelerationStructureInfoDesc {
     }
 }
 
+impl scene::MicromapBuildInfoDesc {
+    /// The scene form of a `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command, naming objects and addresses by `names`.
+    pub fn written(model: &model::MicromapBuildInfo, names: &dyn Names) -> Self {
+        let defaults = model::MicromapBuildInfo::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model.next.iter().copied().map(chain_entry).collect(),
+            ty: (model.ty != defaults.ty).then(|| Value::new(i64::from(model.ty))),
+            flags: Value::new(i64::from(model.flags)),
+            mode: (model.mode != defaults.mode).then(|| Value::new(i64::from(model.mode))),
+            dst_micromap: names.handle(ObjectKind::Micromap, model.dst_micromap),
+            usage_counts_count: usage_counts_count(&model.usage_counts),
+            p_usage_counts: model
+                .usage_counts
+                .array
+                .as_ref()
+                .map(|a| a.iter().map(usage_desc).collect()),
+            pp_usage_counts: model
+                .usage_counts
+                .pointers
+                .as_ref()
+                .map(|p| p.iter().map(|u| u.as_ref().map(usage_desc)).collect()),
+            data: names.address(model.data),
+            scratch_data: names.address(model.scratch_data),
+            triangle_array: names.address(model.triangle_array),
+            triangle_array_stride: model.triangle_array_stride,
+        }
+    }
+}
+
 impl scene::TrianglesOpacityMicromapExtDesc {
     /// The scene form of a `VkAccelerationStructureTrianglesOpacityMicromapEXT`, naming objects and addresses by `names`.
     pub fn written(model: &model::TrianglesOpacityMicromapExt, names: &dyn Names) -> Self {
@@ -429,6 +459,40 @@ mod tests {
             crate::scene::resolve_alone(
                 |r| r.copy_memory_to_acceleration_structure_info(&read, "x")
             ),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn micromap_build_info_reads_back_as_written() {
+        let model = model::MicromapBuildInfo {
+            next: vec![1_000_001_000],
+            ty: 3,
+            flags: 4,
+            mode: 5,
+            dst_micromap: 0x1000 + 6,
+            usage_counts: crate::model::micromap::UsageCounts {
+                count: 7,
+                array: Some(vec![crate::model::micromap::MicromapUsage {
+                    count: 1,
+                    subdivision_level: 2,
+                    format: 1,
+                }]),
+                pointers: Some(vec![None]),
+            },
+            data: 0x2000_0000 + 8,
+            scratch_data: 0x2000_0000 + 9,
+            triangle_array: 0x2000_0000 + 10,
+            triangle_array_stride: 11,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::MicromapBuildInfoDesc::written(&model, names)).unwrap();
+        let read: scene::MicromapBuildInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.micromap_build_info(&read, "x")),
             Ok(model),
             "{json}"
         );
