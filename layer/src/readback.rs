@@ -388,7 +388,7 @@ pub fn not_checked_totals(device: u64, counts: &[(&'static str, u64)]) -> Vec<Me
         .filter(|(_, count)| *count > 1)
         .map(|(cause, count)| {
             let text = format!(
-                "the contents of {count} device builds on VkDevice {device:#x} were not checked for the cause `{cause}`, whose first build was reported with the reason. A build counts each time the layer could not read it: at each submission, or at each recording for inputs only the GPU places."
+                "the contents of {count} device builds on VkDevice {device:#x} were not checked for the cause `{cause}`, whose first build was reported with the reason. A build counts each time the layer could not read it: at each submission, at each recording for inputs only the GPU places, or at a wait where the layer could not learn whether its submission was complete."
             );
             let mut message = Message::about_layer(
                 CONTENTS_NOT_CHECKED,
