@@ -8,18 +8,30 @@
 //! semaphore value it signals is reached (`vkWaitSemaphores`,
 //! `vkGetSemaphoreCounterValue`). A fence or semaphore signal also
 //! completes every earlier submission to the same queue.
+//!
+//! A wait for any of several fences or timeline values leaves the layer
+//! to ask which ones were reached (its own `vkGetFenceStatus` and
+//! `vkGetSemaphoreCounterValue`). Where that call fails, the layer does
+//! not know: it takes the fence or value as reached for the core's
+//! execution order, so no error is reported on a guess (destroying an
+//! object the submission used), and does not check the builds read back
+//! for that submission, whose copies may not have run; it says so once
+//! per device and cause.
 
 #![allow(unsafe_code)]
 
 use ash::vk;
 use ash::vk::Handle as _;
 
+use ommcheck::Severity;
+
 use crate::dispatch::next_fns::DeviceFns;
 use crate::dispatch::submissions::{Pending, Submissions};
-use crate::dispatch::DeviceData;
+use crate::dispatch::{DeviceData, DeviceState};
 use crate::intercept::{aliased_intercepts, device_and, guarded, panic_message};
+use crate::own_calls::{self, OwnCall};
 use crate::read;
-use crate::report::Message;
+use crate::report::{Message, CONTENTS_NOT_CHECKED};
 
 /// Checks the completed builds with their read-back bytes and delivers
 /// the findings.
@@ -76,17 +88,46 @@ fn check_completed(data: &DeviceData, completed: Vec<Pending>, observed_by: &'st
     }
 }
 
+/// What a successful wait shows complete: fences (`(fence, 0)`) and
+/// timeline values (`(semaphore, value)`) reached, and those whose state
+/// the layer's own query could not learn.
+#[derive(Default)]
+struct Observed {
+    reached: Vec<(u64, u64)>,
+    unknown: Vec<Unknown>,
+}
+
+impl From<Vec<(u64, u64)>> for Observed {
+    fn from(reached: Vec<(u64, u64)>) -> Self {
+        Self {
+            reached,
+            unknown: Vec::new(),
+        }
+    }
+}
+
+/// A fence or timeline value the wait may have reached, which the layer
+/// could not tell because its own query failed.
+struct Unknown {
+    /// `(VK_OBJECT_TYPE_FENCE, fence)` or `(VK_OBJECT_TYPE_SEMAPHORE, semaphore)`.
+    object: (vk::ObjectType, u64),
+    /// As in [`Observed::reached`], were it reached.
+    reached: (u64, u64),
+    failed: own_calls::Failed,
+}
+
 /// Runs a waiting command below, then, where it succeeded, tells the
 /// core's execution order what it shows complete (`observe`) and checks
 /// the read-back builds it completes (`complete` picks them from the
-/// device's submissions; not called when none waits).
+/// device's submissions; not called when none waits). The builds of what
+/// `observe` could not learn are taken out unchecked, and that is said.
 fn wait_command<F: Copy>(
     function: &'static str,
     dispatchable: impl vk::Handle,
     pick: fn(&DeviceFns) -> Option<F>,
     call_down: impl FnOnce(F) -> vk::Result,
-    observe: impl FnOnce(&DeviceData, &mut ommcheck::Validator) -> Vec<(u64, u64)>,
-    complete: impl FnOnce(&mut Submissions, &[(u64, u64)]) -> Vec<Pending>,
+    observe: impl FnOnce(&DeviceData, &mut ommcheck::Validator) -> Observed,
+    complete: impl Fn(&mut Submissions, &[(u64, u64)]) -> Vec<Pending>,
 ) -> vk::Result {
     guarded(function, vk::Result::ERROR_DEVICE_LOST, || {
         let Some((data, next)) = device_and(dispatchable, pick) else {
@@ -94,18 +135,82 @@ fn wait_command<F: Copy>(
         };
         let result = call_down(next);
         if result == vk::Result::SUCCESS {
-            let completed = {
+            let (completed, not_known) = {
                 let mut state = data.state();
-                let reached = observe(&data, &mut state.validator);
-                if !state.submissions.waiting() {
+                let observed = observe(&data, &mut state.validator);
+                if !state.submissions.waiting() && observed.unknown.is_empty() {
                     return result;
                 }
-                complete(&mut state.submissions, &reached)
+                // What is known complete first: an unknown fence on the same
+                // queue would take its builds too.
+                let completed = complete(&mut state.submissions, &observed.reached);
+                let not_known: Vec<Message> = observed
+                    .unknown
+                    .iter()
+                    .filter_map(|unknown| {
+                        let dropped = complete(&mut state.submissions, &[unknown.reached]);
+                        unknown_message(&mut state, function, unknown, &dropped)
+                    })
+                    .collect();
+                (completed, not_known)
             };
             check_completed(&data, completed, function);
+            // Delivered with no lock held: a callback may call the layer.
+            if !not_known.is_empty() {
+                data.instance.reporter.deliver(&not_known, false);
+            }
         }
         result
     })
+}
+
+/// The [`CONTENTS_NOT_CHECKED`] warning that the layer's own query about
+/// `unknown` failed, so the builds read back for its submission
+/// (`dropped`) are not checked: once per device and cause, every dropped
+/// build counted for `vkDestroyDevice`'s total.
+fn unknown_message(
+    state: &mut DeviceState,
+    function: &'static str,
+    unknown: &Unknown,
+    dropped: &[Pending],
+) -> Option<Message> {
+    let cause = unknown.failed.call.cause();
+    let builds = u64::try_from(dropped.len()).unwrap_or(u64::MAX);
+    if !state.memory_layout.first_report_of(cause, builds) {
+        return None;
+    }
+    let (object_type, handle) = unknown.object;
+    let (what, reached) = if object_type == vk::ObjectType::FENCE {
+        (format!("VkFence {handle:#x}"), "signalled")
+    } else {
+        (
+            format!("VkSemaphore {handle:#x} (value {})", unknown.reached.1),
+            "reached",
+        )
+    };
+    let in_command_buffers: Vec<String> = dropped
+        .iter()
+        .map(|p| format!("{:#x}", p.command_buffer))
+        .collect();
+    let recorded_in = in_command_buffers.join(", ");
+    let builds = match dropped.len() {
+        0 => "no build read back waits for it now".to_owned(),
+        1 => format!(
+            "the contents of the device build read back for it (recorded in VkCommandBuffer {recorded_in}) are not checked, since its copies may not have run"
+        ),
+        n => format!(
+            "the contents of the {n} device builds read back for it (recorded in VkCommandBuffers {recorded_in}) are not checked, since their copies may not have run"
+        ),
+    };
+    let text = format!(
+        "{}, asking about {what}, so the layer cannot tell whether it is {reached}, nor so whether the submission that signals it is complete. It takes it as {reached} for the checks of what pending submissions use (so as not to report an error on a guess), and {builds}. {}",
+        unknown.failed,
+        crate::readback::once_per_cause(cause)
+    );
+    let mut message =
+        Message::about_layer(CONTENTS_NOT_CHECKED, Severity::Warning, function, &text);
+    message.objects.push(unknown.object);
+    Some(message)
 }
 
 pub unsafe extern "system" fn wait_for_fences(
@@ -125,21 +230,38 @@ pub unsafe extern "system" fn wait_for_fences(
             // SAFETY: `pFences` holds `fenceCount` fences (the API's requirement).
             let fences = unsafe { read::array(fences, count) };
             let status = data.fns.memory.get_fence_status;
-            // With waitAll every fence is signalled; otherwise ask.
-            let signalled: Vec<(u64, u64)> = fences
+            let mut observed = Observed::default();
+            for &fence in fences {
+                // With waitAll every fence is signalled; otherwise ask.
+                let signalled = match status {
+                    _ if wait_all != vk::FALSE => Ok(true),
+                    None => Ok(false),
+                    Some(status) => own_calls::checked(OwnCall::FenceStatus, || {
+                        // SAFETY: the next layer's function, with a fence of the device.
+                        unsafe { status(device, fence) }
+                    })
+                    .map(|answer| answer == vk::Result::SUCCESS),
+                };
+                let reached = (fence.as_raw(), 0);
+                match signalled {
+                    Ok(true) => observed.reached.push(reached),
+                    Ok(false) => {}
+                    Err(failed) => observed.unknown.push(Unknown {
+                        object: (vk::ObjectType::FENCE, fence.as_raw()),
+                        reached,
+                        failed,
+                    }),
+                }
+            }
+            // A fence the layer could not ask about is taken as signalled.
+            let handles: Vec<u64> = observed
+                .reached
                 .iter()
-                .filter(|&&fence| {
-                    wait_all != vk::FALSE
-                        || status.is_some_and(|status| {
-                            // SAFETY: the next layer's function, with a fence of the device.
-                            (unsafe { status(device, fence) }) == vk::Result::SUCCESS
-                        })
-                })
-                .map(|fence| (fence.as_raw(), 0))
+                .chain(observed.unknown.iter().map(|u| &u.reached))
+                .map(|(f, _)| *f)
                 .collect();
-            let handles: Vec<u64> = signalled.iter().map(|(f, _)| *f).collect();
             validator.fences_signalled(&handles);
-            signalled
+            observed
         },
         |submissions, signalled| {
             let mut completed = Vec::new();
@@ -161,7 +283,7 @@ pub unsafe extern "system" fn get_fence_status(device: vk::Device, fence: vk::Fe
         |next| unsafe { next(device, fence) },
         |_, validator| {
             validator.fences_signalled(&[fence.as_raw()]);
-            Vec::new()
+            Observed::default()
         },
         |submissions, _| submissions.fence_signalled(fence.as_raw()),
     )
@@ -176,7 +298,7 @@ pub unsafe extern "system" fn queue_wait_idle(queue: vk::Queue) -> vk::Result {
         |next| unsafe { next(queue) },
         |_, validator| {
             validator.queue_wait_idle(queue.as_raw());
-            Vec::new()
+            Observed::default()
         },
         |submissions, _| submissions.through(queue.as_raw(), u64::MAX),
     )
@@ -191,24 +313,25 @@ pub unsafe extern "system" fn device_wait_idle(device: vk::Device) -> vk::Result
         |next| unsafe { next(device) },
         |_, validator| {
             validator.device_wait_idle();
-            Vec::new()
+            Observed::default()
         },
         |submissions, _| submissions.take(|_, _| true),
     )
 }
 
 /// Timeline values reached: after a successful wait for all of them, each
-/// waited value; otherwise (waiting for any) each semaphore's counter.
-/// The core's execution order learns each.
+/// waited value; otherwise (waiting for any) each semaphore's counter,
+/// or, where asking failed, the waited value as unknown. The core's
+/// execution order learns each, unknown ones taken as reached.
 unsafe fn waited_semaphores(
     data: &DeviceData,
     device: vk::Device,
     info: *const vk::SemaphoreWaitInfo<'_>,
     validator: &mut ommcheck::Validator,
-) -> Vec<(u64, u64)> {
+) -> Observed {
     // SAFETY: the application's wait info (the API's requirement).
     let Some(info) = (unsafe { info.as_ref() }) else {
-        return Vec::new();
+        return Observed::default();
     };
     // SAFETY: the wait info's arrays hold `semaphoreCount` elements.
     let semaphores = unsafe { read::array(info.p_semaphores, info.semaphore_count) };
@@ -220,24 +343,37 @@ unsafe fn waited_semaphores(
         .memory
         .get_semaphore_counter_value
         .or(data.fns.memory.get_semaphore_counter_value_khr);
-    let mut reached_values = Vec::new();
+    let mut observed = Observed::default();
     for (&semaphore, &waited) in semaphores.iter().zip(values) {
-        let reached = if any {
-            let mut value = 0;
-            let asked = counter.is_some_and(|get| {
-                // SAFETY: the next layer's function, with a semaphore of the device.
-                (unsafe { get(device, semaphore, &mut value) }) == vk::Result::SUCCESS
-            });
-            asked.then_some(value)
-        } else {
-            Some(waited)
+        let reached = match counter {
+            _ if !any => Ok(Some(waited)),
+            None => Ok(None),
+            Some(get) => {
+                let mut value = 0;
+                own_calls::checked(OwnCall::SemaphoreCounterValue, || {
+                    // SAFETY: the next layer's function, with a semaphore of the device.
+                    unsafe { get(device, semaphore, &mut value) }
+                })
+                .map(|_| Some(value))
+            }
         };
-        if let Some(value) = reached {
-            validator.semaphore_reached(semaphore.as_raw(), value);
-            reached_values.push((semaphore.as_raw(), value));
+        match reached {
+            Ok(Some(value)) => {
+                validator.semaphore_reached(semaphore.as_raw(), value);
+                observed.reached.push((semaphore.as_raw(), value));
+            }
+            Ok(None) => {}
+            Err(failed) => {
+                validator.semaphore_reached(semaphore.as_raw(), waited);
+                observed.unknown.push(Unknown {
+                    object: (vk::ObjectType::SEMAPHORE, semaphore.as_raw()),
+                    reached: (semaphore.as_raw(), waited),
+                    failed,
+                });
+            }
         }
     }
-    reached_values
+    observed
 }
 
 /// The read-back builds the timeline values `reached` complete, in submission order.
@@ -304,7 +440,8 @@ unsafe fn counter_value_with(
                     (semaphore.as_raw(), value)
                 })
                 .into_iter()
-                .collect()
+                .collect::<Vec<_>>()
+                .into()
         },
         semaphores_reached,
     )

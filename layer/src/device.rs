@@ -19,6 +19,7 @@ use crate::dispatch::{Allocation, DeviceData, DeviceState, DEVICES, INSTANCES};
 use crate::intercept::{
     aliased_intercepts, as_void, check, deferrable, device_and, device_object, guarded, track,
 };
+use crate::own_calls::{self, OwnCall};
 use crate::report::Message;
 use crate::shadow::Shadows;
 use crate::{abi, commands, pipelines, properties, read, readback};
@@ -118,16 +119,23 @@ pub unsafe extern "system" fn create_device(
                 .get_physical_device_memory_properties
                 .map(|get| {
                     let mut properties = vk::PhysicalDeviceMemoryProperties::default();
-                    // SAFETY: the next layer's function, with a physical device of
-                    // its instance and a structure to fill.
-                    unsafe { get(physical_device, &mut properties) };
+                    own_calls::call(OwnCall::DeviceMemoryProperties, || {
+                        // SAFETY: the next layer's function, with a physical
+                        // device of its instance and a structure to fill.
+                        unsafe { get(physical_device, &mut properties) }
+                    });
                     properties
                 });
             let queue_family_flags = instance
                 .fns
                 .get_physical_device_queue_family_properties
-                // SAFETY: the next layer's function, with a physical device of its instance.
-                .map(|get| unsafe { read::queue_family_flags(get, physical_device) })
+                .map(|get| {
+                    own_calls::call(OwnCall::QueueFamilyProperties, || {
+                        // SAFETY: the next layer's function, with a physical
+                        // device of its instance.
+                        unsafe { read::queue_family_flags(get, physical_device) }
+                    })
+                })
                 .unwrap_or_default();
             let settings = instance.reporter.settings().clone();
             let limits = settings.limits.clone();

@@ -10,11 +10,12 @@
 //! modules earlier in this list (and none imports the crate root), so
 //! every shared type lies below all its users:
 //!
-//! - `ids`, `setting_docs`, `settings`, `report`, `read`, `abi`, `shadow`:
-//!   the ids of the layer's messages about itself, settings (and their
-//!   table, which xtask writes the manifest from), message delivery, the
-//!   small raw reads of the layer's own, the loader's structures, and what
-//!   recorded transfers wrote (route 1);
+//! - `ids`, `own_calls`, `setting_docs`, `settings`, `report`, `read`,
+//!   `abi`, `shadow`: the ids of the layer's messages about itself, the
+//!   calls it makes to the next layer on its own behalf, settings (and
+//!   their table, which xtask writes the manifest from), message delivery,
+//!   the small raw reads of the layer's own, the loader's structures, and
+//!   what recorded transfers wrote (route 1);
 //! - `dispatch`: per-instance and per-device data by dispatch key, and
 //!   every type a device's state holds: the next layer's function tables
 //!   (`next_fns`), where buffers lie and memory is mapped
@@ -57,6 +58,7 @@ mod driver_answers;
 pub mod ids;
 mod instance;
 mod intercept;
+pub mod own_calls;
 mod pipe;
 mod pipelines;
 mod properties;

@@ -23,6 +23,7 @@ use ommcheck::{Device, Limits, Report, Validator};
 
 use crate::dispatch::{InstanceData, INSTANCES};
 use crate::intercept::{as_void, deliver_checked, guarded, panic_if_asked};
+use crate::own_calls::{self, OwnCall};
 
 /// This layer's function for a physical-device command name; like device
 /// commands, returned only where the next layer has the command.
@@ -188,9 +189,11 @@ pub fn device_limits(
         p_next: next,
         ..Default::default()
     };
-    // SAFETY: the next layer's function, with a physical device of its
-    // instance and a chain of live structures of enabled extensions.
-    unsafe { get(physical_device, &mut properties) };
+    own_calls::call(OwnCall::DeviceLimits, || {
+        // SAFETY: the next layer's function, with a physical device of its
+        // instance and a chain of live structures of enabled extensions.
+        unsafe { get(physical_device, &mut properties) }
+    });
     // SAFETY: the chain the next layer just filled.
     unsafe { raw::reported_limits(properties.p_next, &chosen) }
 }

@@ -32,6 +32,7 @@ use ommcheck::Severity;
 use crate::dispatch::memory_layout;
 use crate::dispatch::readback_memory::{Readback, Refused, Window};
 use crate::dispatch::{DeviceData, DeviceState};
+use crate::own_calls::{self, OwnCall};
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
 use crate::settings::{GPU_READBACK, GPU_READBACK_INDIRECT_MAX_BYTES, GPU_READBACK_MAX_BYTES};
 
@@ -263,6 +264,12 @@ pub fn plan(
             "readback-setup",
             format!("the layer could not set up GPU readback: {reason}"),
         ),
+        // Nothing was recorded and nothing is kept: the next build recorded
+        // asks the next layer again.
+        Err(Refused::Failed(failed)) => Plan::NotReadBack(
+            failed.call.cause(),
+            format!("the layer could not set up GPU readback: {failed}; it tries again for the next build it records"),
+        ),
     }
 }
 
@@ -381,7 +388,7 @@ pub fn not_checked_totals(device: u64, counts: &[(&'static str, u64)]) -> Vec<Me
         .filter(|(_, count)| *count > 1)
         .map(|(cause, count)| {
             let text = format!(
-                "the contents of {count} device builds on VkDevice {device:#x} were not checked for the cause `{cause}`, whose first build was reported with the reason. A build counts each time the layer could not read it: at each submission, or at each recording for inputs only the GPU places."
+                "the contents of {count} device builds on VkDevice {device:#x} were not checked for the cause `{cause}`, whose first build was reported with the reason. A build counts each time the layer could not read it: at each submission, at each recording for inputs only the GPU places, or at a wait where the layer could not learn whether its submission was complete."
             );
             let mut message = Message::about_layer(
                 CONTENTS_NOT_CHECKED,
@@ -414,22 +421,24 @@ unsafe fn record_copies(data: &DeviceData, command_buffer: vk::CommandBuffer, re
         let memory = vk::MemoryBarrier::default()
             .src_access_mask(src.1)
             .dst_access_mask(dst.1);
-        // SAFETY: the next layer's function, with the caller's recording
-        // command buffer and one barrier.
-        unsafe {
-            barrier(
-                command_buffer,
-                src.0,
-                dst.0,
-                vk::DependencyFlags::empty(),
-                1,
-                &memory,
-                0,
-                std::ptr::null(),
-                0,
-                std::ptr::null(),
-            )
-        };
+        own_calls::call(OwnCall::ReadbackBarrier, || {
+            // SAFETY: the next layer's function, with the caller's
+            // recording command buffer and one barrier.
+            unsafe {
+                barrier(
+                    command_buffer,
+                    src.0,
+                    dst.0,
+                    vk::DependencyFlags::empty(),
+                    1,
+                    &memory,
+                    0,
+                    std::ptr::null(),
+                    0,
+                    std::ptr::null(),
+                )
+            }
+        });
     };
     let (buffer, range_offset) = readback.destination();
     let transfer_read = (
@@ -450,18 +459,20 @@ unsafe fn record_copies(data: &DeviceData, command_buffer: vk::CommandBuffer, re
             dst_offset: range_offset + w.at,
             size: w.len,
         };
-        // SAFETY: the next layer's function, with the caller's recording
-        // command buffer, the application's buffer (created with
-        // TRANSFER_SRC: see `plan`) and the layer's own.
-        unsafe {
-            copy(
-                command_buffer,
-                vk::Buffer::from_raw(w.buffer),
-                buffer,
-                1,
-                &region,
-            )
-        };
+        own_calls::call(OwnCall::ReadbackCopy, || {
+            // SAFETY: the next layer's function, with the caller's
+            // recording command buffer, the application's buffer (created
+            // with TRANSFER_SRC: see `plan`) and the layer's own.
+            unsafe {
+                copy(
+                    command_buffer,
+                    vk::Buffer::from_raw(w.buffer),
+                    buffer,
+                    1,
+                    &region,
+                )
+            }
+        });
     }
     // The copies' writes are visible to the host at completion.
     memory_barrier(

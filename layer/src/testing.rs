@@ -1,6 +1,9 @@
 //! Hooks for the layer's own tests.
 
 pub use crate::intercept::panic_in_next_check;
+/// Which of the layer's own calls to the next layer this thread is making,
+/// so a test's fake driver can fail the layer's calls and only those.
+pub use crate::own_calls::in_progress as own_call_in_progress;
 
 /// Records in `device`'s checked state that `acceleration_structure` was
 /// built with `geometry`, as the acceleration-structure build intercepts

@@ -15,8 +15,8 @@ mod fake;
 use ash::vk;
 use fake::app::record_micromap_build;
 use fake::{
-    calls, device_fn, device_micromap_build, reset_calls, Chain, DRIVER_UUID, SERIALIZATION_SIZE,
-    TRIANGLES, USAGE,
+    calls, device_fn, device_micromap_build, reset_calls, Chain, Serialized, DRIVER_UUID,
+    SERIALIZATION_SIZE, TRIANGLES, USAGE,
 };
 
 const SIZE: &str = "VUID-vkCmdBuildMicromapsEXT-pInfos-07461";
@@ -241,28 +241,14 @@ fn a_serialization_into_less_than_the_reported_size_is_reported() {
 const INCOMPATIBLE: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-src-07549";
 const COMPATIBILITY: &str = "vkGetDeviceMicromapCompatibilityEXT";
 
-/// Serialized micromap data at a host address aligned as
-/// `vkCopyMemoryToMicromapEXT` requires (16 bytes).
-#[repr(C, align(16))]
-struct Serialized([u8; 64]);
-
 /// Deserializes, on the host, data whose version is `driver_uuid` then 16
 /// bytes of `compatibility`, into a micromap in host-visible memory; the
 /// ids the deserialization drew.
 fn deserialize(chain: &Chain, driver_uuid: [u8; 16], compatibility: u8) -> Vec<String> {
     let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
     let micromap = chain.micromap(storage, 4096);
-    let mut data = Serialized([0; 64]);
-    data.0[..16].copy_from_slice(&driver_uuid);
-    data.0[16..32].fill(compatibility);
-    let info = vk::CopyMemoryToMicromapInfoEXT {
-        src: vk::DeviceOrHostAddressConstKHR {
-            host_address: data.0.as_ptr().cast(),
-        },
-        dst: micromap,
-        mode: vk::CopyMicromapModeEXT::DESERIALIZE,
-        ..Default::default()
-    };
+    let data = Serialized::new(driver_uuid, compatibility);
+    let info = data.deserialize_into(micromap);
     let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
         device_fn(chain.device, c"vkCopyMemoryToMicromapEXT");
     // SAFETY: a valid info whose source holds a 64-byte serialized header.

@@ -16,6 +16,7 @@ use std::time::Duration;
 
 use ash::vk;
 use ash::vk::Handle as _;
+use fake::app::{Calls, Through};
 use fake::{
     device_fn, device_micromap_build, dispatchable, key_of, Chain, Received, TRIANGLES, USAGE,
 };
@@ -430,24 +431,10 @@ fn eight_threads_creating_building_and_destroying_report_exactly_their_faults() 
     assert_eq!(reported_for.len(), runs / 2);
 }
 
-/// Whom the application's calls go to in [`valid_calls`].
-#[derive(Clone, Copy, PartialEq)]
-enum Through {
-    Layer,
-    /// The fake driver's functions, called directly: no layer.
-    Driver,
-}
-
-/// The application's side of [`valid_calls`]: its host memory, at the same
-/// addresses in every run, and what it saw come back.
+/// The application's side of [`valid_calls`]: its calls and what they
+/// returned, and its host memory, at the same addresses in every run.
 struct App {
-    through: Through,
-    device: vk::Device,
-    /// The same in both runs (the fake driver has no vkGetDeviceQueue).
-    queue: vk::Queue,
-    /// What the application got back, in order: results, handles, out
-    /// parameters.
-    seen: Vec<String>,
+    calls: Calls,
     /// A host-visible allocation the fake driver maps here: the triangle
     /// array at 0, the data at 256, the attachment's indices at 512, the
     /// vertices at 1024.
@@ -457,53 +444,16 @@ struct App {
     micromap_info: Box<vk::MicromapBuildInfoEXT<'static>>,
 }
 
-impl App {
-    fn f<F: Copy>(&self, name: &CStr) -> F {
-        match self.through {
-            Through::Layer => device_fn(self.device, name),
-            Through::Driver => {
-                // SAFETY: a NUL-terminated name.
-                let f = unsafe { fake::fake_gdpa(self.device, name.as_ptr()) }
-                    .unwrap_or_else(|| panic!("the fake driver lacks {name:?}"));
-                // SAFETY: the caller names the command's function type.
-                unsafe { std::mem::transmute_copy(&f) }
-            }
-        }
+impl std::ops::Deref for App {
+    type Target = Calls;
+    fn deref(&self) -> &Calls {
+        &self.calls
     }
+}
 
-    fn saw(&mut self, what: impl std::fmt::Debug) {
-        self.seen.push(format!("{what:?}"));
-    }
-
-    fn buffer(&mut self, size: u64, usage: vk::BufferUsageFlags) -> (vk::Buffer, vk::DeviceMemory) {
-        let create: vk::PFN_vkCreateBuffer = self.f(c"vkCreateBuffer");
-        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
-        let mut buffer = vk::Buffer::null();
-        // SAFETY: valid arguments.
-        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut buffer) };
-        self.saw((result, buffer));
-        let allocate: vk::PFN_vkAllocateMemory = self.f(c"vkAllocateMemory");
-        let info = vk::MemoryAllocateInfo::default()
-            .allocation_size(size)
-            .memory_type_index(1);
-        let mut memory = vk::DeviceMemory::null();
-        // SAFETY: valid arguments.
-        let result = unsafe { allocate(self.device, &info, std::ptr::null(), &mut memory) };
-        self.saw((result, memory));
-        let bind: vk::PFN_vkBindBufferMemory = self.f(c"vkBindBufferMemory");
-        // SAFETY: valid arguments.
-        let result = unsafe { bind(self.device, buffer, memory, 0) };
-        self.saw(result);
-        (buffer, memory)
-    }
-
-    fn address(&mut self, buffer: vk::Buffer) -> u64 {
-        let get: vk::PFN_vkGetBufferDeviceAddress = self.f(c"vkGetBufferDeviceAddress");
-        let info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
-        // SAFETY: valid arguments.
-        let address = unsafe { get(self.device, &info) };
-        self.saw(address);
-        address
+impl std::ops::DerefMut for App {
+    fn deref_mut(&mut self) -> &mut Calls {
+        &mut self.calls
     }
 }
 
@@ -516,7 +466,7 @@ fn valid_calls(app: &mut App) {
     let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
         | vk::BufferUsageFlags::MICROMAP_BUILD_INPUT_READ_ONLY_EXT
         | address_usage;
-    let (input, input_memory) = app.buffer(4096, input_usage);
+    let (input, input_memory) = app.buffer(4096, input_usage, 1);
     fake::map_to(app.mapped.as_mut_ptr());
     let map: vk::PFN_vkMapMemory = app.f(c"vkMapMemory");
     let mut mapped = std::ptr::null_mut();
@@ -535,11 +485,12 @@ fn valid_calls(app: &mut App) {
     let (scratch, _) = app.buffer(
         1 << 16,
         vk::BufferUsageFlags::STORAGE_BUFFER | address_usage,
+        1,
     );
     let (input, scratch) = (app.address(input), app.address(scratch));
-    let (storage, _) = app.buffer(8192, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT);
+    let (storage, _) = app.buffer(8192, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
     let structure_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | address_usage;
-    let (structure_storage, _) = app.buffer(1 << 17, structure_usage);
+    let (structure_storage, _) = app.buffer(1 << 17, structure_usage, 1);
 
     let device = app.device;
     let build = micromap_build(vk::MicromapEXT::null(), input, input + 256, scratch);
@@ -680,7 +631,7 @@ fn valid_calls(app: &mut App) {
     *app.micromap_info = micromap_build(micromaps[0], triangles, triangles + 256, host_scratch);
     let build_micromaps: vk::PFN_vkBuildMicromapsEXT = app.f(c"vkBuildMicromapsEXT");
     // SAFETY: one info with live host addresses.
-    app.saw(unsafe {
+    app.calls.saw(unsafe {
         build_micromaps(
             device,
             vk::DeferredOperationKHR::null(),
@@ -761,11 +712,13 @@ fn valid_calls_reach_the_driver_and_come_back_as_without_the_layer() {
     mapped[256..258].copy_from_slice(&[0x1, 0x2]);
     mapped[512..520].copy_from_slice(&[0, 0, 0, 0, 1, 0, 0, 0]);
     let mut app = App {
-        through: Through::Driver,
-        device: chain.device,
-        // A queue shares its device's dispatch key.
-        queue: vk::Queue::from_raw(dispatchable(key_of(chain.device.as_raw()))),
-        seen: Vec::new(),
+        calls: Calls {
+            through: Through::Driver,
+            device: chain.device,
+            // A queue shares its device's dispatch key.
+            queue: vk::Queue::from_raw(dispatchable(key_of(chain.device.as_raw()))),
+            seen: Vec::new(),
+        },
         mapped,
         host_scratch: Box::new([0; 1 << 16]),
         micromap_info: Box::default(),

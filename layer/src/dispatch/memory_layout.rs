@@ -47,13 +47,20 @@ impl MemoryLayout {
     /// when [`crate::report::CONTENTS_NOT_CHECKED`] is reported (once per
     /// device and cause; [`Self::not_checked_counts`] gives the totals).
     pub fn first_report(&mut self, cause: &'static str) -> bool {
+        self.first_report_of(cause, 1)
+    }
+
+    /// As [`Self::first_report`], counting `builds` builds (none, where
+    /// the cause is reported for what it may keep from being checked but
+    /// kept no build from it this time).
+    pub fn first_report_of(&mut self, cause: &'static str, builds: u64) -> bool {
         match self.not_checked.iter_mut().find(|(c, _)| *c == cause) {
             Some((_, count)) => {
-                *count = count.saturating_add(1);
+                *count = count.saturating_add(builds);
                 false
             }
             None => {
-                self.not_checked.push((cause, 1));
+                self.not_checked.push((cause, builds));
                 true
             }
         }

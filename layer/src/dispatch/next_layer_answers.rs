@@ -17,6 +17,8 @@ use ommcheck::driver::{
     BuildType, DriverQueries, MicromapBuildShape, MicromapBuildSizes, MicromapVersion,
 };
 
+use crate::own_calls::{self, OwnCall};
+
 /// At most this many answers of each kind are kept per device; past it the
 /// driver is asked each time for a new shape or version (an application
 /// builds few shapes and deserializes data of few versions; shape keys are
@@ -117,17 +119,20 @@ impl NextLayerAnswers {
             ..Default::default()
         };
         let mut sizes = vk::MicromapBuildSizesInfoEXT::default();
-        // SAFETY: the next layer's function with its own device, a build
-        // info valid in every member the query reads (`queryable` shapes
-        // only; `usages` lives across the call) and a structure to fill.
-        unsafe {
-            get(
-                self.device,
-                vk::AccelerationStructureBuildTypeKHR::from_raw(build_type.as_raw()),
-                &info,
-                &mut sizes,
-            )
-        };
+        own_calls::call(OwnCall::MicromapBuildSizes, || {
+            // SAFETY: the next layer's function with its own device, a
+            // build info valid in every member the query reads (`queryable`
+            // shapes only; `usages` lives across the call) and a structure
+            // to fill.
+            unsafe {
+                get(
+                    self.device,
+                    vk::AccelerationStructureBuildTypeKHR::from_raw(build_type.as_raw()),
+                    &info,
+                    &mut sizes,
+                )
+            }
+        });
         MicromapBuildSizes::from(sizes)
     }
 
@@ -142,10 +147,12 @@ impl NextLayerAnswers {
             ..Default::default()
         };
         let mut compatibility = vk::AccelerationStructureCompatibilityKHR::INCOMPATIBLE;
-        // SAFETY: the next layer's function with its own device, a version
-        // info whose data (2 × VK_UUID_SIZE bytes) lives across the call,
-        // and a value to fill.
-        unsafe { get(self.device, &info, &mut compatibility) };
+        own_calls::call(OwnCall::MicromapCompatibility, || {
+            // SAFETY: the next layer's function with its own device, a
+            // version info whose data (2 × VK_UUID_SIZE bytes) lives across
+            // the call, and a value to fill.
+            unsafe { get(self.device, &info, &mut compatibility) }
+        });
         compatibility == vk::AccelerationStructureCompatibilityKHR::COMPATIBLE
     }
 }

@@ -12,6 +12,7 @@ use ommcheck::build_inputs::KnownBytes;
 use ommcheck::Bytes;
 
 use super::DeviceData;
+use crate::own_calls::{self, OwnCall};
 use crate::read;
 
 /// One window of an application buffer a build reads, and where its copy
@@ -191,8 +192,13 @@ fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
 
 /// Why the arena gave no range.
 pub enum Refused {
-    OverLimit { held: u64 },
+    OverLimit {
+        held: u64,
+    },
+    /// The next layer lacks a function, or has no memory type to use.
     Setup(String),
+    /// One of the layer's own calls to the next layer failed.
+    Failed(own_calls::Failed),
 }
 
 /// Blocks of a device's readback memory are at least this large, so most
@@ -241,7 +247,7 @@ impl Arena {
             Some(taken) => taken,
             None => {
                 let block_size = size.max(BLOCK_BYTES.min(limit));
-                let mut block = allocate(data, block_size).map_err(Refused::Setup)?;
+                let mut block = allocate(data, block_size)?;
                 self.next_id += 1;
                 block.id = self.next_id;
                 if block_size > size {
@@ -319,17 +325,22 @@ impl Arena {
             // functions of this device, which is alive (blocks go before
             // vkDestroyDevice is passed on), and no pending submission
             // copies into them (every range was returned).
-            unsafe {
-                destroy_buffer(device, block.buffer, std::ptr::null());
-                free_memory(device, block.memory, std::ptr::null());
-            }
+            own_calls::call(OwnCall::ReadbackDestroyBuffer, || unsafe {
+                destroy_buffer(device, block.buffer, std::ptr::null())
+            });
+            // SAFETY: as above.
+            own_calls::call(OwnCall::ReadbackFreeMemory, || unsafe {
+                free_memory(device, block.memory, std::ptr::null())
+            });
         }
     }
 }
 
 /// Creates, binds and maps a host-visible, host-coherent buffer of `size`
-/// bytes through the next layer.
-fn allocate(data: &DeviceData, size: u64) -> Result<Block, String> {
+/// bytes through the next layer. Whatever a failed step leaves is given
+/// back before the error returns, so a failure leaks nothing and the next
+/// build that needs readback memory tries again.
+fn allocate(data: &DeviceData, size: u64) -> Result<Block, Refused> {
     let f = &data.fns;
     let device = data.handle;
     let (
@@ -350,21 +361,27 @@ fn allocate(data: &DeviceData, size: u64) -> Result<Block, String> {
         f.map_memory,
     )
     else {
-        return Err("the next layer lacks a buffer or memory function".into());
+        return Err(Refused::Setup(
+            "the next layer lacks a buffer or memory function".into(),
+        ));
     };
     let info = vk::BufferCreateInfo::default()
         .size(size)
         .usage(vk::BufferUsageFlags::TRANSFER_DST)
         .sharing_mode(vk::SharingMode::EXCLUSIVE);
     let mut buffer = vk::Buffer::null();
-    // SAFETY: the next layer's function, with a valid create info.
-    let result = unsafe { create_buffer(device, &info, std::ptr::null(), &mut buffer) };
-    if result != vk::Result::SUCCESS {
-        return Err(format!("vkCreateBuffer returned {result:?}"));
+    let created = own_calls::checked(OwnCall::ReadbackCreateBuffer, || {
+        // SAFETY: the next layer's function, with a valid create info.
+        unsafe { create_buffer(device, &info, std::ptr::null(), &mut buffer) }
+    });
+    if let Err(failed) = created {
+        return Err(Refused::Failed(failed));
     }
     let mut needs = vk::MemoryRequirements::default();
-    // SAFETY: the buffer just created, and a structure to fill.
-    unsafe { requirements(device, buffer, &mut needs) };
+    own_calls::call(OwnCall::ReadbackMemoryRequirements, || {
+        // SAFETY: the buffer just created, and a structure to fill.
+        unsafe { requirements(device, buffer, &mut needs) }
+    });
     let wanted = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
     let memory_type = data.memory_properties.as_ref().and_then(|p| {
         let types = p.memory_types_as_slice();
@@ -377,52 +394,61 @@ fn allocate(data: &DeviceData, size: u64) -> Result<Block, String> {
             .or_else(|| (0..types.len().min(32)).find(|&i| fits(i, wanted)))
     });
     let undo_buffer = || {
-        // SAFETY: the buffer just created, unused.
-        unsafe { destroy_buffer(device, buffer, std::ptr::null()) }
+        own_calls::call(OwnCall::ReadbackDestroyBuffer, || {
+            // SAFETY: the buffer just created, unused.
+            unsafe { destroy_buffer(device, buffer, std::ptr::null()) }
+        })
     };
     let Some(memory_type) = memory_type else {
         undo_buffer();
-        return Err(
+        return Err(Refused::Setup(
             "the device reports no host-visible, host-coherent memory type for a transfer buffer"
                 .into(),
-        );
+        ));
     };
     let allocate_info = vk::MemoryAllocateInfo::default()
         .allocation_size(needs.size)
         .memory_type_index(memory_type as u32);
     let mut memory = vk::DeviceMemory::null();
-    // SAFETY: the next layer's function, with a valid allocate info.
-    let result = unsafe { allocate_memory(device, &allocate_info, std::ptr::null(), &mut memory) };
-    if result != vk::Result::SUCCESS {
+    let allocated = own_calls::checked(OwnCall::ReadbackAllocateMemory, || {
+        // SAFETY: the next layer's function, with a valid allocate info.
+        unsafe { allocate_memory(device, &allocate_info, std::ptr::null(), &mut memory) }
+    });
+    if let Err(failed) = allocated {
         undo_buffer();
-        return Err(format!(
-            "vkAllocateMemory of {} bytes returned {result:?}",
-            needs.size
-        ));
+        return Err(Refused::Failed(failed));
     }
     let mut mapped: *mut std::ffi::c_void = std::ptr::null_mut();
-    // SAFETY: the buffer and memory just created; the whole allocation is mapped.
-    let bound = unsafe { bind(device, buffer, memory, 0) };
-    let result = match bound {
-        vk::Result::SUCCESS => unsafe {
-            map(
-                device,
-                memory,
-                0,
-                vk::WHOLE_SIZE,
-                vk::MemoryMapFlags::empty(),
-                &mut mapped,
-            )
-        },
-        failed => failed,
-    };
-    if result != vk::Result::SUCCESS || mapped.is_null() {
+    let bound_and_mapped = own_calls::checked(OwnCall::ReadbackBindMemory, || {
+        // SAFETY: the buffer and memory just created.
+        unsafe { bind(device, buffer, memory, 0) }
+    })
+    .and_then(|_| {
+        own_calls::checked(OwnCall::ReadbackMapMemory, || {
+            // SAFETY: the memory just allocated, mapped whole.
+            unsafe {
+                map(
+                    device,
+                    memory,
+                    0,
+                    vk::WHOLE_SIZE,
+                    vk::MemoryMapFlags::empty(),
+                    &mut mapped,
+                )
+            }
+        })
+    });
+    if bound_and_mapped.is_err() || mapped.is_null() {
         undo_buffer();
-        // SAFETY: the memory just allocated, not in use.
-        unsafe { free_memory(device, memory, std::ptr::null()) };
-        return Err(format!(
-            "binding or mapping the readback memory returned {result:?}"
-        ));
+        own_calls::call(OwnCall::ReadbackFreeMemory, || {
+            // SAFETY: the memory just allocated, not in use (freeing it
+            // unmaps it, had the mapping succeeded).
+            unsafe { free_memory(device, memory, std::ptr::null()) }
+        });
+        return Err(match bound_and_mapped {
+            Err(failed) => Refused::Failed(failed),
+            Ok(_) => Refused::Setup("vkMapMemory of the readback memory returned NULL".into()),
+        });
     }
     Ok(Block {
         id: 0,

@@ -6,7 +6,84 @@ use std::ffi::CStr;
 
 use ash::vk;
 
-use super::{add_messenger, device_fn, Chain, Collector};
+use super::{add_messenger, device_fn, fake_gdpa, Chain, Collector};
+
+/// Whom an application's calls go to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Through {
+    Layer,
+    /// The fake driver's functions, called directly: no layer.
+    Driver,
+}
+
+/// An application's calls, through the layer or not, and what they
+/// returned: tests run the same calls both ways and compare what came back.
+pub struct Calls {
+    pub through: Through,
+    pub device: vk::Device,
+    pub queue: vk::Queue,
+    /// What the application got back, in order: results, handles, out
+    /// parameters.
+    pub seen: Vec<String>,
+}
+
+impl Calls {
+    /// The device function `name`, as [`Calls::through`] offers it.
+    pub fn f<F: Copy>(&self, name: &CStr) -> F {
+        match self.through {
+            Through::Layer => device_fn(self.device, name),
+            Through::Driver => {
+                // SAFETY: a NUL-terminated name.
+                let f = unsafe { fake_gdpa(self.device, name.as_ptr()) }
+                    .unwrap_or_else(|| panic!("the fake driver lacks {name:?}"));
+                // SAFETY: the caller names the command's function type.
+                unsafe { std::mem::transmute_copy(&f) }
+            }
+        }
+    }
+
+    pub fn saw(&mut self, what: impl std::fmt::Debug) {
+        self.seen.push(format!("{what:?}"));
+    }
+
+    /// A buffer of `size` bytes bound at offset 0 to memory of its own, of
+    /// `memory_type` (0: device-local, 1: host-visible), and the memory.
+    pub fn buffer(
+        &mut self,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        memory_type: u32,
+    ) -> (vk::Buffer, vk::DeviceMemory) {
+        let create: vk::PFN_vkCreateBuffer = self.f(c"vkCreateBuffer");
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        let mut buffer = vk::Buffer::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { create(self.device, &info, std::ptr::null(), &mut buffer) };
+        self.saw((result, buffer));
+        let allocate: vk::PFN_vkAllocateMemory = self.f(c"vkAllocateMemory");
+        let info = vk::MemoryAllocateInfo::default()
+            .allocation_size(size)
+            .memory_type_index(memory_type);
+        let mut memory = vk::DeviceMemory::null();
+        // SAFETY: valid arguments.
+        let result = unsafe { allocate(self.device, &info, std::ptr::null(), &mut memory) };
+        self.saw((result, memory));
+        let bind: vk::PFN_vkBindBufferMemory = self.f(c"vkBindBufferMemory");
+        // SAFETY: valid arguments.
+        let result = unsafe { bind(self.device, buffer, memory, 0) };
+        self.saw(result);
+        (buffer, memory)
+    }
+
+    pub fn address(&mut self, buffer: vk::Buffer) -> u64 {
+        let get: vk::PFN_vkGetBufferDeviceAddress = self.f(c"vkGetBufferDeviceAddress");
+        let info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
+        // SAFETY: valid arguments.
+        let address = unsafe { get(self.device, &info) };
+        self.saw(address);
+        address
+    }
+}
 
 /// The layer's settings as VK_EXT_layer_settings strings, kept alive while
 /// the instance is created.

@@ -19,7 +19,7 @@ use std::sync::{LazyLock, Mutex, MutexGuard, PoisonError};
 use ash::vk;
 use ash::vk::Handle as _;
 
-use super::{dispatchable, key_of, record};
+use super::{dispatchable, injected_failure, key_of, record};
 
 /// The largest allocation the fake backs with bytes; larger ones fail with
 /// VK_ERROR_OUT_OF_DEVICE_MEMORY, so a runaway size cannot eat the host.
@@ -893,6 +893,9 @@ pub unsafe extern "system" fn wait_for_fences(
 }
 
 pub unsafe extern "system" fn get_fence_status(_: vk::Device, fence: vk::Fence) -> vk::Result {
+    if let Some(failed) = injected_failure("vkGetFenceStatus") {
+        return failed;
+    }
     record("vkGetFenceStatus", vec![fence.as_raw()]);
     if gpu().fences.get(&fence.as_raw()).copied().unwrap_or(false) {
         vk::Result::SUCCESS
@@ -950,6 +953,9 @@ pub unsafe extern "system" fn get_semaphore_counter_value(
     semaphore: vk::Semaphore,
     out: *mut u64,
 ) -> vk::Result {
+    if let Some(failed) = injected_failure("vkGetSemaphoreCounterValue") {
+        return failed;
+    }
     let value = gpu().timelines.get(&semaphore.as_raw()).copied();
     record(
         "vkGetSemaphoreCounterValue",

@@ -15,6 +15,7 @@ use std::sync::Mutex;
 
 use ash::vk;
 use ash::vk::Handle as _;
+use layer::own_calls::OwnCall;
 use VkLayer_ommcheck as layer;
 
 pub mod app;
@@ -26,13 +27,15 @@ use layer::abi::{
 };
 
 /// A call the fake driver received: its name, the arguments a test looks
-/// at, and (while [`describe_calls`] is on) what its pointers pointed to
-/// and what it returned, as text.
+/// at, (while [`describe_calls`] is on) what its pointers pointed to and
+/// what it returned, as text, and which of the layer's own calls it was
+/// (None: one the layer passed on from the application).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Call {
     pub name: &'static str,
     pub args: Vec<u64>,
     pub detail: String,
+    pub own: Option<OwnCall>,
 }
 
 #[derive(Default)]
@@ -56,7 +59,18 @@ struct Driver {
     /// after it, so a rerun of the same calls sees the same handles.
     command_buffers: Vec<u64>,
     next_command_buffer: usize,
+    /// The layer's own objects' handles are `base + OWN_HANDLES + 1`, ...:
+    /// apart from the application's, so the application gets the same
+    /// handles with and without the layer.
+    next_own_handle: u64,
+    /// The layer's own call to fail, and with what (see [`fail_own`]).
+    fail: Option<(OwnCall, vk::Result)>,
+    /// The own calls failed, in order, with the command that failed.
+    failed: Vec<(OwnCall, &'static str, vk::Result)>,
 }
+
+/// Where the layer's own handles start in a thread's range of 2^24.
+const OWN_HANDLES: u64 = 1 << 23;
 
 /// Gives each thread's driver its own range of handles.
 static THREADS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
@@ -66,7 +80,13 @@ thread_local! {
         // Handles stay below 2^44 (buffer addresses are `handle << 20`) for
         // the first 2^20 threads; no test process starts that many.
         let base = THREADS.fetch_add(1, std::sync::atomic::Ordering::Relaxed) << 24;
-        Driver { base, next_handle: base + 1, reported_2_state_level: 3, ..Driver::default() }
+        Driver {
+            base,
+            next_handle: base + 1,
+            next_own_handle: base + OWN_HANDLES + 1,
+            reported_2_state_level: 3,
+            ..Driver::default()
+        }
     });
 }
 
@@ -78,14 +98,60 @@ fn record(name: &'static str, args: Vec<u64>) {
 fn record_with(name: &'static str, args: Vec<u64>, detail: impl FnOnce() -> String) {
     let describe = DRIVER.with_borrow(|d| d.describe);
     let detail = if describe { detail() } else { String::new() };
-    DRIVER.with_borrow_mut(|d| d.calls.push(Call { name, args, detail }));
+    let own = layer::testing::own_call_in_progress();
+    DRIVER.with_borrow_mut(|d| {
+        d.calls.push(Call {
+            name,
+            args,
+            detail,
+            own,
+        })
+    });
 }
 
 fn next_handle() -> u64 {
+    let own = layer::testing::own_call_in_progress().is_some();
     DRIVER.with_borrow_mut(|d| {
-        d.next_handle += 1;
-        d.next_handle
+        let next = if own {
+            &mut d.next_own_handle
+        } else {
+            &mut d.next_handle
+        };
+        *next += 1;
+        *next
     })
+}
+
+/// Makes this thread's fake driver fail the layer's own `call` with
+/// `result`, every time until [`heal`]; the application's calls of the
+/// same command go on succeeding.
+pub fn fail_own(call: OwnCall, result: vk::Result) {
+    DRIVER.with_borrow_mut(|d| d.fail = Some((call, result)));
+}
+
+/// Ends [`fail_own`]: the driver has recovered.
+pub fn heal() {
+    DRIVER.with_borrow_mut(|d| d.fail = None);
+}
+
+/// The layer's own calls this thread's driver failed, in order, with the
+/// command each was made to.
+pub fn failed_own() -> Vec<(OwnCall, &'static str, vk::Result)> {
+    DRIVER.with_borrow(|d| d.failed.clone())
+}
+
+/// The error `name` returns now: the one [`fail_own`] asked for, where
+/// the call is the layer's own call it named (recorded with no arguments,
+/// the error in [`failed_own`]); None to go on.
+fn injected_failure(name: &'static str) -> Option<vk::Result> {
+    let own = layer::testing::own_call_in_progress()?;
+    let result = DRIVER.with_borrow_mut(|d| {
+        let (call, result) = d.fail.filter(|(call, _)| *call == own)?;
+        d.failed.push((call, name, result));
+        Some(result)
+    })?;
+    record(name, Vec::new());
+    Some(result)
 }
 
 /// The calls this thread's fake driver received with `name`.
@@ -120,6 +186,7 @@ pub fn reset() {
         d.calls.clear();
         d.next_handle = d.base + 1;
         d.next_command_buffer = 0;
+        d.failed.clear();
     });
 }
 
@@ -204,6 +271,7 @@ unsafe extern "system" fn get_memory_properties(
     _: vk::PhysicalDevice,
     out: *mut vk::PhysicalDeviceMemoryProperties,
 ) {
+    record("vkGetPhysicalDeviceMemoryProperties", vec![]);
     let mut properties = vk::PhysicalDeviceMemoryProperties {
         memory_type_count: 2,
         memory_heap_count: 1,
@@ -258,6 +326,9 @@ unsafe extern "system" fn create_buffer(
     _: *const vk::AllocationCallbacks<'_>,
     out: *mut vk::Buffer,
 ) -> vk::Result {
+    if let Some(failed) = injected_failure("vkCreateBuffer") {
+        return failed;
+    }
     let handle = next_handle();
     record_with(
         "vkCreateBuffer",
@@ -293,6 +364,9 @@ unsafe extern "system" fn allocate_memory(
     _: *const vk::AllocationCallbacks<'_>,
     out: *mut vk::DeviceMemory,
 ) -> vk::Result {
+    if let Some(failed) = injected_failure("vkAllocateMemory") {
+        return failed;
+    }
     let handle = next_handle();
     record_with("vkAllocateMemory", vec![handle], || {
         let i = unsafe { &*info };
@@ -329,6 +403,9 @@ unsafe extern "system" fn map_memory(
     flags: vk::MemoryMapFlags,
     out: *mut *mut c_void,
 ) -> vk::Result {
+    if let Some(failed) = injected_failure("vkMapMemory") {
+        return failed;
+    }
     let test_owned = DRIVER.with_borrow_mut(|d| std::mem::take(&mut d.mapped));
     let mapped = if test_owned != 0 {
         test_owned
@@ -362,6 +439,9 @@ unsafe extern "system" fn bind_buffer_memory(
     m: vk::DeviceMemory,
     offset: vk::DeviceSize,
 ) -> vk::Result {
+    if let Some(failed) = injected_failure("vkBindBufferMemory") {
+        return failed;
+    }
     record("vkBindBufferMemory", vec![b.as_raw(), m.as_raw()]);
     gpu::bind(b.as_raw(), m.as_raw(), offset);
     vk::Result::SUCCESS
@@ -466,6 +546,10 @@ unsafe extern "system" fn get_queue_family_properties(
     count: *mut u32,
     out: *mut vk::QueueFamilyProperties,
 ) {
+    record(
+        "vkGetPhysicalDeviceQueueFamilyProperties",
+        vec![u64::from(out.is_null())],
+    );
     if out.is_null() {
         unsafe { *count = QUEUE_FAMILIES.len() as u32 };
         return;
@@ -1225,6 +1309,36 @@ unsafe extern "system" fn get_micromap_build_sizes(
 /// The driver UUID of the fake driver: serialized micromap data whose
 /// first 16 bytes are these is compatible with it, other data is not.
 pub const DRIVER_UUID: [u8; 16] = *b"ommcheck-fake-dr";
+
+/// Serialized micromap data at a host address aligned as
+/// `vkCopyMemoryToMicromapEXT` requires (16 bytes): its version (a driver
+/// UUID, then 16 bytes of compatibility data), then zeros.
+#[repr(C, align(16))]
+pub struct Serialized(pub [u8; 64]);
+
+impl Serialized {
+    pub fn new(driver_uuid: [u8; 16], compatibility: u8) -> Self {
+        let mut data = Self([0; 64]);
+        data.0[..16].copy_from_slice(&driver_uuid);
+        data.0[16..32].fill(compatibility);
+        data
+    }
+
+    /// The info that deserializes this data into `micromap` on the host.
+    pub fn deserialize_into(
+        &self,
+        micromap: vk::MicromapEXT,
+    ) -> vk::CopyMemoryToMicromapInfoEXT<'_> {
+        vk::CopyMemoryToMicromapInfoEXT {
+            src: vk::DeviceOrHostAddressConstKHR {
+                host_address: self.0.as_ptr().cast(),
+            },
+            dst: micromap,
+            mode: vk::CopyMicromapModeEXT::DESERIALIZE,
+            ..Default::default()
+        }
+    }
+}
 
 /// Answers compatible iff the version data starts with [`DRIVER_UUID`];
 /// records the answer (1 compatible, 0 not).
