@@ -5,15 +5,17 @@
 //! Everything but `cargo xtask layer` is behind the `driver` feature (on by
 //! default): the `cargo xtask` alias builds without it, so building the
 //! layer does not first compile the test driver's dependencies, and the
-//! binary hands other commands to a build with it (see main.rs).
+//! binary hands other commands to a build with it (see main.rs). Code
+//! generation needs only the `generate` feature, which `cargo xtask
+//! generate` builds with: it does not build the crates it writes into.
 
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod aliases;
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod ash_names;
 #[cfg(feature = "driver")]
 pub mod bench;
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod catalog;
 #[cfg(feature = "driver")]
 mod drivers;
@@ -23,26 +25,26 @@ pub mod faults;
 pub mod fuzz;
 #[cfg(feature = "driver")]
 mod host;
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod khr;
 pub mod layer;
 #[cfg(feature = "driver")]
 pub mod lines;
 #[cfg(feature = "driver")]
 pub mod modules;
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod names;
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod registry;
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 pub mod structs;
 #[cfg(feature = "driver")]
 pub mod testing;
 
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 use std::process::{Command, Stdio};
 
 #[derive(Debug)]
@@ -105,14 +107,14 @@ pub fn target_dir(root: &Path) -> PathBuf {
         .unwrap_or_else(|| root.join("target"))
 }
 
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 /// `../shared/vulkan-registry` beside the workspace, where the project keeps
 /// the registry of Vulkan 1.4.360.
 pub fn default_registry() -> PathBuf {
     workspace_root().join("../shared/vulkan-registry")
 }
 
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 /// Formats generated source with the toolchain's rustfmt, so generated files
 /// pass `cargo fmt --check` and regenerate byte for byte.
 pub fn rustfmt(source: &str) -> Result<String, Error> {
@@ -145,7 +147,7 @@ pub fn rustfmt(source: &str) -> Result<String, Error> {
     String::from_utf8(output.stdout).map_err(|e| Error::Tool(format!("rustfmt output: {e}")))
 }
 
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
 /// Paths (relative to the workspace root) and contents of every generated file.
 pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, Error> {
     let catalog = catalog::select(registry)?;
@@ -191,7 +193,27 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
     ])
 }
 
-#[cfg(feature = "driver")]
+#[cfg(feature = "generate")]
+/// `cargo xtask generate`: writes every generated file, or with `check`
+/// fails naming the stale ones; returns the lines to print.
+pub fn write_generated(registry: &Path, root: &Path, check: bool) -> Result<Vec<String>, Error> {
+    if check {
+        check_generated(registry, root)?;
+        return Ok(vec![format!(
+            "generated files are up to date with {}",
+            registry.display()
+        )]);
+    }
+    let mut lines = Vec::new();
+    for (path, content) in generate(registry, root)? {
+        let full = root.join(&path);
+        std::fs::write(&full, content).map_err(|source| Error::Io { path: full, source })?;
+        lines.push(format!("wrote {}", path.display()));
+    }
+    Ok(lines)
+}
+
+#[cfg(feature = "generate")]
 /// Compares generated files with the committed ones; names each stale file.
 pub fn check_generated(registry: &Path, root: &Path) -> Result<(), Error> {
     let mut stale = Vec::new();

@@ -12,7 +12,51 @@ fn main() -> ExitCode {
     if args.first().is_some_and(|arg| arg == "layer") {
         return layer_command(&args[1..]);
     }
+    #[cfg(all(feature = "generate", not(feature = "driver")))]
+    if args.first().is_some_and(is_generate) {
+        return generate_command(&args[1..]);
+    }
     driver::main()
+}
+
+/// Whether `arg` names the generator's command (or its alias).
+#[cfg_attr(feature = "driver", allow(dead_code))]
+fn is_generate(arg: &OsString) -> bool {
+    arg == "generate" || arg == "vuids"
+}
+
+/// `cargo xtask generate [--registry DIR] [--check]` in a build with only
+/// the `generate` feature (the driver build parses the same with clap).
+#[cfg(all(feature = "generate", not(feature = "driver")))]
+fn generate_command(args: &[OsString]) -> ExitCode {
+    let mut registry = xtask::default_registry();
+    let mut check = false;
+    let mut rest = args.iter();
+    while let Some(arg) = rest.next() {
+        match arg.to_str() {
+            Some("--check") => check = true,
+            Some("--registry") => match rest.next() {
+                Some(dir) => registry = dir.into(),
+                None => {
+                    eprintln!("error: --registry needs a directory");
+                    return ExitCode::FAILURE;
+                }
+            },
+            _ => {
+                eprintln!(
+                    "error: unexpected {arg:?}; usage: cargo xtask generate [--registry DIR] [--check]"
+                );
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    finish(
+        xtask::write_generated(&registry, &xtask::workspace_root(), check).map(|lines| {
+            for line in lines {
+                println!("{line}");
+            }
+        }),
+    )
 }
 
 /// `cargo xtask layer ARGS`.
@@ -52,10 +96,19 @@ mod driver {
 
     pub fn main() -> ExitCode {
         let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let args: Vec<_> = std::env::args_os().skip(1).collect();
+        // The generator builds without the crates it writes into.
+        let features: &[&str] = if args.first().is_some_and(super::is_generate) {
+            &["--no-default-features", "--features", "generate"]
+        } else {
+            &[]
+        };
         let status = Command::new(cargo)
             .current_dir(xtask::workspace_root())
-            .args(["run", "--quiet", "--package", "xtask", "--"])
-            .args(std::env::args_os().skip(1))
+            .args(["run", "--quiet", "--package", "xtask"])
+            .args(features)
+            .arg("--")
+            .args(args)
             .status();
         match status {
             Ok(status) => status
@@ -188,23 +241,12 @@ mod driver {
         let cli = Cli::parse();
         let root = xtask::workspace_root();
         let result = match cli.command {
-            Task::Generate { registry, check } => {
-                if check {
-                    xtask::check_generated(&registry, &root).map(|()| {
-                        println!("generated files are up to date with {}", registry.display());
-                    })
-                } else {
-                    xtask::generate(&registry, &root).and_then(|files| {
-                        for (path, content) in files {
-                            let full = root.join(&path);
-                            std::fs::write(&full, content)
-                                .map_err(|source| xtask::Error::Io { path: full, source })?;
-                            println!("wrote {}", path.display());
-                        }
-                        Ok(())
-                    })
-                }
-            }
+            Task::Generate { registry, check } => xtask::write_generated(&registry, &root, check)
+                .map(|lines| {
+                    for line in lines {
+                        println!("{line}");
+                    }
+                }),
             Task::Coverage => {
                 let path = root.join("VUID-COVERAGE.md");
                 let readme_path = root.join("docs/rules.md");
