@@ -40,6 +40,19 @@ pub struct StructSpec {
     /// sType (a `ChainStruct` entry, with no `sType`/`pNext` members of its
     /// own), and its own pNext belongs to the chain its parent walks.
     pub chained: bool,
+    /// Chained structures (vk.xml names, each a `chained` entry of
+    /// [`STRUCTS`]) the model takes out of the pNext chain into a member of
+    /// this Rust name: the first of each, read whole; the chain keeps the
+    /// sTypes of the rest.
+    pub extracts: &'static [(&'static str, &'static str)],
+}
+
+/// The entry of [`STRUCTS`] for the chained structure `vk`.
+fn chained(vk: &str) -> Result<&'static StructSpec, Error> {
+    STRUCTS
+        .iter()
+        .find(|s| s.vk == vk && s.chained)
+        .ok_or_else(|| Error::Registry(format!("{vk} is not a chained structure of STRUCTS")))
 }
 
 /// A copy info: `mode`'s default is the one copy its command makes.
@@ -53,6 +66,7 @@ macro_rules! copy {
             required: &[],
             ash: "",
             chained: false,
+            extracts: &[],
         }
     };
 }
@@ -67,6 +81,7 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &[],
         ash: "",
         chained: false,
+        extracts: &[],
     },
     StructSpec {
         vk: "VkAccelerationStructureCreateInfoKHR",
@@ -76,6 +91,7 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &["type"],
         ash: "",
         chained: false,
+        extracts: &[],
     },
     copy!(
         "VkCopyMicromapInfoEXT",
@@ -124,6 +140,7 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &[],
         ash: "",
         chained: false,
+        extracts: &[],
     },
     StructSpec {
         vk: "VkAccelerationStructureTrianglesOpacityMicromapEXT",
@@ -133,6 +150,7 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &[],
         ash: "",
         chained: true,
+        extracts: &[],
     },
     StructSpec {
         vk: "VkAccelerationStructureTrianglesOpacityMicromapKHR",
@@ -142,6 +160,7 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &[],
         ash: "khr::AccelerationStructureTrianglesOpacityMicromapKHR",
         chained: true,
+        extracts: &[],
     },
     StructSpec {
         vk: "VkAccelerationStructureTrianglesDisplacementMicromapNV",
@@ -156,6 +175,7 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &[],
         ash: "",
         chained: true,
+        extracts: &[],
     },
     StructSpec {
         vk: "VkAccelerationStructureGeometryMicromapDataKHR",
@@ -165,6 +185,34 @@ pub const STRUCTS: &[StructSpec] = &[
         required: &[],
         ash: "khr::AccelerationStructureGeometryMicromapDataKHR<'_>",
         chained: true,
+        extracts: &[],
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureGeometryTrianglesDataKHR",
+        rust: "TrianglesData",
+        doc: "with the micromap attachments of its pNext chain.",
+        defaults: &[
+            ("vertexFormat", "VK_FORMAT_R32G32B32_SFLOAT"),
+            ("vertexStride", "12"),
+            ("indexType", "VK_INDEX_TYPE_NONE_KHR"),
+        ],
+        required: &[],
+        ash: "",
+        chained: false,
+        extracts: &[
+            (
+                "opacity_ext",
+                "VkAccelerationStructureTrianglesOpacityMicromapEXT",
+            ),
+            (
+                "opacity_khr",
+                "VkAccelerationStructureTrianglesOpacityMicromapKHR",
+            ),
+            (
+                "displacement_nv",
+                "VkAccelerationStructureTrianglesDisplacementMicromapNV",
+            ),
+        ],
     },
 ];
 
@@ -489,11 +537,24 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                 Form::Enum { .. } => ("i32", "0".to_string()),
             };
             if let Form::Next = field.form {
-                out.push_str("    /// sTypes of the structures in the pNext chain, in order.\n");
+                out.push_str(if spec.extracts.is_empty() {
+                    "    /// sTypes of the structures in the pNext chain, in order.\n"
+                } else {
+                    "    /// sTypes of the structures in the pNext chain, in order, but for\n    \
+                     /// those the members below hold.\n"
+                });
             }
             let _ = writeln!(out, "{}    pub {}: {ty},", rename(field), field.rust);
             let comma = if default.contains(',') { "" } else { "," };
             let _ = writeln!(defaults, "            {}: {default}{comma}", field.rust);
+        }
+        for (member, vk_name) in spec.extracts {
+            let _ = writeln!(
+                out,
+                "    /// The first `{vk_name}` in the pNext chain.\n    pub {member}: Option<{}>,",
+                chained(vk_name)?.rust
+            );
+            let _ = writeln!(defaults, "            {member}: None,");
         }
         let _ = writeln!(
             out,
@@ -508,7 +569,7 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                 Form::Address { union: true, .. } | Form::UsageCounts
             )
         });
-        if !unsafe_members {
+        if !unsafe_members && spec.extracts.is_empty() {
             let _ = writeln!(
                 out,
                 "impl {} {{\n    /// The members of `info`, with no pNext chain (its pointer is not read).\n    \
@@ -646,9 +707,9 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
          defaults.",
     );
     out.push_str(
-        "use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
+        "use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
          use crate::model::generated as model;\nuse crate::model::names::Value;\n\
-         use crate::scene::format::generated as scene;\n\n\
+         use crate::scene::format::generated as scene;\nuse crate::scene::format::ChainStruct;\n\n\
          impl Resolver<'_> {\n",
     );
     for spec in STRUCTS {
@@ -656,12 +717,13 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
         let _ = writeln!(
             out,
             "    /// A {} at `at`.\n    pub(in crate::scene) fn {}(&self, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
-             let defaults = model::{}::default();\n        Ok(model::{} {{",
+             let defaults = model::{}::default();\n        {}model::{} {{",
             doc(spec).trim_end_matches('.'),
             function(spec),
             spec.rust,
             spec.rust,
             spec.rust,
+            if spec.extracts.is_empty() { "Ok(" } else { "let mut value = " },
             spec.rust
         );
         for field in &fields {
@@ -673,6 +735,7 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
                 }
                 Form::Next if spec.chained => "Vec::new()".to_string(),
                 Form::SType(_) => format!("s_type({d}, defaults.s_type)"),
+                Form::Next if !spec.extracts.is_empty() => "Vec::new()".to_string(),
                 Form::Next => format!("chain(&{d})"),
                 Form::Handle(kind) => format!("self.handle(&{d}, ObjectKind::{kind}, {at})?"),
                 Form::Address { .. } => format!("self.address(&{d}, {at})?"),
@@ -695,7 +758,29 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
             };
             let _ = writeln!(out, "            {}: {value},", field.rust);
         }
-        out.push_str("        })\n    }\n\n");
+        if spec.extracts.is_empty() {
+            out.push_str("        })\n    }\n\n");
+            continue;
+        }
+        // The first of each extracted structure goes to its member; the
+        // rest, and every other structure, stay sTypes in the chain for
+        // the pNext rules to judge.
+        out.push_str("            ..defaults\n        };\n        for (k, next) in d.p_next.iter().enumerate() {\n            \
+                      let next_at = format!(\"{at}.pNext[{k}]\");\n            match next {\n");
+        for (member, vk_name) in spec.extracts {
+            let entry = chained(vk_name)?;
+            let _ = writeln!(
+                out,
+                "                ChainStruct::{}(e) if value.{member}.is_none() => {{\n                    \
+                 value.{member} = Some(self.{}(e, &next_at)?);\n                }}",
+                entry.rust,
+                function(entry)
+            );
+        }
+        out.push_str(
+            "                other => value.next.push(chain_s_type(other)),\n            }\n        }\n        \
+             Ok(value)\n    }\n\n",
+        );
     }
     out.push_str("}\n");
     Ok(out)
@@ -712,9 +797,9 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     );
     out.push_str(
         "// A structure with no pNext chain or arrays of its own reads no memory:\n// its `function`, `at` and `findings` go unused.\n#![allow(unused_imports, unused_variables, clippy::ptr_arg)]\n\nuse std::fmt::Display;\n\nuse ash::vk;\nuse ommcheck_vuids::khr;\n\n\
-         use super::accel::{address, scratch_address};\nuse super::{chain_s_types, usage_counts};\n\
+         use super::accel::{address, scratch_address};\nuse super::{chain, chain_s_types, usage_counts};\n\
          use crate::model::generated as model;\nuse crate::model::micromap::MicromapUsage;\n\
-         use crate::report::Finding;\n\n",
+         use crate::report::location::Locate;\nuse crate::report::Finding;\n\n",
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
@@ -727,6 +812,9 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         let arrays = if usages {
             "\n/// Its usage-count pointers must be NULL or valid for `usageCountsCount`\n\
              /// elements, as the API requires."
+        } else if !spec.extracts.is_empty() {
+            "\n/// The structures it takes from the chain must be valid as their own\n\
+             /// readers require."
         } else {
             ""
         };
@@ -742,30 +830,87 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
             "/// Reads a {} (at `at`, as findings name it).\n///\n/// # Safety\n\
              {safety}{arrays}\n\
              pub(crate) unsafe fn {}({spare}info: &{}, function: &'static str, at: impl Display + Copy, findings: &mut Vec<Finding>) -> model::{} {{\n    \
-             model::{} {{",
+             {}model::{} {{",
             doc(spec).trim_end_matches('.'),
             function(spec),
             ash_type(spec),
             spec.rust,
+            if spec.extracts.is_empty() { "" } else { "let mut value = " },
             spec.rust,
         );
         for field in &fields {
             let value = match &field.form {
-                Form::Next if spec.chained => "Vec::new()".to_string(),
+                Form::Next if spec.chained || !spec.extracts.is_empty() => "Vec::new()".to_string(),
                 Form::Next => {
                     "unsafe { chain_s_types(info.p_next, function, at, findings) }".to_string()
                 }
                 _ => ash_member(field),
             };
-            if matches!(field.form, Form::Next if !spec.chained) || field.form == Form::UsageCounts
+            if matches!(field.form, Form::Next if !spec.chained && spec.extracts.is_empty())
+                || field.form == Form::UsageCounts
             {
                 out.push_str("        // SAFETY: forwarded from the caller.\n");
             }
             let _ = writeln!(out, "        {}: {value},", field.rust);
         }
-        out.push_str("    }\n}\n\n");
+        if spec.extracts.is_empty() {
+            out.push_str("    }\n}\n\n");
+            continue;
+        }
+        for (member, _) in spec.extracts {
+            let _ = writeln!(out, "        {member}: None,");
+        }
+        out.push_str(
+            "    };\n    // SAFETY: forwarded from the caller.\n    \
+             let links = unsafe { chain(info.p_next, function, at, findings) };\n    \
+             for link in links {\n        match link.s_type {\n",
+        );
+        for (member, vk_name) in spec.extracts {
+            let entry = chained(vk_name)?;
+            let entry_fields = self::fields(vk, entry)?;
+            let s_type = entry_fields
+                .iter()
+                .find_map(|f| match f.form {
+                    Form::SType(value) => Some(value),
+                    _ => None,
+                })
+                .ok_or_else(|| Error::Registry(format!("{vk_name} has no sType")))?;
+            let spare = if entry_fields.iter().any(|f| f.form == Form::UsageCounts) {
+                "Vec::new(), "
+            } else {
+                ""
+            };
+            let _ = writeln!(
+                out,
+                "            // {}\n            {s_type} if value.{member}.is_none() => {{\n                \
+                 // SAFETY: a structure in a valid chain with this sType is a\n                \
+                 // {vk_name}.\n                \
+                 let entry = unsafe {{ &*link.address.cast::<{}>() }};\n                \
+                 let entry_at = at.text(\".pNext<{vk_name}>\");\n                \
+                 // SAFETY: forwarded from the caller.\n                \
+                 value.{member} = Some(unsafe {{ {}({spare}entry, function, entry_at, findings) }});\n            }}",
+                entry_s_type_name(vk, entry),
+                ash_type(entry),
+                function(entry)
+            );
+        }
+        out.push_str(
+            "            other => value.next.push(other),\n        }\n    }\n    value\n}\n\n",
+        );
     }
     Ok(out)
+}
+
+/// The vk.xml name of `spec`'s sType value.
+fn entry_s_type_name(vk: &VkXml, spec: &StructSpec) -> String {
+    vk.aggregate(spec.vk)
+        .and_then(|a| {
+            a.members
+                .iter()
+                .find(|m| m.name == "sType")
+                .and_then(|m| m.values.clone())
+        })
+        .unwrap_or_default()
 }
 
 /// `validator/src/scene/write/generated.rs`.
@@ -780,7 +925,7 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "use super::{chain_entry, usage_counts_count, usage_desc, Names};\nuse crate::model::generated as model;\n\
          use crate::model::names::Value;\nuse crate::scene::format::generated as scene;\n\
-         use crate::scene::ObjectKind;\n\n",
+         use crate::scene::format::ChainStruct;\nuse crate::scene::ObjectKind;\n\n",
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
@@ -820,6 +965,18 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                 } => format!("({m} != defaults.{}).then_some({m})", field.rust),
                 Form::SType(_) => {
                     format!("({m} != defaults.s_type).then(|| Value::new(i64::from({m})))")
+                }
+                Form::Next if !spec.extracts.is_empty() => {
+                    let mut entries = format!("{m}.iter().copied().map(chain_entry)");
+                    for (member, vk_name) in spec.extracts {
+                        let entry = chained(vk_name)?;
+                        let _ = write!(
+                            entries,
+                            ".chain(model.{member}.iter().map(|e| ChainStruct::{}(scene::{}Desc::written(e, names))))",
+                            entry.rust, entry.rust
+                        );
+                    }
+                    format!("{entries}.collect()")
                 }
                 Form::Next => format!("{m}.iter().copied().map(chain_entry).collect()"),
                 Form::Handle(kind) => format!("names.handle(ObjectKind::{kind}, {m})"),

@@ -14,8 +14,8 @@ use crate::model::Handle;
 pub use crate::model::generated::{
     AccelerationStructureCreateInfo, CopyAccelerationStructureInfo,
     CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo,
-    GeometryMicromapData, TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt,
-    TrianglesOpacityMicromapKhr,
+    GeometryMicromapData, TrianglesData, TrianglesDisplacementMicromapNv,
+    TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
 };
 
 pub const ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL: i32 =
@@ -220,25 +220,6 @@ pub enum GeometryData {
     None,
 }
 
-/// `VkAccelerationStructureGeometryTrianglesDataKHR` and the attachments in its pNext chain.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct TrianglesData {
-    pub s_type: i32,
-    /// sTypes of pNext structures other than the attachments below.
-    pub next: Vec<i32>,
-    pub vertex_format: i32,
-    pub vertex_data: u64,
-    pub vertex_stride: u64,
-    pub max_vertex: u32,
-    pub index_type: i32,
-    pub index_data: u64,
-    pub transform_data: u64,
-    pub opacity_ext: Option<TrianglesOpacityMicromapExt>,
-    pub opacity_khr: Option<TrianglesOpacityMicromapKhr>,
-    pub displacement_nv: Option<TrianglesDisplacementMicromapNv>,
-}
-
 /// An opacity micromap attachment's index buffer: the attachment's
 /// structure name, `indexType`, `indexBuffer` and `indexStride`.
 pub struct OpacityIndexBuffer {
@@ -264,25 +245,6 @@ impl TrianglesData {
             stride: a.index_stride,
         });
         ext.into_iter().chain(khr).collect()
-    }
-}
-
-impl Default for TrianglesData {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_TRIANGLES_DATA,
-            next: Vec::new(),
-            vertex_format: vk::Format::R32G32B32_SFLOAT.as_raw(),
-            vertex_data: 0,
-            vertex_stride: 12,
-            max_vertex: 0,
-            index_type: INDEX_TYPE_NONE,
-            index_data: 0,
-            transform_data: 0,
-            opacity_ext: None,
-            opacity_khr: None,
-            displacement_nv: None,
-        }
     }
 }
 

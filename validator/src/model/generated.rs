@@ -454,3 +454,45 @@ impl Default for GeometryMicromapData {
         }
     }
 }
+
+/// `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct TrianglesData {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order, but for
+    /// those the members below hold.
+    pub next: Vec<i32>,
+    pub vertex_format: i32,
+    pub vertex_data: u64,
+    pub vertex_stride: u64,
+    pub max_vertex: u32,
+    pub index_type: i32,
+    pub index_data: u64,
+    pub transform_data: u64,
+    /// The first `VkAccelerationStructureTrianglesOpacityMicromapEXT` in the pNext chain.
+    pub opacity_ext: Option<TrianglesOpacityMicromapExt>,
+    /// The first `VkAccelerationStructureTrianglesOpacityMicromapKHR` in the pNext chain.
+    pub opacity_khr: Option<TrianglesOpacityMicromapKhr>,
+    /// The first `VkAccelerationStructureTrianglesDisplacementMicromapNV` in the pNext chain.
+    pub displacement_nv: Option<TrianglesDisplacementMicromapNv>,
+}
+
+impl Default for TrianglesData {
+    fn default() -> Self {
+        Self {
+            s_type: 1000150005,
+            next: Vec::new(),
+            vertex_format: 106, // VK_FORMAT_R32G32B32_SFLOAT
+            vertex_data: 0,
+            vertex_stride: 12,
+            max_vertex: 0,
+            index_type: 1000165000, // VK_INDEX_TYPE_NONE_KHR
+            index_data: 0,
+            transform_data: 0,
+            opacity_ext: None,
+            opacity_khr: None,
+            displacement_nv: None,
+        }
+    }
+}

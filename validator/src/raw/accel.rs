@@ -18,8 +18,7 @@ use ommcheck_vuids::khr;
 use std::fmt::Display;
 
 use super::generated::{
-    acceleration_structure_create_info, geometry_micromap_data, triangles_displacement_micromap_nv,
-    triangles_opacity_micromap_ext, triangles_opacity_micromap_khr,
+    acceleration_structure_create_info, geometry_micromap_data, triangles_data,
 };
 use super::{
     array_slice, bounded_len, chain, chain_s_types, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
@@ -29,10 +28,8 @@ use crate::build_inputs::{geometry_reads, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
     BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, Instance, InstancesData,
-    TrianglesData, ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS,
-    GEOMETRY_TYPE_INSTANCES, GEOMETRY_TYPE_TRIANGLES, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
-    STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV,
-    STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT, STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR,
+    ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS, GEOMETRY_TYPE_INSTANCES,
+    GEOMETRY_TYPE_TRIANGLES, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
 };
 use crate::model::CommandBuffer;
 use crate::report::location::Locate;
@@ -253,93 +250,6 @@ unsafe fn read_geometry(
         flags: geometry.flags.as_raw(),
         micromap,
     }
-}
-
-/// Reads `VkAccelerationStructureGeometryTrianglesDataKHR` at `location`
-/// (`...geometry.triangles`) and the attachments in its pNext chain: the
-/// first EXT and KHR opacity and NV displacement structures into their
-/// members, every other sType into `next`.
-///
-/// # Safety
-/// The pNext chain must be well formed (cycles and length are tolerated)
-/// and each attachment's usage-count pointers NULL or valid for its count.
-unsafe fn triangles_data(
-    triangles: &vk::AccelerationStructureGeometryTrianglesDataKHR<'_>,
-    function: &'static str,
-    location: impl Display + Copy,
-    findings: &mut Vec<Finding>,
-) -> TrianglesData {
-    let (vertex_data, index_data, transform_data) = (
-        address(&triangles.vertex_data),
-        address(&triangles.index_data),
-        address(&triangles.transform_data),
-    );
-    let mut data = TrianglesData {
-        s_type: triangles.s_type.as_raw(),
-        next: Vec::new(),
-        vertex_format: triangles.vertex_format.as_raw(),
-        vertex_data,
-        vertex_stride: triangles.vertex_stride,
-        max_vertex: triangles.max_vertex,
-        index_type: triangles.index_type.as_raw(),
-        index_data,
-        transform_data,
-        opacity_ext: None,
-        opacity_khr: None,
-        displacement_nv: None,
-    };
-    // SAFETY: forwarded from the caller.
-    let links = unsafe { chain(triangles.p_next, function, location, findings) };
-    for link in links {
-        match link.s_type {
-            STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_EXT if data.opacity_ext.is_none() => {
-                // SAFETY: a structure in a valid chain with this sType is a
-                // VkAccelerationStructureTrianglesOpacityMicromapEXT.
-                let a = unsafe {
-                    &*link
-                        .address
-                        .cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
-                };
-                let at =
-                    location.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
-                // SAFETY: forwarded from the caller.
-                data.opacity_ext = Some(unsafe {
-                    triangles_opacity_micromap_ext(Vec::new(), a, function, at, findings)
-                });
-            }
-            STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR if data.opacity_khr.is_none() => {
-                // SAFETY: a structure in a valid chain with this sType is a
-                // VkAccelerationStructureTrianglesOpacityMicromapKHR.
-                let a = unsafe {
-                    &*link
-                        .address
-                        .cast::<khr::AccelerationStructureTrianglesOpacityMicromapKHR>()
-                };
-                let at =
-                    location.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapKHR>");
-                // SAFETY: forwarded from the caller.
-                data.opacity_khr =
-                    Some(unsafe { triangles_opacity_micromap_khr(a, function, at, findings) });
-            }
-            STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV if data.displacement_nv.is_none() => {
-                // SAFETY: a structure in a valid chain with this sType is a
-                // VkAccelerationStructureTrianglesDisplacementMicromapNV.
-                let a = unsafe {
-                    &*link
-                        .address
-                        .cast::<vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>>()
-                };
-                let at =
-                    location.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
-                // SAFETY: forwarded from the caller.
-                data.displacement_nv = Some(unsafe {
-                    triangles_displacement_micromap_nv(Vec::new(), a, function, at, findings)
-                });
-            }
-            other => data.next.push(other),
-        }
-    }
-    data
 }
 
 /// Reads `pInfos` (at most [`MAX_ELEMENTS`] of them).

@@ -13,9 +13,10 @@ use ash::vk;
 use ommcheck_vuids::khr;
 
 use super::accel::{address, scratch_address};
-use super::{chain_s_types, usage_counts};
+use super::{chain, chain_s_types, usage_counts};
 use crate::model::generated as model;
 use crate::model::micromap::MicromapUsage;
+use crate::report::location::Locate;
 use crate::report::Finding;
 
 /// Reads a `VkMicromapCreateInfoEXT` (at `at`, as findings name it).
@@ -357,4 +358,94 @@ pub(crate) unsafe fn geometry_micromap_data(
         triangle_array: info.triangle_array,
         triangle_array_stride: info.triangle_array_stride,
     }
+}
+
+/// Reads a `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+/// The structures it takes from the chain must be valid as their own
+/// readers require.
+pub(crate) unsafe fn triangles_data(
+    info: &vk::AccelerationStructureGeometryTrianglesDataKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::TrianglesData {
+    let mut value = model::TrianglesData {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        vertex_format: info.vertex_format.as_raw(),
+        vertex_data: address(&info.vertex_data),
+        vertex_stride: info.vertex_stride,
+        max_vertex: info.max_vertex,
+        index_type: info.index_type.as_raw(),
+        index_data: address(&info.index_data),
+        transform_data: address(&info.transform_data),
+        opacity_ext: None,
+        opacity_khr: None,
+        displacement_nv: None,
+    };
+    // SAFETY: forwarded from the caller.
+    let links = unsafe { chain(info.p_next, function, at, findings) };
+    for link in links {
+        match link.s_type {
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT
+            1000396009 if value.opacity_ext.is_none() => {
+                // SAFETY: a structure in a valid chain with this sType is a
+                // VkAccelerationStructureTrianglesOpacityMicromapEXT.
+                let entry = unsafe {
+                    &*link
+                        .address
+                        .cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
+                };
+                let entry_at =
+                    at.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
+                // SAFETY: forwarded from the caller.
+                value.opacity_ext = Some(unsafe {
+                    triangles_opacity_micromap_ext(Vec::new(), entry, function, entry_at, findings)
+                });
+            }
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR
+            1000623003 if value.opacity_khr.is_none() => {
+                // SAFETY: a structure in a valid chain with this sType is a
+                // VkAccelerationStructureTrianglesOpacityMicromapKHR.
+                let entry = unsafe {
+                    &*link
+                        .address
+                        .cast::<khr::AccelerationStructureTrianglesOpacityMicromapKHR>()
+                };
+                let entry_at =
+                    at.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapKHR>");
+                // SAFETY: forwarded from the caller.
+                value.opacity_khr = Some(unsafe {
+                    triangles_opacity_micromap_khr(entry, function, entry_at, findings)
+                });
+            }
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV
+            1000397002 if value.displacement_nv.is_none() => {
+                // SAFETY: a structure in a valid chain with this sType is a
+                // VkAccelerationStructureTrianglesDisplacementMicromapNV.
+                let entry = unsafe {
+                    &*link
+                        .address
+                        .cast::<vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>>()
+                };
+                let entry_at =
+                    at.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
+                // SAFETY: forwarded from the caller.
+                value.displacement_nv = Some(unsafe {
+                    triangles_displacement_micromap_nv(
+                        Vec::new(),
+                        entry,
+                        function,
+                        entry_at,
+                        findings,
+                    )
+                });
+            }
+            other => value.next.push(other),
+        }
+    }
+    value
 }

@@ -725,33 +725,9 @@ pub struct GeometryDesc {
 #[derive(Debug, Default, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct GeometryUnionDesc {
-    pub triangles: Option<TrianglesDesc>,
+    pub triangles: Option<TrianglesDataDesc>,
     pub aabbs: Option<AabbsDesc>,
     pub instances: Option<InstancesDesc>,
-}
-
-/// `VkAccelerationStructureGeometryTrianglesDataKHR`; its pNext chain holds
-/// the opacity or displacement attachment.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct TrianglesDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    /// Default VK_FORMAT_R32G32B32_SFLOAT.
-    pub vertex_format: Option<Value<names::Format>>,
-    #[serde(default)]
-    pub vertex_data: AddressArg,
-    /// Default 12.
-    pub vertex_stride: Option<u64>,
-    #[serde(default)]
-    pub max_vertex: u32,
-    /// Default VK_INDEX_TYPE_NONE_KHR.
-    pub index_type: Option<Value<names::IndexType>>,
-    #[serde(default)]
-    pub index_data: AddressArg,
-    #[serde(default)]
-    pub transform_data: AddressArg,
 }
 
 /// `VkAccelerationStructureGeometryAabbsDataKHR`.

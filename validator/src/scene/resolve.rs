@@ -17,7 +17,7 @@ use crate::device::{Device, Limits, Profile};
 use crate::inspect::simulate::{HitInput, HitQuery};
 use crate::model::accel::{
     AabbsData, AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo, Geometry,
-    GeometryData, InstancesData, TrianglesData,
+    GeometryData, InstancesData,
 };
 use crate::model::command::{queue, CommandBuffer};
 use crate::model::micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
@@ -1270,45 +1270,6 @@ impl Resolver<'_> {
             .collect()
     }
 
-    fn triangles(&self, d: &TrianglesDesc, at: &str) -> Result<TrianglesData> {
-        let defaults = TrianglesData::default();
-        let mut data = TrianglesData {
-            s_type: s_type(d.s_type, defaults.s_type),
-            vertex_format: d
-                .vertex_format
-                .map_or(defaults.vertex_format, Value::as_i32),
-            vertex_data: self.address(&d.vertex_data, &format!("{at}.vertexData"))?,
-            vertex_stride: d.vertex_stride.unwrap_or(defaults.vertex_stride),
-            max_vertex: d.max_vertex,
-            index_type: d.index_type.map_or(defaults.index_type, Value::as_i32),
-            index_data: self.address(&d.index_data, &format!("{at}.indexData"))?,
-            transform_data: self.address(&d.transform_data, &format!("{at}.transformData"))?,
-            ..defaults
-        };
-        for (k, next) in d.p_next.iter().enumerate() {
-            let next_at = format!("{at}.pNext[{k}]");
-            match next {
-                ChainStruct::TrianglesOpacityMicromapExt(e) if data.opacity_ext.is_none() => {
-                    data.opacity_ext = Some(self.triangles_opacity_micromap_ext(e, &next_at)?);
-                }
-                ChainStruct::TrianglesOpacityMicromapKhr(e) if data.opacity_khr.is_none() => {
-                    data.opacity_khr = Some(self.triangles_opacity_micromap_khr(e, &next_at)?);
-                }
-                ChainStruct::TrianglesDisplacementMicromapNv(e)
-                    if data.displacement_nv.is_none() =>
-                {
-                    data.displacement_nv =
-                        Some(self.triangles_displacement_micromap_nv(e, &next_at)?);
-                }
-                // A structure the model holds once, given again, or one that
-                // does not extend triangles data: chained as is, for the
-                // pNext rules to judge.
-                other => data.next.push(chain_s_type(other)),
-            }
-        }
-        Ok(data)
-    }
-
     fn geometry(&self, d: &GeometryDesc, at: &str) -> Result<Geometry> {
         let defaults = Geometry::default();
         let mut geometry = Geometry {
@@ -1339,7 +1300,7 @@ impl Resolver<'_> {
             );
         }
         geometry.geometry = if let Some(t) = &union.triangles {
-            GeometryData::Triangles(self.triangles(t, &format!("{at}.geometry.triangles"))?)
+            GeometryData::Triangles(self.triangles_data(t, &format!("{at}.geometry.triangles"))?)
         } else if let Some(a) = &union.aabbs {
             GeometryData::Aabbs(AabbsData {
                 data: self.address(&a.data, &format!("{at}.geometry.aabbs.data"))?,

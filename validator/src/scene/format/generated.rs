@@ -319,3 +319,30 @@ pub struct GeometryMicromapDataDesc {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub triangle_array_stride: Option<u64>,
 }
+
+/// `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct TrianglesDataDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    /// Default VK_FORMAT_R32G32B32_SFLOAT.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vertex_format: Option<Value<names::Format>>,
+    #[serde(default)]
+    pub vertex_data: AddressArg,
+    /// Default 12.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vertex_stride: Option<u64>,
+    #[serde(default)]
+    pub max_vertex: u32,
+    /// Default VK_INDEX_TYPE_NONE_KHR.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub index_type: Option<Value<names::IndexType>>,
+    #[serde(default)]
+    pub index_data: AddressArg,
+    #[serde(default)]
+    pub transform_data: AddressArg,
+}

@@ -3,10 +3,11 @@
 //! describes: names become handles and addresses, absent members their
 //! defaults.
 
-use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};
+use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
+use crate::scene::format::ChainStruct;
 
 impl Resolver<'_> {
     /// A `VkMicromapCreateInfoEXT` at `at`.
@@ -303,5 +304,47 @@ impl Resolver<'_> {
                 .triangle_array_stride
                 .unwrap_or(defaults.triangle_array_stride),
         })
+    }
+
+    /// A `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain at `at`.
+    pub(in crate::scene) fn triangles_data(
+        &self,
+        d: &scene::TrianglesDataDesc,
+        at: &str,
+    ) -> Result<model::TrianglesData> {
+        let defaults = model::TrianglesData::default();
+        let mut value = model::TrianglesData {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: Vec::new(),
+            vertex_format: d
+                .vertex_format
+                .map_or(defaults.vertex_format, Value::as_i32),
+            vertex_data: self.address(&d.vertex_data, &format!("{at}.vertexData"))?,
+            vertex_stride: d.vertex_stride.unwrap_or(defaults.vertex_stride),
+            max_vertex: d.max_vertex,
+            index_type: d.index_type.map_or(defaults.index_type, Value::as_i32),
+            index_data: self.address(&d.index_data, &format!("{at}.indexData"))?,
+            transform_data: self.address(&d.transform_data, &format!("{at}.transformData"))?,
+            ..defaults
+        };
+        for (k, next) in d.p_next.iter().enumerate() {
+            let next_at = format!("{at}.pNext[{k}]");
+            match next {
+                ChainStruct::TrianglesOpacityMicromapExt(e) if value.opacity_ext.is_none() => {
+                    value.opacity_ext = Some(self.triangles_opacity_micromap_ext(e, &next_at)?);
+                }
+                ChainStruct::TrianglesOpacityMicromapKhr(e) if value.opacity_khr.is_none() => {
+                    value.opacity_khr = Some(self.triangles_opacity_micromap_khr(e, &next_at)?);
+                }
+                ChainStruct::TrianglesDisplacementMicromapNv(e)
+                    if value.displacement_nv.is_none() =>
+                {
+                    value.displacement_nv =
+                        Some(self.triangles_displacement_micromap_nv(e, &next_at)?);
+                }
+                other => value.next.push(chain_s_type(other)),
+            }
+        }
+        Ok(value)
     }
 }

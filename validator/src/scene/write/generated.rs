@@ -7,6 +7,7 @@ use super::{chain_entry, usage_counts_count, usage_desc, Names};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
+use crate::scene::format::ChainStruct;
 use crate::scene::ObjectKind;
 
 impl scene::MicromapCreateInfoDesc {
@@ -272,6 +273,47 @@ impl scene::GeometryMicromapDataDesc {
             triangle_array: names.address(model.triangle_array),
             triangle_array_stride: (model.triangle_array_stride != defaults.triangle_array_stride)
                 .then_some(model.triangle_array_stride),
+        }
+    }
+}
+
+impl scene::TrianglesDataDesc {
+    /// The scene form of a `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain, naming objects and addresses by `names`.
+    pub fn written(model: &model::TrianglesData, names: &dyn Names) -> Self {
+        let defaults = model::TrianglesData::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model
+                .next
+                .iter()
+                .copied()
+                .map(chain_entry)
+                .chain(model.opacity_ext.iter().map(|e| {
+                    ChainStruct::TrianglesOpacityMicromapExt(
+                        scene::TrianglesOpacityMicromapExtDesc::written(e, names),
+                    )
+                }))
+                .chain(model.opacity_khr.iter().map(|e| {
+                    ChainStruct::TrianglesOpacityMicromapKhr(
+                        scene::TrianglesOpacityMicromapKhrDesc::written(e, names),
+                    )
+                }))
+                .chain(model.displacement_nv.iter().map(|e| {
+                    ChainStruct::TrianglesDisplacementMicromapNv(
+                        scene::TrianglesDisplacementMicromapNvDesc::written(e, names),
+                    )
+                }))
+                .collect(),
+            vertex_format: (model.vertex_format != defaults.vertex_format)
+                .then(|| Value::new(i64::from(model.vertex_format))),
+            vertex_data: names.address(model.vertex_data),
+            vertex_stride: (model.vertex_stride != defaults.vertex_stride)
+                .then_some(model.vertex_stride),
+            max_vertex: model.max_vertex,
+            index_type: (model.index_type != defaults.index_type)
+                .then(|| Value::new(i64::from(model.index_type))),
+            index_data: names.address(model.index_data),
+            transform_data: names.address(model.transform_data),
         }
     }
 }
@@ -616,6 +658,30 @@ mod tests {
         let read: scene::GeometryMicromapDataDesc = serde_json::from_str(&json).unwrap();
         assert_eq!(
             crate::scene::resolve_alone(|r| r.geometry_micromap_data(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn triangles_data_reads_back_as_written() {
+        let model = model::TrianglesData {
+            next: vec![1_000_001_000],
+            vertex_format: 3,
+            vertex_data: 0x2000_0000 + 4,
+            vertex_stride: 5,
+            max_vertex: 6,
+            index_type: 7,
+            index_data: 0x2000_0000 + 8,
+            transform_data: 0x2000_0000 + 9,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::TrianglesDataDesc::written(&model, names)).unwrap();
+        let read: scene::TrianglesDataDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.triangles_data(&read, "x")),
             Ok(model),
             "{json}"
         );
