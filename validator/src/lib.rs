@@ -127,6 +127,7 @@ pub mod draw;
 pub mod driver;
 pub mod explain;
 pub mod fixture;
+pub mod html;
 pub mod inspect;
 pub mod model;
 

@@ -26,6 +26,15 @@ enum Format {
     Json,
 }
 
+/// `check`'s formats: `--format`'s of the other commands, and the HTML page.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum CheckFormat {
+    Text,
+    Json,
+    /// One self-contained HTML page (docs/cli.md, "The HTML report").
+    Html,
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Deny {
     Warnings,
@@ -46,8 +55,13 @@ enum Command {
         /// directories: every `.json` file under one is a scene, checked in
         /// path order.
         scenes: Vec<std::path::PathBuf>,
-        #[arg(long, value_enum, default_value_t = Format::Text)]
-        format: Format,
+        #[arg(long, value_enum, default_value_t = CheckFormat::Text)]
+        format: CheckFormat,
+        /// Also write the report as one self-contained HTML page to FILE
+        /// (findings by rule, pictures of what they point at, what was not
+        /// checked), whatever --format prints.
+        #[arg(long, value_name = "FILE")]
+        html: Option<std::path::PathBuf>,
         /// Check under these limits instead of each scene's: spec-minimum,
         /// permissive, or a JSON file of limits by spec member name.
         #[arg(long, value_name = "NAME|FILE")]
@@ -174,10 +188,18 @@ fn main() -> ExitCode {
             example,
             scenes,
             format,
+            html,
             profile,
             deny,
             tier,
-        } => check_command(example, &scenes, format, profile.as_deref(), deny, tier),
+        } => check_command(
+            example,
+            &scenes,
+            (format, html.as_deref()),
+            profile.as_deref(),
+            deny,
+            tier,
+        ),
         Command::Trace { scenes, format } => trace_command(&scenes, format),
         Command::Stats {
             scenes,
@@ -245,11 +267,12 @@ fn vuid_command(query: &str) -> ExitCode {
 
 /// `ommcheck check`: reads every scene first (a scene that cannot be read
 /// stops the run with status 2 before anything is checked), then checks
-/// each and prints the findings.
+/// each and prints the findings in `format`, and writes the HTML page to
+/// the file `html` names, if it names one.
 fn check_command(
     example: bool,
     paths: &[std::path::PathBuf],
-    format: Format,
+    (format, html): (CheckFormat, Option<&std::path::Path>),
     profile: Option<&str>,
     deny: Option<Deny>,
     tier: ommcheck::Tier,
@@ -310,14 +333,46 @@ fn check_command(
         }
     }
     let summary = Summary::of(&reports);
-    if let Err(status) = print_reports(
-        format,
-        &reports,
-        &summary,
-        SceneReport::text,
-        summary.line(),
-    ) {
+    let page = || {
+        ommcheck::html::page(
+            &reports,
+            &summary,
+            &options,
+            &ommcheck::html::LIMITS,
+            &ommcheck::html::Source::reload,
+        )
+    };
+    let printed = match format {
+        CheckFormat::Html => {
+            print!("{}", page());
+            Ok(())
+        }
+        CheckFormat::Text | CheckFormat::Json => {
+            let format = if format == CheckFormat::Json {
+                Format::Json
+            } else {
+                Format::Text
+            };
+            print_reports(
+                format,
+                &reports,
+                &summary,
+                SceneReport::text,
+                summary.line(),
+            )
+        }
+    };
+    if let Err(status) = printed {
         return status;
+    }
+    if let Some(file) = html {
+        if let Err(error) = std::fs::write(file, page()) {
+            eprintln!(
+                "ommcheck: {}: cannot write the HTML report: {error}",
+                file.display()
+            );
+            return ExitCode::from(2);
+        }
     }
     let denied_warnings = deny == Some(Deny::Warnings) && summary.warnings > 0;
     if summary.errors > 0 || denied_warnings {

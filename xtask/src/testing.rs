@@ -38,11 +38,31 @@ fn vulkan_loader_present() -> bool {
         .is_ok_and(|out| String::from_utf8_lossy(&out.stdout).contains("libvulkan.so.1"))
 }
 
-const PREREQUISITES: &[Prerequisite] = &[Prerequisite {
-    what: "the Vulkan loader (libvulkan.so.1)",
-    debian_packages: &["libvulkan1"],
-    present: vulkan_loader_present,
-}];
+/// Whether a Chromium the HTML report's browser test can run is installed
+/// (validator/tests/html.rs tries the same names).
+fn chromium_present() -> bool {
+    ["chromium", "chromium-browser", "google-chrome"]
+        .iter()
+        .any(|name| {
+            Command::new(name)
+                .arg("--version")
+                .output()
+                .is_ok_and(|out| out.status.success())
+        })
+}
+
+const PREREQUISITES: &[Prerequisite] = &[
+    Prerequisite {
+        what: "the Vulkan loader (libvulkan.so.1)",
+        debian_packages: &["libvulkan1"],
+        present: vulkan_loader_present,
+    },
+    Prerequisite {
+        what: "Chromium, which opens the HTML report in the browser test",
+        debian_packages: &["chromium"],
+        present: chromium_present,
+    },
+];
 
 /// Makes sure every prerequisite is present, installing with apt where it can.
 fn ensure_prerequisites(install: bool) -> Result<(), Error> {

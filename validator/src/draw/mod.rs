@@ -100,7 +100,18 @@ pub struct Drawable {
 impl Drawable {
     /// Runs `scene`'s calls at the content tier (which keeps what builds read).
     pub fn run(scene: &Scene) -> Result<Self, SceneError> {
-        let (report, validator) = scene.check_into_validator(&CheckOptions::default())?;
+        Self::run_with(scene, &CheckOptions::default())
+    }
+
+    /// Runs `scene`'s calls under `options`' limits, at its tier or the
+    /// content tier where that is lower (a lower tier keeps no content to
+    /// draw), so a picture shows what a check under the same options saw.
+    pub fn run_with(scene: &Scene, options: &CheckOptions) -> Result<Self, SceneError> {
+        let options = CheckOptions {
+            limits: options.limits.clone(),
+            tier: options.tier.max(crate::Tier::Content),
+        };
+        let (report, validator) = scene.check_into_validator(&options)?;
         Ok(Self {
             validator,
             objects: report.objects,
