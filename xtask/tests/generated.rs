@@ -74,6 +74,7 @@ fn a_structure_with_an_array_is_refused_by_name() {
         required: &[],
         ash: "",
         chained: false,
+        extracts: &[],
     };
     let error = match xtask::structs::fields(&vk, &spec("VkMicromapVersionInfoEXT")) {
         Ok(_) => panic!("VkMicromapVersionInfoEXT has a byte array; it must not be generated"),
