@@ -121,7 +121,7 @@ impl AccelerationStructureBuild {
             flags,
             ..Geometry::default()
         };
-        self.geometry(geometry, Some(range.into()))
+        self.geometry(geometry, Some(BuildRangeInfo::from_members(&range)))
     }
 
     /// Adds a micromap geometry (`VK_GEOMETRY_TYPE_MICROMAP_KHR`) with

@@ -188,6 +188,26 @@ pub const STRUCTS: &[StructSpec] = &[
         extracts: &[],
     },
     StructSpec {
+        vk: "VkAccelerationStructureGeometryAabbsDataKHR",
+        rust: "AabbsData",
+        doc: "",
+        defaults: &[],
+        required: &[],
+        ash: "",
+        chained: false,
+        extracts: &[],
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureBuildRangeInfoKHR",
+        rust: "BuildRangeInfo",
+        doc: "",
+        defaults: &[],
+        required: &[],
+        ash: "vk::AccelerationStructureBuildRangeInfoKHR",
+        chained: false,
+        extracts: &[],
+    },
+    StructSpec {
         vk: "VkAccelerationStructureGeometryTrianglesDataKHR",
         rust: "TrianglesData",
         doc: "with the micromap attachments of its pNext chain.",
@@ -506,11 +526,17 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
+        // Plain values (no chain, no arrays) are copied like numbers.
+        let copy = fields
+            .iter()
+            .all(|f| !matches!(f.form, Form::Next | Form::UsageCounts))
+            && spec.extracts.is_empty();
         let _ = writeln!(
             out,
-            "/// {}\n#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]\n\
+            "/// {}\n#[derive(Clone, {}Debug, PartialEq, Eq, Serialize, Deserialize)]\n\
              #[serde(default, rename_all = \"camelCase\")]\npub struct {} {{",
             doc(spec),
+            if copy { "Copy, " } else { "" },
             spec.rust
         );
         let mut defaults = String::new();
@@ -707,7 +733,9 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
          defaults.",
     );
     out.push_str(
-        "use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
+        "// A structure of plain numbers uses neither `at` nor its defaults.\n\
+         #![allow(unused_variables)]\n\n\
+         use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
          use crate::model::generated as model;\nuse crate::model::names::Value;\n\
          use crate::scene::format::generated as scene;\nuse crate::scene::format::ChainStruct;\n\n\
          impl Resolver<'_> {\n",
@@ -803,6 +831,16 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
+        // The model's `from_members` reads a structure that points at
+        // nothing and holds no union.
+        if fields.iter().all(|f| {
+            !matches!(
+                f.form,
+                Form::Next | Form::UsageCounts | Form::Address { union: true, .. }
+            )
+        }) {
+            continue;
+        }
         let safety = if spec.chained {
             "/// Its own pNext chain is part of the chain the caller walks."
         } else {
@@ -923,7 +961,9 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
          at their defaults are left out where the scene form allows it.",
     );
     out.push_str(
-        "use super::{chain_entry, usage_counts_count, usage_desc, Names};\nuse crate::model::generated as model;\n\
+        "// A structure of plain numbers names no objects or addresses.\n\
+         #![allow(unused_variables)]\n\n\
+         use super::{chain_entry, usage_counts_count, usage_desc, Names};\nuse crate::model::generated as model;\n\
          use crate::model::names::Value;\nuse crate::scene::format::generated as scene;\n\
          use crate::scene::format::ChainStruct;\nuse crate::scene::ObjectKind;\n\n",
     );

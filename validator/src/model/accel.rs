@@ -12,7 +12,7 @@ use crate::model::array_or_pointers::ElementsRead;
 use crate::model::Handle;
 
 pub use crate::model::generated::{
-    AccelerationStructureCreateInfo, CopyAccelerationStructureInfo,
+    AabbsData, AccelerationStructureCreateInfo, BuildRangeInfo, CopyAccelerationStructureInfo,
     CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo,
     GeometryMicromapData, TrianglesData, TrianglesDisplacementMicromapNv,
     TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
@@ -248,14 +248,6 @@ impl TrianglesData {
     }
 }
 
-/// `VkAccelerationStructureGeometryAabbsDataKHR`.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct AabbsData {
-    pub data: u64,
-    pub stride: u64,
-}
-
 /// `VkAccelerationStructureGeometryInstancesDataKHR`, with the instances
 /// themselves where the checker can read them.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -306,27 +298,6 @@ impl Instance {
             flags: (offset_and_flags >> 24) as u8,
             acceleration_structure_reference: reference,
         })
-    }
-}
-
-/// `VkAccelerationStructureBuildRangeInfoKHR`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct BuildRangeInfo {
-    pub primitive_count: u32,
-    pub primitive_offset: u32,
-    pub first_vertex: u32,
-    pub transform_offset: u32,
-}
-
-impl From<vk::AccelerationStructureBuildRangeInfoKHR> for BuildRangeInfo {
-    fn from(range: vk::AccelerationStructureBuildRangeInfoKHR) -> Self {
-        BuildRangeInfo {
-            primitive_count: range.primitive_count,
-            primitive_offset: range.primitive_offset,
-            first_vertex: range.first_vertex,
-            transform_offset: range.transform_offset,
-        }
     }
 }
 

@@ -455,6 +455,61 @@ impl Default for GeometryMicromapData {
     }
 }
 
+/// `VkAccelerationStructureGeometryAabbsDataKHR`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct AabbsData {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub data: u64,
+    pub stride: u64,
+}
+
+impl Default for AabbsData {
+    fn default() -> Self {
+        Self {
+            s_type: 1000150003,
+            next: Vec::new(),
+            data: 0,
+            stride: 0,
+        }
+    }
+}
+
+/// `VkAccelerationStructureBuildRangeInfoKHR`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct BuildRangeInfo {
+    pub primitive_count: u32,
+    pub primitive_offset: u32,
+    pub first_vertex: u32,
+    pub transform_offset: u32,
+}
+
+impl Default for BuildRangeInfo {
+    fn default() -> Self {
+        Self {
+            primitive_count: 0,
+            primitive_offset: 0,
+            first_vertex: 0,
+            transform_offset: 0,
+        }
+    }
+}
+
+impl BuildRangeInfo {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &vk::AccelerationStructureBuildRangeInfoKHR) -> Self {
+        Self {
+            primitive_count: info.primitive_count,
+            primitive_offset: info.primitive_offset,
+            first_vertex: info.first_vertex,
+            transform_offset: info.transform_offset,
+        }
+    }
+}
+
 /// `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, rename_all = "camelCase")]

@@ -18,7 +18,7 @@ use ommcheck_vuids::khr;
 use std::fmt::Display;
 
 use super::generated::{
-    acceleration_structure_create_info, geometry_micromap_data, triangles_data,
+    aabbs_data, acceleration_structure_create_info, geometry_micromap_data, triangles_data,
 };
 use super::{
     array_slice, bounded_len, chain, chain_s_types, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
@@ -26,8 +26,8 @@ use super::{
 use crate::build_inputs::indirect::IndirectRanges;
 use crate::build_inputs::{geometry_reads, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{
-    AabbsData, AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2,
-    BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData, Instance, InstancesData,
+    AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2, BuildGeometryInfo,
+    BuildRangeInfo, Geometry, GeometryData, Instance, InstancesData,
     ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS, GEOMETRY_TYPE_INSTANCES,
     GEOMETRY_TYPE_TRIANGLES, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
 };
@@ -224,10 +224,9 @@ unsafe fn read_geometry(
         GEOMETRY_TYPE_AABBS => {
             // SAFETY: the union holds the member `geometryType` selects: aabbs.
             let aabbs = unsafe { &geometry.geometry.aabbs };
-            GeometryData::Aabbs(AabbsData {
-                data: address(&aabbs.data),
-                stride: aabbs.stride,
-            })
+            let at = location.text(".geometry.aabbs");
+            // SAFETY: forwarded from the caller.
+            GeometryData::Aabbs(unsafe { aabbs_data(aabbs, function, at, findings) })
         }
         GEOMETRY_TYPE_INSTANCES => {
             // SAFETY: the union holds the member `geometryType` selects: instances.
@@ -303,7 +302,11 @@ unsafe fn read_build_range_infos(
             // SAFETY: forwarded from the caller; at most geometryCount
             // elements are read.
             let ranges = unsafe { read_array(pointer, count, function, location, findings) };
-            ranges.map(|list| list.into_iter().map(BuildRangeInfo::from).collect())
+            ranges.map(|list| {
+                list.into_iter()
+                    .map(|range| BuildRangeInfo::from_members(&range))
+                    .collect()
+            })
         })
         .collect()
 }
@@ -1106,9 +1109,13 @@ mod tests {
         let model = unsafe { build_geometry_info(&info, "f", "pInfos[0]", &mut findings) };
         let geometries = model.geometries.expect("pGeometries was read");
         assert_eq!(geometries[0].next, [1, 2]);
+        // The union is all zero bytes: an aabbs member with sType 0.
         assert_eq!(
             geometries[0].geometry,
-            GeometryData::Aabbs(AabbsData::default())
+            GeometryData::Aabbs(crate::model::accel::AabbsData {
+                s_type: 0,
+                ..Default::default()
+            })
         );
         assert_eq!(findings.len(), 1, "{findings:?}");
         assert_eq!(findings[0].rule.as_str(), rules::PNEXT_CHAIN.id);

@@ -360,6 +360,25 @@ pub(crate) unsafe fn geometry_micromap_data(
     }
 }
 
+/// Reads a `VkAccelerationStructureGeometryAabbsDataKHR` (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+pub(crate) unsafe fn aabbs_data(
+    info: &vk::AccelerationStructureGeometryAabbsDataKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::AabbsData {
+    model::AabbsData {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, at, findings) },
+        data: address(&info.data),
+        stride: info.stride,
+    }
+}
+
 /// Reads a `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain (at `at`, as findings name it).
 ///
 /// # Safety

@@ -726,18 +726,8 @@ pub struct GeometryDesc {
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct GeometryUnionDesc {
     pub triangles: Option<TrianglesDataDesc>,
-    pub aabbs: Option<AabbsDesc>,
+    pub aabbs: Option<AabbsDataDesc>,
     pub instances: Option<InstancesDesc>,
-}
-
-/// `VkAccelerationStructureGeometryAabbsDataKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct AabbsDesc {
-    #[serde(default)]
-    pub data: AddressArg,
-    #[serde(default)]
-    pub stride: u64,
 }
 
 /// `VkAccelerationStructureGeometryInstancesDataKHR`. With
@@ -750,20 +740,6 @@ pub struct InstancesDesc {
     pub array_of_pointers: bool,
     #[serde(default)]
     pub data: AddressArg,
-}
-
-/// `VkAccelerationStructureBuildRangeInfoKHR`.
-#[derive(Debug, Default, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct BuildRangeDesc {
-    #[serde(default)]
-    pub primitive_count: u32,
-    #[serde(default)]
-    pub primitive_offset: u32,
-    #[serde(default)]
-    pub first_vertex: u32,
-    #[serde(default)]
-    pub transform_offset: u32,
 }
 
 /// `VkDeviceAddressRangeKHR`.
@@ -1039,7 +1015,7 @@ params!(
         #[serde(default)] command_buffer: CommandBufferArg,
         p_infos: Vec<BuildGeometryInfoDesc>,
         /// One array per info (null: a NULL element); absent: none.
-        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeDesc>>>,
+        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeInfoDesc>>>,
     }
 );
 
@@ -1062,7 +1038,7 @@ params!(
         #[serde(default)] device: HandleArg,
         #[serde(default)] deferred_operation: HandleArg,
         p_infos: Vec<BuildGeometryInfoDesc>,
-        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeDesc>>>,
+        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeInfoDesc>>>,
     }
 );
 

@@ -16,8 +16,8 @@ use crate::checks::Validator;
 use crate::device::{Device, Limits, Profile};
 use crate::inspect::simulate::{HitInput, HitQuery};
 use crate::model::accel::{
-    AabbsData, AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo, Geometry,
-    GeometryData, InstancesData,
+    AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData,
+    InstancesData,
 };
 use crate::model::command::{queue, CommandBuffer};
 use crate::model::micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
@@ -1302,10 +1302,7 @@ impl Resolver<'_> {
         geometry.geometry = if let Some(t) = &union.triangles {
             GeometryData::Triangles(self.triangles_data(t, &format!("{at}.geometry.triangles"))?)
         } else if let Some(a) = &union.aabbs {
-            GeometryData::Aabbs(AabbsData {
-                data: self.address(&a.data, &format!("{at}.geometry.aabbs.data"))?,
-                stride: a.stride,
-            })
+            GeometryData::Aabbs(self.aabbs_data(a, &format!("{at}.geometry.aabbs"))?)
         } else if let Some(i) = &union.instances {
             GeometryData::Instances(InstancesData {
                 array_of_pointers: i.array_of_pointers,
@@ -1443,20 +1440,24 @@ impl Resolver<'_> {
         Ok(ranges)
     }
 
-    fn build_ranges(ranges: &[Option<Vec<BuildRangeDesc>>]) -> Vec<Option<Vec<BuildRangeInfo>>> {
+    fn build_ranges(
+        &self,
+        ranges: &[Option<Vec<BuildRangeInfoDesc>>],
+        at: &str,
+    ) -> Result<Vec<Option<Vec<BuildRangeInfo>>>> {
+        let at = format!("{at}.ppBuildRangeInfos");
         ranges
             .iter()
-            .map(|list| {
-                list.as_ref().map(|list| {
-                    list.iter()
-                        .map(|r| BuildRangeInfo {
-                            primitive_count: r.primitive_count,
-                            primitive_offset: r.primitive_offset,
-                            first_vertex: r.first_vertex,
-                            transform_offset: r.transform_offset,
-                        })
-                        .collect()
-                })
+            .enumerate()
+            .map(|(i, list)| {
+                list.as_ref()
+                    .map(|list| {
+                        list.iter()
+                            .enumerate()
+                            .map(|(k, r)| self.build_range_info(r, &format!("{at}[{i}][{k}]")))
+                            .collect()
+                    })
+                    .transpose()
             })
             .collect()
     }
@@ -1698,7 +1699,7 @@ impl Resolver<'_> {
             }
             Call::CmdBuildAccelerationStructures(c) => {
                 let command_buffer = self.command_buffer(&c.command_buffer, at)?;
-                let ranges = Self::build_ranges(&c.pp_build_range_infos);
+                let ranges = self.build_ranges(&c.pp_build_range_infos, at)?;
                 let infos = self.build_geometry_infos(&c.p_infos, &ranges, false, at)?;
                 self.validator
                     .cmd_build_acceleration_structures(&command_buffer, &infos, &ranges)
@@ -1724,7 +1725,7 @@ impl Resolver<'_> {
             Call::BuildAccelerationStructures(c) => {
                 self.device_handle(&c.device, &device_at)?;
                 self.deferred_operation(&c.deferred_operation, at)?;
-                let ranges = Self::build_ranges(&c.pp_build_range_infos);
+                let ranges = self.build_ranges(&c.pp_build_range_infos, at)?;
                 let infos = self.build_geometry_infos(&c.p_infos, &ranges, true, at)?;
                 self.validator
                     .build_acceleration_structures(&infos, &ranges)

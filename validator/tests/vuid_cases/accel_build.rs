@@ -151,6 +151,7 @@ fn blas_build() -> BuildGeometryInfo {
         geometry: GeometryData::Aabbs(AabbsData {
             data: INPUT_ADDRESS,
             stride: 24,
+            ..Default::default()
         }),
         ..Default::default()
     };

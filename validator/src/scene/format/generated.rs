@@ -320,6 +320,34 @@ pub struct GeometryMicromapDataDesc {
     pub triangle_array_stride: Option<u64>,
 }
 
+/// `VkAccelerationStructureGeometryAabbsDataKHR`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AabbsDataDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub data: AddressArg,
+    #[serde(default)]
+    pub stride: u64,
+}
+
+/// `VkAccelerationStructureBuildRangeInfoKHR`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BuildRangeInfoDesc {
+    #[serde(default)]
+    pub primitive_count: u32,
+    #[serde(default)]
+    pub primitive_offset: u32,
+    #[serde(default)]
+    pub first_vertex: u32,
+    #[serde(default)]
+    pub transform_offset: u32,
+}
+
 /// `VkAccelerationStructureGeometryTrianglesDataKHR`; with the micromap attachments of its pNext chain.
 #[derive(Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]

@@ -3,6 +3,9 @@
 //! describes: names become handles and addresses, absent members their
 //! defaults.
 
+// A structure of plain numbers uses neither `at` nor its defaults.
+#![allow(unused_variables)]
+
 use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};
 use crate::model::generated as model;
 use crate::model::names::Value;
@@ -303,6 +306,36 @@ impl Resolver<'_> {
             triangle_array_stride: d
                 .triangle_array_stride
                 .unwrap_or(defaults.triangle_array_stride),
+        })
+    }
+
+    /// A `VkAccelerationStructureGeometryAabbsDataKHR` at `at`.
+    pub(in crate::scene) fn aabbs_data(
+        &self,
+        d: &scene::AabbsDataDesc,
+        at: &str,
+    ) -> Result<model::AabbsData> {
+        let defaults = model::AabbsData::default();
+        Ok(model::AabbsData {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            data: self.address(&d.data, &format!("{at}.data"))?,
+            stride: d.stride,
+        })
+    }
+
+    /// A `VkAccelerationStructureBuildRangeInfoKHR` at `at`.
+    pub(in crate::scene) fn build_range_info(
+        &self,
+        d: &scene::BuildRangeInfoDesc,
+        at: &str,
+    ) -> Result<model::BuildRangeInfo> {
+        let defaults = model::BuildRangeInfo::default();
+        Ok(model::BuildRangeInfo {
+            primitive_count: d.primitive_count,
+            primitive_offset: d.primitive_offset,
+            first_vertex: d.first_vertex,
+            transform_offset: d.transform_offset,
         })
     }
 

@@ -3,6 +3,9 @@
 //! describes: what the resolver reads back to the same model. Members
 //! at their defaults are left out where the scene form allows it.
 
+// A structure of plain numbers names no objects or addresses.
+#![allow(unused_variables)]
+
 use super::{chain_entry, usage_counts_count, usage_desc, Names};
 use crate::model::generated as model;
 use crate::model::names::Value;
@@ -273,6 +276,32 @@ impl scene::GeometryMicromapDataDesc {
             triangle_array: names.address(model.triangle_array),
             triangle_array_stride: (model.triangle_array_stride != defaults.triangle_array_stride)
                 .then_some(model.triangle_array_stride),
+        }
+    }
+}
+
+impl scene::AabbsDataDesc {
+    /// The scene form of a `VkAccelerationStructureGeometryAabbsDataKHR`, naming objects and addresses by `names`.
+    pub fn written(model: &model::AabbsData, names: &dyn Names) -> Self {
+        let defaults = model::AabbsData::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model.next.iter().copied().map(chain_entry).collect(),
+            data: names.address(model.data),
+            stride: model.stride,
+        }
+    }
+}
+
+impl scene::BuildRangeInfoDesc {
+    /// The scene form of a `VkAccelerationStructureBuildRangeInfoKHR`, naming objects and addresses by `names`.
+    pub fn written(model: &model::BuildRangeInfo, names: &dyn Names) -> Self {
+        let defaults = model::BuildRangeInfo::default();
+        Self {
+            primitive_count: model.primitive_count,
+            primitive_offset: model.primitive_offset,
+            first_vertex: model.first_vertex,
+            transform_offset: model.transform_offset,
         }
     }
 }
@@ -658,6 +687,44 @@ mod tests {
         let read: scene::GeometryMicromapDataDesc = serde_json::from_str(&json).unwrap();
         assert_eq!(
             crate::scene::resolve_alone(|r| r.geometry_micromap_data(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn aabbs_data_reads_back_as_written() {
+        let model = model::AabbsData {
+            next: vec![1_000_001_000],
+            data: 0x2000_0000 + 3,
+            stride: 4,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::AabbsDataDesc::written(&model, names)).unwrap();
+        let read: scene::AabbsDataDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.aabbs_data(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn build_range_info_reads_back_as_written() {
+        let model = model::BuildRangeInfo {
+            primitive_count: 1,
+            primitive_offset: 2,
+            first_vertex: 3,
+            transform_offset: 4,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::BuildRangeInfoDesc::written(&model, names)).unwrap();
+        let read: scene::BuildRangeInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.build_range_info(&read, "x")),
             Ok(model),
             "{json}"
         );
