@@ -7,7 +7,7 @@
 //! Command buffers that are never submitted are never decided, so a caller
 //! that does not submit sees no finding of these rules (`docs/choices.md`).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use ommcheck_vuids::vuid::{
     vkCmdBuildAccelerationStructuresIndirectKHR as build_indirect,
@@ -25,8 +25,9 @@ use crate::model::Handle;
 use crate::model::{CommandBuffer, SubmitBatch};
 use crate::report::{ObjectRef, Report};
 use crate::state::execution::{
-    first_available, join, set_queries, Clock, ExecEvent, Execution, ReadRule,
+    first_available, first_outside, join, set_queries, Clock, ExecEvent, Execution, ReadRule,
 };
+use crate::state::QueryPool;
 use crate::tier::Tier;
 
 pub const COVERAGE: Coverage = Coverage {
@@ -79,6 +80,9 @@ struct Decided {
     object: Option<ObjectRef>,
 }
 
+/// The query pools the checker saw created (their queries start uninitialized).
+type Pools = BTreeMap<Handle, QueryPool>;
+
 /// What a submitted command buffer is called in the submit command's parameters.
 fn command_buffer_member(function: &str, batch: usize, index: usize) -> String {
     if function == "vkQueueSubmit" {
@@ -101,6 +105,7 @@ struct Run<'a> {
 
 fn run_command_buffer(
     exec: &mut Execution,
+    pools: &Pools,
     command_buffer: Handle,
     run: &Run<'_>,
     uses: &mut BTreeSet<Handle>,
@@ -145,15 +150,20 @@ fn run_command_buffer(
             }
             ExecEvent::WriteQueries { pool, first, count } => {
                 let (start, end) = (u64::from(*first), u64::from(*first) + u64::from(*count));
-                let ranges = exec.available_queries.entry(*pool).or_default();
                 if decide {
                     checked.insert(cmd_write::None_12417);
-                    if let Some(query) = first_available(ranges, start, end) {
+                    let problem = uninitialized_query(exec, pools, *pool, start, end)
+                        .map(|query| (query, "uninitialized: no vkCmdResetQueryPool executed before it and no vkResetQueryPool has reset it since the pool was created"))
+                        .or_else(|| {
+                            let available = exec.available_queries.get(pool)?;
+                            first_available(available, start, end).map(|query| (query, "available: executed work wrote it, and no vkCmdResetQueryPool or vkResetQueryPool reset it since"))
+                        });
+                    if let Some((query, state)) = problem {
                         decided.push(Decided {
                             vuid: cmd_write::None_12417,
                             location: run.at.clone(),
                             message: format!(
-                                "{function} recorded in VkCommandBuffer {command_buffer:#x} writes query {query} of VkQueryPool {pool:#x}, which executed work left available: no vkCmdResetQueryPool or vkResetQueryPool reset it since it was last written"
+                                "{function} recorded in VkCommandBuffer {command_buffer:#x} writes query {query} of VkQueryPool {pool:#x}, which is {state}"
                             ),
                             object: Some(ObjectRef {
                                 ty: "VkQueryPool",
@@ -162,16 +172,35 @@ fn run_command_buffer(
                         });
                     }
                 }
-                set_queries(ranges, start, end, true);
+                set_queries(
+                    exec.available_queries.entry(*pool).or_default(),
+                    start,
+                    end,
+                    true,
+                );
             }
             ExecEvent::ResetQueries { pool, first, count } => {
-                let ranges = exec.available_queries.entry(*pool).or_default();
                 let start = u64::from(*first);
-                set_queries(ranges, start, start + u64::from(*count), false);
+                exec.reset_queries(*pool, start, start + u64::from(*count));
             }
         }
     }
     exec.recordings.insert(command_buffer, recording);
+}
+
+/// The first query of `[start, end)` of `pool` never reset since the pool
+/// was created. Only a pool the checker saw created is decided (of another
+/// it cannot tell), and only its queries (those past its end are 07528's).
+fn uninitialized_query(
+    exec: &Execution,
+    pools: &Pools,
+    pool: Handle,
+    start: u64,
+    end: u64,
+) -> Option<u64> {
+    let count = u64::from(pools.get(&pool)?.query_count);
+    let reset = exec.reset_queries.get(&pool).map_or(&[][..], Vec::as_slice);
+    first_outside(reset, start, end.min(count))
 }
 
 impl Validator {
@@ -297,14 +326,10 @@ impl Validator {
         first_query: u32,
         query_count: u32,
     ) -> Report {
-        let ranges = self
-            .state
-            .execution
-            .available_queries
-            .entry(query_pool)
-            .or_default();
         let start = u64::from(first_query);
-        set_queries(ranges, start, start + u64::from(query_count), false);
+        self.state
+            .execution
+            .reset_queries(query_pool, start, start + u64::from(query_count));
         Report::new()
     }
 
@@ -352,6 +377,7 @@ impl Validator {
                 };
                 run_command_buffer(
                     &mut exec,
+                    &self.state.query_pools,
                     *command_buffer,
                     &run,
                     &mut uses,
@@ -606,5 +632,73 @@ mod tests {
         let report = v.queue_submit("vkQueueSubmit", COMPUTE, &[batch(2, waits, vec![])], 0);
         assert!(report.is_empty(), "{report}");
         assert!(!report.checked.contains(cmd_copy::src_07532));
+    }
+
+    const POOL: Handle = 0x99;
+
+    /// A validator with a query pool of 4 queries created, command buffer
+    /// 3 resetting them all and command buffer 4 writing query 0.
+    fn with_pool() -> Validator {
+        let mut v = Validator::new(Device::default());
+        v.state.query_pools.insert(
+            POOL,
+            QueryPool {
+                query_type: 1_000_396_001,
+                query_count: 4,
+            },
+        );
+        v.cmd_reset_query_pool(&cb(3), POOL, 0, 4);
+        let write = ExecEvent::WriteQueries {
+            pool: POOL,
+            first: 0,
+            count: 1,
+        };
+        v.record_execution(&cb(4), "vkCmdWriteMicromapsPropertiesEXT", [write]);
+        v
+    }
+
+    #[test]
+    fn a_query_is_uninitialized_from_creation_until_a_reset() {
+        let submit = |v: &mut Validator, command_buffer| {
+            v.queue_submit(
+                "vkQueueSubmit",
+                GRAPHICS,
+                &[batch(command_buffer, vec![], vec![])],
+                0,
+            )
+        };
+        // Never reset: the write is reported.
+        let mut v = with_pool();
+        let report = submit(&mut v, 4);
+        assert_eq!(report.ids(), [cmd_write::None_12417.id()]);
+        assert!(
+            report.findings[0].message.contains("uninitialized"),
+            "{report}"
+        );
+
+        // Reset by a command buffer submitted before, or on the host: silent.
+        let mut v = with_pool();
+        assert!(submit(&mut v, 3).is_empty());
+        let report = submit(&mut v, 4);
+        assert!(
+            report.is_empty() && report.checked.contains(cmd_write::None_12417),
+            "{report}"
+        );
+        let mut v = with_pool();
+        v.reset_query_pool(POOL, 0, 1);
+        assert!(submit(&mut v, 4).is_empty());
+
+        // A reset of other queries, or one submitted after the write, is too late.
+        let mut v = with_pool();
+        v.reset_query_pool(POOL, 1, 3);
+        assert_eq!(submit(&mut v, 4).ids(), [cmd_write::None_12417.id()]);
+        let mut v = with_pool();
+        assert_eq!(submit(&mut v, 4).ids(), [cmd_write::None_12417.id()]);
+        assert!(submit(&mut v, 3).is_empty());
+
+        // A pool the checker did not see created is not decided for it.
+        let mut v = with_pool();
+        v.state.query_pools.clear();
+        assert!(submit(&mut v, 4).is_empty());
     }
 }

@@ -66,7 +66,8 @@ pub enum ExecEvent {
         first: u32,
         count: u32,
     },
-    /// `vkCmdResetQueryPool` makes queries `[first, first + count)` unavailable.
+    /// `vkCmdResetQueryPool` makes queries `[first, first + count)`
+    /// unavailable (and, the first time, no longer uninitialized).
     ResetQueries {
         pool: Handle,
         first: u32,
@@ -132,7 +133,7 @@ pub struct InFlight {
     pub uses: BTreeSet<Handle>,
 }
 
-/// Half-open ranges of available queries of one pool, sorted, disjoint.
+/// Half-open ranges of queries of one pool, sorted, disjoint.
 pub type QueryRanges = Vec<(u64, u64)>;
 
 /// Marks `[start, end)` available (`available`) or unavailable.
@@ -177,6 +178,18 @@ pub fn first_available(ranges: &QueryRanges, start: u64, end: u64) -> Option<u64
         .map(|(s, _)| (*s).max(start))
 }
 
+/// The first query in `[start, end)` that `ranges` leaves out, if any.
+pub fn first_outside(ranges: &[(u64, u64)], start: u64, end: u64) -> Option<u64> {
+    let mut at = start;
+    for &(s, e) in ranges {
+        if at >= end || s > at {
+            break;
+        }
+        at = at.max(e);
+    }
+    (at < end).then_some(at)
+}
+
 /// Everything execution order needs.
 #[derive(Clone, Debug, Default)]
 pub struct Execution {
@@ -198,6 +211,10 @@ pub struct Execution {
     pub in_flight: VecDeque<InFlight>,
     /// Query pool → its available queries, as executed work left them.
     pub available_queries: BTreeMap<Handle, QueryRanges>,
+    /// Query pool → its queries reset at least once (by executed work or
+    /// on the host) since the pool was created; the others of a pool the
+    /// checker saw created are uninitialized.
+    pub reset_queries: BTreeMap<Handle, QueryRanges>,
 }
 
 impl Execution {
@@ -314,6 +331,30 @@ impl Execution {
             .find(|s| s.uses.contains(&object) && !covers(&self.completed, (s.queue, s.seq)))
     }
 
+    /// The queries `[start, end)` of `pool` are reset (unavailable), by a
+    /// reset that executed or by `vkResetQueryPool`.
+    pub fn reset_queries(&mut self, pool: Handle, start: u64, end: u64) {
+        set_queries(
+            self.available_queries.entry(pool).or_default(),
+            start,
+            end,
+            false,
+        );
+        set_queries(
+            self.reset_queries.entry(pool).or_default(),
+            start,
+            end,
+            true,
+        );
+    }
+
+    /// `pool` is created (or destroyed): nothing is known of its queries,
+    /// which are uninitialized, and nothing of an earlier pool with its handle.
+    pub fn forget_query_pool(&mut self, pool: Handle) {
+        self.available_queries.remove(&pool);
+        self.reset_queries.remove(&pool);
+    }
+
     /// Records a timeline signal, keeping at most [`TIMELINE_SIGNALS_AT_MOST`].
     pub fn timeline_signal(&mut self, semaphore: Handle, value: u64, clock: Clock) {
         let signals = self.timeline_signals.entry(semaphore).or_default();
@@ -352,6 +393,22 @@ mod tests {
         assert!(r.is_empty());
         set_queries(&mut r, 5, 5, true);
         assert!(r.is_empty(), "an empty range changes nothing");
+    }
+
+    #[test]
+    fn the_first_query_outside_the_ranges() {
+        let r = vec![(0, 2), (4, 8)];
+        assert_eq!(first_outside(&r, 0, 2), None);
+        assert_eq!(first_outside(&r, 0, 3), Some(2));
+        assert_eq!(first_outside(&r, 3, 6), Some(3));
+        assert_eq!(first_outside(&r, 5, 8), None);
+        assert_eq!(first_outside(&r, 5, 9), Some(8));
+        assert_eq!(first_outside(&[], 1, 2), Some(1));
+        assert_eq!(
+            first_outside(&[], 2, 2),
+            None,
+            "an empty range has no query"
+        );
     }
 
     #[test]

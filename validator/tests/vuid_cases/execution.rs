@@ -105,5 +105,18 @@ pub fn cases() -> Vec<Case> {
             "VUID-vkCmdBuildAccelerationStructuresIndirectKHR-micromap-11701",
             "VUID-vkCmdBuildAccelerationStructuresIndirectKHR-micromap-11701.pass.json"
         ),
+        // Queries are uninitialized from their pool's creation until reset.
+        corpus_case!(
+            cmd_write::None_12417,
+            "query-initialization",
+            "VUID-vkCmdWriteMicromapsPropertiesEXT-None-12417",
+            "pass.json"
+        ),
+        corpus_case!(
+            cmd_write::None_12417,
+            "query-initialization-host",
+            "VUID-vkCmdWriteMicromapsPropertiesEXT-None-12417",
+            "pass.json"
+        ),
     ]
 }
