@@ -8,6 +8,10 @@
 //! semaphore value it signals is reached (`vkWaitSemaphores`,
 //! `vkGetSemaphoreCounterValue`). A fence or semaphore signal also
 //! completes every earlier submission to the same queue.
+//!
+//! A host `vkSignalSemaphore` completes nothing, but it can let a
+//! submission the core holds (one waiting for the value signalled) run:
+//! the core decides its execution-order rules then.
 
 #![allow(unsafe_code)]
 
@@ -17,7 +21,7 @@ use ash::vk::Handle as _;
 use crate::dispatch::next_fns::DeviceFns;
 use crate::dispatch::submissions::{Pending, Submissions};
 use crate::dispatch::DeviceData;
-use crate::intercept::{aliased_intercepts, device_and, guarded, panic_message};
+use crate::intercept::{aliased_intercepts, check, device_and, guarded, panic_message};
 use crate::read;
 use crate::report::Message;
 
@@ -228,12 +232,17 @@ unsafe fn waited_semaphores(
                 // SAFETY: the next layer's function, with a semaphore of the device.
                 (unsafe { get(device, semaphore, &mut value) }) == vk::Result::SUCCESS
             });
+            // The counter as read: signals above it have not executed.
+            if asked {
+                validator.semaphore_counter_value(semaphore.as_raw(), value);
+            }
             asked.then_some(value)
         } else {
+            // Waited for: the first signal reaching the value has executed.
+            validator.semaphore_reached(semaphore.as_raw(), waited);
             Some(waited)
         };
         if let Some(value) = reached {
-            validator.semaphore_reached(semaphore.as_raw(), value);
             reached_values.push((semaphore.as_raw(), value));
         }
     }
@@ -279,6 +288,39 @@ aliased_intercepts! {
         get_semaphore_counter_value = "vkGetSemaphoreCounterValue", memory.get_semaphore_counter_value;
         get_semaphore_counter_value_khr = "vkGetSemaphoreCounterValueKHR", memory.get_semaphore_counter_value_khr;
     }
+    signal_semaphore_with(device: vk::Device, info: *const vk::SemaphoreSignalInfo<'_>) -> vk::Result {
+        signal_semaphore = "vkSignalSemaphore", memory.signal_semaphore;
+        signal_semaphore_khr = "vkSignalSemaphoreKHR", memory.signal_semaphore_khr;
+    }
+}
+
+/// `vkSignalSemaphore(KHR)`: the host signals a timeline value. Submissions
+/// the core held for it run now, ordered after what the host has seen
+/// complete, and their execution-order rules are reported here; as at
+/// submission, a messenger may skip the call.
+unsafe fn signal_semaphore_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkSignalSemaphore>,
+    device: vk::Device,
+    info: *const vk::SemaphoreSignalInfo<'_>,
+) -> vk::Result {
+    guarded(function, vk::Result::ERROR_DEVICE_LOST, || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return vk::Result::ERROR_DEVICE_LOST;
+        };
+        // SAFETY: the application's signal info (the API's requirement).
+        let signal = unsafe { info.as_ref() }.map(|i| (i.semaphore.as_raw(), i.value));
+        if let Some((semaphore, value)) = signal {
+            let object = (vk::ObjectType::SEMAPHORE, semaphore);
+            if check(&data, function, object, |state| {
+                state.validator.signal_semaphore(semaphore, value)
+            }) {
+                return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+            }
+        }
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, info) }
+    })
 }
 
 /// `vkGetSemaphoreCounterValue(KHR)`: the counter reached the value written.
@@ -300,7 +342,7 @@ unsafe fn counter_value_with(
             let reached = unsafe { read::value(value.cast_const()) };
             reached
                 .map(|value| {
-                    validator.semaphore_reached(semaphore.as_raw(), value);
+                    validator.semaphore_counter_value(semaphore.as_raw(), value);
                     (semaphore.as_raw(), value)
                 })
                 .into_iter()
