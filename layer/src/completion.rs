@@ -17,6 +17,10 @@
 //! object the submission used), and does not check the builds read back
 //! for that submission, whose copies may not have run; it says so once
 //! per device and cause.
+//!
+//! A host `vkSignalSemaphore` completes nothing, but it can let a
+//! submission the core holds (one waiting for the value signalled) run:
+//! the core decides its execution-order rules then.
 
 #![allow(unsafe_code)]
 
@@ -28,7 +32,7 @@ use ommcheck::Severity;
 use crate::dispatch::next_fns::DeviceFns;
 use crate::dispatch::submissions::{Pending, Submissions};
 use crate::dispatch::{DeviceData, DeviceState};
-use crate::intercept::{aliased_intercepts, device_and, guarded, panic_message};
+use crate::intercept::{aliased_intercepts, check, device_and, guarded, panic_message};
 use crate::own_calls::{self, OwnCall};
 use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
@@ -346,7 +350,11 @@ unsafe fn waited_semaphores(
     let mut observed = Observed::default();
     for (&semaphore, &waited) in semaphores.iter().zip(values) {
         let reached = match counter {
-            _ if !any => Ok(Some(waited)),
+            _ if !any => {
+                // Waited for: the first signal reaching the value has executed.
+                validator.semaphore_reached(semaphore.as_raw(), waited);
+                Ok(Some(waited))
+            }
             None => Ok(None),
             Some(get) => {
                 let mut value = 0;
@@ -354,14 +362,15 @@ unsafe fn waited_semaphores(
                     // SAFETY: the next layer's function, with a semaphore of the device.
                     unsafe { get(device, semaphore, &mut value) }
                 })
-                .map(|_| Some(value))
+                .map(|_| {
+                    // The counter as read: signals above it have not executed.
+                    validator.semaphore_counter_value(semaphore.as_raw(), value);
+                    Some(value)
+                })
             }
         };
         match reached {
-            Ok(Some(value)) => {
-                validator.semaphore_reached(semaphore.as_raw(), value);
-                observed.reached.push((semaphore.as_raw(), value));
-            }
+            Ok(Some(value)) => observed.reached.push((semaphore.as_raw(), value)),
             Ok(None) => {}
             Err(failed) => {
                 validator.semaphore_reached(semaphore.as_raw(), waited);
@@ -415,6 +424,39 @@ aliased_intercepts! {
         get_semaphore_counter_value = "vkGetSemaphoreCounterValue", memory.get_semaphore_counter_value;
         get_semaphore_counter_value_khr = "vkGetSemaphoreCounterValueKHR", memory.get_semaphore_counter_value_khr;
     }
+    signal_semaphore_with(device: vk::Device, info: *const vk::SemaphoreSignalInfo<'_>) -> vk::Result {
+        signal_semaphore = "vkSignalSemaphore", memory.signal_semaphore;
+        signal_semaphore_khr = "vkSignalSemaphoreKHR", memory.signal_semaphore_khr;
+    }
+}
+
+/// `vkSignalSemaphore(KHR)`: the host signals a timeline value. Submissions
+/// the core held for it run now, ordered after what the host has seen
+/// complete, and their execution-order rules are reported here; as at
+/// submission, a messenger may skip the call.
+unsafe fn signal_semaphore_with(
+    function: &'static str,
+    pick: fn(&DeviceFns) -> Option<vk::PFN_vkSignalSemaphore>,
+    device: vk::Device,
+    info: *const vk::SemaphoreSignalInfo<'_>,
+) -> vk::Result {
+    guarded(function, vk::Result::ERROR_DEVICE_LOST, || {
+        let Some((data, next)) = device_and(device, pick) else {
+            return vk::Result::ERROR_DEVICE_LOST;
+        };
+        // SAFETY: the application's signal info (the API's requirement).
+        let signal = unsafe { info.as_ref() }.map(|i| (i.semaphore.as_raw(), i.value));
+        if let Some((semaphore, value)) = signal {
+            let object = (vk::ObjectType::SEMAPHORE, semaphore);
+            if check(&data, function, object, |state| {
+                state.validator.signal_semaphore(semaphore, value)
+            }) {
+                return vk::Result::ERROR_VALIDATION_FAILED_EXT;
+            }
+        }
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, info) }
+    })
 }
 
 /// `vkGetSemaphoreCounterValue(KHR)`: the counter reached the value written.
@@ -436,7 +478,7 @@ unsafe fn counter_value_with(
             let reached = unsafe { read::value(value.cast_const()) };
             reached
                 .map(|value| {
-                    validator.semaphore_reached(semaphore.as_raw(), value);
+                    validator.semaphore_counter_value(semaphore.as_raw(), value);
                     (semaphore.as_raw(), value)
                 })
                 .into_iter()

@@ -89,6 +89,107 @@ fn an_attachment_built_by_a_later_submission_is_reported_at_submission() {
     );
 }
 
+/// Records, into a new command buffer, a bottom-level build attaching
+/// `build`'s micromap.
+fn attachment_command_buffer(chain: &Chain, build: &DeviceBuild) -> vk::CommandBuffer {
+    let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+    let command_buffer = chain.allocate_command_buffer();
+    chain.begin(command_buffer);
+    AttachmentBuild {
+        blas: AttachmentBuild::structure(chain),
+        vertices: chain.address(chain.buffer(4096, input_usage, 0)),
+        scratch: build.scratch,
+        indices: chain.address(chain.buffer(64, input_usage, 0)),
+        usage_counts: &USAGE,
+        micromap: build.micromap,
+    }
+    .record(chain, command_buffer);
+    chain.end(command_buffer);
+    command_buffer
+}
+
+/// Submits `command_buffer` to `queue`, waiting for timeline `semaphore`
+/// to reach `value`.
+fn submit_waiting(
+    chain: &Chain,
+    queue: vk::Queue,
+    command_buffer: vk::CommandBuffer,
+    semaphore: vk::Semaphore,
+    value: u64,
+) -> vk::Result {
+    let submit: vk::PFN_vkQueueSubmit = device_fn(chain.device, c"vkQueueSubmit");
+    let (semaphores, values) = ([semaphore], [value]);
+    let stages = [vk::PipelineStageFlags::ALL_COMMANDS];
+    let command_buffers = [command_buffer];
+    let mut timeline = vk::TimelineSemaphoreSubmitInfo::default().wait_semaphore_values(&values);
+    let info = vk::SubmitInfo::default()
+        .wait_semaphores(&semaphores)
+        .wait_dst_stage_mask(&stages)
+        .command_buffers(&command_buffers)
+        .push_next(&mut timeline);
+    // SAFETY: valid arguments.
+    unsafe { submit(queue, 1, &info, vk::Fence::null()) }
+}
+
+/// Signals timeline `semaphore` to `value` from the host.
+fn host_signal(chain: &Chain, semaphore: vk::Semaphore, value: u64) -> vk::Result {
+    let signal: vk::PFN_vkSignalSemaphore = device_fn(chain.device, c"vkSignalSemaphore");
+    let info = vk::SemaphoreSignalInfo::default()
+        .semaphore(semaphore)
+        .value(value);
+    // SAFETY: valid arguments.
+    unsafe { signal(chain.device, &info) }
+}
+
+#[test]
+fn a_submission_held_for_a_host_signal_is_decided_at_the_signal() {
+    for wait_first in [false, true] {
+        let chain = chain();
+        let build = DeviceBuild::new(&chain);
+        let omm_cb = build_command_buffer(&chain, &build);
+        let blas_cb = attachment_command_buffer(&chain, &build);
+        let get_queue: vk::PFN_vkGetDeviceQueue = device_fn(chain.device, c"vkGetDeviceQueue");
+        let mut other_queue = vk::Queue::null();
+        // SAFETY: valid arguments (the fake driver hands out any queue).
+        unsafe { get_queue(chain.device, 0, 1, &mut other_queue) };
+        let go = chain.timeline(0);
+        chain.collector.take();
+
+        // Nothing submitted signals `go`: the BLAS build is held, not decided.
+        assert_eq!(
+            submit_waiting(&chain, other_queue, blas_cb, go, 1),
+            vk::Result::SUCCESS
+        );
+        let held = chain.collector.take();
+        assert!(!ids(&held).contains(&ATTACHED_BEFORE_BUILT), "{held:#?}");
+
+        let fence = chain.fence();
+        assert_eq!(chain.submit_with(omm_cb, fence), vk::Result::SUCCESS);
+        if wait_first {
+            assert_eq!(chain.wait_for_fence(fence), vk::Result::SUCCESS);
+        }
+        chain.collector.take();
+        assert_eq!(host_signal(&chain, go, 1), vk::Result::SUCCESS);
+        let signalled = chain.collector.take();
+        let reported: Vec<_> = signalled
+            .iter()
+            .filter(|r| r.id == ATTACHED_BEFORE_BUILT)
+            .collect();
+        if wait_first {
+            // The host saw the micromap built before it let the BLAS build run.
+            assert!(reported.is_empty(), "{signalled:#?}");
+        } else {
+            assert_eq!(reported.len(), 1, "{signalled:#?}");
+            assert!(
+                reported[0].text.contains("vkSignalSemaphore()"),
+                "{}",
+                reported[0].text
+            );
+        }
+    }
+}
+
 /// A pool of `count` serialization-size queries.
 fn query_pool(chain: &Chain, count: u32) -> vk::QueryPool {
     let create: vk::PFN_vkCreateQueryPool = device_fn(chain.device, c"vkCreateQueryPool");

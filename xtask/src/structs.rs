@@ -521,7 +521,9 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
          member as the application wrote it, pNext as its chain's sTypes.",
     );
     out.push_str(
-        "use ash::vk;\nuse ommcheck_vuids::khr;\nuse serde::{Deserialize, Serialize};\n\n\
+        "// Every structure spells out its defaults, zero or not.\n\
+         #![allow(clippy::derivable_impls)]\n\n\
+         use ash::vk;\nuse ommcheck_vuids::khr;\nuse serde::{Deserialize, Serialize};\n\n\
          use super::micromap::UsageCounts;\nuse super::Handle;\n\n",
     );
     for spec in STRUCTS {
@@ -1079,9 +1081,18 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
             };
             let _ = writeln!(out, "            {}: {value},", field.rust);
         }
+        // The sType, a chained structure's pNext and extracted structures
+        // keep their defaults.
+        let rest = if fields.iter().any(|f| matches!(f.form, Form::SType(_) | Form::Next))
+            || !spec.extracts.is_empty()
+        {
+            "            ..Default::default()\n"
+        } else {
+            ""
+        };
         let _ = writeln!(
             out,
-            "            ..Default::default()\n        }};\n        \
+            "{rest}        }};\n        \
              let names: &dyn Names = &Numbers;\n        \
              let json = serde_json::to_string(&scene::{}Desc::written(&model, names)).unwrap();\n        \
              let read: scene::{}Desc = serde_json::from_str(&json).unwrap();\n        \

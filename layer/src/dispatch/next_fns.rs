@@ -579,6 +579,8 @@ macro_rules! memory_commands {
                 wait_semaphores_khr: vk::PFN_vkWaitSemaphores = c"vkWaitSemaphoresKHR";
                 get_semaphore_counter_value: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValue";
                 get_semaphore_counter_value_khr: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValueKHR";
+                signal_semaphore: vk::PFN_vkSignalSemaphore = c"vkSignalSemaphore";
+                signal_semaphore_khr: vk::PFN_vkSignalSemaphore = c"vkSignalSemaphoreKHR";
             }
             called {
                 get_buffer_memory_requirements: vk::PFN_vkGetBufferMemoryRequirements = c"vkGetBufferMemoryRequirements";

@@ -96,22 +96,52 @@ fn blocks(bytes: &[u8]) -> Option<Vec<Block<'_>>> {
     Some(out)
 }
 
-/// Whether `address` is what `vkGetBufferDeviceAddress` returned for the
-/// buffer of a KHR opacity micromap the checker knows.
-fn is_micromap_buffer_address(state: &State, address: u64) -> bool {
-    state
-        .acceleration_structures
-        .values()
-        .filter(|s| s.ty == ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP)
-        .any(|s| {
-            let by_handle = state.buffers.get(&s.buffer).and_then(|b| b.device_address);
-            // Created from an address range: the buffer holding its start.
-            let by_range = s
-                .address_range
-                .and_then(|(start, _)| state.buffers_at(start).find_map(|(_, b)| b.device_address));
-            (!s.created_with_2 && by_handle == Some(address))
-                || (s.created_with_2 && by_range == Some(address))
-        })
+/// What `address` is to 11585.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum HeaderAddress {
+    /// What `vkGetBufferDeviceAddress` returned for the buffer of a KHR
+    /// opacity micromap of the device that executes the command.
+    OnThisDevice,
+    /// The same, but the micromap or its buffer belongs to another
+    /// `VkDevice`: the command's device has no such micromap.
+    OnAnotherDevice,
+    /// No micromap's buffer has this address.
+    NoMicromap,
+}
+
+/// What `address` is: the buffer address of which known KHR opacity
+/// micromap, on which device.
+fn header_address(state: &State, address: u64) -> HeaderAddress {
+    let foreign = |handle| state.other_device_objects.contains(&handle);
+    let mut found = HeaderAddress::NoMicromap;
+    for (handle, s) in &state.acceleration_structures {
+        if s.ty != ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP {
+            continue;
+        }
+        // Created from a buffer, or from an address range: the buffer
+        // holding the range's start.
+        let buffer = if s.created_with_2 {
+            s.address_range.and_then(|(start, _)| {
+                state
+                    .buffers_at(start)
+                    .find(|(_, b)| b.device_address.is_some())
+            })
+        } else {
+            state.buffers.get(&s.buffer).map(|b| (s.buffer, b))
+        };
+        let Some((buffer_handle, buffer)) = buffer else {
+            continue;
+        };
+        if buffer.device_address != Some(address) {
+            continue;
+        }
+        if foreign(*handle) || foreign(buffer_handle) {
+            found = HeaderAddress::OnAnotherDevice;
+        } else {
+            return HeaderAddress::OnThisDevice;
+        }
+    }
+    found
 }
 
 /// The rules on the serialized header at `info.src` (host memory when
@@ -172,11 +202,19 @@ pub(crate) fn check(ctx: &mut Ctx<'_>, host: bool, info: &CopyMemoryToAccelerati
             // NULL stands for a geometry without a micromap: the
             // specification has the application keep the NULLs an
             // implementation wrote.
+            let found = if address == 0 {
+                HeaderAddress::OnThisDevice
+            } else {
+                header_address(state, address)
+            };
             ctx.require(
-                address == 0 || is_micromap_buffer_address(state, address),
+                found == HeaderAddress::OnThisDevice,
                 from_memory_info::dst_11585,
                 || format!("pInfo->src (header block {i}, address {k})"),
-                || format!("{address:#x} is not the device address of the buffer of any KHR opacity micromap the checker knows"),
+                || match found {
+                    HeaderAddress::OnAnotherDevice => format!("{address:#x} is the device address of the buffer of a KHR opacity micromap of another VkDevice, not of the device that executes the command"),
+                    _ => format!("{address:#x} is not the device address of the buffer of any KHR opacity micromap the checker knows"),
+                },
             );
         }
     }

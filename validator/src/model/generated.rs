@@ -2,6 +2,9 @@
 //! Model types of the structures `xtask/src/structs.rs` describes: every
 //! member as the application wrote it, pNext as its chain's sTypes.
 
+// Every structure spells out its defaults, zero or not.
+#![allow(clippy::derivable_impls)]
+
 use ash::vk;
 use ommcheck_vuids::khr;
 use serde::{Deserialize, Serialize};

@@ -393,7 +393,7 @@ impl Validator {
     /// Forgets a query pool `vkDestroyQueryPool` destroyed.
     pub fn forget_query_pool(&mut self, query_pool: Handle) {
         self.state.query_pools.remove(&query_pool);
-        self.state.execution.available_queries.remove(&query_pool);
+        self.state.execution.forget_query_pool(query_pool);
     }
 
     /// Checks `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`; a

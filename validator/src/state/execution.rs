@@ -11,13 +11,18 @@
 //! Ordering between queues is a vector clock per submission: for every
 //! queue, the last of its submissions known to execute before this one
 //! (earlier on the same queue, or before a semaphore signal it waits on, or
-//! seen complete by the host). Everything here is bounded: one clock entry
-//! per queue, a few signals per semaphore, and at most
-//! [`IN_FLIGHT_AT_MOST`] submissions remembered while nobody waits for them.
+//! seen complete by the host). A batch that waits for a signal not yet
+//! submitted (wait-before-signal: a timeline value a later submission or
+//! `vkSignalSemaphore` provides) cannot run yet: it is held, with the
+//! batches after it on its queue, as a [`HeldBatch`] until the signal
+//! arrives, and is decided then. Everything here is bounded: one clock
+//! entry per queue, a few signals per semaphore, at most [`HELD_AT_MOST`]
+//! held batches, and at most [`IN_FLIGHT_AT_MOST`] submissions remembered
+//! while nobody waits for them.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
-use crate::model::Handle;
+use crate::model::{Handle, SemaphoreOp};
 
 /// How many submissions not yet seen complete are remembered (for the
 /// objects they use): past it the oldest are forgotten, which can only hide
@@ -30,6 +35,10 @@ pub const TIMELINE_SIGNALS_AT_MOST: usize = 64;
 /// How many events one command buffer keeps; past it the command buffer's
 /// execution order is not decided (see [`Recording::overflowed`]).
 pub const EVENTS_AT_MOST: usize = 1 << 16;
+/// How many batches are held waiting for a signal; past it the oldest runs
+/// undecided (its effects applied, nothing reported for it), which can only
+/// hide a finding.
+pub const HELD_AT_MOST: usize = 256;
 
 /// The rules a recorded read answers to (which VUID it reports).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,7 +75,8 @@ pub enum ExecEvent {
         first: u32,
         count: u32,
     },
-    /// `vkCmdResetQueryPool` makes queries `[first, first + count)` unavailable.
+    /// `vkCmdResetQueryPool` makes queries `[first, first + count)`
+    /// unavailable (and, the first time, no longer uninitialized).
     ResetQueries {
         pool: Handle,
         first: u32,
@@ -132,7 +142,28 @@ pub struct InFlight {
     pub uses: BTreeSet<Handle>,
 }
 
-/// Half-open ranges of available queries of one pool, sorted, disjoint.
+/// A batch that could not run when it was submitted: it waits for a
+/// semaphore signal not submitted yet, or comes after such a batch on its
+/// queue. It keeps what its command buffers recorded at submission.
+#[derive(Clone, Debug)]
+pub struct HeldBatch {
+    pub queue: Handle,
+    pub seq: u64,
+    /// Submission order over all queues: the oldest held batch is the
+    /// first to run undecided when too many are held.
+    pub order: u64,
+    pub waits: Vec<SemaphoreOp>,
+    /// Each command buffer with what it had recorded when submitted, and
+    /// the member that names it in the submit command.
+    pub command_buffers: Vec<(Handle, Recording, String)>,
+    pub signals: Vec<SemaphoreOp>,
+    /// The submission's fence, on its last batch (0: none).
+    pub fence: Handle,
+    /// The submit command (`vkQueueSubmit`, `vkQueueSubmit2`).
+    pub function: &'static str,
+}
+
+/// Half-open ranges of queries of one pool, sorted, disjoint.
 pub type QueryRanges = Vec<(u64, u64)>;
 
 /// Marks `[start, end)` available (`available`) or unavailable.
@@ -177,6 +208,18 @@ pub fn first_available(ranges: &QueryRanges, start: u64, end: u64) -> Option<u64
         .map(|(s, _)| (*s).max(start))
 }
 
+/// The first query in `[start, end)` that `ranges` leaves out, if any.
+pub fn first_outside(ranges: &[(u64, u64)], start: u64, end: u64) -> Option<u64> {
+    let mut at = start;
+    for &(s, e) in ranges {
+        if at >= end || s > at {
+            break;
+        }
+        at = at.max(e);
+    }
+    (at < end).then_some(at)
+}
+
 /// Everything execution order needs.
 #[derive(Clone, Debug, Default)]
 pub struct Execution {
@@ -198,6 +241,18 @@ pub struct Execution {
     pub in_flight: VecDeque<InFlight>,
     /// Query pool → its available queries, as executed work left them.
     pub available_queries: BTreeMap<Handle, QueryRanges>,
+    /// Query pool → its queries reset at least once (by executed work or
+    /// on the host) since the pool was created; the others of a pool the
+    /// checker saw created are uninitialized.
+    pub reset_queries: BTreeMap<Handle, QueryRanges>,
+    /// Queue → its batches held until a signal they wait for arrives, in
+    /// submission order.
+    pub held: BTreeMap<Handle, VecDeque<HeldBatch>>,
+    /// Binary semaphores whose pending signal belongs to a held batch: a
+    /// wait on one is held too.
+    pub held_binary_signals: BTreeSet<Handle>,
+    /// Batches submitted so far, over all queues (the next [`HeldBatch::order`]).
+    pub batches_submitted: u64,
 }
 
 impl Execution {
@@ -314,6 +369,196 @@ impl Execution {
             .find(|s| s.uses.contains(&object) && !covers(&self.completed, (s.queue, s.seq)))
     }
 
+    /// The queries `[start, end)` of `pool` are reset (unavailable), by a
+    /// reset that executed or by `vkResetQueryPool`.
+    pub fn reset_queries(&mut self, pool: Handle, start: u64, end: u64) {
+        set_queries(
+            self.available_queries.entry(pool).or_default(),
+            start,
+            end,
+            false,
+        );
+        set_queries(
+            self.reset_queries.entry(pool).or_default(),
+            start,
+            end,
+            true,
+        );
+    }
+
+    /// `pool` is created (or destroyed): nothing is known of its queries,
+    /// which are uninitialized, and nothing of an earlier pool with its handle.
+    pub fn forget_query_pool(&mut self, pool: Handle) {
+        self.available_queries.remove(&pool);
+        self.reset_queries.remove(&pool);
+    }
+
+    /// The sequence number the next batch submitted to `queue` gets (after
+    /// those run and those held).
+    pub fn next_seq(&self, queue: Handle) -> u64 {
+        let ran = self.queues.get(&queue).map_or(0, |(seq, _)| *seq);
+        let held = self
+            .held
+            .get(&queue)
+            .and_then(|h| h.back())
+            .map_or(0, |b| b.seq);
+        ran.max(held) + 1
+    }
+
+    /// Everything submitted to `queue` so far, held batches included, and
+    /// what it was ordered after.
+    pub fn queue_clock(&self, queue: Handle) -> Clock {
+        let mut clock = self
+            .queues
+            .get(&queue)
+            .map(|(_, clock)| clock.clone())
+            .unwrap_or_default();
+        clock.insert(queue, self.next_seq(queue) - 1);
+        clock
+    }
+
+    /// Whether `queue` holds batches (a new one waits behind them).
+    pub fn holds(&self, queue: Handle) -> bool {
+        self.held.get(&queue).is_some_and(|h| !h.is_empty())
+    }
+
+    /// Whether a wait can be placed now: a timeline wait once a signal
+    /// reaching its value is known; a binary wait unless its signal
+    /// belongs to a held batch (a binary signal the checker never saw, such
+    /// as a swapchain acquire, orders nothing it knows of).
+    pub fn wait_ready(&self, wait: &SemaphoreOp) -> bool {
+        if wait.timeline {
+            self.timeline_reached(wait.semaphore, wait.value).is_some()
+        } else {
+            !self.held_binary_signals.contains(&wait.semaphore)
+        }
+    }
+
+    /// Holds `batch` until its waits can be placed; its binary signals
+    /// are then pending on it.
+    pub fn hold(&mut self, batch: HeldBatch) {
+        self.held_binary_signals.extend(
+            batch
+                .signals
+                .iter()
+                .filter(|s| !s.timeline)
+                .map(|s| s.semaphore),
+        );
+        self.held.entry(batch.queue).or_default().push_back(batch);
+    }
+
+    /// Takes the first held batch of a queue whose waits can all be placed
+    /// now, if any (queues in handle order, so the result is deterministic).
+    pub fn take_ready(&mut self) -> Option<HeldBatch> {
+        let queue = self.held.iter().find_map(|(queue, batches)| {
+            let first = batches.front()?;
+            first
+                .waits
+                .iter()
+                .all(|w| self.wait_ready(w))
+                .then_some(*queue)
+        })?;
+        self.take_first_held(queue)
+    }
+
+    /// Takes the first held batch of a queue that the host has seen
+    /// complete: a signal the checker did not see let it run.
+    pub fn take_completed(&mut self) -> Option<HeldBatch> {
+        let queue = self.held.iter().find_map(|(queue, batches)| {
+            let first = batches.front()?;
+            covers(&self.completed, (first.queue, first.seq)).then_some(*queue)
+        })?;
+        self.take_first_held(queue)
+    }
+
+    /// Takes the oldest held batch when more than [`HELD_AT_MOST`] are held.
+    pub fn take_overflow(&mut self) -> Option<HeldBatch> {
+        if self.held.values().map(VecDeque::len).sum::<usize>() <= HELD_AT_MOST {
+            return None;
+        }
+        let queue = self
+            .held
+            .iter()
+            .filter_map(|(queue, batches)| Some((batches.front()?.order, *queue)))
+            .min()?
+            .1;
+        self.take_first_held(queue)
+    }
+
+    fn take_first_held(&mut self, queue: Handle) -> Option<HeldBatch> {
+        let batches = self.held.get_mut(&queue)?;
+        let batch = batches.pop_front();
+        if batches.is_empty() {
+            self.held.remove(&queue);
+        }
+        if let Some(batch) = &batch {
+            for signal in batch.signals.iter().filter(|s| !s.timeline) {
+                self.held_binary_signals.remove(&signal.semaphore);
+            }
+        }
+        batch
+    }
+
+    /// The held batch that first signals timeline `semaphore` to `value`
+    /// or more (the lowest such value), as `(queue, seq)`.
+    pub fn held_signal_reaching(&self, semaphore: Handle, value: u64) -> Option<(Handle, u64)> {
+        self.held
+            .values()
+            .flatten()
+            .flat_map(|b| {
+                b.signals
+                    .iter()
+                    .filter(|s| s.timeline && s.semaphore == semaphore && s.value >= value)
+                    .map(|s| (s.value, b.queue, b.seq))
+            })
+            .min()
+            .map(|(_, queue, seq)| (queue, seq))
+    }
+
+    /// What the host knows complete once timeline `semaphore` is seen at
+    /// `value` or more (`vkWaitSemaphores`): signal values only increase,
+    /// so the first signal reaching `value` has executed, and every signal
+    /// below it before it. None when no known signal reaches `value`.
+    pub fn timeline_wait_completes(&self, semaphore: Handle, value: u64) -> Option<Clock> {
+        let signals = self.timeline_signals.get(&semaphore);
+        let reaching = signals.and_then(|s| s.range(value..).next().map(|(v, _)| *v));
+        let Some(reaching) = reaching else {
+            let (queue, seq) = self.held_signal_reaching(semaphore, value)?;
+            // A held batch signals it: it ran, on a signal the checker did not see.
+            let mut clock = Clock::from([(queue, seq)]);
+            if let Some(signals) = signals {
+                signals.values().for_each(|c| join(&mut clock, c));
+            }
+            return Some(clock);
+        };
+        self.timeline_counter_completes(semaphore, reaching)
+    }
+
+    /// What the host knows complete once timeline `semaphore`'s counter
+    /// reads `value` (`vkGetSemaphoreCounterValue`): every signal up to
+    /// `value` has executed, none above it.
+    pub fn timeline_counter_completes(&self, semaphore: Handle, value: u64) -> Option<Clock> {
+        let mut clock: Option<Clock> = None;
+        if let Some(signals) = self.timeline_signals.get(&semaphore) {
+            for signal in signals.range(..=value).map(|(_, c)| c) {
+                join(clock.get_or_insert_with(Clock::new), signal);
+            }
+        }
+        for batch in self.held.values().flatten() {
+            let signals_below = batch
+                .signals
+                .iter()
+                .any(|s| s.timeline && s.semaphore == semaphore && s.value <= value);
+            if signals_below {
+                join(
+                    clock.get_or_insert_with(Clock::new),
+                    &Clock::from([(batch.queue, batch.seq)]),
+                );
+            }
+        }
+        clock
+    }
+
     /// Records a timeline signal, keeping at most [`TIMELINE_SIGNALS_AT_MOST`].
     pub fn timeline_signal(&mut self, semaphore: Handle, value: u64, clock: Clock) {
         let signals = self.timeline_signals.entry(semaphore).or_default();
@@ -352,6 +597,22 @@ mod tests {
         assert!(r.is_empty());
         set_queries(&mut r, 5, 5, true);
         assert!(r.is_empty(), "an empty range changes nothing");
+    }
+
+    #[test]
+    fn the_first_query_outside_the_ranges() {
+        let r = vec![(0, 2), (4, 8)];
+        assert_eq!(first_outside(&r, 0, 2), None);
+        assert_eq!(first_outside(&r, 0, 3), Some(2));
+        assert_eq!(first_outside(&r, 3, 6), Some(3));
+        assert_eq!(first_outside(&r, 5, 8), None);
+        assert_eq!(first_outside(&r, 5, 9), Some(8));
+        assert_eq!(first_outside(&[], 1, 2), Some(1));
+        assert_eq!(
+            first_outside(&[], 2, 2),
+            None,
+            "an empty range has no query"
+        );
     }
 
     #[test]

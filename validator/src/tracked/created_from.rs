@@ -20,6 +20,11 @@ impl Validator {
         query_pool: vk::QueryPool,
     ) {
         if query_pool != vk::QueryPool::null() {
+            // A new pool's queries are uninitialized, whatever an earlier
+            // pool with the same handle left.
+            self.state
+                .execution
+                .forget_query_pool(vk::Handle::as_raw(query_pool));
             self.state.query_pools.insert(
                 vk::Handle::as_raw(query_pool),
                 QueryPool {

@@ -299,7 +299,11 @@ fn host_deserialize(device: Device, header: Vec<u8>) -> Report {
 /// `vkCmdCopyMemoryToAccelerationStructureKHR` into [`BLAS`] from `header`
 /// at the start of the input buffer.
 fn device_deserialize(header: Vec<u8>) -> Report {
-    let mut v = world();
+    device_deserialize_in(world(), header)
+}
+
+/// The same in `v`.
+fn device_deserialize_in(mut v: Validator, header: Vec<u8>) -> Report {
     let mut bytes = vec![0u8; INPUT_SIZE as usize];
     bytes[..header.len()].copy_from_slice(&header);
     if let Some(mut input) = v.state_mut().buffers.get_mut(&INPUT) {
@@ -335,6 +339,17 @@ fn serialized_header_cases() -> Vec<Case> {
         case(
             from_memory_info::dst_11585,
             || device_deserialize(serialized_header(0, &[STORAGE_ADDRESS + 0x40])),
+            || device_deserialize(valid_header()),
+        ),
+        // The address of the buffer of a micromap of another VkDevice: the
+        // device executing the command has no micromap there.
+        case(
+            from_memory_info::dst_11585,
+            || {
+                let mut v = world();
+                v.state_mut().other_device_objects.insert(OMM_AS);
+                device_deserialize_in(v, valid_header())
+            },
             || device_deserialize(valid_header()),
         ),
     ]

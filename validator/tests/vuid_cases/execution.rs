@@ -105,5 +105,39 @@ pub fn cases() -> Vec<Case> {
             "VUID-vkCmdBuildAccelerationStructuresIndirectKHR-micromap-11701",
             "VUID-vkCmdBuildAccelerationStructuresIndirectKHR-micromap-11701.pass.json"
         ),
+        // A batch held for a timeline value until the host signals it is
+        // decided then, against what the host had seen complete.
+        corpus_case!(
+            build_cmd::micromap_11632,
+            "execution-host-signal",
+            "VUID-vkCmdBuildAccelerationStructuresKHR-micromap-11632",
+            "pass.json"
+        ),
+        // A host wait for 3 is met by the signal to 5, not the one to 1.
+        corpus_case!(
+            host_write::pMicromaps_11671,
+            "execution-timeline-values",
+            "VUID-vkWriteMicromapsPropertiesEXT-pMicromaps-11671",
+            "pass.json"
+        ),
+        corpus_case!(
+            destroy::micromap_07441,
+            "execution-timeline-values",
+            "VUID-vkDestroyMicromapEXT-micromap-07441",
+            "pass.json"
+        ),
+        // Queries are uninitialized from their pool's creation until reset.
+        corpus_case!(
+            cmd_write::None_12417,
+            "query-initialization",
+            "VUID-vkCmdWriteMicromapsPropertiesEXT-None-12417",
+            "pass.json"
+        ),
+        corpus_case!(
+            cmd_write::None_12417,
+            "query-initialization-host",
+            "VUID-vkCmdWriteMicromapsPropertiesEXT-None-12417",
+            "pass.json"
+        ),
     ]
 }

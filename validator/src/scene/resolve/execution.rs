@@ -192,8 +192,9 @@ impl Resolver<'_> {
                     ObjectKind::Semaphore,
                     &format!("{at}.pSignalInfo.semaphore"),
                 )?;
-                self.validator
-                    .signal_semaphore(semaphore, p_signal_info.value);
+                return Ok(self
+                    .validator
+                    .signal_semaphore(semaphore, p_signal_info.value));
             }
             ExecutionCall::CmdResetQueryPool {
                 command_buffer,

@@ -717,7 +717,6 @@ mod tests {
             primitive_offset: 2,
             first_vertex: 3,
             transform_offset: 4,
-            ..Default::default()
         };
         let names: &dyn Names = &Numbers;
         let json =
