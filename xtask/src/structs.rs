@@ -1083,7 +1083,9 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
         }
         // The sType, a chained structure's pNext and extracted structures
         // keep their defaults.
-        let rest = if fields.iter().any(|f| matches!(f.form, Form::SType(_) | Form::Next))
+        let rest = if fields
+            .iter()
+            .any(|f| matches!(f.form, Form::SType(_) | Form::Next))
             || !spec.extracts.is_empty()
         {
             "            ..Default::default()\n"
