@@ -21,6 +21,8 @@ pub mod catalog;
 mod drivers;
 #[cfg(feature = "driver")]
 pub mod faults;
+#[cfg(feature = "generate")]
+pub mod features;
 #[cfg(feature = "driver")]
 pub mod fuzz;
 #[cfg(feature = "driver")]
@@ -176,15 +178,15 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
         ),
         (
             PathBuf::from("validator/src/raw/generated.rs"),
-            rustfmt(&structs::render_reader(&vk)?)?,
+            rustfmt(&(structs::render_reader(&vk)? + &features::render_reader(&vk)?))?,
         ),
         (
             PathBuf::from("validator/src/scene/format/generated.rs"),
-            rustfmt(&structs::render_scene_form(&vk)?)?,
+            rustfmt(&(structs::render_scene_form(&vk)? + &features::render_scene_form(&vk)?))?,
         ),
         (
             PathBuf::from("validator/src/scene/resolve/generated.rs"),
-            rustfmt(&structs::render_resolver(&vk)?)?,
+            rustfmt(&(structs::render_resolver(&vk)? + &features::render_resolver()))?,
         ),
         (
             PathBuf::from("validator/src/scene/write/generated.rs"),

@@ -307,7 +307,7 @@ fn kind_of(vk: &VkXml, type_name: &str) -> Option<&'static str> {
 }
 
 /// The value of the enum value `name` in any type.
-fn value_of(vk: &VkXml, name: &str) -> Option<i128> {
+pub(crate) fn value_of(vk: &VkXml, name: &str) -> Option<i128> {
     let name = vk
         .enum_aliases
         .get(name)

@@ -468,3 +468,107 @@ pub(crate) unsafe fn triangles_data(
     }
     value
 }
+
+/// Sets the features a structure of an application's pNext chain enables
+/// (a feature one structure enables stays enabled); false where `s_type`
+/// is no feature structure the checks read.
+///
+/// # Safety
+/// `address` must point to a structure of the type `s_type` names.
+pub(crate) unsafe fn read_features(
+    s_type: i32,
+    address: *const std::ffi::c_void,
+    features: &mut crate::device::Features,
+) -> bool {
+    match s_type {
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_OPACITY_MICROMAP_FEATURES_EXT
+        1000396005 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceOpacityMicromapFeaturesEXT.
+            let f = unsafe { &*address.cast::<vk::PhysicalDeviceOpacityMicromapFeaturesEXT<'_>>() };
+            features.micromap_ext |= f.micromap != vk::FALSE;
+            features.micromap_capture_replay |= f.micromap_capture_replay != vk::FALSE;
+            features.micromap_host_commands |= f.micromap_host_commands != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_OPACITY_MICROMAP_FEATURES_KHR
+        1000623000 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceOpacityMicromapFeaturesKHR.
+            let f = unsafe { &*address.cast::<khr::PhysicalDeviceOpacityMicromapFeaturesKHR>() };
+            features.micromap_khr |= f.micromap != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DISPLACEMENT_MICROMAP_FEATURES_NV
+        1000397000 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceDisplacementMicromapFeaturesNV.
+            let f =
+                unsafe { &*address.cast::<vk::PhysicalDeviceDisplacementMicromapFeaturesNV<'_>>() };
+            features.displacement_micromap |= f.displacement_micromap != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_OPACITY_MICROMAP_FEATURES_ARM
+        1000596000 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDevicePipelineOpacityMicromapFeaturesARM.
+            let f = unsafe {
+                &*address.cast::<khr::PhysicalDevicePipelineOpacityMicromapFeaturesARM>()
+            };
+            features.pipeline_opacity_micromap |= f.pipeline_opacity_micromap != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR
+        1000150013 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceAccelerationStructureFeaturesKHR.
+            let f = unsafe {
+                &*address.cast::<vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'_>>()
+            };
+            features.acceleration_structure |= f.acceleration_structure != vk::FALSE;
+            features.acceleration_structure_host_commands |=
+                f.acceleration_structure_host_commands != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES
+        1000257000 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceBufferDeviceAddressFeatures.
+            let f =
+                unsafe { &*address.cast::<vk::PhysicalDeviceBufferDeviceAddressFeatures<'_>>() };
+            features.buffer_device_address |= f.buffer_device_address != vk::FALSE;
+            features.buffer_device_address_multi_device |=
+                f.buffer_device_address_multi_device != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES
+        51 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceVulkan12Features.
+            let f = unsafe { &*address.cast::<vk::PhysicalDeviceVulkan12Features<'_>>() };
+            features.buffer_device_address |= f.buffer_device_address != vk::FALSE;
+            features.buffer_device_address_multi_device |=
+                f.buffer_device_address_multi_device != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES
+        53 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceVulkan13Features.
+            let f = unsafe { &*address.cast::<vk::PhysicalDeviceVulkan13Features<'_>>() };
+            features.synchronization2 |= f.synchronization2 != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SYNCHRONIZATION_2_FEATURES
+        1000314007 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceSynchronization2Features.
+            let f = unsafe { &*address.cast::<vk::PhysicalDeviceSynchronization2Features<'_>>() };
+            features.synchronization2 |= f.synchronization2 != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_INDEX_TYPE_UINT8_FEATURES
+        1000265000 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceIndexTypeUint8Features.
+            let f = unsafe { &*address.cast::<vk::PhysicalDeviceIndexTypeUint8FeaturesKHR<'_>>() };
+            features.index_type_uint8 |= f.index_type_uint8 != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR
+        1000348013 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceRayQueryFeaturesKHR.
+            let f = unsafe { &*address.cast::<vk::PhysicalDeviceRayQueryFeaturesKHR<'_>>() };
+            features.ray_query |= f.ray_query != vk::FALSE;
+        }
+        // VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR
+        1000347000 => {
+            // SAFETY: the caller guarantees `address` points to a VkPhysicalDeviceRayTracingPipelineFeaturesKHR.
+            let f =
+                unsafe { &*address.cast::<vk::PhysicalDeviceRayTracingPipelineFeaturesKHR<'_>>() };
+            features.ray_tracing_pipeline |= f.ray_tracing_pipeline != vk::FALSE;
+        }
+        _ => return false,
+    }
+    true
+}

@@ -7,14 +7,13 @@ use std::ffi::c_void;
 
 use ash::vk;
 
-use super::generated::micromap_create_info;
+use super::generated::{micromap_create_info, read_features};
 use super::{bounded_len, chain, read_array};
 use crate::device::{Device, Features, Limits};
 use crate::model::micromap_objects::AllocationCallbacks;
 use crate::report::{Finding, Report};
 use crate::state::Buffer;
 use crate::Validator;
-use ommcheck_vuids::khr;
 
 /// `VK_MAX_EXTENSION_NAME_SIZE`: the longest extension name, NUL included.
 const MAX_EXTENSION_NAME: usize = 256;
@@ -105,77 +104,18 @@ pub unsafe fn device_from_create_info(
     // SAFETY: the caller guarantees a well-formed chain.
     let links = unsafe { chain(info.p_next, function, "pCreateInfo", &mut findings) };
     for link in links {
-        let s_type = vk::StructureType::from_raw(link.s_type);
         let at = link.address;
-        // SAFETY (every arm): the structure's sType names its type, so
-        // `at` points to a structure of that type.
-        match s_type {
-            vk::StructureType::PHYSICAL_DEVICE_OPACITY_MICROMAP_FEATURES_EXT => {
-                let f: vk::PhysicalDeviceOpacityMicromapFeaturesEXT<'_> = unsafe { feature(at) };
-                features.micromap_ext = f.micromap != 0;
-                features.micromap_capture_replay = f.micromap_capture_replay != 0;
-                features.micromap_host_commands = f.micromap_host_commands != 0;
-            }
-            s if s == khr::STRUCTURE_TYPE_PHYSICAL_DEVICE_OPACITY_MICROMAP_FEATURES_KHR => {
-                let f: khr::PhysicalDeviceOpacityMicromapFeaturesKHR = unsafe { feature(at) };
-                features.micromap_khr = f.micromap != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_DISPLACEMENT_MICROMAP_FEATURES_NV => {
-                let f: vk::PhysicalDeviceDisplacementMicromapFeaturesNV<'_> =
-                    unsafe { feature(at) };
-                features.displacement_micromap = f.displacement_micromap != 0;
-            }
-            s if s
-                == khr::STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_OPACITY_MICROMAP_FEATURES_ARM =>
-            {
-                let f: khr::PhysicalDevicePipelineOpacityMicromapFeaturesARM =
-                    unsafe { feature(at) };
-                features.pipeline_opacity_micromap = f.pipeline_opacity_micromap != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR => {
-                let f: vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'_> =
-                    unsafe { feature(at) };
-                features.acceleration_structure = f.acceleration_structure != 0;
-                features.acceleration_structure_host_commands =
-                    f.acceleration_structure_host_commands != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_BUFFER_DEVICE_ADDRESS_FEATURES => {
-                let f: vk::PhysicalDeviceBufferDeviceAddressFeatures<'_> = unsafe { feature(at) };
-                features.buffer_device_address |= f.buffer_device_address != 0;
-                features.buffer_device_address_multi_device |=
-                    f.buffer_device_address_multi_device != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_VULKAN_1_2_FEATURES => {
-                let f: vk::PhysicalDeviceVulkan12Features<'_> = unsafe { feature(at) };
-                features.buffer_device_address |= f.buffer_device_address != 0;
-                features.buffer_device_address_multi_device |=
-                    f.buffer_device_address_multi_device != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_VULKAN_1_3_FEATURES => {
-                let f: vk::PhysicalDeviceVulkan13Features<'_> = unsafe { feature(at) };
-                features.synchronization2 |= f.synchronization2 != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_SYNCHRONIZATION_2_FEATURES => {
-                let f: vk::PhysicalDeviceSynchronization2Features<'_> = unsafe { feature(at) };
-                features.synchronization2 |= f.synchronization2 != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_INDEX_TYPE_UINT8_FEATURES_KHR => {
-                let f: vk::PhysicalDeviceIndexTypeUint8FeaturesKHR<'_> = unsafe { feature(at) };
-                features.index_type_uint8 = f.index_type_uint8 != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_RAY_QUERY_FEATURES_KHR => {
-                let f: vk::PhysicalDeviceRayQueryFeaturesKHR<'_> = unsafe { feature(at) };
-                features.ray_query = f.ray_query != 0;
-            }
-            vk::StructureType::PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR => {
-                let f: vk::PhysicalDeviceRayTracingPipelineFeaturesKHR<'_> = unsafe { feature(at) };
-                features.ray_tracing_pipeline = f.ray_tracing_pipeline != 0;
-            }
-            vk::StructureType::DEVICE_GROUP_DEVICE_CREATE_INFO => {
-                let group: vk::DeviceGroupDeviceCreateInfo<'_> = unsafe { feature(at) };
-                physical_device_count = group.physical_device_count.max(1);
-            }
-            _ => {}
+        // SAFETY: the structure's sType names its type, so `at` points to a
+        // structure of that type (here and below).
+        if unsafe { read_features(link.s_type, at, &mut features) } {
+            continue;
+        }
+        if vk::StructureType::from_raw(link.s_type)
+            == vk::StructureType::DEVICE_GROUP_DEVICE_CREATE_INFO
+        {
+            // SAFETY: as above.
+            let group: vk::DeviceGroupDeviceCreateInfo<'_> = unsafe { feature(at) };
+            physical_device_count = group.physical_device_count.max(1);
         }
     }
     let device = Device {

@@ -356,25 +356,7 @@ fn device(
         device.extensions = extensions.iter().cloned().collect();
     }
     if let Some(f) = &desc.features {
-        let features = &mut device.features;
-        features.micromap_ext = f.opacity_micromap_ext.micromap;
-        features.micromap_capture_replay = f.opacity_micromap_ext.micromap_capture_replay;
-        features.micromap_host_commands = f.opacity_micromap_ext.micromap_host_commands;
-        features.micromap_khr = f.opacity_micromap_khr.micromap;
-        features.displacement_micromap = f.displacement_micromap_nv.displacement_micromap;
-        features.pipeline_opacity_micromap =
-            f.pipeline_opacity_micromap_arm.pipeline_opacity_micromap;
-        features.acceleration_structure = f.acceleration_structure.acceleration_structure;
-        features.acceleration_structure_host_commands = f
-            .acceleration_structure
-            .acceleration_structure_host_commands;
-        features.buffer_device_address = f.buffer_device_address.buffer_device_address;
-        features.buffer_device_address_multi_device =
-            f.buffer_device_address.buffer_device_address_multi_device;
-        features.synchronization2 = f.synchronization2.synchronization2;
-        features.index_type_uint8 = f.index_type_uint8.index_type_uint8;
-        features.ray_query = f.ray_query.ray_query;
-        features.ray_tracing_pipeline = f.ray_tracing_pipeline.ray_tracing_pipeline;
+        generated::features(f, &mut device.features);
     }
     if let Some(count) = desc.physical_device_count {
         device.physical_device_count = count;

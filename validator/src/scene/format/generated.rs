@@ -374,3 +374,133 @@ pub struct TrianglesDataDesc {
     #[serde(default)]
     pub transform_data: AddressArg,
 }
+
+/// `VkPhysicalDeviceOpacityMicromapFeaturesEXT`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct OpacityMicromapFeaturesExtDesc {
+    #[serde(default)]
+    pub micromap: bool,
+    #[serde(default)]
+    pub micromap_capture_replay: bool,
+    #[serde(default)]
+    pub micromap_host_commands: bool,
+}
+
+/// `VkPhysicalDeviceOpacityMicromapFeaturesKHR`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct OpacityMicromapFeaturesKhrDesc {
+    #[serde(default)]
+    pub micromap: bool,
+}
+
+/// `VkPhysicalDeviceDisplacementMicromapFeaturesNV`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct DisplacementMicromapFeaturesNvDesc {
+    #[serde(default)]
+    pub displacement_micromap: bool,
+}
+
+/// `VkPhysicalDevicePipelineOpacityMicromapFeaturesARM`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct PipelineOpacityMicromapFeaturesArmDesc {
+    #[serde(default)]
+    pub pipeline_opacity_micromap: bool,
+}
+
+/// `VkPhysicalDeviceAccelerationStructureFeaturesKHR`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct AccelerationStructureFeaturesDesc {
+    #[serde(default)]
+    pub acceleration_structure: bool,
+    #[serde(default)]
+    pub acceleration_structure_capture_replay: bool,
+    #[serde(default)]
+    pub acceleration_structure_indirect_build: bool,
+    #[serde(default)]
+    pub acceleration_structure_host_commands: bool,
+    #[serde(default)]
+    pub descriptor_binding_acceleration_structure_update_after_bind: bool,
+}
+
+/// `VkPhysicalDeviceBufferDeviceAddressFeatures`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BufferDeviceAddressFeaturesDesc {
+    #[serde(default)]
+    pub buffer_device_address: bool,
+    #[serde(default)]
+    pub buffer_device_address_capture_replay: bool,
+    #[serde(default)]
+    pub buffer_device_address_multi_device: bool,
+}
+
+/// `VkPhysicalDeviceSynchronization2Features`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct Synchronization2FeaturesDesc {
+    #[serde(default)]
+    pub synchronization2: bool,
+}
+
+/// `VkPhysicalDeviceIndexTypeUint8Features`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct IndexTypeUint8FeaturesDesc {
+    #[serde(default)]
+    pub index_type_uint8: bool,
+}
+
+/// `VkPhysicalDeviceRayQueryFeaturesKHR`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct RayQueryFeaturesDesc {
+    #[serde(default)]
+    pub ray_query: bool,
+}
+
+/// `VkPhysicalDeviceRayTracingPipelineFeaturesKHR`: every feature it declares (absent: false).
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct RayTracingPipelineFeaturesDesc {
+    #[serde(default)]
+    pub ray_tracing_pipeline: bool,
+    #[serde(default)]
+    pub ray_tracing_pipeline_shader_group_handle_capture_replay: bool,
+    #[serde(default)]
+    pub ray_tracing_pipeline_shader_group_handle_capture_replay_mixed: bool,
+    #[serde(default)]
+    pub ray_tracing_pipeline_trace_rays_indirect: bool,
+    #[serde(default)]
+    pub ray_traversal_primitive_culling: bool,
+}
+
+/// Enabled features, keyed by the spec's structure names.
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FeaturesDesc {
+    #[serde(rename = "VkPhysicalDeviceOpacityMicromapFeaturesEXT", default)]
+    pub opacity_micromap_ext: OpacityMicromapFeaturesExtDesc,
+    #[serde(rename = "VkPhysicalDeviceOpacityMicromapFeaturesKHR", default)]
+    pub opacity_micromap_khr: OpacityMicromapFeaturesKhrDesc,
+    #[serde(rename = "VkPhysicalDeviceDisplacementMicromapFeaturesNV", default)]
+    pub displacement_micromap_nv: DisplacementMicromapFeaturesNvDesc,
+    #[serde(rename = "VkPhysicalDevicePipelineOpacityMicromapFeaturesARM", default)]
+    pub pipeline_opacity_micromap_arm: PipelineOpacityMicromapFeaturesArmDesc,
+    #[serde(rename = "VkPhysicalDeviceAccelerationStructureFeaturesKHR", default)]
+    pub acceleration_structure: AccelerationStructureFeaturesDesc,
+    #[serde(rename = "VkPhysicalDeviceBufferDeviceAddressFeatures", default)]
+    pub buffer_device_address: BufferDeviceAddressFeaturesDesc,
+    #[serde(rename = "VkPhysicalDeviceSynchronization2Features", default)]
+    pub synchronization2: Synchronization2FeaturesDesc,
+    #[serde(rename = "VkPhysicalDeviceIndexTypeUint8Features", default)]
+    pub index_type_uint8: IndexTypeUint8FeaturesDesc,
+    #[serde(rename = "VkPhysicalDeviceRayQueryFeaturesKHR", default)]
+    pub ray_query: RayQueryFeaturesDesc,
+    #[serde(rename = "VkPhysicalDeviceRayTracingPipelineFeaturesKHR", default)]
+    pub ray_tracing_pipeline: RayTracingPipelineFeaturesDesc,
+}

@@ -381,3 +381,24 @@ impl Resolver<'_> {
         Ok(value)
     }
 }
+/// The features `d` enables; every feature of `features` the checks read
+/// is set, so those a scene leaves out are disabled.
+pub(in crate::scene) fn features(d: &scene::FeaturesDesc, features: &mut crate::device::Features) {
+    features.micromap_ext = d.opacity_micromap_ext.micromap;
+    features.micromap_capture_replay = d.opacity_micromap_ext.micromap_capture_replay;
+    features.micromap_host_commands = d.opacity_micromap_ext.micromap_host_commands;
+    features.micromap_khr = d.opacity_micromap_khr.micromap;
+    features.displacement_micromap = d.displacement_micromap_nv.displacement_micromap;
+    features.pipeline_opacity_micromap = d.pipeline_opacity_micromap_arm.pipeline_opacity_micromap;
+    features.acceleration_structure = d.acceleration_structure.acceleration_structure;
+    features.acceleration_structure_host_commands = d
+        .acceleration_structure
+        .acceleration_structure_host_commands;
+    features.buffer_device_address = d.buffer_device_address.buffer_device_address;
+    features.buffer_device_address_multi_device =
+        d.buffer_device_address.buffer_device_address_multi_device;
+    features.synchronization2 = d.synchronization2.synchronization2;
+    features.index_type_uint8 = d.index_type_uint8.index_type_uint8;
+    features.ray_query = d.ray_query.ray_query;
+    features.ray_tracing_pipeline = d.ray_tracing_pipeline.ray_tracing_pipeline;
+}
