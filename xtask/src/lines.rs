@@ -121,9 +121,40 @@ pub fn report(root: &Path, files: bool) -> Result<String, Error> {
     } else {
         String::new()
     };
+    // With the files, each top-level module of validator/src too, so a
+    // figure can leave out modules that came as new features.
+    let mut modules = String::new();
+    if files {
+        let mut entries: Vec<_> = std::fs::read_dir(&core)
+            .map_err(|source| Error::Io {
+                path: core.clone(),
+                source,
+            })?
+            .filter_map(|entry| entry.ok().map(|e| e.path()))
+            .collect();
+        entries.sort();
+        for path in entries {
+            let lines = if path.is_dir() {
+                count_dir(&path)?
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                let source = crate::read(&path)?;
+                if is_generated(&source) {
+                    0
+                } else {
+                    count_source(&source)
+                }
+            } else {
+                continue;
+            };
+            let shown = path.strip_prefix(root).unwrap_or(&path);
+            modules.push_str(&format!("\n{lines:>6} {}", shown.display()));
+        }
+        modules.insert_str(0, "\nvalidator/src by top-level module:");
+        modules.push_str("\nscene/, raw/ and model/ by file:");
+    }
     Ok(format!(
         "hand-written lines (blank, comment, inline-test and generated lines left out):\n\
-         validator/src/{{scene,raw,model}}: {sum} ({})\nvalidator/src: {}{listing}",
+         validator/src/{{scene,raw,model}}: {sum} ({})\nvalidator/src: {}{modules}{listing}",
         parts.join(", "),
         count_dir(&core)?
     ))
