@@ -629,7 +629,8 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
     );
     out.push_str(
         "use schemars::JsonSchema;\nuse serde::{Deserialize, Serialize};\n\n\
-         use super::{ChainStruct, UsageDesc};\nuse crate::model::names::{self, Value};\n\
+         use serde::Deserializer;\n\n\
+         use super::{OtherStruct, UsageDesc};\nuse crate::model::names::{self, Value};\n\
          use crate::scene::args::{AddressArg, HandleArg};\n\n",
     );
     for spec in STRUCTS {
@@ -722,7 +723,78 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
         }
         out.push_str("}\n\n");
     }
+    render_chain_struct(vk, &mut out)?;
     Ok(out)
+}
+
+/// `ChainStruct`, the scene form of a pNext entry: one variant per chained
+/// structure of [`STRUCTS`], named by its sType, and `Other`; with the
+/// per-structure parts of reading an entry and of its sType.
+fn render_chain_struct(vk: &VkXml, out: &mut String) -> Result<(), Error> {
+    let chained: Vec<&StructSpec> = STRUCTS.iter().filter(|s| s.chained).collect();
+    let mut variants = String::new();
+    let mut by_tag = String::new();
+    let mut by_name = String::new();
+    let mut s_types = String::new();
+    for spec in &chained {
+        let entry = fields(vk, spec)?;
+        let value = entry
+            .iter()
+            .find_map(|f| match f.form {
+                Form::SType(value) => Some(value),
+                _ => None,
+            })
+            .ok_or_else(|| Error::Registry(format!("{} has no sType", spec.vk)))?;
+        let name = entry_s_type_name(vk, spec);
+        let _ = writeln!(
+            variants,
+            "    #[serde(rename = \"{name}\")]\n    {}({}Desc),",
+            spec.rust, spec.rust
+        );
+        let _ = writeln!(
+            by_tag,
+            "            // {name}\n            {value} => Deserialize::deserialize(rest).map(Self::{}),",
+            spec.rust
+        );
+        let _ = writeln!(
+            by_name,
+            "            \"{}\" => serde_json::from_value(members).map(|d: {}Desc| Self::{}({}Desc {{ given_s_type: given, ..d }})),",
+            spec.vk, spec.rust, spec.rust, spec.rust
+        );
+        let _ = writeln!(
+            s_types,
+            "            Self::{}(d) => d.given_s_type.unwrap_or({value}),",
+            spec.rust
+        );
+    }
+    let names: Vec<String> = chained.iter().map(|s| format!("`{}`", s.vk)).collect();
+    let _ = write!(
+        out,
+        "/// A structure of a pNext chain, named by its `sType`. The structures\n\
+         /// ommcheck reads have their members; any other sType is recorded as chained\n\
+         /// (its members are ignored).\n\
+         #[derive(Debug, JsonSchema, Serialize)]\n#[serde(tag = \"sType\")]\npub enum ChainStruct {{\n{variants}\
+         \x20   /// Any other sType (by name or number); other members are ignored.\n    \
+         #[serde(untagged)]\n    Other(OtherStruct),\n}}\n\n\
+         impl ChainStruct {{\n    \
+         /// The structures with members of their own, by their spec names: {}.\n    \
+         pub const READ: &'static [&'static str] = &[{}];\n\n    \
+         /// The entry whose sType is `tag`, from its other members; `other`\n    \
+         /// reads it where `tag` is none of the structures with members.\n    \
+         pub(super) fn tagged<'de, D: Deserializer<'de>>(\n        tag: Value<names::StructureType>,\n        rest: D,\n        \
+         other: impl FnOnce(Value<names::StructureType>, D) -> Result<Self, D::Error>,\n    ) -> Result<Self, D::Error> {{\n        \
+         match tag.raw() {{\n{by_tag}            _ => other(tag, rest),\n        }}\n    }}\n\n    \
+         /// The structure `structure` (by its spec name) written with the sType\n    \
+         /// `given`, from its members; None where it is none of the structures\n    \
+         /// with members.\n    \
+         pub(super) fn named(structure: &str, members: serde_json::Value, given: Option<i32>) -> Option<Result<Self, serde_json::Error>> {{\n        \
+         Some(match structure {{\n{by_name}            _ => return None,\n        }})\n    }}\n\n    \
+         /// The sType the entry stands for.\n    pub fn s_type(&self) -> i32 {{\n        match self {{\n{s_types}\
+         \x20           Self::Other(other) => other.s_type.as_i32(),\n        }}\n    }}\n}}\n",
+        names.join(", "),
+        chained.iter().map(|s| format!("\"{}\"", s.vk)).collect::<Vec<_>>().join(", ")
+    );
+    Ok(())
 }
 
 /// `validator/src/scene/resolve/generated.rs`.
@@ -737,7 +809,7 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure of plain numbers uses neither `at` nor its defaults.\n\
          #![allow(unused_variables)]\n\n\
-         use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
+         use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
          use crate::model::generated as model;\nuse crate::model::names::Value;\n\
          use crate::scene::format::generated as scene;\nuse crate::scene::format::ChainStruct;\n\n\
          impl Resolver<'_> {\n",
@@ -808,7 +880,7 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
             );
         }
         out.push_str(
-            "                other => value.next.push(chain_s_type(other)),\n            }\n        }\n        \
+            "                other => value.next.push(other.s_type()),\n            }\n        }\n        \
              Ok(value)\n    }\n\n",
         );
     }

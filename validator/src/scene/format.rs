@@ -377,27 +377,6 @@ fn yes() -> bool {
     true
 }
 
-/// A structure of a pNext chain, named by its `sType`. The structures
-/// ommcheck reads have their members; any other sType is recorded as chained
-/// (its members are ignored).
-#[derive(Debug, JsonSchema, Serialize)]
-#[serde(tag = "sType")]
-pub enum ChainStruct {
-    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")]
-    TrianglesOpacityMicromapExt(TrianglesOpacityMicromapExtDesc),
-    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR")]
-    TrianglesOpacityMicromapKhr(TrianglesOpacityMicromapKhrDesc),
-    #[serde(
-        rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV"
-    )]
-    TrianglesDisplacementMicromapNv(TrianglesDisplacementMicromapNvDesc),
-    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR")]
-    GeometryMicromapData(GeometryMicromapDataDesc),
-    /// Any other sType (by name or number); other members are ignored.
-    #[serde(untagged)]
-    Other(OtherStruct),
-}
-
 /// A chained structure ommcheck does not read, or (with `structure`) one
 /// of the structures it reads, written with another structure's sType.
 #[derive(Debug, Deserialize, JsonSchema, Serialize)]
@@ -422,20 +401,7 @@ impl Tagged for ChainStruct {
     type Tag = Value<names::StructureType>;
 
     fn from_rest<'de, D: Deserializer<'de>>(tag: Self::Tag, rest: D) -> Result<Self, D::Error> {
-        use crate::model::names::{lookup, StructureType};
-        let is = |name: &str| lookup::<StructureType>(name) == Some(tag.raw());
-        if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT") {
-            Deserialize::deserialize(rest).map(ChainStruct::TrianglesOpacityMicromapExt)
-        } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR") {
-            Deserialize::deserialize(rest).map(ChainStruct::TrianglesOpacityMicromapKhr)
-        } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV")
-        {
-            Deserialize::deserialize(rest).map(ChainStruct::TrianglesDisplacementMicromapNv)
-        } else if is("VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR") {
-            Deserialize::deserialize(rest).map(ChainStruct::GeometryMicromapData)
-        } else {
-            misnamed(tag, rest)
-        }
+        ChainStruct::tagged(tag, rest, misnamed)
     }
 }
 
@@ -459,35 +425,14 @@ fn misnamed<'de, D: Deserializer<'de>>(
     };
     let given = Some(tag.as_i32());
     let members = Json::Object(members);
-    // The members are already parsed, so errors in them carry no position;
-    // the message names the structure.
-    fn typed<T: serde::de::DeserializeOwned, E: de::Error>(
-        structure: &str,
-        members: Json,
-    ) -> Result<T, E> {
-        serde_json::from_value(members).map_err(|e| E::custom(format!("{structure}: {e}")))
+    if let Some(name) = structure.as_deref() {
+        // The members are already parsed, so errors in them carry no
+        // position; the message names the structure.
+        if let Some(entry) = ChainStruct::named(name, members.clone(), given) {
+            return entry.map_err(|e| de::Error::custom(format!("{name}: {e}")));
+        }
     }
     Ok(match structure.as_deref() {
-        Some(name @ "VkAccelerationStructureTrianglesOpacityMicromapEXT") => {
-            let mut d: TrianglesOpacityMicromapExtDesc = typed(name, members)?;
-            d.given_s_type = given;
-            ChainStruct::TrianglesOpacityMicromapExt(d)
-        }
-        Some(name @ "VkAccelerationStructureTrianglesOpacityMicromapKHR") => {
-            let mut d: TrianglesOpacityMicromapKhrDesc = typed(name, members)?;
-            d.given_s_type = given;
-            ChainStruct::TrianglesOpacityMicromapKhr(d)
-        }
-        Some(name @ "VkAccelerationStructureTrianglesDisplacementMicromapNV") => {
-            let mut d: TrianglesDisplacementMicromapNvDesc = typed(name, members)?;
-            d.given_s_type = given;
-            ChainStruct::TrianglesDisplacementMicromapNv(d)
-        }
-        Some(name @ "VkAccelerationStructureGeometryMicromapDataKHR") => {
-            let mut d: GeometryMicromapDataDesc = typed(name, members)?;
-            d.given_s_type = given;
-            ChainStruct::GeometryMicromapData(d)
-        }
         Some(name) => {
             if crate::model::pipeline::MicromapStruct::ALL
                 .iter()

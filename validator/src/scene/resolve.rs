@@ -480,35 +480,9 @@ fn s_type(explicit: Option<Value<crate::model::names::StructureType>>, default: 
     explicit.map_or(default, Value::as_i32)
 }
 
-fn chain_s_type(chain: &ChainStruct) -> i32 {
-    use crate::model::names::{lookup, StructureType};
-    let named = |given: Option<i32>, name: &str| {
-        given.unwrap_or_else(|| lookup::<StructureType>(name).unwrap_or_default() as i32)
-    };
-    match chain {
-        ChainStruct::TrianglesOpacityMicromapExt(d) => named(
-            d.given_s_type,
-            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT",
-        ),
-        ChainStruct::TrianglesOpacityMicromapKhr(d) => named(
-            d.given_s_type,
-            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR",
-        ),
-        ChainStruct::TrianglesDisplacementMicromapNv(d) => named(
-            d.given_s_type,
-            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV",
-        ),
-        ChainStruct::GeometryMicromapData(d) => named(
-            d.given_s_type,
-            "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR",
-        ),
-        ChainStruct::Other(other) => other.s_type.as_i32(),
-    }
-}
-
 /// The sTypes of a chain ommcheck does not interpret at this place.
 fn chain(next: &[ChainStruct]) -> Vec<i32> {
-    next.iter().map(chain_s_type).collect()
+    next.iter().map(ChainStruct::s_type).collect()
 }
 
 fn usage(desc: &UsageDesc) -> MicromapUsage {
@@ -1266,7 +1240,7 @@ impl Resolver<'_> {
                     let next_at = format!("{at}.pNext[{k}]");
                     geometry.micromap = Some(self.geometry_micromap_data(m, &next_at)?);
                 }
-                other => geometry.next.push(chain_s_type(other)),
+                other => geometry.next.push(other.s_type()),
             }
         }
         let union = &d.geometry;

@@ -6,7 +6,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{ChainStruct, UsageDesc};
+use serde::Deserializer;
+
+use super::{OtherStruct, UsageDesc};
 use crate::model::names::{self, Value};
 use crate::scene::args::{AddressArg, HandleArg};
 
@@ -375,6 +377,109 @@ pub struct TrianglesDataDesc {
     pub transform_data: AddressArg,
 }
 
+/// A structure of a pNext chain, named by its `sType`. The structures
+/// ommcheck reads have their members; any other sType is recorded as chained
+/// (its members are ignored).
+#[derive(Debug, JsonSchema, Serialize)]
+#[serde(tag = "sType")]
+pub enum ChainStruct {
+    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")]
+    TrianglesOpacityMicromapExt(TrianglesOpacityMicromapExtDesc),
+    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR")]
+    TrianglesOpacityMicromapKhr(TrianglesOpacityMicromapKhrDesc),
+    #[serde(
+        rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV"
+    )]
+    TrianglesDisplacementMicromapNv(TrianglesDisplacementMicromapNvDesc),
+    #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR")]
+    GeometryMicromapData(GeometryMicromapDataDesc),
+    /// Any other sType (by name or number); other members are ignored.
+    #[serde(untagged)]
+    Other(OtherStruct),
+}
+
+impl ChainStruct {
+    /// The structures with members of their own, by their spec names: `VkAccelerationStructureTrianglesOpacityMicromapEXT`, `VkAccelerationStructureTrianglesOpacityMicromapKHR`, `VkAccelerationStructureTrianglesDisplacementMicromapNV`, `VkAccelerationStructureGeometryMicromapDataKHR`.
+    pub const READ: &'static [&'static str] = &[
+        "VkAccelerationStructureTrianglesOpacityMicromapEXT",
+        "VkAccelerationStructureTrianglesOpacityMicromapKHR",
+        "VkAccelerationStructureTrianglesDisplacementMicromapNV",
+        "VkAccelerationStructureGeometryMicromapDataKHR",
+    ];
+
+    /// The entry whose sType is `tag`, from its other members; `other`
+    /// reads it where `tag` is none of the structures with members.
+    pub(super) fn tagged<'de, D: Deserializer<'de>>(
+        tag: Value<names::StructureType>,
+        rest: D,
+        other: impl FnOnce(Value<names::StructureType>, D) -> Result<Self, D::Error>,
+    ) -> Result<Self, D::Error> {
+        match tag.raw() {
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT
+            1000396009 => Deserialize::deserialize(rest).map(Self::TrianglesOpacityMicromapExt),
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR
+            1000623003 => Deserialize::deserialize(rest).map(Self::TrianglesOpacityMicromapKhr),
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV
+            1000397002 => Deserialize::deserialize(rest).map(Self::TrianglesDisplacementMicromapNv),
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR
+            1000623002 => Deserialize::deserialize(rest).map(Self::GeometryMicromapData),
+            _ => other(tag, rest),
+        }
+    }
+
+    /// The structure `structure` (by its spec name) written with the sType
+    /// `given`, from its members; None where it is none of the structures
+    /// with members.
+    pub(super) fn named(
+        structure: &str,
+        members: serde_json::Value,
+        given: Option<i32>,
+    ) -> Option<Result<Self, serde_json::Error>> {
+        Some(match structure {
+            "VkAccelerationStructureTrianglesOpacityMicromapEXT" => serde_json::from_value(members)
+                .map(|d: TrianglesOpacityMicromapExtDesc| {
+                    Self::TrianglesOpacityMicromapExt(TrianglesOpacityMicromapExtDesc {
+                        given_s_type: given,
+                        ..d
+                    })
+                }),
+            "VkAccelerationStructureTrianglesOpacityMicromapKHR" => serde_json::from_value(members)
+                .map(|d: TrianglesOpacityMicromapKhrDesc| {
+                    Self::TrianglesOpacityMicromapKhr(TrianglesOpacityMicromapKhrDesc {
+                        given_s_type: given,
+                        ..d
+                    })
+                }),
+            "VkAccelerationStructureTrianglesDisplacementMicromapNV" => {
+                serde_json::from_value(members).map(|d: TrianglesDisplacementMicromapNvDesc| {
+                    Self::TrianglesDisplacementMicromapNv(TrianglesDisplacementMicromapNvDesc {
+                        given_s_type: given,
+                        ..d
+                    })
+                })
+            }
+            "VkAccelerationStructureGeometryMicromapDataKHR" => serde_json::from_value(members)
+                .map(|d: GeometryMicromapDataDesc| {
+                    Self::GeometryMicromapData(GeometryMicromapDataDesc {
+                        given_s_type: given,
+                        ..d
+                    })
+                }),
+            _ => return None,
+        })
+    }
+
+    /// The sType the entry stands for.
+    pub fn s_type(&self) -> i32 {
+        match self {
+            Self::TrianglesOpacityMicromapExt(d) => d.given_s_type.unwrap_or(1000396009),
+            Self::TrianglesOpacityMicromapKhr(d) => d.given_s_type.unwrap_or(1000623003),
+            Self::TrianglesDisplacementMicromapNv(d) => d.given_s_type.unwrap_or(1000397002),
+            Self::GeometryMicromapData(d) => d.given_s_type.unwrap_or(1000623002),
+            Self::Other(other) => other.s_type.as_i32(),
+        }
+    }
+}
 /// `VkPhysicalDeviceOpacityMicromapFeaturesEXT`: every feature it declares (absent: false).
 #[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]

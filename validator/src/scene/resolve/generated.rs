@@ -6,7 +6,7 @@
 // A structure of plain numbers uses neither `at` nor its defaults.
 #![allow(unused_variables)]
 
-use super::{chain, chain_s_type, s_type, usage_counts, ObjectKind, Resolver, Result};
+use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
@@ -375,7 +375,7 @@ impl Resolver<'_> {
                     value.displacement_nv =
                         Some(self.triangles_displacement_micromap_nv(e, &next_at)?);
                 }
-                other => value.next.push(chain_s_type(other)),
+                other => value.next.push(other.s_type()),
             }
         }
         Ok(value)

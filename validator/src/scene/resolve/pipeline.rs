@@ -17,7 +17,7 @@ use crate::model::Handle;
 use crate::report::Report;
 
 use super::super::format::*;
-use super::{chain_s_type, piece_len_hint, problem, ObjectKind, Resolver, Result};
+use super::{piece_len_hint, problem, ObjectKind, Resolver, Result};
 use crate::model::names::{lookup, PipelineBindPoint, StructureType, Value};
 
 /// What a command buffer has bound: a pipeline per bind point and a shader
@@ -63,7 +63,7 @@ fn structure_type(name: &str) -> i32 {
 fn feature_chain(next: &[ChainStruct]) -> Vec<ChainedStruct> {
     next.iter()
         .map(|entry| {
-            let s_type = chain_s_type(entry);
+            let s_type = entry.s_type();
             let named = match entry {
                 ChainStruct::Other(OtherStruct {
                     structure: Some(name),
