@@ -421,7 +421,8 @@ impl ReportSummary {
     }
 }
 
-fn plural(count: usize, one: &str, many: &str) -> String {
+/// `count` and the noun in its number: `1 rule`, `2 rules`.
+pub(crate) fn plural(count: usize, one: &str, many: &str) -> String {
     format!("{count} {}", if count == 1 { one } else { many })
 }
 

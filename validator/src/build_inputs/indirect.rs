@@ -138,6 +138,7 @@ pub fn resolve<'a>(
             };
             if !covered {
                 let len = match content.extent {
+                    Extent::Bytes(1) => "1 byte".into(),
                     Extent::Bytes(len) => format!("{len} bytes"),
                     _ => "more than 2^64 bytes".into(),
                 };

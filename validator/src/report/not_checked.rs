@@ -197,9 +197,9 @@ impl fmt::Display for NotChecked {
             .collect();
         writeln!(
             f,
-            "the report was not checked in full: {} rules were not checked, for {} causes:",
-            rules.len(),
-            self.findings.len()
+            "the report was not checked in full: {} not checked, for {}:",
+            super::plural(rules.len(), "rule was", "rules were"),
+            super::plural(self.findings.len(), "cause", "causes")
         )?;
         for finding in &self.findings {
             write!(f, "- [ {} ] {}()", finding.rule, finding.function)?;
