@@ -216,9 +216,9 @@ fn a_file_over_256_mib_is_checked_at_the_offsets_the_build_reads() {
     assert_bounded(&measured, "300 MiB file");
 }
 
-/// A buffer declared 2^40 bytes long with 3 MiB of file at its start and
-/// 16 bytes placed 1 MiB before its end: the bytes no piece gives read as
-/// zero without being allocated.
+/// A buffer declared 2^40 bytes long with 3 MiB of file near its start
+/// (off a page boundary, so copied) and 16 bytes placed 1 MiB before its
+/// end: the bytes no piece gives read as zero without being allocated.
 #[test]
 fn a_buffer_declared_far_larger_than_its_pieces_costs_only_what_they_hold() {
     let folder = Folder::new("2pow40");
@@ -232,7 +232,8 @@ fn a_buffer_declared_far_larger_than_its_pieces_costs_only_what_they_hold() {
     // 4 bytes before the buffer's end.
     array.extend(triangle((MIB - 4) as u32, 3, TWO_STATE));
     // A file over several copy chunks, mostly a hole, so its copy into
-    // place is tested to write only what differs from zero.
+    // place is tested to write only what differs from zero. At 256, not
+    // on a page boundary: a file there cannot be mapped.
     sparse_file(
         &folder.0.join("start.bin"),
         3 * MIB,
@@ -240,11 +241,11 @@ fn a_buffer_declared_far_larger_than_its_pieces_costs_only_what_they_hold() {
     );
     let scene = build_scene(
         &[format!(
-            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": [{{"file": "start.bin"}}, {{"at": {data_at}, "hex": "ffffffffffffffff 0f0f0f0f0f0f0f0f"}}]}}"#
+            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": [{{"at": 256, "file": "start.bin"}}, {{"at": {data_at}, "hex": "ffffffffffffffff 0f0f0f0f0f0f0f0f"}}]}}"#
         )],
         4,
         &format!(r#"{{"buffer": "omm", "offset": {data_at}}}"#),
-        r#"{"buffer": "omm"}"#,
+        r#"{"buffer": "omm", "offset": 256}"#,
     );
     let path = folder.0.join("scene.json");
     std::fs::write(&path, scene).unwrap();
@@ -262,6 +263,68 @@ fn a_buffer_declared_far_larger_than_its_pieces_costs_only_what_they_hold() {
     let stored = measured.stats.total.stored;
     assert_eq!((stored.opaque, stored.transparent), (96, 32 + 64));
     assert_bounded(&measured, "2^40-byte buffer");
+}
+
+/// A 32 MiB file (every byte on disk) at a page boundary inside a 64 MiB
+/// buffer, between two inline pieces: mapped where it is placed rather
+/// than copied, the piece after it written over it, and the piece before
+/// it in the file's last page (past the file's end) kept.
+#[test]
+fn a_file_inside_a_larger_buffer_is_mapped_where_it_is_placed() {
+    let folder = Folder::new("inside");
+    let (size, file_at) = (64 * MIB, 64 * 1024);
+    let file_len = 32 * MIB + 100;
+    let mut file = vec![0x5au8; file_len as usize];
+    let data = 16 * MIB as usize;
+    file[data..data + 8].fill(0xff); // triangle 0: all opaque
+    file[data + 8..data + 16].fill(0); // triangle 1: what the piece after it writes
+    let mut array = Vec::new();
+    array.extend(triangle(data as u32, 3, TWO_STATE));
+    array.extend(triangle(data as u32 + 8, 3, TWO_STATE));
+    // 8 bytes past the file's end, in its last page: the piece before it.
+    array.extend(triangle(file_len as u32 + 8, 3, TWO_STATE));
+    array.extend(triangle((size - file_at - 4) as u32, 3, TWO_STATE));
+    file[..array.len()].copy_from_slice(&array);
+    std::fs::write(folder.0.join("inner.bin"), &file).unwrap();
+    drop(file);
+    let contents = format!(
+        r#"[{{"at": {}, "hex": "ffffffffffffffff"}}, {{"at": {file_at}, "file": "inner.bin"}}, {{"at": {}, "hex": "0f0f0f0f0f0f0f0f"}}]"#,
+        file_at + file_len + 8,
+        file_at + data as u64 + 8
+    );
+    let scene = build_scene(
+        &[format!(
+            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": {contents}}}"#
+        )],
+        4,
+        &format!(r#"{{"buffer": "omm", "offset": {file_at}}}"#),
+        &format!(r#"{{"buffer": "omm", "offset": {file_at}}}"#),
+    );
+    let path = folder.0.join("scene.json");
+    std::fs::write(&path, scene).unwrap();
+
+    let measured = check(&path).unwrap_or_else(|e| panic!("{e}"));
+    let findings = described(&measured.report);
+    assert!(
+        findings.iter().any(|f| f.starts_with(&format!(
+            "OMMCHECK-build-triangle-data-in-range pInfos[0].triangleArray[3].dataOffset: [{}, {})",
+            size - file_at - 4,
+            size - file_at + 4
+        ))),
+        "{findings:#?}"
+    );
+    let stored = measured.stats.total.stored;
+    assert_eq!((stored.opaque, stored.transparent), (64 + 32 + 64, 32));
+    // Copied, the file would add its 32 MiB to the resident set twice (the
+    // check and the census each load the scene); mapped, only the pages
+    // the build reads.
+    if let Some(resident) = measured.resident {
+        assert!(
+            resident < 16 * MIB,
+            "the resident set grew by {resident} bytes"
+        );
+    }
+    assert_bounded(&measured, "file inside a buffer");
 }
 
 /// Contents larger than the address space: a scene error naming the
