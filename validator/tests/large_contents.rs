@@ -80,6 +80,42 @@ fn build_scene(buffers: &[String], count: u64, data: &str, triangles: &str) -> S
     )
 }
 
+/// Writes the scene of one buffer `omm` of `size` bytes with `contents`
+/// (JSON) and a build of 4 triangles reading its data at `data_at` and its
+/// triangle array at `array_at`; returns the scene's path.
+fn one_buffer_scene(
+    folder: &Folder,
+    size: u64,
+    contents: &str,
+    data_at: u64,
+    array_at: u64,
+) -> PathBuf {
+    let scene = build_scene(
+        &[format!(
+            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": {contents}}}"#
+        )],
+        4,
+        &format!(r#"{{"buffer": "omm", "offset": {data_at}}}"#),
+        &format!(r#"{{"buffer": "omm", "offset": {array_at}}}"#),
+    );
+    let path = folder.0.join("scene.json");
+    std::fs::write(&path, scene).expect("write the scene");
+    path
+}
+
+/// Asserts that triangle `index`'s 8 bytes of data at `offset` are found to
+/// end past the `data_len` bytes from the build's `data` address on.
+fn assert_data_past_end(findings: &[String], index: usize, offset: u64, data_len: u64) {
+    let expected = format!(
+        "OMMCHECK-build-triangle-data-in-range pInfos[0].triangleArray[{index}].dataOffset: [{offset}, {}) is past the end of the memory data points into ({data_len} bytes)",
+        offset + 8
+    );
+    assert!(
+        findings.iter().any(|f| f.starts_with(&expected)),
+        "{expected}\nnot in {findings:#?}"
+    );
+}
+
 /// What a check left: its report, the census of what the build read, and
 /// the most memory it held beyond what was held before.
 struct Measured {
@@ -131,6 +167,8 @@ fn check(path: &Path) -> Result<Measured, SceneError> {
     })
 }
 
+/// The findings as `RULE LOCATION: MESSAGE`, each location without the
+/// call every scene here checks (the build, `calls[1]`).
 fn described(report: &SceneReport) -> Vec<String> {
     report
         .findings
@@ -180,29 +218,11 @@ fn a_file_over_256_mib_is_checked_at_the_offsets_the_build_reads() {
         size,
         &[(data_at, &data), (array_at, &array)],
     );
-    let scene = build_scene(
-        &[format!(
-            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": {{"file": "big.bin"}}}}"#
-        )],
-        4,
-        &format!(r#"{{"buffer": "omm", "offset": {data_at}}}"#),
-        &format!(r#"{{"buffer": "omm", "offset": {array_at}}}"#),
-    );
-    let path = folder.0.join("scene.json");
-    std::fs::write(&path, scene).unwrap();
+    let path = one_buffer_scene(&folder, size, r#"{"file": "big.bin"}"#, data_at, array_at);
 
     let measured = check(&path).unwrap_or_else(|e| panic!("{e}"));
     let findings = described(&measured.report);
-    let expected_past_end = format!(
-        "OMMCHECK-build-triangle-data-in-range pInfos[0].triangleArray[2].dataOffset: [{0}, {1}) is past the end of the memory data points into ({2} bytes)",
-        size - data_at - 4,
-        size - data_at + 4,
-        size - data_at
-    );
-    assert!(
-        findings.iter().any(|f| f.starts_with(&expected_past_end)),
-        "{findings:#?}"
-    );
+    assert_data_past_end(&findings, 2, size - data_at - 4, size - data_at);
     assert!(
         findings.iter().any(|f| f.starts_with(
             "VUID-VkMicromapBuildInfoEXT-format-11657 pInfos[0].triangleArray[3].format: 7 is not"
@@ -239,27 +259,13 @@ fn a_buffer_declared_far_larger_than_its_pieces_costs_only_what_they_hold() {
         3 * MIB,
         &[(0, &array), (2 * MIB + 5, &[1])],
     );
-    let scene = build_scene(
-        &[format!(
-            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": [{{"at": 256, "file": "start.bin"}}, {{"at": {data_at}, "hex": "ffffffffffffffff 0f0f0f0f0f0f0f0f"}}]}}"#
-        )],
-        4,
-        &format!(r#"{{"buffer": "omm", "offset": {data_at}}}"#),
-        r#"{"buffer": "omm", "offset": 256}"#,
+    let contents = format!(
+        r#"[{{"at": 256, "file": "start.bin"}}, {{"at": {data_at}, "hex": "ffffffffffffffff 0f0f0f0f0f0f0f0f"}}]"#
     );
-    let path = folder.0.join("scene.json");
-    std::fs::write(&path, scene).unwrap();
+    let path = one_buffer_scene(&folder, size, &contents, data_at, 256);
 
     let measured = check(&path).unwrap_or_else(|e| panic!("{e}"));
-    let findings = described(&measured.report);
-    assert!(
-        findings.iter().any(|f| f.starts_with(&format!(
-            "OMMCHECK-build-triangle-data-in-range pInfos[0].triangleArray[3].dataOffset: [{}, {}) is past the end of the memory data points into ({MIB} bytes)",
-            MIB - 4,
-            MIB + 4
-        ))),
-        "{findings:#?}"
-    );
+    assert_data_past_end(&described(&measured.report), 3, MIB - 4, MIB);
     let stored = measured.stats.total.stored;
     assert_eq!((stored.opaque, stored.transparent), (96, 32 + 64));
     assert_bounded(&measured, "2^40-byte buffer");
@@ -292,26 +298,14 @@ fn a_file_inside_a_larger_buffer_is_mapped_where_it_is_placed() {
         file_at + file_len + 8,
         file_at + data as u64 + 8
     );
-    let scene = build_scene(
-        &[format!(
-            r#"{{"name": "omm", "size": {size}, "usage": {INPUT}, "contents": {contents}}}"#
-        )],
-        4,
-        &format!(r#"{{"buffer": "omm", "offset": {file_at}}}"#),
-        &format!(r#"{{"buffer": "omm", "offset": {file_at}}}"#),
-    );
-    let path = folder.0.join("scene.json");
-    std::fs::write(&path, scene).unwrap();
+    let path = one_buffer_scene(&folder, size, &contents, file_at, file_at);
 
     let measured = check(&path).unwrap_or_else(|e| panic!("{e}"));
-    let findings = described(&measured.report);
-    assert!(
-        findings.iter().any(|f| f.starts_with(&format!(
-            "OMMCHECK-build-triangle-data-in-range pInfos[0].triangleArray[3].dataOffset: [{}, {})",
-            size - file_at - 4,
-            size - file_at + 4
-        ))),
-        "{findings:#?}"
+    assert_data_past_end(
+        &described(&measured.report),
+        3,
+        size - file_at - 4,
+        size - file_at,
     );
     let stored = measured.stats.total.stored;
     assert_eq!((stored.opaque, stored.transparent), (64 + 32 + 64, 32));
