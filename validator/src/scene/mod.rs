@@ -21,6 +21,7 @@
 pub mod args;
 pub mod format;
 mod in_test;
+mod mapped;
 mod resolve;
 pub mod stats;
 pub mod trace;
@@ -34,8 +35,7 @@ use serde::Serialize;
 #[cfg(test)]
 use resolve::resolve_alone;
 pub use resolve::{
-    read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay,
-    DEVICE_HANDLE, MAX_CONTENTS_BYTES, MAX_SCENE_CONTENTS_BYTES,
+    read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay, DEVICE_HANDLE,
 };
 pub use stats::{StatsReport, StatsSummary};
 pub use trace::{RayReport, TraceReport, TraceSummary};

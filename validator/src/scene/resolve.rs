@@ -44,6 +44,7 @@ pub struct Problem {
 
 type Result<T> = std::result::Result<T, Problem>;
 
+mod contents;
 mod driver;
 mod execution;
 mod generated;
@@ -58,12 +59,6 @@ fn problem<T>(path: impl Into<String>, message: impl Into<String>) -> Result<T> 
 
 /// The `VkDevice` handle scene calls pass unless they say otherwise.
 pub const DEVICE_HANDLE: Handle = 0xd0;
-
-/// The most bytes of contents one buffer or host block may have: contents
-/// are held in memory, so a scene cannot make the checker allocate more.
-pub const MAX_CONTENTS_BYTES: u64 = 256 << 20;
-/// The most bytes of contents one scene may have in all.
-pub const MAX_SCENE_CONTENTS_BYTES: u64 = 1 << 30;
 
 /// Where assigned device addresses start, and the gap left after each
 /// buffer so a read past a buffer's end lands in no buffer.
@@ -211,7 +206,8 @@ struct Object {
 enum PieceBytes {
     /// Written in the scene (hex, base64, numbers, triangles), decoded.
     Decoded(Vec<u8>),
-    /// A binary file of this many bytes, read once, into place.
+    /// A binary file of this many bytes: mapped where it fills its buffer,
+    /// otherwise read once, into place (see [`contents::assemble`]).
     File(PathBuf, u64),
 }
 
@@ -236,7 +232,6 @@ pub(in crate::scene) struct Resolver<'a> {
     /// What each command buffer (by handle) has bound, for the commands
     /// that run shaders.
     bound: BTreeMap<Handle, pipeline::Bound>,
-    contents_total: u64,
     validator: Validator,
 }
 
@@ -251,7 +246,6 @@ impl<'a> Resolver<'a> {
             host_addresses: BTreeMap::new(),
             command_buffers: BTreeMap::new(),
             bound: BTreeMap::new(),
-            contents_total: 0,
             validator,
         }
     }
@@ -800,43 +794,22 @@ impl Resolver<'_> {
         }
     }
 
-    /// The bytes `contents` describes, `size` long.
+    /// The bytes `contents` describes, `size` long (see [`contents::assemble`]
+    /// for where they live: mapped, allocated, or lazily zeroed).
     fn contents(&mut self, contents: &Contents, size: u64, at: &str) -> Result<Bytes> {
-        if size > MAX_CONTENTS_BYTES {
-            return problem(
-                at,
-                format!("{size} bytes of contents; ommcheck reads at most {MAX_CONTENTS_BYTES} bytes of one buffer (give no contents to leave them unknown)"),
-            );
-        }
-        let total = self.contents_total.saturating_add(size);
-        if total > MAX_SCENE_CONTENTS_BYTES {
-            return problem(
-                at,
-                format!("the scene's contents exceed {MAX_SCENE_CONTENTS_BYTES} bytes in all"),
-            );
-        }
-        self.contents_total = total;
-        let len = usize::try_from(size).or_else(|_| problem(at, "too large for this machine"))?;
-        // The one allocation the bytes live in: filled in place (a file piece
-        // is read straight into it), then shared as it is, never copied.
-        let mut bytes = vec![0u8; len];
         let pieces = contents.pieces();
+        let mut placed = Vec::with_capacity(pieces.len());
         for (k, piece) in pieces.iter().enumerate() {
             let piece_at = match contents {
                 Contents::One(_) => at.to_string(),
                 Contents::Many(_) => format!("{at}[{k}]"),
             };
             let data = self.piece(piece, size, &piece_at)?;
-            let end = piece.at.checked_add(data.len());
-            let target = match end {
-                // Both bounds are at most `size`, which fits usize.
-                Some(end) if end <= size => usize::try_from(piece.at)
-                    .ok()
-                    .zip(usize::try_from(end).ok())
-                    .and_then(|(from, to)| bytes.get_mut(from..to)),
-                _ => None,
-            };
-            let Some(target) = target else {
+            if piece
+                .at
+                .checked_add(data.len())
+                .is_none_or(|end| end > size)
+            {
                 return problem(
                     piece_at,
                     format!(
@@ -845,22 +818,14 @@ impl Resolver<'_> {
                         piece.at
                     ),
                 );
-            };
-            match data {
-                PieceBytes::Decoded(decoded) => target.copy_from_slice(&decoded),
-                PieceBytes::File(path, _) => {
-                    let read = std::fs::File::open(&path)
-                        .and_then(|mut file| std::io::Read::read_exact(&mut file, target));
-                    if let Err(e) = read {
-                        return problem(
-                            format!("{piece_at}.file"),
-                            format!("cannot read {}: {e}", path.display()),
-                        );
-                    }
-                }
             }
+            placed.push(contents::Placed {
+                at: piece.at,
+                bytes: data,
+                path: piece_at,
+            });
         }
-        Ok(Bytes::from(bytes))
+        contents::assemble(size, placed, at)
     }
 
     /// A piece's bytes: decoded from the scene, or a file measured here and
