@@ -90,12 +90,32 @@ thread_local! {
     });
 }
 
+/// Whether this process keeps call logs and fault lists at all; the ICD
+/// build (`layer/fake-icd`) turns them off with [`unlogged`].
+static LOGGED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
+/// Turns the call log off for the whole process, and makes the fake GPU's
+/// faults go to stderr instead of a list: the ICD build serves
+/// applications that never read either, and a long run would keep every
+/// call it made.
+pub fn unlogged() {
+    LOGGED.store(false, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether calls and faults are kept (see [`unlogged`]).
+fn logged() -> bool {
+    LOGGED.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 fn record(name: &'static str, args: Vec<u64>) {
     record_with(name, args, String::new);
 }
 
 /// Records the call, with `detail()` when calls are described.
 fn record_with(name: &'static str, args: Vec<u64>, detail: impl FnOnce() -> String) {
+    if !logged() {
+        return;
+    }
     let describe = DRIVER.with_borrow(|d| d.describe);
     let detail = if describe { detail() } else { String::new() };
     let own = layer::testing::own_call_in_progress();
@@ -1452,7 +1472,9 @@ pub unsafe extern "system" fn unknown_command() {
     record("vkOmmcheckTestUnknownCommand", vec![]);
 }
 
-fn void<F: Copy>(f: F) -> vk::PFN_vkVoidFunction {
+/// A command as the loader's `PFN_vkVoidFunction` (the ICD build's tables,
+/// `layer/fake-icd`, use it too).
+pub fn void<F: Copy>(f: F) -> vk::PFN_vkVoidFunction {
     // SAFETY: `F` is always a function pointer type here.
     Some(unsafe { std::mem::transmute_copy::<F, unsafe extern "system" fn()>(&f) })
 }
