@@ -25,7 +25,7 @@
 #[path = "../tests/fake/mod.rs"]
 mod fake;
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::ffi::{c_char, CStr};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
@@ -169,6 +169,8 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         b"vkAllocateCommandBuffers" => {
             void(allocate_command_buffers as vk::PFN_vkAllocateCommandBuffers)
         }
+        b"vkFreeCommandBuffers" => void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
+        b"vkDestroyCommandPool" => void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),
         b"vkGetDeviceQueue" => void(get_device_queue as vk::PFN_vkGetDeviceQueue),
         _ => None,
     }
@@ -424,6 +426,20 @@ unsafe extern "system" fn create_device(
     result
 }
 
+/// The command buffers of each command pool, which the fake hands out as
+/// boxes it never frees (its in-process tests keep every handle): freed
+/// here with their pool, or by vkFreeCommandBuffers, so that an
+/// application making and freeing command buffers for as long as it runs
+/// (`cargo xtask soak`) holds no more memory for them than it uses.
+static POOLS: Mutex<Option<HashMap<u64, HashSet<u64>>>> = Mutex::new(None);
+
+fn pools<R>(f: impl FnOnce(&mut HashMap<u64, HashSet<u64>>) -> R) -> R {
+    f(POOLS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .get_or_insert_with(HashMap::new))
+}
+
 unsafe extern "system" fn allocate_command_buffers(
     device: vk::Device,
     info: *const vk::CommandBufferAllocateInfo<'_>,
@@ -434,13 +450,61 @@ unsafe extern "system" fn allocate_command_buffers(
     let result = unsafe { fake(device, info, out) };
     if result == vk::Result::SUCCESS {
         // SAFETY: as above.
-        let count = unsafe { (*info).command_buffer_count } as usize;
-        for k in 0..count {
+        let (count, pool) = unsafe { ((*info).command_buffer_count, (*info).command_pool) };
+        for k in 0..count as usize {
             // SAFETY: command buffers the fake just made, not handed out yet.
-            unsafe { set_loader_magic((*out.add(k)).as_raw()) };
+            let handle = unsafe { *out.add(k) }.as_raw();
+            // SAFETY: as above.
+            unsafe { set_loader_magic(handle) };
+            pools(|pools| pools.entry(pool.as_raw()).or_default().insert(handle));
         }
     }
     result
+}
+
+unsafe extern "system" fn free_command_buffers(
+    device: vk::Device,
+    pool: vk::CommandPool,
+    count: u32,
+    command_buffers: *const vk::CommandBuffer,
+) {
+    let fake: vk::PFN_vkFreeCommandBuffers = fake_command(c"vkFreeCommandBuffers");
+    // SAFETY: the application's arguments, through the loader.
+    unsafe { fake(device, pool, count, command_buffers) };
+    let freed: Vec<u64> = if command_buffers.is_null() {
+        Vec::new()
+    } else {
+        // SAFETY: `pCommandBuffers` holds `commandBufferCount` handles.
+        unsafe { std::slice::from_raw_parts(command_buffers, count as usize) }
+            .iter()
+            .map(|c| c.as_raw())
+            .collect()
+    };
+    for handle in freed {
+        // Only command buffers of this pool the fake made (NULL is allowed).
+        if pools(|pools| {
+            pools
+                .get_mut(&pool.as_raw())
+                .is_some_and(|p| p.remove(&handle))
+        }) {
+            // SAFETY: the application no longer uses a freed command buffer.
+            unsafe { fake::release_dispatchable(handle) };
+        }
+    }
+}
+
+unsafe extern "system" fn destroy_command_pool(
+    device: vk::Device,
+    pool: vk::CommandPool,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    let fake: vk::PFN_vkDestroyCommandPool = fake_command(c"vkDestroyCommandPool");
+    // SAFETY: the application's arguments, through the loader.
+    unsafe { fake(device, pool, allocator) };
+    for handle in pools(|pools| pools.remove(&pool.as_raw())).unwrap_or_default() {
+        // SAFETY: its pool's command buffers go with it.
+        unsafe { fake::release_dispatchable(handle) };
+    }
 }
 
 /// The fake hands out one handle per queue again and again; only a queue

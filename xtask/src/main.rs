@@ -218,6 +218,10 @@ mod driver {
             /// libVkICD_ommcheck_fake.so (release) from DIR instead of building.
             #[arg(long)]
             prebuilt: Option<PathBuf>,
+            /// Leave lavapipe out even where installed: its 65 MiB or so in the
+            /// process make the memory bound ten times looser.
+            #[arg(long)]
+            without_lavapipe: bool,
         },
         /// The layer's overhead per call at the params and content tiers against
         /// the thread count (1, 2, 4, 8, 16), over the fake driver through the
@@ -341,7 +345,8 @@ mod driver {
             Task::Soak {
                 submissions,
                 prebuilt,
-            } => xtask::stress::soak(&root, submissions, prebuilt.as_deref()),
+                without_lavapipe,
+            } => xtask::stress::soak(&root, submissions, prebuilt.as_deref(), !without_lavapipe),
             Task::Threads {
                 rounds,
                 iterations,

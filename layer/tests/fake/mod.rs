@@ -235,6 +235,18 @@ pub fn dispatchable(key: usize) -> u64 {
     Box::into_raw(Box::new(Dispatchable { key })).expose_provenance() as u64
 }
 
+/// Frees a handle [`dispatchable`] made, for the ICD build, whose
+/// application's command buffers come and go for as long as it runs.
+///
+/// # Safety
+/// `handle` came from [`dispatchable`], is not freed yet, and nothing uses
+/// it any more.
+pub unsafe fn release_dispatchable(handle: u64) {
+    let object = std::ptr::with_exposed_provenance_mut::<Dispatchable>(handle as usize);
+    // SAFETY: the caller's guarantee: a box `dispatchable` leaked.
+    drop(unsafe { Box::from_raw(object) });
+}
+
 /// A dispatch key no other object has.
 fn fresh_key() -> usize {
     Box::into_raw(Box::new(0u64)).expose_provenance()

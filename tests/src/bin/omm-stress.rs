@@ -1164,14 +1164,20 @@ impl Tally {
 struct Soak;
 
 impl Soak {
-    /// One round in this many is faulty.
-    const FAULTY_EVERY: u64 = 10;
+    /// One round in this many is faulty: the fifth and the tenth of each
+    /// remake's ten, so the faulty command buffer is recorded fresh once
+    /// and, unless [`Soak::RERECORD_EVERY`] says otherwise, resubmitted
+    /// once.
+    const FAULTY_EVERY: u64 = 5;
     /// A command buffer is recorded anew every this many rounds; in
     /// between it is resubmitted as recorded.
     const RERECORD_EVERY: u64 = 7;
-    /// The micromap and the structures are destroyed and made again every
-    /// this many rounds.
-    const REMAKE_EVERY: u64 = 50;
+    /// The micromap, the structures, the command buffers (freed, or with
+    /// their pool) and the fence are destroyed and made again every this
+    /// many rounds: often, so that state kept per object (about 1 KiB each
+    /// in the leaks the soak found) adds up past the memory bound even
+    /// beside lavapipe's 70 MiB.
+    const REMAKE_EVERY: u64 = 10;
     /// With lavapipe, one submission in this many is a top-level build.
     const INSTANCE_EVERY: u64 = 10;
 }
