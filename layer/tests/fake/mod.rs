@@ -5,6 +5,9 @@
 //! Dispatchable handles are leaked boxes whose first word is a dispatch
 //! key, as the loader's are: a physical device shares its instance's key,
 //! a command buffer its device's. Each test thread records its own calls.
+//!
+//! `layer/fake-icd` builds this module into an ICD the real loader loads
+//! (with the call log off, see [`unlogged`]).
 
 // Each test crate uses part of the fake driver.
 #![allow(unsafe_code, clippy::missing_safety_doc, dead_code)]
