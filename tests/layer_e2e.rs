@@ -29,7 +29,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use ommcheck_tests::{loader_command, prepared};
+use ommcheck_tests::{loader_command, place_layer_manifest, prepared};
 use serde_json::Value;
 use VkLayer_ommcheck::LAYER_NAME;
 
@@ -49,38 +49,8 @@ const ALL_SEVERITIES: &str = "error,warning,info";
 fn layer_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let file = format!(
-            "{}VkLayer_ommcheck{}",
-            std::env::consts::DLL_PREFIX,
-            std::env::consts::DLL_SUFFIX
-        );
-        let exe = std::env::current_exe().expect("the test binary's path");
-        let deps = exe.parent().expect("the test binary's directory");
-        let library = [deps, deps.parent().unwrap_or(deps)]
-            .iter()
-            .map(|dir| dir.join(&file))
-            .find(|path| path.exists())
-            .unwrap_or_else(|| panic!("{file} is neither in {} nor its parent; cargo builds it for the dev-dependency on ommcheck-layer", deps.display()));
-        let library = library.canonicalize().expect("the layer's absolute path");
-        // The fields the loader needs (`cargo xtask layer` writes the full
-        // manifest, with the settings, from the xtask binary).
-        let manifest = serde_json::json!({
-            "file_format_version": "1.2.0",
-            "layer": {
-                "name": LAYER_NAME,
-                "type": "GLOBAL",
-                "library_path": library,
-                "api_version": "1.3.239",
-                "implementation_version": "1",
-                "description": "ommcheck (tests/layer_e2e.rs)",
-            }
-        });
         let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("layer-e2e");
-        std::fs::create_dir_all(&dir).expect("creating the manifest directory");
-        // Written aside and renamed: another test process may be reading it.
-        let aside = dir.join(format!("manifest.{}.tmp", std::process::id()));
-        std::fs::write(&aside, manifest.to_string()).expect("writing the manifest");
-        std::fs::rename(&aside, dir.join("VkLayer_ommcheck.json")).expect("placing the manifest");
+        place_layer_manifest(&dir, LAYER_NAME, "ommcheck (tests/layer_e2e.rs)");
         dir
     })
 }

@@ -266,6 +266,9 @@ unsafe extern "system" fn destroy_acceleration_structure(
             let tracked = state.validator.state_mut();
             tracked.acceleration_structures.remove(&structure.as_raw());
             tracked.original_attachments.remove(&structure.as_raw());
+            // What its builds put in it: kept for the structure's life
+            // only (each one destroyed stayed, found by `cargo xtask soak`).
+            tracked.micromap_geometry.remove(&structure.as_raw());
             tracked.execution.forget(structure.as_raw());
         });
         // SAFETY: the next layer's function, with the application's arguments.

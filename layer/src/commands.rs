@@ -257,6 +257,8 @@ pub fn forget_device(device: vk::Device) {
         .filter(|(k, _)| *k == key)
         .copied()
         .collect();
+    // The device's checked state goes with it: only the pools' own maps
+    // need emptying.
     for (_, pool) in pools {
         forget_pool(device, vk::CommandPool::from_raw(pool));
     }
@@ -308,12 +310,17 @@ unsafe extern "system" fn create_command_pool(
     )
 }
 
-/// Forgets the command buffers of a pool destroyed.
-fn forget_pool(device: vk::Device, pool: vk::CommandPool) {
+/// Forgets the command buffers of a pool destroyed; returns their handles.
+fn forget_pool(device: vk::Device, pool: vk::CommandPool) -> Vec<u64> {
     let removed = lock(&POOLS).remove(&(device_key(device), pool.as_raw()));
-    for handle in removed.into_iter().flat_map(|p| p.command_buffers) {
+    let handles: Vec<u64> = removed
+        .into_iter()
+        .flat_map(|p| p.command_buffers)
+        .collect();
+    for &handle in &handles {
         COMMAND_BUFFERS.shard(handle).remove(&handle);
     }
+    handles
 }
 
 /// `vkDestroyCommandPool`: its command buffers are freed with it.
@@ -323,10 +330,15 @@ unsafe extern "system" fn destroy_command_pool(
     allocator: *const vk::AllocationCallbacks<'_>,
 ) {
     guarded("vkDestroyCommandPool", (), || {
-        let Some((_, next)) = device_and(device, |f| f.commands.destroy_command_pool) else {
+        let Some((data, next)) = device_and(device, |f| f.commands.destroy_command_pool) else {
             return;
         };
-        forget_pool(device, pool);
+        // As vkFreeCommandBuffers does for each: without it, what each
+        // command buffer last recorded stayed in the checked state for the
+        // device's life (found by `cargo xtask soak`).
+        for handle in forget_pool(device, pool) {
+            forget_recording(&data, handle);
+        }
         // SAFETY: the next layer's function, with the application's arguments.
         unsafe { next(device, pool, allocator) };
     })

@@ -32,7 +32,7 @@ use ommcheck::Severity;
 use crate::dispatch::next_fns::DeviceFns;
 use crate::dispatch::submissions::{Pending, Submissions};
 use crate::dispatch::{DeviceData, DeviceState};
-use crate::intercept::{aliased_intercepts, check, device_and, guarded, panic_message};
+use crate::intercept::{aliased_intercepts, check, device_and, guarded, panic_message, track};
 use crate::own_calls::{self, OwnCall};
 use crate::read;
 use crate::report::{Message, CONTENTS_NOT_CHECKED};
@@ -291,6 +291,56 @@ pub unsafe extern "system" fn get_fence_status(device: vk::Device, fence: vk::Fe
         },
         |submissions, _| submissions.fence_signalled(fence.as_raw()),
     )
+}
+
+/// `vkResetFences`: a fence reset stands for no submission any more, and
+/// the core forgets the submission it stood for, as for one destroyed
+/// ([`destroy_fence`]). Without these, every fence an application made,
+/// submitted with and destroyed stayed in the core's execution order for
+/// the device's life (found by `cargo xtask soak`).
+#[allow(dead_code)]
+pub unsafe extern "system" fn reset_fences(
+    device: vk::Device,
+    count: u32,
+    fences: *const vk::Fence,
+) -> vk::Result {
+    guarded("vkResetFences", vk::Result::ERROR_DEVICE_LOST, || {
+        let Some((data, next)) = device_and(device, |f| f.memory.reset_fences) else {
+            return vk::Result::ERROR_DEVICE_LOST;
+        };
+        // SAFETY: the next layer's function, with the application's arguments.
+        let result = unsafe { next(device, count, fences) };
+        if result == vk::Result::SUCCESS {
+            // SAFETY: `pFences` holds `fenceCount` fences (the API's requirement).
+            let fences: Vec<u64> = unsafe { read::array(fences, count) }
+                .iter()
+                .map(|f| f.as_raw())
+                .collect();
+            track(&data, "vkResetFences", |state| {
+                state.validator.reset_fences(&fences)
+            });
+        }
+        result
+    })
+}
+
+/// `vkDestroyFence`: see [`reset_fences`].
+#[allow(dead_code)]
+pub unsafe extern "system" fn destroy_fence(
+    device: vk::Device,
+    fence: vk::Fence,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroyFence", (), || {
+        let Some((data, next)) = device_and(device, |f| f.memory.destroy_fence) else {
+            return;
+        };
+        track(&data, "vkDestroyFence", |state| {
+            state.validator.reset_fences(&[fence.as_raw()])
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, fence, allocator) };
+    })
 }
 
 pub unsafe extern "system" fn queue_wait_idle(queue: vk::Queue) -> vk::Result {

@@ -23,3 +23,21 @@ pub fn seed_micromap_geometry(
     known.insert(acceleration_structure, geometry);
     true
 }
+
+/// How many entries `device`'s checked state keeps for things an
+/// application makes and destroys over and over: what command buffers
+/// recorded, what fences stand for, what structures' builds put in them,
+/// how objects were constructed. Tests make and destroy such objects
+/// repeatedly and see these stay put. None for an unknown device.
+#[doc(hidden)]
+pub fn kept_per_object(device: ash::vk::Device) -> Option<[(&'static str, usize); 4]> {
+    let data = crate::dispatch::DEVICES.get(device)?;
+    let state = data.state();
+    let tracked = state.validator.state();
+    Some([
+        ("recordings", tracked.execution.recordings.len()),
+        ("fences", tracked.execution.fences.len()),
+        ("micromap_geometry", tracked.micromap_geometry.len()),
+        ("constructed", tracked.execution.constructed.len()),
+    ])
+}

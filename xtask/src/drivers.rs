@@ -723,6 +723,13 @@ fn lavapipe_manifest() -> Option<PathBuf> {
     })
 }
 
+/// lavapipe's manifest where the installed Mesa has acceleration
+/// structures; None where it is missing or too old (installs nothing).
+pub(crate) fn installed_lavapipe() -> Option<PathBuf> {
+    installed_version("mesa-vulkan-drivers").filter(|v| lavapipe_has_as(v))?;
+    lavapipe_manifest()
+}
+
 fn lavapipe(
     release: &OsRelease,
     apt: Option<&mut PrivateApt>,

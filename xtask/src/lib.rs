@@ -38,6 +38,8 @@ pub mod modules;
 pub mod names;
 #[cfg(feature = "generate")]
 pub mod registry;
+#[cfg(feature = "driver")]
+pub mod stress;
 #[cfg(feature = "generate")]
 pub mod structs;
 #[cfg(feature = "driver")]

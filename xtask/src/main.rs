@@ -204,6 +204,40 @@ mod driver {
             #[arg(long, default_value = "params")]
             tier: String,
         },
+        /// A long workload through the real Vulkan loader, the layer (release)
+        /// and the fake driver (layer/fake-icd): micromap and BLAS builds whose
+        /// inputs the layer reads back, resubmissions and destroys, and
+        /// top-level builds over lavapipe where it is installed. Prints one
+        /// line `soak: ...`; fails on findings other than those planted or
+        /// resident memory at the end above 1.1 times its 10% mark.
+        Soak {
+            /// Submissions in all.
+            #[arg(long, default_value_t = 100_000)]
+            submissions: u64,
+            /// Take omm-stress, libVkLayer_ommcheck.so and
+            /// libVkICD_ommcheck_fake.so (release) from DIR instead of building.
+            #[arg(long)]
+            prebuilt: Option<PathBuf>,
+            /// Leave lavapipe out even where installed: its 65 MiB or so in the
+            /// process make the memory bound ten times looser.
+            #[arg(long)]
+            without_lavapipe: bool,
+        },
+        /// The layer's overhead per call at the params and content tiers against
+        /// the thread count (1, 2, 4, 8, 16), over the fake driver through the
+        /// real loader; prints a markdown table.
+        Threads {
+            /// Rounds (one process per thread count and configuration each);
+            /// the table gives medians.
+            #[arg(long, default_value_t = 5)]
+            rounds: usize,
+            /// Calls of each command timed per thread and process.
+            #[arg(long, default_value_t = 10_000)]
+            iterations: u32,
+            /// As for `soak`.
+            #[arg(long)]
+            prebuilt: Option<PathBuf>,
+        },
         /// Install what the tests need, then run fmt, clippy and the whole test suite.
         Test {
             /// Do not install missing prerequisites; report them.
@@ -308,6 +342,16 @@ mod driver {
                 iterations,
                 tier,
             } => xtask::bench::run_interleaved(&root, rounds, iterations, &tier),
+            Task::Soak {
+                submissions,
+                prebuilt,
+                without_lavapipe,
+            } => xtask::stress::soak(&root, submissions, prebuilt.as_deref(), !without_lavapipe),
+            Task::Threads {
+                rounds,
+                iterations,
+                prebuilt,
+            } => xtask::stress::threads(&root, rounds, iterations, prebuilt.as_deref()),
             Task::Test {
                 no_install,
                 sanitize: false,

@@ -552,8 +552,9 @@ macro_rules! pipe_fns {
 }
 pipe_commands!(pipe_fns);
 
-/// The commands that write buffer memory and those that tell a submission
-/// is complete (`intercepted`), and the functions GPU readback records
+/// The commands that write buffer memory, those that tell a submission
+/// is complete and those after which a fence stands for none
+/// (`intercepted`), and the functions GPU readback records
 /// with (`called`): each one's field in [`MemoryFns`], its type and its
 /// name, handed to `$then`. [`MemoryFns`] is made from this list here and
 /// `crate::transfer` makes its intercept table from it.
@@ -573,6 +574,8 @@ macro_rules! memory_commands {
 
                 wait_for_fences: vk::PFN_vkWaitForFences = c"vkWaitForFences";
                 get_fence_status: vk::PFN_vkGetFenceStatus = c"vkGetFenceStatus";
+                reset_fences: vk::PFN_vkResetFences = c"vkResetFences";
+                destroy_fence: vk::PFN_vkDestroyFence = c"vkDestroyFence";
                 queue_wait_idle: vk::PFN_vkQueueWaitIdle = c"vkQueueWaitIdle";
                 device_wait_idle: vk::PFN_vkDeviceWaitIdle = c"vkDeviceWaitIdle";
                 wait_semaphores: vk::PFN_vkWaitSemaphores = c"vkWaitSemaphores";

@@ -5,6 +5,9 @@
 //! Dispatchable handles are leaked boxes whose first word is a dispatch
 //! key, as the loader's are: a physical device shares its instance's key,
 //! a command buffer its device's. Each test thread records its own calls.
+//!
+//! `layer/fake-icd` builds this module into an ICD the real loader loads
+//! (with the call log off, see [`unlogged`]).
 
 // Each test crate uses part of the fake driver.
 #![allow(unsafe_code, clippy::missing_safety_doc, dead_code)]
@@ -90,12 +93,32 @@ thread_local! {
     });
 }
 
+/// Whether this process keeps call logs and fault lists at all; the ICD
+/// build (`layer/fake-icd`) turns them off with [`unlogged`].
+static LOGGED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
+/// Turns the call log off for the whole process, and makes the fake GPU's
+/// faults go to stderr instead of a list: the ICD build serves
+/// applications that never read either, and a long run would keep every
+/// call it made.
+pub fn unlogged() {
+    LOGGED.store(false, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether calls and faults are kept (see [`unlogged`]).
+fn logged() -> bool {
+    LOGGED.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 fn record(name: &'static str, args: Vec<u64>) {
     record_with(name, args, String::new);
 }
 
 /// Records the call, with `detail()` when calls are described.
 fn record_with(name: &'static str, args: Vec<u64>, detail: impl FnOnce() -> String) {
+    if !logged() {
+        return;
+    }
     let describe = DRIVER.with_borrow(|d| d.describe);
     let detail = if describe { detail() } else { String::new() };
     let own = layer::testing::own_call_in_progress();
@@ -213,6 +236,18 @@ struct Dispatchable {
 /// for the whole test process).
 pub fn dispatchable(key: usize) -> u64 {
     Box::into_raw(Box::new(Dispatchable { key })).expose_provenance() as u64
+}
+
+/// Frees a handle [`dispatchable`] made, for the ICD build, whose
+/// application's command buffers come and go for as long as it runs.
+///
+/// # Safety
+/// `handle` came from [`dispatchable`], is not freed yet, and nothing uses
+/// it any more.
+pub unsafe fn release_dispatchable(handle: u64) {
+    let object = std::ptr::with_exposed_provenance_mut::<Dispatchable>(handle as usize);
+    // SAFETY: the caller's guarantee: a box `dispatchable` leaked.
+    drop(unsafe { Box::from_raw(object) });
 }
 
 /// A dispatch key no other object has.
@@ -646,6 +681,11 @@ unsafe extern "system" fn allocate_command_buffers(
     let key = key_of(device.as_raw());
     let handles: Vec<u64> = (0..i.command_buffer_count)
         .map(|_| {
+            // The ICD build never resets (its application's handles are
+            // not rerun), and would keep every handle it ever made.
+            if !logged() {
+                return dispatchable(key);
+            }
             DRIVER.with_borrow_mut(|d| {
                 // Reuse the handle this position had before a reset, if it
                 // was this device's.
@@ -1452,7 +1492,9 @@ pub unsafe extern "system" fn unknown_command() {
     record("vkOmmcheckTestUnknownCommand", vec![]);
 }
 
-fn void<F: Copy>(f: F) -> vk::PFN_vkVoidFunction {
+/// A command as the loader's `PFN_vkVoidFunction` (the ICD build's tables,
+/// `layer/fake-icd`, use it too).
+pub fn void<F: Copy>(f: F) -> vk::PFN_vkVoidFunction {
     // SAFETY: `F` is always a function pointer type here.
     Some(unsafe { std::mem::transmute_copy::<F, unsafe extern "system" fn()>(&f) })
 }

@@ -51,6 +51,10 @@ use std::process::ExitCode;
 use std::sync::Mutex;
 
 use ash::vk;
+use ommcheck_tests::vulkan::{
+    build_info, build_sizes, instance_words, word_bytes, Attaching, Device, Instance,
+    HOST_MAPPABLE, USAGE,
+};
 use serde_json::{json, Map, Value};
 
 type Results = Map<String, Value>;
@@ -120,57 +124,34 @@ unsafe extern "system" fn collect(
 
 /// An instance with the named layers and a messenger for every severity.
 struct Vulkan {
-    _entry: ash::Entry,
-    instance: ash::Instance,
-    debug_utils: ash::ext::debug_utils::Instance,
-    messenger: vk::DebugUtilsMessengerEXT,
+    base: Instance,
     collector: Box<Collector>,
+}
+
+impl std::ops::Deref for Vulkan {
+    type Target = Instance;
+
+    fn deref(&self) -> &Instance {
+        &self.base
+    }
 }
 
 impl Vulkan {
     fn new(layers: &[CString]) -> Result<Self, String> {
-        // SAFETY: loading libvulkan.so.1 runs its initialisers; the loader is
-        // the system's, installed from the distribution's packages.
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| format!("no Vulkan loader: {e}"))?;
-        let layer_ptrs: Vec<_> = layers.iter().map(|l| l.as_ptr()).collect();
-        let extensions = [ash::ext::debug_utils::NAME.as_ptr()];
-        let app = vk::ApplicationInfo::default()
-            .application_name(c"omm-app")
-            .api_version(vk::API_VERSION_1_3);
-        let info = vk::InstanceCreateInfo::default()
-            .application_info(&app)
-            .enabled_layer_names(&layer_ptrs)
-            .enabled_extension_names(&extensions);
-        // SAFETY: `info` and everything it points to outlive the call.
-        let instance = unsafe { entry.create_instance(&info, None) }
-            .map_err(|e| format!("vkCreateInstance: {e}"))?;
-        let debug_utils = ash::ext::debug_utils::Instance::new(&entry, &instance);
         let collector = Box::<Collector>::default();
         *collector.phase.lock().unwrap() = "setup";
-        let messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-            .message_severity(
-                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
-            )
-            .message_type(
-                vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                    | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-            )
-            .pfn_user_callback(Some(collect))
-            .user_data((&*collector as *const Collector).cast_mut().cast());
-        // SAFETY: a valid create info; the boxed collector outlives the
-        // messenger (destroyed first in `drop`).
-        let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
-            .map_err(|e| format!("vkCreateDebugUtilsMessengerEXT: {e}"))?;
-        Ok(Self {
-            _entry: entry,
-            instance,
-            debug_utils,
-            messenger,
-            collector,
-        })
+        // The boxed collector outlives the messenger (destroyed first in
+        // `drop`).
+        let base = Instance::new(
+            c"omm-app",
+            layers,
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            Some(collect),
+            (&*collector as *const Collector).cast_mut().cast(),
+        )?;
+        Ok(Self { base, collector })
     }
 
     fn phase(&self, phase: &'static str) {
@@ -219,30 +200,24 @@ impl Vulkan {
 
 impl Drop for Vulkan {
     fn drop(&mut self) {
-        // SAFETY: the messenger and instance are this app's and have no
-        // children left (each scenario destroys its device).
-        unsafe {
-            self.debug_utils
-                .destroy_debug_utils_messenger(self.messenger, None);
-            self.instance.destroy_instance(None);
-        }
+        // Each scenario destroys its device.
+        self.base.destroy();
     }
 }
 
-/// The memory of buffers the app writes through a mapping.
-const HOST_MAPPABLE: vk::MemoryPropertyFlags = vk::MemoryPropertyFlags::from_raw(
-    vk::MemoryPropertyFlags::HOST_VISIBLE.as_raw()
-        | vk::MemoryPropertyFlags::HOST_COHERENT.as_raw(),
-);
-
-/// A device with one queue of family 0 (the Mock ICD and lavapipe both
-/// have one family with graphics, compute and transfer).
+/// A device with one queue of family 0 and a command pool.
 struct Gpu<'a> {
     vulkan: &'a Vulkan,
-    device: ash::Device,
-    queue: vk::Queue,
-    memory: vk::PhysicalDeviceMemoryProperties,
+    core: Device,
     pool: vk::CommandPool,
+}
+
+impl std::ops::Deref for Gpu<'_> {
+    type Target = Device;
+
+    fn deref(&self) -> &Device {
+        &self.core
+    }
 }
 
 impl<'a> Gpu<'a> {
@@ -254,112 +229,12 @@ impl<'a> Gpu<'a> {
         extensions: &[&CStr],
         features: &mut F,
     ) -> Result<Self, String> {
-        let mut address =
-            vk::PhysicalDeviceBufferDeviceAddressFeatures::default().buffer_device_address(true);
-        let extensions: Vec<_> = extensions.iter().map(|e| e.as_ptr()).collect();
-        let priorities = [1.0];
-        let queues = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(0)
-            .queue_priorities(&priorities)];
-        let info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queues)
-            .enabled_extension_names(&extensions)
-            .push_next(features)
-            .push_next(&mut address);
-        // SAFETY: `info` is valid and outlives the call.
-        let device = unsafe { vulkan.instance.create_device(physical, &info, None) }
-            .map_err(|e| format!("vkCreateDevice: {e}"))?;
-        // SAFETY: family 0, queue 0 was requested in `info`.
-        let queue = unsafe { device.get_device_queue(0, 0) };
-        // SAFETY: a physical device of this instance.
-        let memory = unsafe {
-            vulkan
-                .instance
-                .get_physical_device_memory_properties(physical)
-        };
+        let core = Device::new(&vulkan.instance, physical, extensions, features)?;
         let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(0);
         // SAFETY: valid arguments.
-        let pool = unsafe { device.create_command_pool(&pool_info, None) }
+        let pool = unsafe { core.device.create_command_pool(&pool_info, None) }
             .map_err(|e| format!("vkCreateCommandPool: {e}"))?;
-        Ok(Self {
-            vulkan,
-            device,
-            queue,
-            memory,
-            pool,
-        })
-    }
-
-    /// The first memory type in `bits` with `flags`.
-    fn memory_type(&self, bits: u32, flags: vk::MemoryPropertyFlags) -> Result<u32, String> {
-        (0..self.memory.memory_type_count)
-            .find(|&i| {
-                bits & (1 << i) != 0
-                    && self.memory.memory_types[i as usize]
-                        .property_flags
-                        .contains(flags)
-            })
-            .ok_or_else(|| format!("no memory type with {flags:?} in {bits:#x}"))
-    }
-
-    /// Memory of `size` bytes of the first type in `bits` with `flags`.
-    fn allocate(
-        &self,
-        size: u64,
-        bits: u32,
-        flags: vk::MemoryPropertyFlags,
-        device_address: bool,
-    ) -> Result<vk::DeviceMemory, String> {
-        let index = self.memory_type(bits, flags)?;
-        let mut address_flags =
-            vk::MemoryAllocateFlagsInfo::default().flags(vk::MemoryAllocateFlags::DEVICE_ADDRESS);
-        let mut info = vk::MemoryAllocateInfo::default()
-            .allocation_size(size)
-            .memory_type_index(index);
-        if device_address {
-            info = info.push_next(&mut address_flags);
-        }
-        // SAFETY: valid arguments.
-        unsafe { self.device.allocate_memory(&info, None) }
-            .map_err(|e| format!("vkAllocateMemory: {e}"))
-    }
-
-    /// Maps all of `memory`; the pointer stays valid until the device is
-    /// destroyed (nothing here unmaps).
-    fn map(&self, memory: vk::DeviceMemory) -> Result<*mut u8, String> {
-        // SAFETY: host-visible memory of this device, not mapped yet.
-        unsafe {
-            self.device
-                .map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())
-        }
-        .map(|p| p.cast())
-        .map_err(|e| format!("vkMapMemory: {e}"))
-    }
-
-    /// A buffer of `size` bytes bound to memory of its own of the first
-    /// type with `flags`: the buffer and its memory.
-    fn bound_buffer(
-        &self,
-        size: u64,
-        usage: vk::BufferUsageFlags,
-        flags: vk::MemoryPropertyFlags,
-    ) -> Result<(vk::Buffer, vk::DeviceMemory), String> {
-        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
-        // SAFETY: valid arguments.
-        let buffer = unsafe { self.device.create_buffer(&info, None) }
-            .map_err(|e| format!("vkCreateBuffer: {e}"))?;
-        // SAFETY: a buffer of this device.
-        let requirements = unsafe { self.device.get_buffer_memory_requirements(buffer) };
-        let memory = self.allocate(
-            requirements.size.max(size),
-            requirements.memory_type_bits,
-            flags,
-            usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS),
-        )?;
-        // SAFETY: fresh memory large enough for the buffer.
-        unsafe { self.device.bind_buffer_memory(buffer, memory, 0) }
-            .map_err(|e| format!("vkBindBufferMemory: {e}"))?;
-        Ok((buffer, memory))
+        Ok(Self { vulkan, core, pool })
     }
 
     /// A buffer of `size` bytes bound to host-visible memory of its own,
@@ -369,14 +244,8 @@ impl<'a> Gpu<'a> {
         size: u64,
         usage: vk::BufferUsageFlags,
     ) -> Result<(vk::Buffer, *mut u8), String> {
-        let (buffer, memory) = self.bound_buffer(size, usage, HOST_MAPPABLE)?;
-        Ok((buffer, self.map(memory)?))
-    }
-
-    fn address(&self, buffer: vk::Buffer) -> u64 {
-        let info = vk::BufferDeviceAddressInfo::default().buffer(buffer);
-        // SAFETY: a buffer created with SHADER_DEVICE_ADDRESS usage.
-        unsafe { self.device.get_buffer_device_address(&info) }
+        let (buffer, _, map) = self.core.mapped(size, usage)?;
+        Ok((buffer, map))
     }
 
     /// A primary command buffer from the pool, begun.
@@ -420,24 +289,7 @@ impl<'a> Gpu<'a> {
         omm: &ash::ext::opacity_micromap::Device,
     ) -> Result<vk::MicromapEXT, String> {
         let (storage, _) = self.mapped_buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT)?;
-        let info = vk::MicromapCreateInfoEXT::default()
-            .buffer(storage)
-            .size(4096)
-            .ty(vk::MicromapTypeEXT::OPACITY_MICROMAP);
-        let mut micromap = vk::MicromapEXT::null();
-        // SAFETY: valid arguments.
-        let result = unsafe {
-            (omm.fp().create_micromap_ext)(
-                self.device.handle(),
-                &info,
-                std::ptr::null(),
-                &mut micromap,
-            )
-        };
-        result
-            .result()
-            .map_err(|e| format!("vkCreateMicromapEXT: {e}"))?;
-        Ok(micromap)
+        self.core.micromap(omm, storage, 4096)
     }
 }
 
@@ -474,13 +326,6 @@ fn micromap_device(vulkan: &Vulkan) -> Result<Gpu<'_>, String> {
     )
 }
 
-/// Two 2-state triangles at subdivision level 1: one byte of data each.
-const USAGE: [vk::MicromapUsageEXT; 1] = [vk::MicromapUsageEXT {
-    count: 2,
-    subdivision_level: 1,
-    format: 1,
-}];
-
 /// The triangle array of the two triangles, their data at `offsets`.
 fn triangles(offsets: [u32; 2], format: u16) -> [vk::MicromapTriangleEXT; 2] {
     offsets.map(|data_offset| vk::MicromapTriangleEXT {
@@ -488,28 +333,6 @@ fn triangles(offsets: [u32; 2], format: u16) -> [vk::MicromapTriangleEXT; 2] {
         subdivision_level: 1,
         format,
     })
-}
-
-/// A build of the two triangles of [`USAGE`] into `micromap`: the triangle
-/// array (stride 8), the data and the scratch at the addresses given.
-fn build_info(
-    micromap: vk::MicromapEXT,
-    triangle_array: vk::DeviceOrHostAddressConstKHR,
-    data: vk::DeviceOrHostAddressConstKHR,
-    scratch_data: vk::DeviceOrHostAddressKHR,
-) -> vk::MicromapBuildInfoEXT<'static> {
-    vk::MicromapBuildInfoEXT {
-        ty: vk::MicromapTypeEXT::OPACITY_MICROMAP,
-        mode: vk::BuildMicromapModeEXT::BUILD,
-        dst_micromap: micromap,
-        usage_counts_count: 1,
-        p_usage_counts: USAGE.as_ptr(),
-        data,
-        triangle_array,
-        triangle_array_stride: 8,
-        scratch_data,
-        ..Default::default()
-    }
 }
 
 /// `vkBuildMicromapsEXT` (host build) of two triangles: the triangle array
@@ -691,24 +514,6 @@ impl Buffers {
     }
 }
 
-/// The scratch offset alignment of `physical`'s acceleration structures.
-fn scratch_alignment(vulkan: &Vulkan, physical: vk::PhysicalDevice) -> u64 {
-    let mut structure_properties = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
-    let mut properties =
-        vk::PhysicalDeviceProperties2::default().push_next(&mut structure_properties);
-    // SAFETY: a physical device of this instance; a valid chain.
-    unsafe {
-        vulkan
-            .instance
-            .get_physical_device_properties2(physical, &mut properties)
-    };
-    u64::from(
-        structure_properties
-            .min_acceleration_structure_scratch_offset_alignment
-            .max(1),
-    )
-}
-
 /// A device of `physical` with VK_KHR_acceleration_structure and its
 /// feature `accelerationStructure`, and with VK_KHR_ray_query and its
 /// feature `rayQuery` where offered (lavapipe), else VK_KHR_ray_tracing_pipeline
@@ -877,26 +682,6 @@ impl TriangleBlas {
     }
 }
 
-/// The structure size and build scratch size the driver gives a device
-/// build of `info` with `primitives` primitives in its one geometry.
-fn build_sizes(
-    accel: &ash::khr::acceleration_structure::Device,
-    info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
-    primitives: u32,
-) -> [u64; 2] {
-    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
-    // SAFETY: a valid build info with one geometry.
-    unsafe {
-        accel.get_acceleration_structure_build_sizes(
-            vk::AccelerationStructureBuildTypeKHR::DEVICE,
-            info,
-            &[primitives],
-            &mut sizes,
-        )
-    };
-    [sizes.acceleration_structure_size, sizes.build_scratch_size]
-}
-
 /// A query pool of one query of `ty`.
 fn query_pool(gpu: &Gpu<'_>, ty: vk::QueryType) -> Result<vk::QueryPool, String> {
     let info = vk::QueryPoolCreateInfo::default()
@@ -967,7 +752,7 @@ fn blas(vulkan: &Vulkan, results: &mut Results) -> Result<(), String> {
     let physical = vulkan.physical_device()?;
     let has_micromaps = vulkan.has_device_extension(physical, ash::ext::opacity_micromap::NAME);
     results.insert("has_opacity_micromap".into(), json!(has_micromaps));
-    let scratch_alignment = scratch_alignment(vulkan, physical);
+    let scratch_alignment = vulkan.scratch_alignment(physical);
     let gpu = structure_device(vulkan, physical)?;
     results.insert(
         "null_micromap_commands".into(),
@@ -1088,39 +873,6 @@ const INSTANCE_FLAGS_OFFSET: u64 = std::mem::offset_of!(
     vk::AccelerationStructureInstanceKHR,
     instance_shader_binding_table_record_offset_and_flags
 ) as u64;
-
-/// An instance of the structure at device address `reference` with the
-/// identity transform, mask 0xFF and `flags`, as 32-bit words.
-fn instance_words(reference: u64, flags: vk::GeometryInstanceFlagsKHR) -> [u32; 16] {
-    let instance = vk::AccelerationStructureInstanceKHR {
-        transform: vk::TransformMatrixKHR {
-            matrix: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
-        },
-        instance_custom_index_and_mask: vk::Packed24_8::new(0, 0xFF),
-        instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
-            0,
-            flags.as_raw() as u8,
-        ),
-        acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
-            device_handle: reference,
-        },
-    };
-    let mut words = [0u32; 16];
-    // SAFETY: the instance is 64 plain bytes (16 words), all initialised.
-    unsafe {
-        std::ptr::copy_nonoverlapping(
-            (&instance as *const vk::AccelerationStructureInstanceKHR).cast::<u32>(),
-            words.as_mut_ptr(),
-            words.len(),
-        )
-    };
-    words
-}
-
-/// The bytes of `words`, as vkCmdUpdateBuffer and the mappings take them.
-fn word_bytes(words: &[u32]) -> Vec<u8> {
-    words.iter().flat_map(|w| w.to_ne_bytes()).collect()
-}
 
 /// A compute pipeline of `copy_words` (tests/shaders.rs) and one
 /// descriptor set per pair of storage buffers it copies between: the
@@ -1311,7 +1063,7 @@ fn tlas(vulkan: &Vulkan, options: &TlasOptions, results: &mut Results) -> Result
         .device_name_as_c_str()
         .map_or_else(|_| "?".into(), |n| n.to_string_lossy().into_owned());
     results.insert("device".into(), json!(name));
-    let scratch_alignment = scratch_alignment(vulkan, physical);
+    let scratch_alignment = vulkan.scratch_alignment(physical);
     let gpu = structure_device(vulkan, physical)?;
     let accel = ash::khr::acceleration_structure::Device::new(&vulkan.instance, &gpu.device);
     let mut buffers = Buffers::default();
@@ -1840,17 +1592,6 @@ const THREAD_ITERATIONS: usize = 16;
 /// (exit status 2): far beyond what the work takes.
 const DEADLOCK_BOUND: std::time::Duration = std::time::Duration::from_secs(60);
 
-/// A buffer of `size` bytes bound to host-visible memory of its own,
-/// mapped: the buffer, its memory and the mapping.
-fn owned_mapped_buffer(
-    gpu: &Gpu<'_>,
-    size: u64,
-    usage: vk::BufferUsageFlags,
-) -> Result<(vk::Buffer, vk::DeviceMemory, *mut u8), String> {
-    let (buffer, memory) = gpu.bound_buffer(size, usage, HOST_MAPPABLE)?;
-    Ok((buffer, memory, gpu.map(memory)?))
-}
-
 /// `threads` (Mock ICD): [`THREADS`] threads at once, each with its own
 /// command pool, [`THREAD_ITERATIONS`] times creating a micromap and two
 /// acceleration structures on buffers of their own, recording device builds
@@ -1937,7 +1678,7 @@ fn thread_iterations(
     let mut host_scratch = vec![0u8; 1 << 16];
     for _ in 0..THREAD_ITERATIONS {
         let (micromap_storage, micromap_memory, _) =
-            owned_mapped_buffer(gpu, 4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT)?;
+            gpu.mapped(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT)?;
         let info = vk::MicromapCreateInfoEXT::default()
             .buffer(micromap_storage)
             .size(4096)
@@ -1952,8 +1693,7 @@ fn thread_iterations(
                 &mut micromap,
             )
         });
-        let (structure_storage, structure_memory, _) = owned_mapped_buffer(
-            gpu,
+        let (structure_storage, structure_memory, _) = gpu.mapped(
             1 << 16,
             vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | address_usage,
         )?;
@@ -2015,47 +1755,26 @@ fn thread_iterations(
             (omm.fp().cmd_build_micromaps_ext)(command_buffer, 1, &device_info);
             (omm.fp().cmd_build_micromaps_ext)(command_buffer, 1, &device_both);
         }
-        let mut attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT::default()
-            .index_type(vk::IndexType::UINT32)
-            .index_buffer(vk::DeviceOrHostAddressConstKHR {
-                device_address: STAND_IN_OMM_INDICES,
-            })
-            .index_stride(4)
-            .usage_counts(&USAGE)
-            .micromap(micromap);
-        let device_triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-            .vertex_format(vk::Format::R32G32B32_SFLOAT)
-            .vertex_data(vk::DeviceOrHostAddressConstKHR {
+        let device_attaching = Attaching {
+            vertices: vk::DeviceOrHostAddressConstKHR {
                 device_address: STAND_IN_VERTICES,
-            })
-            .vertex_stride(12)
-            .max_vertex(5)
-            .index_type(vk::IndexType::NONE_KHR)
-            .push_next(&mut attachment);
-        let geometries = [vk::AccelerationStructureGeometryKHR::default()
-            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-            .geometry(vk::AccelerationStructureGeometryDataKHR {
-                triangles: device_triangles,
-            })];
-        let blas_info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-            .geometries(&geometries)
-            .dst_acceleration_structure(blas)
-            .scratch_data(vk::DeviceOrHostAddressKHR {
+            },
+            indices: vk::DeviceOrHostAddressConstKHR {
+                device_address: STAND_IN_OMM_INDICES,
+            },
+            usage_counts: &USAGE,
+            micromap,
+            blas,
+            scratch: vk::DeviceOrHostAddressKHR {
                 device_address: STAND_IN_BLAS_SCRATCH,
-            });
-        let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(2)];
-        let range_pointers = [ranges.as_ptr()];
-        // SAFETY: a recording command buffer, one info and its ranges.
-        unsafe {
-            (accel.fp().cmd_build_acceleration_structures_khr)(
-                command_buffer,
-                1,
-                &blas_info,
-                range_pointers.as_ptr(),
-            )
+            },
         };
+        device_attaching.with_info(|info, ranges| {
+            // SAFETY: a recording command buffer, one info and its ranges.
+            unsafe {
+                (accel.fp().cmd_build_acceleration_structures_khr)(command_buffer, 1, info, ranges)
+            }
+        });
         // SAFETY: the command buffer is recording.
         unsafe { gpu.device.end_command_buffer(command_buffer) }
             .map_err(|e| format!("vkEndCommandBuffer: {e}"))?;
@@ -2091,42 +1810,28 @@ fn thread_iterations(
                 )
             });
         }
-        let mut host_attachment = vk::AccelerationStructureTrianglesOpacityMicromapEXT::default()
-            .index_type(vk::IndexType::UINT32)
-            .index_buffer(host(omm_indices.as_ptr().cast()))
-            .index_stride(4)
-            .usage_counts(&USAGE)
-            .micromap(micromap);
-        let host_triangle_data = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-            .vertex_format(vk::Format::R32G32B32_SFLOAT)
-            .vertex_data(host(vertices.as_ptr().cast()))
-            .vertex_stride(12)
-            .max_vertex(5)
-            .index_type(vk::IndexType::NONE_KHR)
-            .push_next(&mut host_attachment);
-        let host_geometries = [vk::AccelerationStructureGeometryKHR::default()
-            .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-            .geometry(vk::AccelerationStructureGeometryDataKHR {
-                triangles: host_triangle_data,
-            })];
-        let host_blas = vk::AccelerationStructureBuildGeometryInfoKHR::default()
-            .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-            .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-            .geometries(&host_geometries)
-            .dst_acceleration_structure(blas)
-            .scratch_data(vk::DeviceOrHostAddressKHR {
+        let host_attaching = Attaching {
+            vertices: host(vertices.as_ptr().cast()),
+            indices: host(omm_indices.as_ptr().cast()),
+            usage_counts: &USAGE,
+            micromap,
+            blas,
+            scratch: vk::DeviceOrHostAddressKHR {
                 host_address: host_scratch.as_mut_ptr().cast(),
-            });
-        // SAFETY: one info with live host addresses, and its ranges.
-        count(unsafe {
-            (accel.fp().build_acceleration_structures_khr)(
-                gpu.device.handle(),
-                vk::DeferredOperationKHR::null(),
-                1,
-                &host_blas,
-                range_pointers.as_ptr(),
-            )
-        });
+            },
+        };
+        count(host_attaching.with_info(|info, ranges| {
+            // SAFETY: one info with live host addresses, and its ranges.
+            unsafe {
+                (accel.fp().build_acceleration_structures_khr)(
+                    gpu.device.handle(),
+                    vk::DeferredOperationKHR::null(),
+                    1,
+                    info,
+                    ranges,
+                )
+            }
+        }));
 
         // Everything goes again while the other threads make theirs.
         // SAFETY: the queue was idle after the submission; nothing uses
