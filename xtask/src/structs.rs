@@ -905,14 +905,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
-        // The model's `from_members` reads a structure that points at
-        // nothing and holds no union.
-        if fields.iter().all(|f| {
-            !matches!(
-                f.form,
-                Form::Next | Form::UsageCounts | Form::Address { union: true, .. }
-            )
-        }) {
+        if read_by_members(spec, &fields) {
             continue;
         }
         let safety = if spec.chained {
@@ -992,18 +985,25 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
             } else {
                 ""
             };
+            let read = if read_by_members(entry, &entry_fields) {
+                format!("model::{}::from_members(entry)", entry.rust)
+            } else {
+                format!(
+                    "{{\n                    let entry_at = at.text(\".pNext<{vk_name}>\");\n                    \
+                     // SAFETY: forwarded from the caller.\n                    \
+                     unsafe {{ {}({spare}entry, function, entry_at, findings) }}\n                }}",
+                    function(entry)
+                )
+            };
             let _ = writeln!(
                 out,
                 "            // {}\n            {s_type} if value.{member}.is_none() => {{\n                \
                  // SAFETY: a structure in a valid chain with this sType is a\n                \
                  // {vk_name}.\n                \
                  let entry = unsafe {{ &*link.address.cast::<{}>() }};\n                \
-                 let entry_at = at.text(\".pNext<{vk_name}>\");\n                \
-                 // SAFETY: forwarded from the caller.\n                \
-                 value.{member} = Some(unsafe {{ {}({spare}entry, function, entry_at, findings) }});\n            }}",
+                 value.{member} = Some({read});\n            }}",
                 entry_s_type_name(vk, entry),
                 ash_type(entry),
-                function(entry)
             );
         }
         out.push_str(
@@ -1011,6 +1011,17 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         );
     }
     Ok(out)
+}
+
+/// Whether the model's `from_members` reads all of `spec` (no union, no
+/// arrays, no chain of its own to walk), so it has no raw reader.
+fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
+    spec.extracts.is_empty()
+        && fields.iter().all(|f| match f.form {
+            Form::UsageCounts | Form::Address { union: true, .. } => false,
+            Form::Next => spec.chained,
+            _ => true,
+        })
 }
 
 /// The vk.xml name of `spec`'s sType value.

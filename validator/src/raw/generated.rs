@@ -261,27 +261,6 @@ pub(crate) unsafe fn triangles_opacity_micromap_ext(
     }
 }
 
-/// Reads a `VkAccelerationStructureTrianglesOpacityMicromapKHR`; `micromap` is an acceleration structure of type OPACITY_MICROMAP (at `at`, as findings name it).
-///
-/// # Safety
-/// Its own pNext chain is part of the chain the caller walks.
-pub(crate) unsafe fn triangles_opacity_micromap_khr(
-    info: &khr::AccelerationStructureTrianglesOpacityMicromapKHR,
-    function: &'static str,
-    at: impl Display + Copy,
-    findings: &mut Vec<Finding>,
-) -> model::TrianglesOpacityMicromapKhr {
-    model::TrianglesOpacityMicromapKhr {
-        s_type: info.s_type.as_raw(),
-        next: Vec::new(),
-        index_type: info.index_type.as_raw(),
-        index_buffer: info.index_buffer,
-        index_stride: info.index_stride,
-        base_triangle: info.base_triangle,
-        micromap: vk::Handle::as_raw(info.micromap),
-    }
-}
-
 /// Reads a `VkAccelerationStructureTrianglesDisplacementMicromapNV` (at `at`, as findings name it).
 ///
 /// # Safety
@@ -418,11 +397,19 @@ pub(crate) unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesOpacityMicromapEXT<'_>>()
                 };
-                let entry_at =
-                    at.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
-                // SAFETY: forwarded from the caller.
-                value.opacity_ext = Some(unsafe {
-                    triangles_opacity_micromap_ext(Vec::new(), entry, function, entry_at, findings)
+                value.opacity_ext = Some({
+                    let entry_at =
+                        at.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>");
+                    // SAFETY: forwarded from the caller.
+                    unsafe {
+                        triangles_opacity_micromap_ext(
+                            Vec::new(),
+                            entry,
+                            function,
+                            entry_at,
+                            findings,
+                        )
+                    }
                 });
             }
             // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_KHR
@@ -434,12 +421,7 @@ pub(crate) unsafe fn triangles_data(
                         .address
                         .cast::<khr::AccelerationStructureTrianglesOpacityMicromapKHR>()
                 };
-                let entry_at =
-                    at.text(".pNext<VkAccelerationStructureTrianglesOpacityMicromapKHR>");
-                // SAFETY: forwarded from the caller.
-                value.opacity_khr = Some(unsafe {
-                    triangles_opacity_micromap_khr(entry, function, entry_at, findings)
-                });
+                value.opacity_khr = Some(model::TrianglesOpacityMicromapKhr::from_members(entry));
             }
             // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV
             1000397002 if value.displacement_nv.is_none() => {
@@ -450,17 +432,19 @@ pub(crate) unsafe fn triangles_data(
                         .address
                         .cast::<vk::AccelerationStructureTrianglesDisplacementMicromapNV<'_>>()
                 };
-                let entry_at =
-                    at.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
-                // SAFETY: forwarded from the caller.
-                value.displacement_nv = Some(unsafe {
-                    triangles_displacement_micromap_nv(
-                        Vec::new(),
-                        entry,
-                        function,
-                        entry_at,
-                        findings,
-                    )
+                value.displacement_nv = Some({
+                    let entry_at =
+                        at.text(".pNext<VkAccelerationStructureTrianglesDisplacementMicromapNV>");
+                    // SAFETY: forwarded from the caller.
+                    unsafe {
+                        triangles_displacement_micromap_nv(
+                            Vec::new(),
+                            entry,
+                            function,
+                            entry_at,
+                            findings,
+                        )
+                    }
                 });
             }
             other => value.next.push(other),
