@@ -40,6 +40,11 @@ pub struct Member {
     /// The `len=` of an array member: the count member's name, then `,1`
     /// per further pointer level (`usageCountsCount,1`).
     pub len: Option<String>,
+    /// A union member's `selector=`: the member of the same structure whose
+    /// value says which union member is live.
+    pub selector: Option<String>,
+    /// A union member's `selection=`: the selector value that makes it live.
+    pub selection: Option<String>,
 }
 
 /// A structure or union.
@@ -485,6 +490,8 @@ impl VkXml {
                     type_name,
                     values: def.values.clone(),
                     len: def.len.clone(),
+                    selector: def.selector.clone(),
+                    selection: def.selection.clone(),
                 }
             })
             .collect();

@@ -45,7 +45,48 @@ pub struct StructSpec {
     /// this Rust name: the first of each, read whole; the chain keeps the
     /// sTypes of the rest.
     pub extracts: &'static [(&'static str, &'static str)],
+    /// Arrays of described structures, each a count member with an array
+    /// and an array of pointers of the same length.
+    pub elements: &'static [Elements],
+    /// Members of the model only, which no scene states and no reader
+    /// fills (their default stays): the Rust name, type and doc.
+    pub model_only: &'static [(&'static str, &'static str, &'static str)],
 }
+
+/// A spec's fields that are empty in most entries.
+pub const BASE: StructSpec = StructSpec {
+    vk: "",
+    rust: "",
+    doc: "",
+    defaults: &[],
+    required: &[],
+    ash: "",
+    chained: false,
+    extracts: &[],
+    elements: &[],
+    model_only: &[],
+};
+
+/// A count member with an array and an array of pointers that it counts
+/// (`geometryCount` with `pGeometries` and `ppGeometries`): the
+/// application gives one of the two. The element type is one of [`STRUCTS`].
+pub struct Elements {
+    /// The vk.xml name of the count member.
+    pub count: &'static str,
+    /// The model's names of the array and of the array of pointers.
+    pub array: &'static str,
+    pub pointers: &'static str,
+    /// What the elements are called in a finding (`geometries`).
+    pub noun: &'static str,
+    /// The raw reader's bound on the elements it reads (a constant's path
+    /// in `raw`).
+    pub bound: &'static str,
+}
+
+/// The unions whose members are all structures of [`STRUCTS`]: vk.xml name
+/// and the model's enum name. vk.xml says which selector value selects each
+/// member.
+pub const UNIONS: &[(&str, &str)] = &[("VkAccelerationStructureGeometryDataKHR", "GeometryData")];
 
 /// The entry of [`STRUCTS`] for the chained structure `vk`.
 fn chained(vk: &str) -> Result<&'static StructSpec, Error> {
@@ -63,10 +104,7 @@ macro_rules! copy {
             rust: $rust,
             doc: $doc,
             defaults: &[("mode", $mode)],
-            required: &[],
-            ash: "",
-            chained: false,
-            extracts: &[],
+            ..BASE
         }
     };
 }
@@ -78,10 +116,7 @@ pub const STRUCTS: &[StructSpec] = &[
         rust: "MicromapCreateInfo",
         doc: "",
         defaults: &[("type", "VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT")],
-        required: &[],
-        ash: "",
-        chained: false,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureCreateInfoKHR",
@@ -89,9 +124,7 @@ pub const STRUCTS: &[StructSpec] = &[
         doc: "",
         defaults: &[("type", "VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR")],
         required: &["type"],
-        ash: "",
-        chained: false,
-        extracts: &[],
+        ..BASE
     },
     copy!(
         "VkCopyMicromapInfoEXT",
@@ -132,35 +165,29 @@ pub const STRUCTS: &[StructSpec] = &[
     StructSpec {
         vk: "VkMicromapBuildInfoEXT",
         rust: "MicromapBuildInfo",
-        doc: "Addresses are device or host addresses, depending on the command.",
+        doc: "addresses are device or host addresses, depending on the command.",
         defaults: &[
             ("type", "VK_MICROMAP_TYPE_OPACITY_MICROMAP_EXT"),
             ("mode", "VK_BUILD_MICROMAP_MODE_BUILD_EXT"),
         ],
-        required: &[],
-        ash: "",
-        chained: false,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureTrianglesOpacityMicromapEXT",
         rust: "TrianglesOpacityMicromapExt",
         doc: "",
         defaults: &[("indexType", "VK_INDEX_TYPE_UINT32"), ("indexStride", "4")],
-        required: &[],
-        ash: "",
         chained: true,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureTrianglesOpacityMicromapKHR",
         rust: "TrianglesOpacityMicromapKhr",
         doc: "`micromap` is an acceleration structure of type OPACITY_MICROMAP.",
         defaults: &[("indexType", "VK_INDEX_TYPE_UINT32"), ("indexStride", "4")],
-        required: &[],
         ash: "khr::AccelerationStructureTrianglesOpacityMicromapKHR",
         chained: true,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureTrianglesDisplacementMicromapNV",
@@ -172,40 +199,30 @@ pub const STRUCTS: &[StructSpec] = &[
             ("indexType", "VK_INDEX_TYPE_UINT32"),
             ("indexStride", "4"),
         ],
-        required: &[],
-        ash: "",
         chained: true,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureGeometryMicromapDataKHR",
         rust: "GeometryMicromapData",
         doc: "In a geometry's pNext chain when `geometryType` is `VK_GEOMETRY_TYPE_MICROMAP_KHR`.",
         defaults: &[("triangleArrayStride", "8")],
-        required: &[],
         ash: "khr::AccelerationStructureGeometryMicromapDataKHR<'_>",
         chained: true,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureGeometryAabbsDataKHR",
         rust: "AabbsData",
         doc: "",
-        defaults: &[],
-        required: &[],
-        ash: "",
-        chained: false,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureBuildRangeInfoKHR",
         rust: "BuildRangeInfo",
         doc: "",
-        defaults: &[],
-        required: &[],
         ash: "vk::AccelerationStructureBuildRangeInfoKHR",
-        chained: false,
-        extracts: &[],
+        ..BASE
     },
     StructSpec {
         vk: "VkAccelerationStructureGeometryTrianglesDataKHR",
@@ -216,9 +233,6 @@ pub const STRUCTS: &[StructSpec] = &[
             ("vertexStride", "12"),
             ("indexType", "VK_INDEX_TYPE_NONE_KHR"),
         ],
-        required: &[],
-        ash: "",
-        chained: false,
         extracts: &[
             (
                 "opacity_ext",
@@ -233,6 +247,45 @@ pub const STRUCTS: &[StructSpec] = &[
                 "VkAccelerationStructureTrianglesDisplacementMicromapNV",
             ),
         ],
+        ..BASE
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureGeometryInstancesDataKHR",
+        rust: "InstancesData",
+        doc: "with the instances themselves where the checker can read them.",
+        model_only: &[(
+            "instances",
+            "Option<Vec<super::accel::Instance>>",
+            "The instances read from `data` (None: not readable by the checker).",
+        )],
+        ..BASE
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureGeometryKHR",
+        rust: "Geometry",
+        doc: "with the micromap structure of its pNext chain.",
+        defaults: &[("geometryType", "VK_GEOMETRY_TYPE_TRIANGLES_KHR")],
+        required: &["geometryType"],
+        extracts: &[("micromap", "VkAccelerationStructureGeometryMicromapDataKHR")],
+        ..BASE
+    },
+    StructSpec {
+        vk: "VkAccelerationStructureBuildGeometryInfoKHR",
+        rust: "BuildGeometryInfo",
+        doc: "addresses are device or host addresses, depending on the command.",
+        defaults: &[
+            ("type", "VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR"),
+            ("mode", "VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR"),
+        ],
+        required: &["type"],
+        elements: &[Elements {
+            count: "geometryCount",
+            array: "geometries",
+            pointers: "geometry_pointers",
+            noun: "geometries",
+            bound: "accel::MAX_GEOMETRIES",
+        }],
+        ..BASE
     },
 ];
 
@@ -273,6 +326,79 @@ pub enum Form {
     /// `usageCountsCount` with `pUsageCounts` and `ppUsageCounts`: one
     /// `UsageCounts` in the model, three members in a scene.
     UsageCounts,
+    /// A `VkBool32`: `bool` in the model and in a scene.
+    Bool,
+    /// A union of [`UNIONS`]: the model's enum (this name) holds the member
+    /// the selector member (its Rust name) selects.
+    Union {
+        rust: &'static str,
+        selector: String,
+        members: Vec<UnionMember>,
+    },
+    /// The count member of the structure's `elements[index]`: in the model
+    /// the count, the array and the array of pointers of `element`s (a
+    /// [`STRUCTS`] Rust name); `array` and `pointers` are the vk.xml names
+    /// of the two members it counts.
+    Elements {
+        index: usize,
+        element: &'static str,
+        array: String,
+        pointers: String,
+    },
+}
+
+/// One member of a union: its vk.xml name, the model's variant and
+/// structure (a [`STRUCTS`] Rust name), and the selector value (name and
+/// number) that makes it live.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UnionMember {
+    pub name: String,
+    pub variant: String,
+    pub element: &'static str,
+    pub selection: String,
+    pub value: i128,
+}
+
+/// The entry of [`STRUCTS`] whose Rust name is `rust`.
+fn by_rust(rust: &str) -> &'static StructSpec {
+    STRUCTS
+        .iter()
+        .find(|s| s.rust == rust)
+        .expect("forms name only STRUCTS entries")
+}
+
+/// The members of the union `union` (a [`UNIONS`] entry).
+fn union_members(vk: &VkXml, union: &str) -> Result<Vec<UnionMember>, Error> {
+    let aggregate = vk
+        .aggregate(union)
+        .ok_or_else(|| Error::Registry(format!("no union {union}")))?;
+    aggregate
+        .members
+        .iter()
+        .map(|member| {
+            let missing = || {
+                Error::Registry(format!(
+                    "{union}.{}: a union member must be a structure of STRUCTS with a selection value",
+                    member.name
+                ))
+            };
+            let element = STRUCTS
+                .iter()
+                .find(|s| s.vk == member.type_name && !s.chained)
+                .ok_or_else(missing)?;
+            let selection = member.selection.clone().ok_or_else(missing)?;
+            let value = value_of(vk, &selection).ok_or_else(missing)?;
+            let mut variant = member.name.clone();
+            variant[..1].make_ascii_uppercase();
+            Ok(UnionMember {
+                name: member.name.clone(),
+                variant,
+                element: element.rust,
+                selection,
+                value,
+            })
+        })
+        .collect()
 }
 
 /// The value an enum member has when it is left out.
@@ -342,6 +468,17 @@ fn form(vk: &VkXml, spec: &StructSpec, member: &Member) -> Result<Form, Error> {
         return Err(unsupported());
     }
     let ty = member.type_name.as_str();
+    if ty == "VkBool32" {
+        return Ok(Form::Bool);
+    }
+    if let Some((union, rust)) = UNIONS.iter().find(|(u, _)| *u == ty) {
+        let selector = member.selector.as_deref().ok_or_else(unsupported)?;
+        return Ok(Form::Union {
+            rust,
+            selector: crate::khr::snake_case(selector),
+            members: union_members(vk, union)?,
+        });
+    }
     if let Some((_, kind)) = HANDLE_KINDS.iter().find(|(t, _)| *t == ty) {
         return Ok(Form::Handle(kind));
     }
@@ -420,12 +557,12 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
     aggregate
         .members
         .iter()
-        // The arrays `usageCountsCount` counts go with it.
+        // The arrays `usageCountsCount` and element counts count go with them.
         .filter(|member| {
-            member
-                .len
-                .as_deref()
-                .is_none_or(|len| !len.starts_with("usageCountsCount"))
+            member.len.as_deref().is_none_or(|len| {
+                let count = len.split(',').next().unwrap_or(len);
+                count != "usageCountsCount" && !spec.elements.iter().any(|e| e.count == count)
+            })
         })
         .map(|member| {
             if member.name == "usageCountsCount" {
@@ -433,6 +570,36 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
                     name: "usageCounts".to_string(),
                     rust: "usage_counts".to_string(),
                     form: Form::UsageCounts,
+                });
+            }
+            if let Some(index) = spec.elements.iter().position(|e| e.count == member.name) {
+                let counted = |len: String| {
+                    aggregate
+                        .members
+                        .iter()
+                        .find(|m| m.len.as_deref() == Some(len.as_str()))
+                        .filter(|m| STRUCTS.iter().any(|s| s.vk == m.type_name))
+                        .ok_or_else(|| {
+                            Error::Registry(format!(
+                                "{}: no member {len} counts an array of a structure of STRUCTS",
+                                spec.vk
+                            ))
+                        })
+                };
+                let array = counted(member.name.clone())?;
+                let pointers = counted(format!("{},1", member.name))?;
+                return Ok(Field {
+                    name: member.name.clone(),
+                    rust: crate::khr::snake_case(&member.name),
+                    form: Form::Elements {
+                        index,
+                        element: STRUCTS
+                            .iter()
+                            .find(|s| s.vk == array.type_name)
+                            .map_or("", |s| s.rust),
+                        array: array.name.clone(),
+                        pointers: pointers.name.clone(),
+                    },
                 });
             }
             Ok(Field {
@@ -495,6 +662,9 @@ fn ash_member(field: &Field) -> String {
             const_: false,
         } => format!("scratch_address(&{member})"),
         Form::Address { union: false, .. } | Form::Number { .. } | Form::Next => member,
+        Form::Bool => format!("{member} != vk::FALSE"),
+        // Read by `render_reader`, which knows the structure.
+        Form::Union { .. } | Form::Elements { .. } => field.rust.clone(),
         // Both usage structures are three 32-bit members, so the EXT
         // reader reads the KHR one as well.
         Form::UsageCounts => "unsafe { usage_counts(spare_usages, info.usage_counts_count, \
@@ -529,21 +699,68 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
         // Plain values (no chain, no arrays) are copied like numbers.
-        let copy = fields
-            .iter()
-            .all(|f| !matches!(f.form, Form::Next | Form::UsageCounts))
-            && spec.extracts.is_empty();
+        let copy = fields.iter().all(|f| {
+            !matches!(
+                f.form,
+                Form::Next | Form::UsageCounts | Form::Union { .. } | Form::Elements { .. }
+            )
+        }) && spec.extracts.is_empty()
+            && spec.model_only.is_empty();
         let _ = writeln!(
             out,
-            "/// {}\n#[derive(Clone, {}Debug, PartialEq, Eq, Serialize, Deserialize)]\n\
+            "/// {}\n#[derive(Clone, {}Debug, PartialEq, {}Serialize, Deserialize)]\n\
              #[serde(default, rename_all = \"camelCase\")]\npub struct {} {{",
             doc(spec),
             if copy { "Copy, " } else { "" },
+            if is_eq(vk, spec)? { "Eq, " } else { "" },
             spec.rust
         );
         let mut defaults = String::new();
         for field in &fields {
+            let union_type;
             let (ty, default) = match &field.form {
+                Form::Bool => ("bool", "false".to_string()),
+                Form::Union {
+                    rust,
+                    selector,
+                    members,
+                } => {
+                    // The member the selector's default selects.
+                    let selected = fields.iter().find_map(|f| match &f.form {
+                        Form::Enum {
+                            default: EnumDefault::Value(_, value),
+                            ..
+                        } if f.rust == *selector => members.iter().find(|m| m.value == *value),
+                        _ => None,
+                    });
+                    union_type = rust.to_string();
+                    let default = match selected {
+                        Some(m) => format!("{rust}::{}({}::default())", m.variant, m.element),
+                        None => format!("{rust}::None"),
+                    };
+                    let _ = writeln!(out, "    /// The union member `{}` selects.", selector);
+                    (union_type.as_str(), default)
+                }
+                Form::Elements {
+                    element,
+                    array,
+                    pointers,
+                    index,
+                } => {
+                    let e = &spec.elements[*index];
+                    let _ = writeln!(
+                        out,
+                        "    pub {}: u32,\n    /// `{array}` (None: NULL).\n    pub {}: Option<Vec<{element}>>,\n    \
+                         /// `{pointers}` (None: NULL; an element None: a NULL element).\n    pub {}: Option<Vec<Option<{element}>>>,",
+                        field.rust, e.array, e.pointers
+                    );
+                    let _ = writeln!(
+                        defaults,
+                        "            {}: 0,\n            {}: None,\n            {}: None,",
+                        field.rust, e.array, e.pointers
+                    );
+                    continue;
+                }
                 Form::SType(value) => ("i32", value.to_string()),
                 Form::Next => ("Vec<i32>", "Vec::new()".to_string()),
                 Form::Handle(_) => ("Handle", "0".to_string()),
@@ -584,6 +801,10 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
             );
             let _ = writeln!(defaults, "            {member}: None,");
         }
+        for (member, ty, doc) in spec.model_only {
+            let _ = writeln!(out, "    /// {doc}\n    pub {member}: {ty},");
+            let _ = writeln!(defaults, "            {member}: Default::default(),");
+        }
         let _ = writeln!(
             out,
             "}}\n\nimpl Default for {} {{\n    fn default() -> Self {{\n        Self {{\n{defaults}        }}\n    }}\n}}\n",
@@ -594,7 +815,10 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
         let unsafe_members = fields.iter().any(|f| {
             matches!(
                 f.form,
-                Form::Address { union: true, .. } | Form::UsageCounts
+                Form::Address { union: true, .. }
+                    | Form::UsageCounts
+                    | Form::Union { .. }
+                    | Form::Elements { .. }
             )
         });
         if !unsafe_members && spec.extracts.is_empty() {
@@ -612,10 +836,68 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                 };
                 let _ = writeln!(out, "            {}: {value},", field.rust);
             }
+            for (member, _, _) in spec.model_only {
+                let _ = writeln!(out, "            {member}: Default::default(),");
+            }
             out.push_str("        }\n    }\n}\n\n");
         }
     }
+    for (union, rust) in UNIONS {
+        let members = union_members(vk, union)?;
+        let eq = members
+            .iter()
+            .map(|m| is_eq(vk, by_rust(m.element)))
+            .collect::<Result<Vec<_>, _>>()?
+            .into_iter()
+            .all(|eq| eq);
+        let _ = writeln!(
+            out,
+            "/// `{union}`: the member its selector selects.\n\
+             // Builds hold a handful of these; keeping the members inline keeps\n\
+             // every construction plain.\n#[allow(clippy::large_enum_variant)]\n\
+             #[derive(Clone, Debug, Default, PartialEq, {}Serialize, Deserialize)]\n\
+             #[serde(rename_all = \"camelCase\")]\npub enum {rust} {{",
+            if eq { "Eq, " } else { "" }
+        );
+        for m in &members {
+            let _ = writeln!(
+                out,
+                "    /// Selected by `{}`.\n    {}({}),",
+                m.selection, m.variant, m.element
+            );
+        }
+        out.push_str(
+            "    /// No member is read: the selector selects none (or the application gave none).\n    \
+             #[default]\n    None,\n}\n\n",
+        );
+    }
     Ok(out)
+}
+
+/// Whether the model of `spec` can derive `Eq`: not where a member of the
+/// model only, or a structure it holds, has no `Eq` (instances hold `f32`s).
+fn is_eq(vk: &VkXml, spec: &StructSpec) -> Result<bool, Error> {
+    if !spec.model_only.is_empty() {
+        return Ok(false);
+    }
+    for field in fields(vk, spec)? {
+        let held: Vec<&str> = match &field.form {
+            Form::Union { members, .. } => members.iter().map(|m| m.element).collect(),
+            Form::Elements { element, .. } => vec![element],
+            _ => Vec::new(),
+        };
+        for element in held {
+            if !is_eq(vk, by_rust(element))? {
+                return Ok(false);
+            }
+        }
+    }
+    for (_, vk_name) in spec.extracts {
+        if !is_eq(vk, chained(vk_name)?)? {
+            return Ok(false);
+        }
+    }
+    Ok(true)
 }
 
 /// `validator/src/scene/format/generated.rs`.
@@ -662,6 +944,30 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
                          pub p_usage_counts: Option<Vec<UsageDesc>>,\n    \
                          #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
                          pub pp_usage_counts: Option<Vec<Option<UsageDesc>>>,\n",
+                    );
+                    continue;
+                }
+                Form::Bool => ("    #[serde(default)]\n".to_string(), "bool".to_string()),
+                Form::Union { rust, .. } => (
+                    "    #[serde(default)]\n".to_string(),
+                    format!("{rust}Desc"),
+                ),
+                Form::Elements {
+                    element,
+                    array,
+                    pointers,
+                    ..
+                } => {
+                    let _ = writeln!(
+                        out,
+                        "    /// Default: the length of {array} or {pointers}.\n    \
+                         #[serde(skip_serializing_if = \"Option::is_none\")]\n    pub {name}: Option<u32>,\n    \
+                         #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
+                         pub {}: Option<Vec<{element}Desc>>,\n    \
+                         #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
+                         pub {}: Option<Vec<Option<{element}Desc>>>,",
+                        crate::khr::snake_case(array),
+                        crate::khr::snake_case(pointers)
                     );
                     continue;
                 }
@@ -720,6 +1026,23 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
                 ),
             };
             let _ = writeln!(out, "{attributes}{}    pub {name}: {ty},", rename(&field));
+        }
+        out.push_str("}\n\n");
+    }
+    for (union, rust) in UNIONS {
+        let _ = writeln!(
+            out,
+            "/// `{union}`: at most one member.\n\
+             #[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]\n\
+             #[serde(deny_unknown_fields, rename_all = \"camelCase\")]\npub struct {rust}Desc {{"
+        );
+        for m in union_members(vk, union)? {
+            let _ = writeln!(
+                out,
+                "    /// Selected by `{}`.\n    #[serde(skip_serializing_if = \"Option::is_none\")]\n    \
+                 pub {}: Option<{}Desc>,",
+                m.selection, m.name, m.element
+            );
         }
         out.push_str("}\n\n");
     }
@@ -809,29 +1132,47 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure of plain numbers uses neither `at` nor its defaults.\n\
          #![allow(unused_variables)]\n\n\
-         use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
+         use super::{chain, problem, s_type, usage_counts, ObjectKind, Resolver, Result};\n\
          use crate::model::generated as model;\nuse crate::model::names::Value;\n\
          use crate::scene::format::generated as scene;\nuse crate::scene::format::ChainStruct;\n\n\
          impl Resolver<'_> {\n",
     );
     for spec in STRUCTS {
         let fields = fields(vk, spec)?;
-        let _ = writeln!(
-            out,
-            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}(&self, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
-             let defaults = model::{}::default();\n        {}model::{} {{",
-            doc(spec).trim_end_matches('.'),
-            function(spec),
-            spec.rust,
-            spec.rust,
-            spec.rust,
-            if spec.extracts.is_empty() { "Ok(" } else { "let mut value = " },
-            spec.rust
-        );
+        let mut lets = String::new();
+        let mut body = String::new();
         for field in &fields {
             let d = format!("d.{}", crate::khr::snake_case(&field.name));
             let at = format!("&format!(\"{{at}}.{}\")", field.name);
             let value = match &field.form {
+                Form::Bool => d,
+                Form::Union { rust, .. } => {
+                    format!("self.{}(&{d}, {at})?", crate::khr::snake_case(rust))
+                }
+                Form::Elements {
+                    index,
+                    element,
+                    array,
+                    pointers,
+                } => {
+                    let e = &spec.elements[*index];
+                    let _ = writeln!(
+                        lets,
+                        "        let ({}, {}, {}) = self.elements({d}, &d.{}, &d.{}, at, [\"{array}\", \"{pointers}\"], Self::{})?;",
+                        field.rust,
+                        e.array,
+                        e.pointers,
+                        crate::khr::snake_case(array),
+                        crate::khr::snake_case(pointers),
+                        function(by_rust(element)),
+                    );
+                    let _ = writeln!(
+                        body,
+                        "            {},\n            {},\n            {},",
+                        field.rust, e.array, e.pointers
+                    );
+                    continue;
+                }
                 Form::SType(_) if spec.chained => {
                     "d.given_s_type.unwrap_or(defaults.s_type)".to_string()
                 }
@@ -858,9 +1199,24 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
                 } => format!("{d}.map_or(defaults.{}, Value::as_i32)", field.rust),
                 Form::Enum { .. } => format!("{d}.as_i32()"),
             };
-            let _ = writeln!(out, "            {}: {value},", field.rust);
+            let _ = writeln!(body, "            {}: {value},", field.rust);
         }
+        let _ = write!(
+            out,
+            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}(&self, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
+             let defaults = model::{}::default();\n{lets}        {}model::{} {{\n{body}",
+            doc(spec).trim_end_matches('.'),
+            function(spec),
+            spec.rust,
+            spec.rust,
+            spec.rust,
+            if spec.extracts.is_empty() { "Ok(" } else { "let mut value = " },
+            spec.rust
+        );
         if spec.extracts.is_empty() {
+            for (member, _, _) in spec.model_only {
+                let _ = writeln!(out, "            {member}: Default::default(),");
+            }
             out.push_str("        })\n    }\n\n");
             continue;
         }
@@ -884,6 +1240,33 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
              Ok(value)\n    }\n\n",
         );
     }
+    for (union, rust) in UNIONS {
+        let members = union_members(vk, union)?;
+        let names: Vec<&str> = members.iter().map(|m| m.name.as_str()).collect();
+        let _ = writeln!(
+            out,
+            "    /// A `{union}` at `at`: the one member given (the application's\n    \
+             /// selector is its own member, checked by the rules).\n    \
+             pub(in crate::scene) fn {}(&self, d: &scene::{rust}Desc, at: &str) -> Result<model::{rust}> {{\n        \
+             if [{}].iter().filter(|given| **given).count() > 1 {{\n            \
+             return problem(at, \"a {union} union holds one member: give one of {}\");\n        }}",
+            crate::khr::snake_case(rust),
+            names.iter().map(|n| format!("d.{n}.is_some()")).collect::<Vec<_>>().join(", "),
+            names.join(", ")
+        );
+        for m in &members {
+            let _ = writeln!(
+                out,
+                "        if let Some(member) = &d.{} {{\n            \
+                 return Ok(model::{rust}::{}(self.{}(member, &format!(\"{{at}}.{}\"))?));\n        }}",
+                m.name,
+                m.variant,
+                function(by_rust(m.element)),
+                m.name
+            );
+        }
+        let _ = writeln!(out, "        Ok(model::{rust}::None)\n    }}\n");
+    }
     out.push_str("}\n");
     Ok(out)
 }
@@ -899,7 +1282,8 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     );
     out.push_str(
         "// A structure with no pNext chain or arrays of its own reads no memory:\n// its `function`, `at` and `findings` go unused.\n#![allow(unused_imports, unused_variables, clippy::ptr_arg)]\n\nuse std::fmt::Display;\n\nuse ash::vk;\nuse ommcheck_vuids::khr;\n\n\
-         use super::accel::{address, scratch_address};\nuse super::{chain, chain_s_types, usage_counts};\n\
+         use super::accel::{self, address, scratch_address};\n\
+         use super::{chain, chain_s_types, read_elements, usage_counts, ElementArrays};\n\
          use crate::model::generated as model;\nuse crate::model::micromap::MicromapUsage;\n\
          use crate::report::location::Locate;\nuse crate::report::Finding;\n\n",
     );
@@ -920,6 +1304,15 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         } else if !spec.extracts.is_empty() {
             "\n/// The structures it takes from the chain must be valid as their own\n\
              /// readers require."
+        } else if fields
+            .iter()
+            .any(|f| matches!(f.form, Form::Elements { .. }))
+        {
+            "\n/// Its arrays must be NULL or valid for their counts, and each element\n\
+             /// valid as its own reader requires, as the API requires."
+        } else if fields.iter().any(|f| matches!(f.form, Form::Union { .. })) {
+            "\n/// Its unions must hold the member their selector selects, valid as\n\
+             /// that member's reader requires."
         } else {
             ""
         };
@@ -930,12 +1323,46 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         } else {
             ""
         };
+        let mut lets = String::new();
+        for field in &fields {
+            let Form::Elements {
+                index,
+                element,
+                array,
+                pointers,
+            } = &field.form
+            else {
+                continue;
+            };
+            let e = &spec.elements[*index];
+            let _ = writeln!(
+                lets,
+                "    let read = |element: &{}, at: &dyn Display, findings: &mut Vec<Finding>| {{\n        \
+                 // SAFETY: each element is one the caller guarantees valid.\n        \
+                 unsafe {{ {}(element, function, at, findings) }}\n    }};\n    \
+                 let members = ElementArrays {{ count: info.{}, array: info.{}, pointers: info.{}, \
+                 bound: {}, names: [\"{}\", \"{array}\", \"{pointers}\"], noun: \"{}\" }};\n    \
+                 // SAFETY: forwarded from the caller.\n    \
+                 let ({}, {}, {}) = unsafe {{ read_elements(members, function, at, findings, read) }};",
+                ash_type(by_rust(element)),
+                function(by_rust(element)),
+                field.rust,
+                crate::khr::snake_case(array),
+                crate::khr::snake_case(pointers),
+                e.bound,
+                field.name,
+                e.noun,
+                field.rust,
+                e.array,
+                e.pointers,
+            );
+        }
         let _ = writeln!(
             out,
             "/// Reads a {} (at `at`, as findings name it).\n///\n/// # Safety\n\
              {safety}{arrays}\n\
-             pub(crate) unsafe fn {}({spare}info: &{}, function: &'static str, at: impl Display + Copy, findings: &mut Vec<Finding>) -> model::{} {{\n    \
-             {}model::{} {{",
+             pub(crate) unsafe fn {}({spare}info: &{}, function: &'static str, at: impl Display + Copy, findings: &mut Vec<Finding>) -> model::{} {{\n\
+             {lets}    {}model::{} {{",
             doc(spec).trim_end_matches('.'),
             function(spec),
             ash_type(spec),
@@ -945,6 +1372,50 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         );
         for field in &fields {
             let value = match &field.form {
+                Form::Elements { index, .. } => {
+                    let e = &spec.elements[*index];
+                    let _ = writeln!(
+                        out,
+                        "        {},\n        {},\n        {},",
+                        field.rust, e.array, e.pointers
+                    );
+                    continue;
+                }
+                Form::Union {
+                    rust,
+                    selector,
+                    members,
+                } => {
+                    let mut arms = String::new();
+                    for m in members {
+                        let entry = by_rust(m.element);
+                        let read = if read_by_members(entry, &self::fields(vk, entry)?) {
+                            format!("model::{}::from_members(member)", entry.rust)
+                        } else {
+                            format!(
+                                "{{\n                    // SAFETY: forwarded from the caller.\n                    \
+                                 unsafe {{ {}(member, function, at.text(\".{}.{}\"), findings) }}\n                }}",
+                                function(entry),
+                                field.name,
+                                m.name
+                            )
+                        };
+                        let _ = writeln!(
+                            arms,
+                            "            // {}\n            {} => {{\n                \
+                             // SAFETY: the caller guarantees the union holds the member\n                \
+                             // `{selector}` selects: {}.\n                \
+                             let member = unsafe {{ &info.{}.{} }};\n                \
+                             model::{rust}::{}({read})\n            }}",
+                            m.selection, m.value, m.name, field.rust, m.name, m.variant
+                        );
+                    }
+                    format!(
+                        "match info.{selector}.as_raw() {{\n{arms}            \
+                         // Any other value selects no member known to be valid.\n            \
+                         _ => model::{rust}::None,\n        }}"
+                    )
+                }
                 Form::Next if spec.chained || !spec.extracts.is_empty() => "Vec::new()".to_string(),
                 Form::Next => {
                     "unsafe { chain_s_types(info.p_next, function, at, findings) }".to_string()
@@ -959,6 +1430,9 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
             let _ = writeln!(out, "        {}: {value},", field.rust);
         }
         if spec.extracts.is_empty() {
+            for (member, _, _) in spec.model_only {
+                let _ = writeln!(out, "        {member}: Default::default(),");
+            }
             out.push_str("    }\n}\n\n");
             continue;
         }
@@ -1018,7 +1492,10 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
 fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
     spec.extracts.is_empty()
         && fields.iter().all(|f| match f.form {
-            Form::UsageCounts | Form::Address { union: true, .. } => false,
+            Form::UsageCounts
+            | Form::Address { union: true, .. }
+            | Form::Union { .. }
+            | Form::Elements { .. } => false,
             Form::Next => spec.chained,
             _ => true,
         })
@@ -1048,7 +1525,8 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure of plain numbers names no objects or addresses.\n\
          #![allow(unused_variables)]\n\n\
-         use super::{chain_entry, usage_counts_count, usage_desc, Names};\nuse crate::model::generated as model;\n\
+         use super::{chain_entry, elements_count, usage_counts_count, usage_desc, Names};\n\
+         use crate::model::generated as model;\n\
          use crate::model::names::Value;\nuse crate::scene::format::generated as scene;\n\
          use crate::scene::format::ChainStruct;\nuse crate::scene::ObjectKind;\n\n",
     );
@@ -1071,6 +1549,30 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                     let _ = writeln!(
                         out,
                         "            given_s_type: ({m} != defaults.s_type).then_some({m}),"
+                    );
+                    continue;
+                }
+                Form::Bool => m,
+                Form::Union { rust, .. } => format!("scene::{rust}Desc::written(&{m}, names)"),
+                Form::Elements {
+                    index,
+                    element,
+                    array,
+                    pointers,
+                } => {
+                    let e = &spec.elements[*index];
+                    let _ = writeln!(
+                        out,
+                        "            {}: elements_count({m}, &model.{}, &model.{}),\n            \
+                         {}: model.{}.as_ref().map(|a| a.iter().map(|e| scene::{element}Desc::written(e, names)).collect()),\n            \
+                         {}: model.{}.as_ref().map(|p| p.iter().map(|e| e.as_ref().map(|e| scene::{element}Desc::written(e, names))).collect()),",
+                        field.rust,
+                        e.array,
+                        e.pointers,
+                        crate::khr::snake_case(array),
+                        e.array,
+                        crate::khr::snake_case(pointers),
+                        e.pointers
                     );
                     continue;
                 }
@@ -1131,6 +1633,25 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
         }
         out.push_str("        }\n    }\n}\n\n");
     }
+    for (union, rust) in UNIONS {
+        let _ = writeln!(
+            out,
+            "impl scene::{rust}Desc {{\n    /// The scene form of a `{union}`, naming objects and addresses by `names`.\n    \
+             pub fn written(model: &model::{rust}, names: &dyn Names) -> Self {{\n        match model {{"
+        );
+        for m in union_members(vk, union)? {
+            let _ = writeln!(
+                out,
+                "            model::{rust}::{}(member) => Self {{\n                \
+                 {}: Some(scene::{}Desc::written(member, names)),\n                ..Self::default()\n            }},",
+                m.variant, m.name, m.element
+            );
+        }
+        let _ = writeln!(
+            out,
+            "            model::{rust}::None => Self::default(),\n        }}\n    }}\n}}\n"
+        );
+    }
     // Every generated structure reads back to the model it was written from.
     out.push_str(
         "#[cfg(test)]\nmod tests {\n    use super::super::{Names, Numbers};\n    \
@@ -1161,6 +1682,22 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                      array: Some(vec![crate::model::micromap::MicromapUsage {{ count: 1, subdivision_level: 2, format: 1 }}]), \
                      pointers: Some(vec![None]) }}"
                 ),
+                Form::Bool => "true".to_string(),
+                // A member other than the default's.
+                Form::Union { rust, members, .. } => match members.last() {
+                    Some(m) => format!("model::{rust}::{}(Default::default())", m.variant),
+                    None => format!("model::{rust}::None"),
+                },
+                Form::Elements { index, .. } => {
+                    let e = &spec.elements[*index];
+                    let _ = writeln!(
+                        out,
+                        "            {}: {i},\n            {}: Some(vec![Default::default()]),\n            \
+                         {}: Some(vec![None]),",
+                        field.rust, e.array, e.pointers
+                    );
+                    continue;
+                }
             };
             let _ = writeln!(out, "            {}: {value},", field.rust);
         }
@@ -1170,6 +1707,7 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
             .iter()
             .any(|f| matches!(f.form, Form::SType(_) | Form::Next))
             || !spec.extracts.is_empty()
+            || !spec.model_only.is_empty()
         {
             "            ..Default::default()\n"
         } else {

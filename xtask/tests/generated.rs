@@ -69,12 +69,7 @@ fn a_structure_with_an_array_is_refused_by_name() {
     let spec = |vk_name| xtask::structs::StructSpec {
         vk: vk_name,
         rust: "Test",
-        doc: "",
-        defaults: &[],
-        required: &[],
-        ash: "",
-        chained: false,
-        extracts: &[],
+        ..xtask::structs::BASE
     };
     let error = match xtask::structs::fields(&vk, &spec("VkMicromapVersionInfoEXT")) {
         Ok(_) => panic!("VkMicromapVersionInfoEXT has a byte array; it must not be generated"),
@@ -90,6 +85,13 @@ fn a_structure_with_an_array_is_refused_by_name() {
         .iter()
         .any(|f| f.form == xtask::structs::Form::UsageCounts));
     assert!(error.contains("write the structure by hand"), "{error}");
+    // An array of described structures needs its `elements` entry.
+    let error =
+        match xtask::structs::fields(&vk, &spec("VkAccelerationStructureBuildGeometryInfoKHR")) {
+            Ok(_) => panic!("pGeometries has no elements entry; it must not be generated"),
+            Err(e) => e.to_string(),
+        };
+    assert!(error.contains("pGeometries"), "{error}");
     // Every structure STRUCTS lists has a form for each member.
     for spec in xtask::structs::STRUCTS {
         assert!(xtask::structs::fields(&vk, spec).is_ok(), "{}", spec.vk);

@@ -403,7 +403,7 @@ pub(crate) mod tests {
                 geometry: GeometryData::Instances(InstancesData {
                     array_of_pointers: pointers,
                     data,
-                    instances: None,
+                    ..InstancesData::default()
                 }),
                 ..Geometry::default()
             }]),

@@ -12,10 +12,11 @@ use crate::model::array_or_pointers::ElementsRead;
 use crate::model::Handle;
 
 pub use crate::model::generated::{
-    AabbsData, AccelerationStructureCreateInfo, BuildRangeInfo, CopyAccelerationStructureInfo,
-    CopyAccelerationStructureToMemoryInfo, CopyMemoryToAccelerationStructureInfo,
-    GeometryMicromapData, TrianglesData, TrianglesDisplacementMicromapNv,
-    TrianglesOpacityMicromapExt, TrianglesOpacityMicromapKhr,
+    AabbsData, AccelerationStructureCreateInfo, BuildGeometryInfo, BuildRangeInfo,
+    CopyAccelerationStructureInfo, CopyAccelerationStructureToMemoryInfo,
+    CopyMemoryToAccelerationStructureInfo, Geometry, GeometryData, GeometryMicromapData,
+    InstancesData, TrianglesData, TrianglesDisplacementMicromapNv, TrianglesOpacityMicromapExt,
+    TrianglesOpacityMicromapKhr,
 };
 
 pub const ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL: i32 =
@@ -95,47 +96,6 @@ pub const STRUCTURE_TYPE_TRIANGLES_OPACITY_MICROMAP_KHR: i32 =
 pub const STRUCTURE_TYPE_TRIANGLES_DISPLACEMENT_MICROMAP_NV: i32 =
     khr::STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_DISPLACEMENT_MICROMAP_NV.as_raw();
 
-/// `VkAccelerationStructureBuildGeometryInfoKHR`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct BuildGeometryInfo {
-    pub s_type: i32,
-    /// sTypes of the pNext chain.
-    pub next: Vec<i32>,
-    #[serde(rename = "type")]
-    pub ty: i32,
-    /// `VkBuildAccelerationStructureFlagsKHR` bits.
-    pub flags: u32,
-    pub mode: i32,
-    pub src_acceleration_structure: Handle,
-    pub dst_acceleration_structure: Handle,
-    pub geometry_count: u32,
-    /// `pGeometries` (None: NULL).
-    pub geometries: Option<Vec<Geometry>>,
-    /// `ppGeometries` (None: NULL; an element None: a NULL element).
-    pub geometry_pointers: Option<Vec<Option<Geometry>>>,
-    /// Device or host address, depending on the command.
-    pub scratch_data: u64,
-}
-
-impl Default for BuildGeometryInfo {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_BUILD_GEOMETRY_INFO,
-            next: Vec::new(),
-            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
-            flags: 0,
-            mode: BUILD_ACCELERATION_STRUCTURE_MODE_BUILD,
-            src_acceleration_structure: 0,
-            dst_acceleration_structure: 0,
-            geometry_count: 0,
-            geometries: None,
-            geometry_pointers: None,
-            scratch_data: 0,
-        }
-    }
-}
-
 impl BuildGeometryInfo {
     /// A build over `geometries` through `pGeometries`.
     pub fn with_geometries(ty: i32, geometries: Vec<Geometry>) -> Self {
@@ -175,51 +135,6 @@ impl BuildGeometryInfo {
     }
 }
 
-/// `VkAccelerationStructureGeometryKHR`, with the structures its pNext chain
-/// and its `geometry` union carry.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct Geometry {
-    pub s_type: i32,
-    /// sTypes of pNext structures other than `micromap`.
-    pub next: Vec<i32>,
-    pub geometry_type: i32,
-    /// The union member selected by `geometry_type`.
-    pub geometry: GeometryData,
-    /// `VkGeometryFlagsKHR` bits.
-    pub flags: u32,
-    /// `VkAccelerationStructureGeometryMicromapDataKHR` in the pNext chain.
-    pub micromap: Option<GeometryMicromapData>,
-}
-
-impl Default for Geometry {
-    fn default() -> Self {
-        Self {
-            s_type: STRUCTURE_TYPE_GEOMETRY,
-            next: Vec::new(),
-            geometry_type: GEOMETRY_TYPE_TRIANGLES,
-            geometry: GeometryData::Triangles(TrianglesData::default()),
-            flags: 0,
-            micromap: None,
-        }
-    }
-}
-
-/// The `geometry` union of `VkAccelerationStructureGeometryKHR`.
-// Builds hold a handful of geometries; keeping the triangles inline keeps
-// every construction plain.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "camelCase")]
-pub enum GeometryData {
-    Triangles(TrianglesData),
-    Aabbs(AabbsData),
-    Instances(InstancesData),
-    /// Nothing is read (micromap geometry uses the pNext structure).
-    #[default]
-    None,
-}
-
 /// An opacity micromap attachment's index buffer: the attachment's
 /// structure name, `indexType`, `indexBuffer` and `indexStride`.
 pub struct OpacityIndexBuffer {
@@ -246,17 +161,6 @@ impl TrianglesData {
         });
         ext.into_iter().chain(khr).collect()
     }
-}
-
-/// `VkAccelerationStructureGeometryInstancesDataKHR`, with the instances
-/// themselves where the checker can read them.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct InstancesData {
-    pub array_of_pointers: bool,
-    pub data: u64,
-    /// The instances read from `data` (None: not readable by the checker).
-    pub instances: Option<Vec<Instance>>,
 }
 
 /// `VkAccelerationStructureInstanceKHR`.

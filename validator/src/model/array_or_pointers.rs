@@ -2,6 +2,11 @@
 //! elements (`pGeometries` or `ppGeometries`, `pUsageCounts` or
 //! `ppUsageCounts`), and the one walk over them the checks share.
 
+/// A count with the array and the array of pointers it counts, as the
+/// model holds them: None where a pointer is NULL, and a None element for a
+/// NULL element of the pointers.
+pub type CountedElements<T> = (u32, Option<Vec<T>>, Option<Vec<Option<T>>>);
+
 /// The elements a structure's array-or-pointers member is read from, with
 /// their indices: the elements of the array, or, where the array is not
 /// set, the non-NULL elements of the pointer array (a NULL pointer is

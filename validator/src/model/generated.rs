@@ -276,7 +276,7 @@ impl Default for CopyMemoryToAccelerationStructureInfo {
     }
 }
 
-/// `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command.
+/// `VkMicromapBuildInfoEXT`; addresses are device or host addresses, depending on the command.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
 pub struct MicromapBuildInfo {
@@ -553,4 +553,115 @@ impl Default for TrianglesData {
             displacement_nv: None,
         }
     }
+}
+
+/// `VkAccelerationStructureGeometryInstancesDataKHR`; with the instances themselves where the checker can read them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct InstancesData {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub array_of_pointers: bool,
+    pub data: u64,
+    /// The instances read from `data` (None: not readable by the checker).
+    pub instances: Option<Vec<super::accel::Instance>>,
+}
+
+impl Default for InstancesData {
+    fn default() -> Self {
+        Self {
+            s_type: 1000150004,
+            next: Vec::new(),
+            array_of_pointers: false,
+            data: 0,
+            instances: Default::default(),
+        }
+    }
+}
+
+/// `VkAccelerationStructureGeometryKHR`; with the micromap structure of its pNext chain.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Geometry {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order, but for
+    /// those the members below hold.
+    pub next: Vec<i32>,
+    pub geometry_type: i32,
+    /// The union member `geometry_type` selects.
+    pub geometry: GeometryData,
+    pub flags: u32,
+    /// The first `VkAccelerationStructureGeometryMicromapDataKHR` in the pNext chain.
+    pub micromap: Option<GeometryMicromapData>,
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Self {
+            s_type: 1000150006,
+            next: Vec::new(),
+            geometry_type: 0, // VK_GEOMETRY_TYPE_TRIANGLES_KHR
+            geometry: GeometryData::Triangles(TrianglesData::default()),
+            flags: 0,
+            micromap: None,
+        }
+    }
+}
+
+/// `VkAccelerationStructureBuildGeometryInfoKHR`; addresses are device or host addresses, depending on the command.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct BuildGeometryInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    #[serde(rename = "type")]
+    pub ty: i32,
+    pub flags: u32,
+    pub mode: i32,
+    pub src_acceleration_structure: Handle,
+    pub dst_acceleration_structure: Handle,
+    pub geometry_count: u32,
+    /// `pGeometries` (None: NULL).
+    pub geometries: Option<Vec<Geometry>>,
+    /// `ppGeometries` (None: NULL; an element None: a NULL element).
+    pub geometry_pointers: Option<Vec<Option<Geometry>>>,
+    pub scratch_data: u64,
+}
+
+impl Default for BuildGeometryInfo {
+    fn default() -> Self {
+        Self {
+            s_type: 1000150000,
+            next: Vec::new(),
+            ty: 1, // VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR
+            flags: 0,
+            mode: 0, // VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR
+            src_acceleration_structure: 0,
+            dst_acceleration_structure: 0,
+            geometry_count: 0,
+            geometries: None,
+            geometry_pointers: None,
+            scratch_data: 0,
+        }
+    }
+}
+
+/// `VkAccelerationStructureGeometryDataKHR`: the member its selector selects.
+// Builds hold a handful of these; keeping the members inline keeps
+// every construction plain.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub enum GeometryData {
+    /// Selected by `VK_GEOMETRY_TYPE_TRIANGLES_KHR`.
+    Triangles(TrianglesData),
+    /// Selected by `VK_GEOMETRY_TYPE_AABBS_KHR`.
+    Aabbs(AabbsData),
+    /// Selected by `VK_GEOMETRY_TYPE_INSTANCES_KHR`.
+    Instances(InstancesData),
+    /// No member is read: the selector selects none (or the application gave none).
+    #[default]
+    None,
 }

@@ -15,21 +15,15 @@
 use ash::vk;
 use ommcheck_vuids::khr;
 
-use std::fmt::Display;
-
-use super::generated::{
-    aabbs_data, acceleration_structure_create_info, geometry_micromap_data, triangles_data,
-};
-use super::{
-    array_slice, bounded_len, chain, chain_s_types, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
-};
+use super::generated::acceleration_structure_create_info;
+pub(crate) use super::generated::build_geometry_info;
+use super::{bounded_len, chain_s_types, element_bound, read_array, MAX_ELEMENTS, MAX_HOST_BYTES};
 use crate::build_inputs::indirect::IndirectRanges;
 use crate::build_inputs::{geometry_reads, DeviceBuild, Extent, ReadKind};
 use crate::model::accel::{
     AccelerationStructureCreateInfo, AccelerationStructureCreateInfo2, BuildGeometryInfo,
     BuildRangeInfo, Geometry, GeometryData, Instance, InstancesData,
-    ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL, GEOMETRY_TYPE_AABBS, GEOMETRY_TYPE_INSTANCES,
-    GEOMETRY_TYPE_TRIANGLES, STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA,
+    ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL,
 };
 use crate::model::CommandBuffer;
 use crate::report::location::Locate;
@@ -68,188 +62,12 @@ pub(crate) fn scratch_address(value: &vk::DeviceOrHostAddressKHR) -> u64 {
     number
 }
 
-/// Reads a `VkAccelerationStructureBuildGeometryInfoKHR` at `location`
-/// (e.g. `pInfos[0]`). Addresses become plain numbers; `pGeometries` and
-/// `ppGeometries` are read for `geometryCount` elements (at most
-/// [`MAX_GEOMETRIES`]; NULL stays None, and so do NULL elements of
-/// `ppGeometries`). Instance data is not read here (see
-/// [`Validator::build_acceleration_structures_ash`]).
-///
-/// # Safety
-/// `info` must be a structure an application could pass to a build command
-/// or `vkGetAccelerationStructureBuildSizesKHR`: its pointers NULL or valid
-/// for the counts beside them, every pNext chain well formed (cycles and
-/// length are tolerated), and each geometry's `geometry` union holding the
-/// member its `geometryType` selects.
-pub unsafe fn build_geometry_info(
-    info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
-    function: &'static str,
-    location: impl Display + Copy,
-    findings: &mut Vec<Finding>,
-) -> BuildGeometryInfo {
-    let count = info.geometry_count;
-    let reads = !info.p_geometries.is_null() || !info.pp_geometries.is_null();
-    let bounded = if reads {
-        geometry_bound(count, function, location.text(".geometryCount"), findings)
-    } else {
-        count
-    };
-    let array_at = location.text(".pGeometries");
-    // SAFETY: the caller guarantees `pGeometries` is NULL or valid for
-    // `geometryCount` elements; `bounded` is at most that many.
-    let geometries =
-        unsafe { array_slice(info.p_geometries, bounded, function, array_at, findings) };
-    let geometries = geometries.map(|list| {
-        list.iter()
-            .enumerate()
-            // SAFETY: each element is a geometry the caller guarantees valid.
-            .map(|(g, geometry)| unsafe {
-                read_geometry(geometry, function, array_at.index(g), findings)
-            })
-            .collect::<Vec<_>>()
-    });
-    let pointers_at = location.text(".ppGeometries");
-    // SAFETY: the caller guarantees `ppGeometries` is NULL or valid for
-    // `geometryCount` pointers; `bounded` is at most that many.
-    let pointers =
-        unsafe { array_slice(info.pp_geometries, bounded, function, pointers_at, findings) };
-    let geometry_pointers = pointers.map(|list| {
-        list.iter()
-            .enumerate()
-            .map(|(g, pointer)| {
-                // SAFETY: a non-NULL element points to one geometry the
-                // caller guarantees valid; a NULL one is kept as None.
-                let geometry = unsafe { pointer.as_ref() }?;
-                // SAFETY: as above.
-                Some(unsafe { read_geometry(geometry, function, pointers_at.index(g), findings) })
-            })
-            .collect::<Vec<_>>()
-    });
-    let read = geometries
-        .as_ref()
-        .map(Vec::len)
-        .or(geometry_pointers.as_ref().map(Vec::len));
-    let scratch_data = scratch_address(&info.scratch_data);
-    BuildGeometryInfo {
-        s_type: info.s_type.as_raw(),
-        // SAFETY: forwarded from the caller.
-        next: unsafe { chain_s_types(info.p_next, function, location, findings) },
-        ty: info.ty.as_raw(),
-        flags: info.flags.as_raw(),
-        mode: info.mode.as_raw(),
-        src_acceleration_structure: vk::Handle::as_raw(info.src_acceleration_structure),
-        dst_acceleration_structure: vk::Handle::as_raw(info.dst_acceleration_structure),
-        // A count cut to the bound is reported by `geometry_bound`; the
-        // model holds what was read, and ranges are read with the same bound.
-        geometry_count: read.map_or(count, |n| u32::try_from(n).unwrap_or(count)),
-        geometries,
-        geometry_pointers,
-        scratch_data,
-    }
-}
-
 /// The most geometries read from one build geometry info (and build ranges
 /// from one `ppBuildRangeInfos` element). Tighter than [`MAX_ELEMENTS`]: each
 /// geometry's model is some 600 bytes, and 2^16 geometries (more than any
 /// real build holds) keep one info's model near 40 MB.
 /// Small under cargo-fuzz, as [`MAX_ELEMENTS`] is.
 pub const MAX_GEOMETRIES: u32 = if cfg!(fuzzing) { 1 << 6 } else { 1 << 16 };
-
-/// `geometryCount` bounded by [`MAX_GEOMETRIES`], with a warning at
-/// `location` when it is cut.
-fn geometry_bound(
-    count: u32,
-    function: &'static str,
-    location: impl Display,
-    findings: &mut Vec<Finding>,
-) -> u32 {
-    if count > MAX_GEOMETRIES {
-        findings.push(Finding::new(
-            &rules::READ_BOUND,
-            Severity::Warning,
-            function,
-            location.to_string(),
-            format!("geometryCount {count} exceeds the geometries ommcheck reads ({MAX_GEOMETRIES}); the rest are not checked"),
-        ));
-    }
-    count.min(MAX_GEOMETRIES)
-}
-
-/// Reads one `VkAccelerationStructureGeometryKHR` at `location` (e.g.
-/// `pInfos[0].pGeometries[1]`): its pNext chain (the first
-/// `VkAccelerationStructureGeometryMicromapDataKHR` into `micromap`, every
-/// other sType into `next`) and the union member `geometryType` selects
-/// (none for micromap or unknown geometry types).
-///
-/// # Safety
-/// As [`build_geometry_info`] for this geometry.
-unsafe fn read_geometry(
-    geometry: &vk::AccelerationStructureGeometryKHR<'_>,
-    function: &'static str,
-    location: impl Display + Copy,
-    findings: &mut Vec<Finding>,
-) -> Geometry {
-    let mut next = Vec::new();
-    let mut micromap = None;
-    // SAFETY: forwarded from the caller.
-    let links = unsafe { chain(geometry.p_next, function, location, findings) };
-    for link in links {
-        if link.s_type == STRUCTURE_TYPE_GEOMETRY_MICROMAP_DATA && micromap.is_none() {
-            // SAFETY: a structure in a valid chain whose sType is
-            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR
-            // is a VkAccelerationStructureGeometryMicromapDataKHR.
-            let data = unsafe {
-                &*link
-                    .address
-                    .cast::<khr::AccelerationStructureGeometryMicromapDataKHR>()
-            };
-            let at = location.text(".pNext<VkAccelerationStructureGeometryMicromapDataKHR>");
-            // SAFETY: forwarded from the caller.
-            micromap =
-                Some(unsafe { geometry_micromap_data(Vec::new(), data, function, at, findings) });
-        } else {
-            next.push(link.s_type);
-        }
-    }
-    let geometry_type = geometry.geometry_type.as_raw();
-    let data = match geometry_type {
-        GEOMETRY_TYPE_TRIANGLES => {
-            // SAFETY: the caller guarantees the union holds the member
-            // `geometryType` selects: triangles.
-            let triangles = unsafe { &geometry.geometry.triangles };
-            let at = location.text(".geometry.triangles");
-            // SAFETY: forwarded from the caller.
-            GeometryData::Triangles(unsafe { triangles_data(triangles, function, at, findings) })
-        }
-        GEOMETRY_TYPE_AABBS => {
-            // SAFETY: the union holds the member `geometryType` selects: aabbs.
-            let aabbs = unsafe { &geometry.geometry.aabbs };
-            let at = location.text(".geometry.aabbs");
-            // SAFETY: forwarded from the caller.
-            GeometryData::Aabbs(unsafe { aabbs_data(aabbs, function, at, findings) })
-        }
-        GEOMETRY_TYPE_INSTANCES => {
-            // SAFETY: the union holds the member `geometryType` selects: instances.
-            let instances = unsafe { &geometry.geometry.instances };
-            GeometryData::Instances(InstancesData {
-                array_of_pointers: instances.array_of_pointers != vk::FALSE,
-                data: address(&instances.data),
-                instances: None,
-            })
-        }
-        // Micromap geometry reads its pNext structure; for an unknown type
-        // no member of the union is known to be valid.
-        _ => GeometryData::None,
-    };
-    Geometry {
-        s_type: geometry.s_type.as_raw(),
-        next,
-        geometry_type,
-        geometry: data,
-        flags: geometry.flags.as_raw(),
-        micromap,
-    }
-}
 
 /// Reads `pInfos` (at most [`MAX_ELEMENTS`] of them).
 ///
@@ -297,7 +115,15 @@ unsafe fn read_build_range_infos(
             let count = if pointer.is_null() {
                 info.geometry_count
             } else {
-                geometry_bound(info.geometry_count, function, location, findings)
+                let names = ["geometryCount", "geometries"];
+                element_bound(
+                    info.geometry_count,
+                    MAX_GEOMETRIES,
+                    names,
+                    function,
+                    location,
+                    findings,
+                )
             };
             // SAFETY: forwarded from the caller; at most geometryCount
             // elements are read.
@@ -1008,8 +834,10 @@ mod tests {
 
     use super::*;
     use crate::model::accel::{
-        ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, INDEX_TYPE_NONE, INDEX_TYPE_UINT16,
+        ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL, GEOMETRY_TYPE_TRIANGLES, INDEX_TYPE_NONE,
+        INDEX_TYPE_UINT16,
     };
+    use crate::raw::generated::geometry as read_geometry;
     use crate::raw::MAX_CHAIN;
     use crate::{Device, Profile};
     use ommcheck_vuids::vuid;

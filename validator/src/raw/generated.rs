@@ -12,8 +12,8 @@ use std::fmt::Display;
 use ash::vk;
 use ommcheck_vuids::khr;
 
-use super::accel::{address, scratch_address};
-use super::{chain, chain_s_types, usage_counts};
+use super::accel::{self, address, scratch_address};
+use super::{chain, chain_s_types, read_elements, usage_counts, ElementArrays};
 use crate::model::generated as model;
 use crate::model::micromap::MicromapUsage;
 use crate::report::location::Locate;
@@ -185,7 +185,7 @@ pub(crate) unsafe fn copy_memory_to_acceleration_structure_info(
     }
 }
 
-/// Reads a `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command (at `at`, as findings name it).
+/// Reads a `VkMicromapBuildInfoEXT`; addresses are device or host addresses, depending on the command (at `at`, as findings name it).
 ///
 /// # Safety
 /// `info`'s pNext chain must be well formed.
@@ -451,6 +451,156 @@ pub(crate) unsafe fn triangles_data(
         }
     }
     value
+}
+
+/// Reads a `VkAccelerationStructureGeometryInstancesDataKHR`; with the instances themselves where the checker can read them (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+pub(crate) unsafe fn instances_data(
+    info: &vk::AccelerationStructureGeometryInstancesDataKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::InstancesData {
+    model::InstancesData {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, at, findings) },
+        array_of_pointers: info.array_of_pointers != vk::FALSE,
+        data: address(&info.data),
+        instances: Default::default(),
+    }
+}
+
+/// Reads a `VkAccelerationStructureGeometryKHR`; with the micromap structure of its pNext chain (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+/// The structures it takes from the chain must be valid as their own
+/// readers require.
+pub(crate) unsafe fn geometry(
+    info: &vk::AccelerationStructureGeometryKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::Geometry {
+    let mut value = model::Geometry {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        geometry_type: info.geometry_type.as_raw(),
+        geometry: match info.geometry_type.as_raw() {
+            // VK_GEOMETRY_TYPE_TRIANGLES_KHR
+            0 => {
+                // SAFETY: the caller guarantees the union holds the member
+                // `geometry_type` selects: triangles.
+                let member = unsafe { &info.geometry.triangles };
+                model::GeometryData::Triangles({
+                    // SAFETY: forwarded from the caller.
+                    unsafe {
+                        triangles_data(member, function, at.text(".geometry.triangles"), findings)
+                    }
+                })
+            }
+            // VK_GEOMETRY_TYPE_AABBS_KHR
+            1 => {
+                // SAFETY: the caller guarantees the union holds the member
+                // `geometry_type` selects: aabbs.
+                let member = unsafe { &info.geometry.aabbs };
+                model::GeometryData::Aabbs({
+                    // SAFETY: forwarded from the caller.
+                    unsafe { aabbs_data(member, function, at.text(".geometry.aabbs"), findings) }
+                })
+            }
+            // VK_GEOMETRY_TYPE_INSTANCES_KHR
+            2 => {
+                // SAFETY: the caller guarantees the union holds the member
+                // `geometry_type` selects: instances.
+                let member = unsafe { &info.geometry.instances };
+                model::GeometryData::Instances({
+                    // SAFETY: forwarded from the caller.
+                    unsafe {
+                        instances_data(member, function, at.text(".geometry.instances"), findings)
+                    }
+                })
+            }
+            // Any other value selects no member known to be valid.
+            _ => model::GeometryData::None,
+        },
+        flags: info.flags.as_raw(),
+        micromap: None,
+    };
+    // SAFETY: forwarded from the caller.
+    let links = unsafe { chain(info.p_next, function, at, findings) };
+    for link in links {
+        match link.s_type {
+            // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR
+            1000623002 if value.micromap.is_none() => {
+                // SAFETY: a structure in a valid chain with this sType is a
+                // VkAccelerationStructureGeometryMicromapDataKHR.
+                let entry = unsafe {
+                    &*link
+                        .address
+                        .cast::<khr::AccelerationStructureGeometryMicromapDataKHR<'_>>()
+                };
+                value.micromap = Some({
+                    let entry_at =
+                        at.text(".pNext<VkAccelerationStructureGeometryMicromapDataKHR>");
+                    // SAFETY: forwarded from the caller.
+                    unsafe {
+                        geometry_micromap_data(Vec::new(), entry, function, entry_at, findings)
+                    }
+                });
+            }
+            other => value.next.push(other),
+        }
+    }
+    value
+}
+
+/// Reads a `VkAccelerationStructureBuildGeometryInfoKHR`; addresses are device or host addresses, depending on the command (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+/// Its arrays must be NULL or valid for their counts, and each element
+/// valid as its own reader requires, as the API requires.
+pub(crate) unsafe fn build_geometry_info(
+    info: &vk::AccelerationStructureBuildGeometryInfoKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::BuildGeometryInfo {
+    let read = |element: &vk::AccelerationStructureGeometryKHR<'_>,
+                at: &dyn Display,
+                findings: &mut Vec<Finding>| {
+        // SAFETY: each element is one the caller guarantees valid.
+        unsafe { geometry(element, function, at, findings) }
+    };
+    let members = ElementArrays {
+        count: info.geometry_count,
+        array: info.p_geometries,
+        pointers: info.pp_geometries,
+        bound: accel::MAX_GEOMETRIES,
+        names: ["geometryCount", "pGeometries", "ppGeometries"],
+        noun: "geometries",
+    };
+    // SAFETY: forwarded from the caller.
+    let (geometry_count, geometries, geometry_pointers) =
+        unsafe { read_elements(members, function, at, findings, read) };
+    model::BuildGeometryInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, at, findings) },
+        ty: info.ty.as_raw(),
+        flags: info.flags.as_raw(),
+        mode: info.mode.as_raw(),
+        src_acceleration_structure: vk::Handle::as_raw(info.src_acceleration_structure),
+        dst_acceleration_structure: vk::Handle::as_raw(info.dst_acceleration_structure),
+        geometry_count,
+        geometries,
+        geometry_pointers,
+        scratch_data: scratch_address(&info.scratch_data),
+    }
 }
 
 /// Sets the features a structure of an application's pNext chain enables

@@ -22,6 +22,7 @@ use std::fmt::Display;
 use ash::vk;
 
 use crate::build_inputs::DeviceBuild;
+use crate::model::array_or_pointers::CountedElements;
 use crate::model::micromap::SpareInfos;
 use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
 use crate::report::location::Locate;
@@ -203,6 +204,109 @@ fn count_cut(
         location.to_string(),
         format!("the count {count} exceeds what ommcheck reads ({MAX_ELEMENTS}); the rest is not checked"),
     ));
+}
+
+/// `count` bounded by `bound`, with a warning at `location` when it is cut;
+/// `names`: the count member and what it counts (`["geometryCount",
+/// "geometries"]`).
+pub(crate) fn element_bound(
+    count: u32,
+    bound: u32,
+    names: [&str; 2],
+    function: &'static str,
+    location: impl Display,
+    findings: &mut Vec<Finding>,
+) -> u32 {
+    if count > bound {
+        let [member, noun] = names;
+        findings.push(Finding::new(
+            &rules::READ_BOUND,
+            Severity::Warning,
+            function,
+            location.to_string(),
+            format!("{member} {count} exceeds the {noun} ommcheck reads ({bound}); the rest are not checked"),
+        ));
+    }
+    count.min(bound)
+}
+
+/// A count member with the array and the array of pointers it counts
+/// (`geometryCount`, `pGeometries`, `ppGeometries`), as an application
+/// wrote them.
+pub(crate) struct ElementArrays<A> {
+    pub count: u32,
+    pub array: *const A,
+    pub pointers: *const *const A,
+    /// The most elements read.
+    pub bound: u32,
+    /// The three members' names.
+    pub names: [&'static str; 3],
+    /// What the elements are called in a finding.
+    pub noun: &'static str,
+}
+
+/// Reads the elements of `members` with `read`: the count (as read: cut to
+/// the bound where an array was read), the array and the array of pointers
+/// (None where NULL; a NULL element of the pointers is None).
+///
+/// # Safety
+/// A non-NULL `array` or `pointers` must be valid for `count` elements, and
+/// each element (and each non-NULL pointer's element) valid as `read`
+/// requires.
+pub(crate) unsafe fn read_elements<A, T>(
+    members: ElementArrays<A>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+    mut read: impl FnMut(&A, &dyn Display, &mut Vec<Finding>) -> T,
+) -> CountedElements<T> {
+    let ElementArrays {
+        count,
+        array,
+        pointers,
+        bound,
+        names: [count_name, array_name, pointers_name],
+        noun,
+    } = members;
+    let reads = !array.is_null() || !pointers.is_null();
+    let bounded = if reads {
+        let at = at.member(count_name);
+        element_bound(count, bound, [count_name, noun], function, at, findings)
+    } else {
+        count
+    };
+    let array_at = at.member(array_name);
+    // SAFETY: the caller guarantees `array` is NULL or valid for `count`
+    // elements; `bounded` is at most that many.
+    let array = unsafe { array_slice(array, bounded, function, array_at, findings) };
+    let array = array.map(|list| {
+        list.iter()
+            .enumerate()
+            .map(|(k, element)| read(element, &array_at.index(k), findings))
+            .collect::<Vec<_>>()
+    });
+    let pointers_at = at.member(pointers_name);
+    // SAFETY: as for `array`, for pointers.
+    let pointers = unsafe { array_slice(pointers, bounded, function, pointers_at, findings) };
+    let pointers = pointers.map(|list| {
+        list.iter()
+            .enumerate()
+            .map(|(k, pointer)| {
+                // SAFETY: a non-NULL element points to one element the
+                // caller guarantees valid; a NULL one is kept as None.
+                let element = unsafe { pointer.as_ref() }?;
+                Some(read(element, &pointers_at.index(k), findings))
+            })
+            .collect::<Vec<_>>()
+    });
+    // A count cut to the bound is reported above; the model holds what was
+    // read.
+    let read_len = array
+        .as_ref()
+        .map(Vec::len)
+        .or(pointers.as_ref().map(Vec::len));
+    let count = read_len.map_or(count, |n| u32::try_from(n).unwrap_or(count));
+    (count, array, pointers)
 }
 
 // `usage_counts` reads `VkMicromapUsageEXT` arrays as `MicromapUsage`.

@@ -511,68 +511,6 @@ pub struct MicromapVersionInfoDesc {
     pub p_version_data: Option<String>,
 }
 
-/// `VkAccelerationStructureBuildGeometryInfoKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct BuildGeometryInfoDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    #[serde(rename = "type")]
-    pub ty: Value<names::AccelerationStructureType>,
-    #[serde(default)]
-    pub flags: Value<names::BuildAccelerationStructureFlags>,
-    /// Default VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR.
-    pub mode: Option<Value<names::BuildAccelerationStructureMode>>,
-    #[serde(default)]
-    pub src_acceleration_structure: HandleArg,
-    #[serde(default)]
-    pub dst_acceleration_structure: HandleArg,
-    /// Default: the length of pGeometries or ppGeometries.
-    pub geometry_count: Option<u32>,
-    pub p_geometries: Option<Vec<GeometryDesc>>,
-    pub pp_geometries: Option<Vec<Option<GeometryDesc>>>,
-    #[serde(default)]
-    pub scratch_data: AddressArg,
-}
-
-/// `VkAccelerationStructureGeometryKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct GeometryDesc {
-    pub s_type: Option<Value<names::StructureType>>,
-    /// May hold a `VkAccelerationStructureGeometryMicromapDataKHR`.
-    #[serde(default)]
-    pub p_next: Vec<ChainStruct>,
-    pub geometry_type: Value<names::GeometryType>,
-    /// The union member; absent for micromap geometry.
-    #[serde(default)]
-    pub geometry: GeometryUnionDesc,
-    #[serde(default)]
-    pub flags: Value<names::GeometryFlags>,
-}
-
-/// `VkAccelerationStructureGeometryDataKHR`: at most one member.
-#[derive(Debug, Default, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct GeometryUnionDesc {
-    pub triangles: Option<TrianglesDataDesc>,
-    pub aabbs: Option<AabbsDataDesc>,
-    pub instances: Option<InstancesDesc>,
-}
-
-/// `VkAccelerationStructureGeometryInstancesDataKHR`. With
-/// `arrayOfPointers` false, the checker reads the instances from `data`
-/// where the buffer's contents are known.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct InstancesDesc {
-    #[serde(default)]
-    pub array_of_pointers: bool,
-    #[serde(default)]
-    pub data: AddressArg,
-}
-
 /// `VkDeviceAddressRangeKHR`.
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]

@@ -15,10 +15,8 @@ use crate::build_inputs::read_instances;
 use crate::checks::Validator;
 use crate::device::{Device, Limits, Profile};
 use crate::inspect::simulate::{HitInput, HitQuery};
-use crate::model::accel::{
-    AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo, Geometry, GeometryData,
-    InstancesData,
-};
+use crate::model::accel::{AccelerationStructureCreateInfo2, BuildGeometryInfo, BuildRangeInfo};
+use crate::model::array_or_pointers::CountedElements;
 use crate::model::command::{queue, CommandBuffer};
 use crate::model::micromap::{MicromapBuildInfo, MicromapTriangle, MicromapUsage, UsageCounts};
 use crate::model::micromap_objects::{
@@ -1179,6 +1177,50 @@ impl Resolver<'_> {
         Ok(())
     }
 
+    /// A count with the array and the array of pointers it counts
+    /// (`geometryCount`, `pGeometries`, `ppGeometries`; `members` names
+    /// the two arrays), each element read with `read`; the count is the
+    /// length of the array given where the scene leaves it out.
+    pub(in crate::scene) fn elements<D, T>(
+        &self,
+        count: Option<u32>,
+        array: &Option<Vec<D>>,
+        pointers: &Option<Vec<Option<D>>>,
+        at: &str,
+        members: [&str; 2],
+        read: impl Fn(&Self, &D, &str) -> Result<T>,
+    ) -> Result<CountedElements<T>> {
+        let [array_name, pointers_name] = members;
+        let array = match array {
+            Some(list) => Some(
+                list.iter()
+                    .enumerate()
+                    .map(|(k, d)| read(self, d, &format!("{at}.{array_name}[{k}]")))
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            None => None,
+        };
+        let pointers = match pointers {
+            Some(list) => Some(
+                list.iter()
+                    .enumerate()
+                    .map(|(k, d)| {
+                        d.as_ref()
+                            .map(|d| read(self, d, &format!("{at}.{pointers_name}[{k}]")))
+                            .transpose()
+                    })
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            None => None,
+        };
+        let implied = match (&array, &pointers) {
+            (Some(list), _) => array_len(list.len(), at, array_name)?,
+            (None, Some(list)) => array_len(list.len(), at, pointers_name)?,
+            (None, None) => 0,
+        };
+        Ok((count.unwrap_or(implied), array, pointers))
+    }
+
     fn micromap_build_infos(
         &self,
         infos: &[MicromapBuildInfoDesc],
@@ -1189,110 +1231,6 @@ impl Resolver<'_> {
             .enumerate()
             .map(|(i, d)| self.micromap_build_info(d, &format!("{at}.pInfos[{i}]")))
             .collect()
-    }
-
-    fn geometry(&self, d: &GeometryDesc, at: &str) -> Result<Geometry> {
-        let defaults = Geometry::default();
-        let mut geometry = Geometry {
-            s_type: s_type(d.s_type, defaults.s_type),
-            geometry_type: d.geometry_type.as_i32(),
-            flags: d.flags.as_u32(),
-            ..defaults
-        };
-        for (k, next) in d.p_next.iter().enumerate() {
-            match next {
-                ChainStruct::GeometryMicromapData(m) if geometry.micromap.is_none() => {
-                    let next_at = format!("{at}.pNext[{k}]");
-                    geometry.micromap = Some(self.geometry_micromap_data(m, &next_at)?);
-                }
-                other => geometry.next.push(other.s_type()),
-            }
-        }
-        let union = &d.geometry;
-        let members = [
-            union.triangles.is_some(),
-            union.aabbs.is_some(),
-            union.instances.is_some(),
-        ];
-        if members.iter().filter(|m| **m).count() > 1 {
-            return problem(
-                format!("{at}.geometry"),
-                "a VkAccelerationStructureGeometryDataKHR union holds one member: give one of triangles, aabbs, instances",
-            );
-        }
-        geometry.geometry = if let Some(t) = &union.triangles {
-            GeometryData::Triangles(self.triangles_data(t, &format!("{at}.geometry.triangles"))?)
-        } else if let Some(a) = &union.aabbs {
-            GeometryData::Aabbs(self.aabbs_data(a, &format!("{at}.geometry.aabbs"))?)
-        } else if let Some(i) = &union.instances {
-            GeometryData::Instances(InstancesData {
-                array_of_pointers: i.array_of_pointers,
-                data: self.address(&i.data, &format!("{at}.geometry.instances.data"))?,
-                instances: None,
-            })
-        } else {
-            GeometryData::None
-        };
-        Ok(geometry)
-    }
-
-    fn build_geometry_info(
-        &self,
-        d: &BuildGeometryInfoDesc,
-        at: &str,
-    ) -> Result<BuildGeometryInfo> {
-        let defaults = BuildGeometryInfo::default();
-        let geometries = match &d.p_geometries {
-            Some(list) => Some(
-                list.iter()
-                    .enumerate()
-                    .map(|(g, geometry)| self.geometry(geometry, &format!("{at}.pGeometries[{g}]")))
-                    .collect::<Result<Vec<_>>>()?,
-            ),
-            None => None,
-        };
-        let geometry_pointers = match &d.pp_geometries {
-            Some(list) => Some(
-                list.iter()
-                    .enumerate()
-                    .map(|(g, geometry)| {
-                        geometry
-                            .as_ref()
-                            .map(|geometry| {
-                                self.geometry(geometry, &format!("{at}.ppGeometries[{g}]"))
-                            })
-                            .transpose()
-                    })
-                    .collect::<Result<Vec<_>>>()?,
-            ),
-            None => None,
-        };
-        let implied = match (&geometries, &geometry_pointers) {
-            (Some(list), _) => array_len(list.len(), at, "pGeometries")?,
-            (None, Some(list)) => array_len(list.len(), at, "ppGeometries")?,
-            (None, None) => 0,
-        };
-        Ok(BuildGeometryInfo {
-            s_type: s_type(d.s_type, defaults.s_type),
-            next: chain(&d.p_next),
-            ty: d.ty.as_i32(),
-            flags: d.flags.as_u32(),
-            mode: d.mode.map_or(defaults.mode, Value::as_i32),
-            src_acceleration_structure: self.handle(
-                &d.src_acceleration_structure,
-                ObjectKind::AccelerationStructure,
-                &format!("{at}.srcAccelerationStructure"),
-            )?,
-            dst_acceleration_structure: self.handle(
-                &d.dst_acceleration_structure,
-                ObjectKind::AccelerationStructure,
-                &format!("{at}.dstAccelerationStructure"),
-            )?,
-            geometry_count: d.geometry_count.unwrap_or(implied),
-            geometries,
-            geometry_pointers,
-            scratch_data: self.address(&d.scratch_data, &format!("{at}.scratchData"))?,
-        })
     }
 
     /// The build infos of an acceleration-structure build, with the

@@ -53,15 +53,25 @@ pub(crate) fn chain_entry(s_type: i32) -> ChainStruct {
     })
 }
 
-/// `usageCountsCount` where the resolver would not take it from the
-/// arrays' length (None: it would).
-pub(crate) fn usage_counts_count(counts: &UsageCounts) -> Option<u32> {
-    let implied = match (&counts.array, &counts.pointers) {
+/// A count of an array or an array of pointers, where the resolver would
+/// not take it from the given array's length (None: it would).
+pub(crate) fn elements_count<T>(
+    count: u32,
+    array: &Option<Vec<T>>,
+    pointers: &Option<Vec<Option<T>>>,
+) -> Option<u32> {
+    let implied = match (array, pointers) {
         (Some(array), _) => array.len(),
         (None, Some(pointers)) => pointers.len(),
         (None, None) => 0,
     };
-    (u32::try_from(implied) != Ok(counts.count)).then_some(counts.count)
+    (u32::try_from(implied) != Ok(count)).then_some(count)
+}
+
+/// `usageCountsCount` where the resolver would not take it from the
+/// arrays' length (None: it would).
+pub(crate) fn usage_counts_count(counts: &UsageCounts) -> Option<u32> {
+    elements_count(counts.count, &counts.array, &counts.pointers)
 }
 
 /// The scene form of one `VkMicromapUsageEXT`.

@@ -526,6 +526,7 @@ fn instance_build(
             array_of_pointers: false,
             data: if host_side { HOST_DATA } else { INSTANCES },
             instances: Some(vec![instance]),
+            ..Default::default()
         }),
         ..Default::default()
     };
@@ -559,7 +560,7 @@ fn instances_from(data: u64, array_of_pointers: bool) -> Report {
         geometry: GeometryData::Instances(InstancesData {
             array_of_pointers,
             data,
-            instances: None,
+            ..Default::default()
         }),
         ..Default::default()
     };

@@ -160,7 +160,7 @@ pub struct CopyMemoryToAccelerationStructureInfoDesc {
     pub mode: Option<Value<names::CopyAccelerationStructureMode>>,
 }
 
-/// `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command.
+/// `VkMicromapBuildInfoEXT`; addresses are device or host addresses, depending on the command.
 #[derive(Debug, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct MicromapBuildInfoDesc {
@@ -375,6 +375,80 @@ pub struct TrianglesDataDesc {
     pub index_data: AddressArg,
     #[serde(default)]
     pub transform_data: AddressArg,
+}
+
+/// `VkAccelerationStructureGeometryInstancesDataKHR`; with the instances themselves where the checker can read them.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct InstancesDataDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default)]
+    pub array_of_pointers: bool,
+    #[serde(default)]
+    pub data: AddressArg,
+}
+
+/// `VkAccelerationStructureGeometryKHR`; with the micromap structure of its pNext chain.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeometryDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    pub geometry_type: Value<names::GeometryType>,
+    #[serde(default)]
+    pub geometry: GeometryDataDesc,
+    #[serde(default)]
+    pub flags: Value<names::GeometryFlags>,
+}
+
+/// `VkAccelerationStructureBuildGeometryInfoKHR`; addresses are device or host addresses, depending on the command.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct BuildGeometryInfoDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(rename = "type")]
+    pub ty: Value<names::AccelerationStructureType>,
+    #[serde(default)]
+    pub flags: Value<names::BuildAccelerationStructureFlags>,
+    /// Default VK_BUILD_ACCELERATION_STRUCTURE_MODE_BUILD_KHR.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mode: Option<Value<names::BuildAccelerationStructureMode>>,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub src_acceleration_structure: HandleArg,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub dst_acceleration_structure: HandleArg,
+    /// Default: the length of pGeometries or ppGeometries.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub geometry_count: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub p_geometries: Option<Vec<GeometryDesc>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pp_geometries: Option<Vec<Option<GeometryDesc>>>,
+    #[serde(default)]
+    pub scratch_data: AddressArg,
+}
+
+/// `VkAccelerationStructureGeometryDataKHR`: at most one member.
+#[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeometryDataDesc {
+    /// Selected by `VK_GEOMETRY_TYPE_TRIANGLES_KHR`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub triangles: Option<TrianglesDataDesc>,
+    /// Selected by `VK_GEOMETRY_TYPE_AABBS_KHR`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub aabbs: Option<AabbsDataDesc>,
+    /// Selected by `VK_GEOMETRY_TYPE_INSTANCES_KHR`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instances: Option<InstancesDataDesc>,
 }
 
 /// A structure of a pNext chain, named by its `sType`. The structures

@@ -6,7 +6,7 @@
 // A structure of plain numbers uses neither `at` nor its defaults.
 #![allow(unused_variables)]
 
-use super::{chain, s_type, usage_counts, ObjectKind, Resolver, Result};
+use super::{chain, problem, s_type, usage_counts, ObjectKind, Resolver, Result};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
@@ -163,7 +163,7 @@ impl Resolver<'_> {
         })
     }
 
-    /// A `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command at `at`.
+    /// A `VkMicromapBuildInfoEXT`; addresses are device or host addresses, depending on the command at `at`.
     pub(in crate::scene) fn micromap_build_info(
         &self,
         d: &scene::MicromapBuildInfoDesc,
@@ -379,6 +379,124 @@ impl Resolver<'_> {
             }
         }
         Ok(value)
+    }
+
+    /// A `VkAccelerationStructureGeometryInstancesDataKHR`; with the instances themselves where the checker can read them at `at`.
+    pub(in crate::scene) fn instances_data(
+        &self,
+        d: &scene::InstancesDataDesc,
+        at: &str,
+    ) -> Result<model::InstancesData> {
+        let defaults = model::InstancesData::default();
+        Ok(model::InstancesData {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            array_of_pointers: d.array_of_pointers,
+            data: self.address(&d.data, &format!("{at}.data"))?,
+            instances: Default::default(),
+        })
+    }
+
+    /// A `VkAccelerationStructureGeometryKHR`; with the micromap structure of its pNext chain at `at`.
+    pub(in crate::scene) fn geometry(
+        &self,
+        d: &scene::GeometryDesc,
+        at: &str,
+    ) -> Result<model::Geometry> {
+        let defaults = model::Geometry::default();
+        let mut value = model::Geometry {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: Vec::new(),
+            geometry_type: d.geometry_type.as_i32(),
+            geometry: self.geometry_data(&d.geometry, &format!("{at}.geometry"))?,
+            flags: d.flags.as_u32(),
+            ..defaults
+        };
+        for (k, next) in d.p_next.iter().enumerate() {
+            let next_at = format!("{at}.pNext[{k}]");
+            match next {
+                ChainStruct::GeometryMicromapData(e) if value.micromap.is_none() => {
+                    value.micromap = Some(self.geometry_micromap_data(e, &next_at)?);
+                }
+                other => value.next.push(other.s_type()),
+            }
+        }
+        Ok(value)
+    }
+
+    /// A `VkAccelerationStructureBuildGeometryInfoKHR`; addresses are device or host addresses, depending on the command at `at`.
+    pub(in crate::scene) fn build_geometry_info(
+        &self,
+        d: &scene::BuildGeometryInfoDesc,
+        at: &str,
+    ) -> Result<model::BuildGeometryInfo> {
+        let defaults = model::BuildGeometryInfo::default();
+        let (geometry_count, geometries, geometry_pointers) = self.elements(
+            d.geometry_count,
+            &d.p_geometries,
+            &d.pp_geometries,
+            at,
+            ["pGeometries", "ppGeometries"],
+            Self::geometry,
+        )?;
+        Ok(model::BuildGeometryInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            ty: d.ty.as_i32(),
+            flags: d.flags.as_u32(),
+            mode: d.mode.map_or(defaults.mode, Value::as_i32),
+            src_acceleration_structure: self.handle(
+                &d.src_acceleration_structure,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.srcAccelerationStructure"),
+            )?,
+            dst_acceleration_structure: self.handle(
+                &d.dst_acceleration_structure,
+                ObjectKind::AccelerationStructure,
+                &format!("{at}.dstAccelerationStructure"),
+            )?,
+            geometry_count,
+            geometries,
+            geometry_pointers,
+            scratch_data: self.address(&d.scratch_data, &format!("{at}.scratchData"))?,
+        })
+    }
+
+    /// A `VkAccelerationStructureGeometryDataKHR` at `at`: the one member given (the application's
+    /// selector is its own member, checked by the rules).
+    pub(in crate::scene) fn geometry_data(
+        &self,
+        d: &scene::GeometryDataDesc,
+        at: &str,
+    ) -> Result<model::GeometryData> {
+        if [
+            d.triangles.is_some(),
+            d.aabbs.is_some(),
+            d.instances.is_some(),
+        ]
+        .iter()
+        .filter(|given| **given)
+        .count()
+            > 1
+        {
+            return problem(at, "a VkAccelerationStructureGeometryDataKHR union holds one member: give one of triangles, aabbs, instances");
+        }
+        if let Some(member) = &d.triangles {
+            return Ok(model::GeometryData::Triangles(
+                self.triangles_data(member, &format!("{at}.triangles"))?,
+            ));
+        }
+        if let Some(member) = &d.aabbs {
+            return Ok(model::GeometryData::Aabbs(
+                self.aabbs_data(member, &format!("{at}.aabbs"))?,
+            ));
+        }
+        if let Some(member) = &d.instances {
+            return Ok(model::GeometryData::Instances(
+                self.instances_data(member, &format!("{at}.instances"))?,
+            ));
+        }
+        Ok(model::GeometryData::None)
     }
 }
 /// The features `d` enables; every feature of `features` the checks read

@@ -6,7 +6,7 @@
 // A structure of plain numbers names no objects or addresses.
 #![allow(unused_variables)]
 
-use super::{chain_entry, usage_counts_count, usage_desc, Names};
+use super::{chain_entry, elements_count, usage_counts_count, usage_desc, Names};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
@@ -138,7 +138,7 @@ impl scene::CopyMemoryToAccelerationStructureInfoDesc {
 }
 
 impl scene::MicromapBuildInfoDesc {
-    /// The scene form of a `VkMicromapBuildInfoEXT`; Addresses are device or host addresses, depending on the command, naming objects and addresses by `names`.
+    /// The scene form of a `VkMicromapBuildInfoEXT`; addresses are device or host addresses, depending on the command, naming objects and addresses by `names`.
     pub fn written(model: &model::MicromapBuildInfo, names: &dyn Names) -> Self {
         let defaults = model::MicromapBuildInfo::default();
         Self {
@@ -343,6 +343,102 @@ impl scene::TrianglesDataDesc {
                 .then(|| Value::new(i64::from(model.index_type))),
             index_data: names.address(model.index_data),
             transform_data: names.address(model.transform_data),
+        }
+    }
+}
+
+impl scene::InstancesDataDesc {
+    /// The scene form of a `VkAccelerationStructureGeometryInstancesDataKHR`; with the instances themselves where the checker can read them, naming objects and addresses by `names`.
+    pub fn written(model: &model::InstancesData, names: &dyn Names) -> Self {
+        let defaults = model::InstancesData::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model.next.iter().copied().map(chain_entry).collect(),
+            array_of_pointers: model.array_of_pointers,
+            data: names.address(model.data),
+        }
+    }
+}
+
+impl scene::GeometryDesc {
+    /// The scene form of a `VkAccelerationStructureGeometryKHR`; with the micromap structure of its pNext chain, naming objects and addresses by `names`.
+    pub fn written(model: &model::Geometry, names: &dyn Names) -> Self {
+        let defaults = model::Geometry::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model
+                .next
+                .iter()
+                .copied()
+                .map(chain_entry)
+                .chain(model.micromap.iter().map(|e| {
+                    ChainStruct::GeometryMicromapData(scene::GeometryMicromapDataDesc::written(
+                        e, names,
+                    ))
+                }))
+                .collect(),
+            geometry_type: Value::new(i64::from(model.geometry_type)),
+            geometry: scene::GeometryDataDesc::written(&model.geometry, names),
+            flags: Value::new(i64::from(model.flags)),
+        }
+    }
+}
+
+impl scene::BuildGeometryInfoDesc {
+    /// The scene form of a `VkAccelerationStructureBuildGeometryInfoKHR`; addresses are device or host addresses, depending on the command, naming objects and addresses by `names`.
+    pub fn written(model: &model::BuildGeometryInfo, names: &dyn Names) -> Self {
+        let defaults = model::BuildGeometryInfo::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model.next.iter().copied().map(chain_entry).collect(),
+            ty: Value::new(i64::from(model.ty)),
+            flags: Value::new(i64::from(model.flags)),
+            mode: (model.mode != defaults.mode).then(|| Value::new(i64::from(model.mode))),
+            src_acceleration_structure: names.handle(
+                ObjectKind::AccelerationStructure,
+                model.src_acceleration_structure,
+            ),
+            dst_acceleration_structure: names.handle(
+                ObjectKind::AccelerationStructure,
+                model.dst_acceleration_structure,
+            ),
+            geometry_count: elements_count(
+                model.geometry_count,
+                &model.geometries,
+                &model.geometry_pointers,
+            ),
+            p_geometries: model.geometries.as_ref().map(|a| {
+                a.iter()
+                    .map(|e| scene::GeometryDesc::written(e, names))
+                    .collect()
+            }),
+            pp_geometries: model.geometry_pointers.as_ref().map(|p| {
+                p.iter()
+                    .map(|e| e.as_ref().map(|e| scene::GeometryDesc::written(e, names)))
+                    .collect()
+            }),
+            scratch_data: names.address(model.scratch_data),
+        }
+    }
+}
+
+impl scene::GeometryDataDesc {
+    /// The scene form of a `VkAccelerationStructureGeometryDataKHR`, naming objects and addresses by `names`.
+    pub fn written(model: &model::GeometryData, names: &dyn Names) -> Self {
+        match model {
+            model::GeometryData::Triangles(member) => Self {
+                triangles: Some(scene::TrianglesDataDesc::written(member, names)),
+                ..Self::default()
+            },
+            model::GeometryData::Aabbs(member) => Self {
+                aabbs: Some(scene::AabbsDataDesc::written(member, names)),
+                ..Self::default()
+            },
+            model::GeometryData::Instances(member) => Self {
+                instances: Some(scene::InstancesDataDesc::written(member, names)),
+                ..Self::default()
+            },
+            model::GeometryData::None => Self::default(),
         }
     }
 }
@@ -748,6 +844,70 @@ mod tests {
         let read: scene::TrianglesDataDesc = serde_json::from_str(&json).unwrap();
         assert_eq!(
             crate::scene::resolve_alone(|r| r.triangles_data(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn instances_data_reads_back_as_written() {
+        let model = model::InstancesData {
+            next: vec![1_000_001_000],
+            array_of_pointers: true,
+            data: 0x2000_0000 + 4,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::InstancesDataDesc::written(&model, names)).unwrap();
+        let read: scene::InstancesDataDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.instances_data(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn geometry_reads_back_as_written() {
+        let model = model::Geometry {
+            next: vec![1_000_001_000],
+            geometry_type: 3,
+            geometry: model::GeometryData::Instances(Default::default()),
+            flags: 5,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::GeometryDesc::written(&model, names)).unwrap();
+        let read: scene::GeometryDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.geometry(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn build_geometry_info_reads_back_as_written() {
+        let model = model::BuildGeometryInfo {
+            next: vec![1_000_001_000],
+            ty: 3,
+            flags: 4,
+            mode: 5,
+            src_acceleration_structure: 0x1000 + 6,
+            dst_acceleration_structure: 0x1000 + 7,
+            geometry_count: 8,
+            geometries: Some(vec![Default::default()]),
+            geometry_pointers: Some(vec![None]),
+            scratch_data: 0x2000_0000 + 9,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::BuildGeometryInfoDesc::written(&model, names)).unwrap();
+        let read: scene::BuildGeometryInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.build_geometry_info(&read, "x")),
             Ok(model),
             "{json}"
         );
