@@ -164,6 +164,7 @@ pub unsafe extern "system" fn create_device(
                     shadows: Shadows::new(settings.gpu_readback_max_bytes),
                     submissions: Default::default(),
                     driver_answers: None,
+                    core_not_checked: Default::default(),
                 }),
                 readback_arena: Default::default(),
             });
@@ -203,7 +204,15 @@ unsafe extern "system" fn destroy_device(
         let totals = {
             let mut state = data.state();
             state.submissions = Default::default();
-            readback::not_checked_totals(device.as_raw(), state.memory_layout.not_checked_counts())
+            let mut totals = readback::not_checked_totals(
+                device.as_raw(),
+                state.memory_layout.not_checked_counts(),
+            );
+            totals.extend(crate::intercept::core_not_checked_totals(
+                device.as_raw(),
+                state.core_not_checked.counts(),
+            ));
+            totals
         };
         data.instance.reporter.deliver(&totals, false);
         data.readback_arena
