@@ -236,6 +236,39 @@ fn a_callback_returning_true_skips_the_call() {
     assert_eq!(calls("vkCmdBuildMicromapsEXT").len(), 1);
 }
 
+/// A host build is recorded after the driver accepted it: a skipped one
+/// leaves its micromap unconstructed, the next valid one constructs it.
+#[test]
+fn a_skipped_host_build_is_not_recorded() {
+    let chain = Chain::new();
+    let mut build = HostBuild::new(&chain);
+    let constructed = |chain: &Chain| {
+        let kept = layer::testing::kept_per_object(chain.device).expect("a known device");
+        kept.iter()
+            .find(|(what, _)| *what == "constructed")
+            .map(|(_, n)| *n)
+            .expect("the constructed objects are counted")
+    };
+    let before = constructed(&chain);
+    chain.collector.answer_with(vk::TRUE);
+    // Triangle 1's data one byte past the mapping: reported, and skipped.
+    build.triangles[8] = 2;
+    let skipped = host_build(&chain, &build.info());
+    assert_eq!(skipped, vk::Result::ERROR_VALIDATION_FAILED_EXT);
+    assert_eq!(ids(&chain.collector.take()), [DATA_IN_RANGE]);
+    assert_eq!(
+        constructed(&chain),
+        before,
+        "the skipped build was recorded"
+    );
+
+    // A valid call is not skipped, whatever the callback would answer.
+    build.triangles[8] = 1;
+    assert_eq!(host_build(&chain, &build.info()), vk::Result::SUCCESS);
+    assert!(chain.collector.take().is_empty());
+    assert_eq!(constructed(&chain), before + 1);
+}
+
 #[test]
 fn a_rule_is_reported_up_to_the_duplicate_limit() {
     let chain = Chain::new();
