@@ -276,8 +276,8 @@ mod driver {
             /// libFuzzer processes per target, side by side (one per core).
             #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
             jobs: u16,
-            /// Afterwards, replace fuzz/corpus/<target> with the inputs of it and
-            /// of the run that add coverage, and record the run's executions.
+            /// Afterwards, add to fuzz/corpus/<target> the inputs of the run that
+            /// reach new edges (deleting none), and record the run's executions.
             #[arg(long)]
             minimize: bool,
             /// Take the fuzz binaries from DIR (as `--build-only` leaves them)
