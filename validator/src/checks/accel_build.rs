@@ -39,7 +39,7 @@ use crate::checks::common::{
 };
 use crate::checks::usage_counts::{self, PointerVuids};
 use crate::checks::usage_keys::UsageKeys;
-use crate::checks::{accel_attach, hygiene, serialized, Coverage};
+use crate::checks::{accel_attach, hygiene, provenance, serialized, Coverage};
 use crate::checks::{Ctx, Validator};
 use crate::device::Limits;
 use crate::model::accel::*;
@@ -62,8 +62,6 @@ use crate::state::{
     AccelerationStructure, BuildRecord, OpacityAttachmentRecord, State, TriangleGeometryRecord,
 };
 use crate::tier::Tier;
-
-const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by memory contents that serializations (GPU copies at execution time, or host copies) write in an implementation's opaque format, not visible at the API boundary";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "accel_build",
@@ -123,12 +121,11 @@ pub const COVERAGE: Coverage = Coverage {
         from_memory_info::src_11583,
         from_memory_info::dst_11584,
         from_memory_info::dst_11585,
+        to_memory_info::src_11582,
+        cmd_copy::src_11634,
+        host_copy::src_11587,
     ],
-    not_decidable: &[
-        (to_memory_info::src_11582, DESERIALIZED_MICROMAPS),
-        (cmd_copy::src_11634, DESERIALIZED_MICROMAPS),
-        (host_copy::src_11587, DESERIALIZED_MICROMAPS),
-    ],
+    not_decidable: &[],
 };
 
 /// Flags a KHR opacity-micromap build may have (11562).
@@ -425,7 +422,9 @@ impl Validator {
         command_buffer: &CommandBuffer,
         info: &CopyAccelerationStructureInfo,
     ) -> Report {
-        let report = self.ctx("vkCmdCopyAccelerationStructureKHR").finish();
+        let mut ctx = self.ctx("vkCmdCopyAccelerationStructureKHR");
+        provenance::deserialized_micromaps(&mut ctx, info.src, cmd_copy::src_11634, "pInfo->src");
+        let report = ctx.finish();
         record_copy(&mut self.state, info);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
@@ -439,7 +438,9 @@ impl Validator {
     /// `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`, as
     /// [`Self::cmd_copy_acceleration_structure`] on the host.
     pub fn copy_acceleration_structure(&mut self, info: &CopyAccelerationStructureInfo) -> Report {
-        let report = self.ctx("vkCopyAccelerationStructureKHR").finish();
+        let mut ctx = self.ctx("vkCopyAccelerationStructureKHR");
+        provenance::deserialized_micromaps(&mut ctx, info.src, host_copy::src_11587, "pInfo->src");
+        let report = ctx.finish();
         record_copy(&mut self.state, info);
         self.constructed_on_host(info.dst, 0);
         report
@@ -467,7 +468,22 @@ impl Validator {
                 "pInfo->dst.deviceAddress",
             );
         }
-        ctx.finish()
+        provenance::deserialized_micromaps(
+            &mut ctx,
+            info.src,
+            to_memory_info::src_11582,
+            "pInfo->src",
+        );
+        let report = ctx.finish();
+        let function = "vkCmdCopyAccelerationStructureToMemoryKHR";
+        provenance::record_structure_serialization(
+            &mut self.state,
+            function,
+            false,
+            info.src,
+            info.dst,
+        );
+        report
     }
 
     /// `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`:
@@ -500,6 +516,7 @@ impl Validator {
         serialized::check(&mut ctx, false, info);
         let report = ctx.finish();
         forget_deserialized(&mut self.state, info);
+        self.record_structure_deserialization(false, info);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
             command_buffer,
@@ -517,8 +534,23 @@ impl Validator {
         &mut self,
         info: &CopyAccelerationStructureToMemoryInfo,
     ) -> Report {
-        let _ = info;
-        self.ctx("vkCopyAccelerationStructureToMemoryKHR").finish()
+        let mut ctx = self.ctx("vkCopyAccelerationStructureToMemoryKHR");
+        provenance::deserialized_micromaps(
+            &mut ctx,
+            info.src,
+            to_memory_info::src_11582,
+            "pInfo->src",
+        );
+        let report = ctx.finish();
+        let function = "vkCopyAccelerationStructureToMemoryKHR";
+        provenance::record_structure_serialization(
+            &mut self.state,
+            function,
+            true,
+            info.src,
+            info.dst,
+        );
+        report
     }
 
     /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`:
@@ -533,7 +565,25 @@ impl Validator {
         serialized::check(&mut ctx, true, info);
         let report = ctx.finish();
         forget_deserialized(&mut self.state, info);
+        self.record_structure_deserialization(true, info);
         report
+    }
+
+    /// What an acceleration-structure deserialization (`host`: on the
+    /// host) leaves in its destination: what was serialized into its source.
+    fn record_structure_deserialization(
+        &mut self,
+        host: bool,
+        info: &CopyMemoryToAccelerationStructureInfo,
+    ) {
+        let contents = self.tier >= Tier::Content;
+        provenance::record_structure_deserialization(
+            &mut self.state,
+            host,
+            info.src,
+            info.dst,
+            contents,
+        );
     }
 
     /// `vkWriteAccelerationStructuresPropertiesKHR(device,
@@ -585,6 +635,7 @@ fn record_copy(state: &mut State, info: &CopyAccelerationStructureInfo) {
         Some(attachments) => state.original_attachments.insert(info.dst, attachments),
         None => state.original_attachments.remove(&info.dst),
     };
+    provenance::record_copy(state, info.src, info.dst);
 }
 
 /// Remembers what each build made of its destination, and (for
@@ -603,6 +654,7 @@ fn record_builds(
     ranges: &[Option<Vec<BuildRangeInfo>>],
     host: bool,
 ) {
+    provenance::record_structure_builds(state, infos);
     accel_attach::record_original_attachments(state, infos);
     for (i, info) in infos.iter().enumerate() {
         if !state

@@ -19,6 +19,7 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{self, CommandBufferVuids};
+use crate::checks::provenance;
 use crate::checks::Coverage;
 use crate::checks::{Ctx, Validator};
 use crate::model::micromap_objects::*;
@@ -29,9 +30,6 @@ use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
 use crate::state::execution::{ExecEvent, ReadRule};
 use crate::state::{MemoryBinding, Micromap};
-
-const SERIALIZED_SOURCE: &str = "needs the micromap whose serialization src holds (the size used to serialize it): serialized data passes through application memory and storage the checker does not follow";
-const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "micromap_objects",
@@ -185,14 +183,26 @@ pub const COVERAGE: Coverage = Coverage {
         host_copy::deferredOperation_03678,
         host_to_memory::deferredOperation_03678,
         host_from_memory::deferredOperation_03678,
+        from_memory_info::dst_07550,
+        from_memory_info::src_07547,
     ],
-    not_decidable: &[
-        (from_memory_info::dst_07550, SERIALIZED_SOURCE),
-        (from_memory_info::src_07547, SERIALIZED_DATA),
-    ],
+    not_decidable: &[],
 };
 
 impl Validator {
+    /// What a micromap deserialization (`host`: on the host) leaves in its
+    /// destination: what was serialized into its source.
+    fn record_micromap_deserialization(&mut self, host: bool, info: &CopyMemoryToMicromapInfo) {
+        let contents = self.tier >= crate::tier::Tier::Content;
+        provenance::record_micromap_deserialization(
+            &mut self.state,
+            host,
+            info.src,
+            info.dst,
+            contents,
+        );
+    }
+
     /// A host copy's read of micromap `pInfo->src` (absent without an
     /// info): it must be constructed by work the host has seen complete.
     fn host_src_constructed(
@@ -367,6 +377,7 @@ impl Validator {
         }
         self.state.micromaps.remove(&micromap);
         self.state.execution.forget(micromap);
+        self.state.provenance.forget(micromap);
         self.state.driver.forget_micromap(micromap);
         report
     }
@@ -406,6 +417,7 @@ impl Validator {
                 ExecEvent::Construct { object: info.dst },
             ];
             self.record_execution(command_buffer, "vkCmdCopyMicromapEXT", events);
+            provenance::record_copy(&mut self.state, info.src, info.dst);
         }
         report
     }
@@ -449,6 +461,14 @@ impl Validator {
                 location: "pInfo->src".into(),
             };
             self.record_execution(command_buffer, "vkCmdCopyMicromapToMemoryEXT", [read]);
+            let function = "vkCmdCopyMicromapToMemoryEXT";
+            provenance::record_micromap_serialization(
+                &mut self.state,
+                function,
+                false,
+                info.src,
+                info.dst,
+            );
         }
         report
     }
@@ -483,11 +503,13 @@ impl Validator {
                 cmd_from_memory::pInfo_07544,
                 "pInfo->src.deviceAddress",
             );
+            provenance::micromap_source(&mut ctx, false, info.src, info.dst);
         }
         let report = ctx.finish();
         if let Some(info) = info {
             let construct = ExecEvent::Construct { object: info.dst };
             self.record_execution(command_buffer, "vkCmdCopyMemoryToMicromapEXT", [construct]);
+            self.record_micromap_deserialization(false, info);
         }
         report
     }
@@ -532,6 +554,7 @@ impl Validator {
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
+            provenance::record_copy(&mut self.state, info.src, info.dst);
         }
         report
     }
@@ -578,6 +601,16 @@ impl Validator {
             info.map(|i| i.src),
         ));
         self.defer(deferred_operation);
+        if let Some(info) = info {
+            let function = "vkCopyMicromapToMemoryEXT";
+            provenance::record_micromap_serialization(
+                &mut self.state,
+                function,
+                true,
+                info.src,
+                info.dst,
+            );
+        }
         report
     }
 
@@ -615,11 +648,13 @@ impl Validator {
                 host_from_memory::pInfo_07564,
                 "pInfo->src.hostAddress",
             );
+            provenance::micromap_source(&mut ctx, true, info.src, info.dst);
         }
         let report = ctx.finish();
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
+            self.record_micromap_deserialization(true, info);
         }
         report
     }

@@ -30,6 +30,7 @@ use ommcheck::vuids::vuid::{
 };
 use ommcheck::{Device, Report, Validator};
 
+use crate::accel_attach::{DESERIALIZED_BLAS, DESERIALIZED_MICROMAP, OTHER_MICROMAP};
 use crate::fixtures::{command_buffer, device};
 use crate::{case, Case};
 
@@ -604,6 +605,24 @@ fn run(
     )
 }
 
+/// 11637: the shaders access a structure deserialized from a header naming
+/// `named` (see [`crate::accel_attach::deserialized_world`]).
+fn deserialized_access(command: WorkCommand, named: Handle) -> Report {
+    let mut v = crate::accel_attach::deserialized_world(named, 0);
+    v.cmd_run_shaders(
+        command,
+        &command_buffer(),
+        &BoundWork {
+            pipeline: PIPELINE,
+            accesses: vec![AccelerationStructureAccess {
+                acceleration_structure: DESERIALIZED_BLAS,
+                ray_query: true,
+                shader: AccessingShader::PipelineStage(RAYGEN),
+            }],
+        },
+    )
+}
+
 /// 11636: KHR micromap geometry reached by a ray query, without the EXT
 /// extension, from a raygen that declares the id mode as `id_mode`.
 fn ray_query_mode(command: WorkCommand, id_mode: bool) -> Report {
@@ -724,6 +743,9 @@ macro_rules! work_cases {
             case(vuid::$plain::micromap_11639,
                 || mixed_shader(WorkCommand::$plain, SHADER_CREATE_DISALLOW_MIXED_SPECIAL_INDEX),
                 || mixed_shader(WorkCommand::$plain, 0)),
+            case(vuid::$plain::micromap_11637,
+                || deserialized_access(WorkCommand::$plain, OTHER_MICROMAP),
+                || deserialized_access(WorkCommand::$plain, DESERIALIZED_MICROMAP)),
         ]);)*
         $(cases.extend([
             case(vuid::$trace::micromap_11636,
@@ -738,6 +760,9 @@ macro_rules! work_cases {
             case(vuid::$trace::micromap_11640,
                 || traced_opacity(WorkCommand::$trace, 0),
                 || traced_opacity(WorkCommand::$trace, CREATE_RAY_TRACING_OPACITY_MICROMAP)),
+            case(vuid::$trace::micromap_11637,
+                || deserialized_access(WorkCommand::$trace, OTHER_MICROMAP),
+                || deserialized_access(WorkCommand::$trace, DESERIALIZED_MICROMAP)),
         ]);)*
         cases
     }};
