@@ -14,6 +14,7 @@
 //! checker saw wrote (another run, another process, a file) get an
 //! `OMMCHECK-not-checked-serialization-not-seen` information instead.
 
+use std::collections::BTreeSet;
 use std::sync::Arc;
 
 use ommcheck_vuids::vuid::VkCopyMemoryToMicromapInfoEXT as from_memory_info;
@@ -26,8 +27,9 @@ use ommcheck_vuids::{khr as khr_values, Vuid};
 use crate::checks::serialized;
 use crate::checks::Ctx;
 use crate::model::accel::{
-    BuildGeometryInfo, KhrOpacityAttachment, ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
-    BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE, GEOMETRY_TYPE_TRIANGLES,
+    BuildGeometryInfo, GeometryData, KhrOpacityAttachment,
+    ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP, BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE,
+    GEOMETRY_TYPE_TRIANGLES,
 };
 use crate::model::Handle;
 use crate::report::not_checked::Cause;
@@ -241,11 +243,16 @@ pub(crate) fn record_copy(state: &mut State, src: Handle, dst: Handle) {
         state.micromaps.contains_key(&src) || state.acceleration_structures.contains_key(&src);
     let content = tracked.then(|| state.provenance.content_or_assign(src));
     let deserialized = state.provenance.deserialized.get(&src).cloned();
+    let instances = state.provenance.instances.get(&src).cloned();
     state.provenance.constructed(dst);
     state.provenance.set_content(dst, content);
     if let Some(d) = deserialized {
         state.provenance.deserialized.insert(dst, d);
     }
+    match instances {
+        Some(referenced) => state.provenance.instances.insert(dst, referenced),
+        None => state.provenance.instances.remove(&dst),
+    };
 }
 
 /// What the micromaps of `structure`'s geometries hold: those a
@@ -330,6 +337,9 @@ pub(crate) fn record_structure_deserialization(
     let source = source_of(state, host, src, contents);
     let addresses = header_addresses(state, host, src).filter(|_| contents);
     state.provenance.constructed(dst);
+    // What a deserialized top-level structure's instances reference is
+    // whatever the application rewrote its handles to: not known.
+    state.provenance.instances.remove(&dst);
     let from = match source {
         Source::Serialized(s, _) => Some(s),
         _ => None,
@@ -572,6 +582,52 @@ pub(crate) fn update_from_deserialized(
     }
 }
 
+/// The structures the instances of a top-level build reference, as far as
+/// the checker read them: by handle (host builds) or by device address.
+fn instance_references(state: &State, info: &BuildGeometryInfo) -> BTreeSet<Handle> {
+    let mut out = BTreeSet::new();
+    for (_, geometry) in info.geometries_read() {
+        let GeometryData::Instances(instances) = &geometry.geometry else {
+            continue;
+        };
+        for instance in instances.instances.iter().flatten() {
+            let reference = instance.acceleration_structure_reference;
+            if reference == 0 {
+                continue;
+            }
+            let handle = if state.acceleration_structures.contains_key(&reference) {
+                Some(reference)
+            } else {
+                state
+                    .acceleration_structures
+                    .iter()
+                    .find(|(_, s)| {
+                        let range = s
+                            .address_range
+                            .or_else(|| storage(state, s.buffer, s.offset, s.size));
+                        range.is_some_and(|(start, _)| start == reference)
+                    })
+                    .map(|(h, _)| *h)
+            };
+            out.extend(handle);
+        }
+    }
+    out
+}
+
+/// A draw, dispatch or trace-rays command reaches `structure`: the rule on
+/// deserialized structures (11637) for it and for the structures its
+/// instances reference, where its build was seen.
+pub(crate) fn accessed(ctx: &mut Ctx<'_>, structure: Handle, vuid: Vuid) {
+    deserialized_micromaps(ctx, structure, vuid, "");
+    let referenced = ctx
+        .state
+        .and_then(|state| state.provenance.instances.get(&structure));
+    for blas in referenced.into_iter().flatten() {
+        deserialized_micromaps(ctx, *blas, vuid, "");
+    }
+}
+
 /// Records what acceleration-structure builds do to provenance: a build
 /// gives new contents; an update keeps the source's deserialization, with
 /// the micromaps it chains replaced.
@@ -580,6 +636,12 @@ pub(crate) fn record_structure_builds(state: &mut State, infos: &[BuildGeometryI
         let dst = info.dst_acceleration_structure;
         if dst == 0 {
             continue;
+        }
+        let referenced = instance_references(state, info);
+        if referenced.is_empty() {
+            state.provenance.instances.remove(&dst);
+        } else {
+            state.provenance.instances.insert(dst, referenced);
         }
         let carried = (info.mode == BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE)
             .then(|| {

@@ -182,6 +182,10 @@ pub struct Provenance {
     /// Acceleration structures constructed by deserialization, until built
     /// or copied into again.
     pub deserialized: BTreeMap<Handle, Deserialized>,
+    /// The structures the instances of each top-level build the checker saw
+    /// reference (by handle, resolved from the instances it read): what a
+    /// command that reaches the top-level structure also accesses.
+    pub instances: BTreeMap<Handle, BTreeSet<Handle>>,
     /// Contents given to objects whose construction the checker did not see
     /// (built before it saw anything): they stand for whatever the object
     /// held, which may itself have been deserialized from anything.
@@ -243,6 +247,7 @@ impl Provenance {
     pub fn forget(&mut self, object: Handle) {
         self.constructed.remove(&object);
         self.deserialized.remove(&object);
+        self.instances.remove(&object);
     }
 
     /// A serialization writes at `address`.

@@ -37,7 +37,7 @@ const OVERLAPPING: u64 = 0xa9;
 /// A bottom-level structure that is no micromap.
 const NOT_A_MICROMAP: u64 = 0xaa;
 /// The top-level structure instance builds write.
-const TLAS: u64 = 0xab;
+pub const TLAS: u64 = 0xab;
 /// KHR opacity micromaps: acceleration structures of type OPACITY_MICROMAP.
 const KHR_MICROMAP: u64 = 0xa6;
 const KHR_MICROMAP_OFFSET: u64 = 0x4000;

@@ -836,3 +836,52 @@ fn a_traced_structure_whose_build_was_not_seen_is_reported_not_checked_once() {
     let report = built.cmd_run_shaders(command, &command_buffer(), &bound);
     report.assert_fully_checked();
 }
+
+/// 11637 through a top-level structure: the shaders reach TLAS, whose one
+/// instance references the deserialized structure.
+#[test]
+fn a_deserialized_structure_reached_through_instances_is_checked() {
+    use crate::accel_attach::TLAS;
+    for (named, fails) in [(OTHER_MICROMAP, true), (DESERIALIZED_MICROMAP, false)] {
+        let mut v = crate::accel_attach::deserialized_world(named, 0);
+        let instances = InstancesData {
+            instances: Some(vec![Instance {
+                acceleration_structure_reference: DESERIALIZED_BLAS,
+                ..Default::default()
+            }]),
+            ..Default::default()
+        };
+        let geometry = Geometry {
+            geometry_type: GEOMETRY_TYPE_INSTANCES,
+            geometry: GeometryData::Instances(instances),
+            ..Default::default()
+        };
+        let build = BuildGeometryInfo {
+            dst_acceleration_structure: TLAS,
+            ..BuildGeometryInfo::with_geometries(
+                ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL,
+                vec![geometry],
+            )
+        };
+        let range = BuildRangeInfo {
+            primitive_count: 1,
+            ..Default::default()
+        };
+        v.build_acceleration_structures(&[build], &[Some(vec![range])]);
+        let report = v.cmd_run_shaders(
+            WorkCommand::vkCmdTraceRaysKHR,
+            &command_buffer(),
+            &BoundWork {
+                pipeline: PIPELINE,
+                accesses: vec![AccelerationStructureAccess {
+                    acceleration_structure: TLAS,
+                    ray_query: false,
+                    shader: AccessingShader::PipelineStage(RAYGEN),
+                }],
+            },
+        );
+        let rule = vuid::vkCmdTraceRaysKHR::micromap_11637;
+        assert_eq!(report.contains(rule), fails, "{report}");
+        assert!(report.checked.contains(rule), "{report}");
+    }
+}

@@ -119,12 +119,8 @@ impl Validator {
         // Structures already reported as built unseen, once each.
         let mut unseen: Vec<u64> = Vec::new();
         for access in &bound.accesses {
-            crate::checks::provenance::deserialized_micromaps(
-                &mut ctx,
-                access.acceleration_structure,
-                vuids.deserialized,
-                "",
-            );
+            let structure = access.acceleration_structure;
+            crate::checks::provenance::accessed(&mut ctx, structure, vuids.deserialized);
             let Some(geometry) = ctx
                 .state
                 .and_then(|state| state.micromap_geometry.get(&access.acceleration_structure))
