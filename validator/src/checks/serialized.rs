@@ -306,6 +306,47 @@ mod tests {
         assert_eq!((blocks[1].offset, blocks[1].ty), (56 + 16 + 16, 7));
     }
 
+    /// `bytes` with the serialized size at its place set to their length.
+    fn sized(mut bytes: Vec<u8>) -> Vec<u8> {
+        let len = bytes.len() as u64;
+        bytes[SERIALIZED_SIZE_OFFSET..SERIALIZED_SIZE_OFFSET + 8]
+            .copy_from_slice(&len.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn the_fingerprint_leaves_out_only_the_addresses_the_application_rewrites() {
+        let mut body = header(&[(0, &[0x1000, 0])], 1);
+        body.extend_from_slice(&[5u8; 32]);
+        let a = sized(body);
+        let mut rewritten = a.clone();
+        let first = BLOCK_COUNT_OFFSET + 8 + BLOCK_HEADER_SIZE;
+        rewritten[first..first + 8].copy_from_slice(&0x2000u64.to_le_bytes());
+        assert_eq!(fingerprint(&a), fingerprint(&rewritten));
+        assert_eq!(micromap_addresses(&rewritten), Some(vec![0x2000, 0]));
+        let mut other_body = a.clone();
+        *other_body.last_mut().expect("bytes") = 6;
+        assert_ne!(fingerprint(&a), fingerprint(&other_body));
+        let mut other_uuid = a.clone();
+        other_uuid[0] = 1;
+        assert_ne!(fingerprint(&a), fingerprint(&other_uuid));
+        assert_eq!(
+            fingerprint(&a[..a.len() - 1]),
+            None,
+            "shorter than its size"
+        );
+        // A top-level header: a count of handles, then the handles.
+        let mut top = vec![0u8; BLOCK_COUNT_OFFSET];
+        top.extend_from_slice(&2u64.to_le_bytes());
+        top.extend_from_slice(&[0x11u8; 16]);
+        top.extend_from_slice(&[7u8; 8]);
+        let top = sized(top);
+        let mut moved = top.clone();
+        moved[BLOCK_COUNT_OFFSET + 8] = 0x22;
+        assert_eq!(fingerprint(&top), fingerprint(&moved));
+        assert_eq!(micromap_addresses(&top), None);
+    }
+
     #[test]
     fn a_header_without_the_marker_has_no_blocks() {
         let mut bytes = header(&[], 0);

@@ -1561,3 +1561,43 @@ fn bytes_linked_by_their_fingerprint_are_followed_wherever_they_are_read() {
     assert!(!report.has_errors(), "{report}");
     assert_eq!(report.not_checked().count(), 1, "{report}");
 }
+
+#[test]
+fn an_acceleration_structure_serialization_is_no_micromap_data() {
+    use ommcheck::model::accel::{
+        CopyAccelerationStructureToMemoryInfo, ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+        COPY_MODE_SERIALIZE,
+    };
+    use ommcheck::state::AccelerationStructure;
+    const BLAS: Handle = 0xa5;
+    let mut v = world();
+    v.state_mut().acceleration_structures.insert(
+        BLAS,
+        AccelerationStructure {
+            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+            buffer: STORAGE,
+            offset: 0xc000,
+            size: 0x1000,
+            ..Default::default()
+        },
+    );
+    let to = CopyAccelerationStructureToMemoryInfo {
+        src: BLAS,
+        dst: HOST_DATA,
+        mode: COPY_MODE_SERIALIZE,
+        ..Default::default()
+    };
+    assert!(!v.copy_acceleration_structure_to_memory(&to).has_errors());
+    let report = v.copy_memory_to_micromap(DEVICE, 0, Some(&from_memory_info(HOST_DATA)));
+    assert_eq!(
+        report.ids(),
+        ["VUID-VkCopyMemoryToMicromapInfoEXT-src-07547"],
+        "{report}"
+    );
+    assert!(
+        report.findings[0]
+            .message
+            .contains("vkCopyAccelerationStructureToMemoryKHR"),
+        "{report}"
+    );
+}
