@@ -1465,7 +1465,7 @@ fn referenced_structure(
 }
 
 /// The device-address range backing an acceleration structure, when known.
-fn memory_range(state: &State, structure: &AccelerationStructure) -> Option<(u64, u64)> {
+pub(crate) fn memory_range(state: &State, structure: &AccelerationStructure) -> Option<(u64, u64)> {
     structure.address_range.or_else(|| {
         let base = state.buffers.get(&structure.buffer)?.device_address?;
         let start = base.checked_add(structure.offset)?;

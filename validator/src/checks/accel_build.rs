@@ -475,10 +475,8 @@ impl Validator {
             "pInfo->src",
         );
         let report = ctx.finish();
-        let function = "vkCmdCopyAccelerationStructureToMemoryKHR";
-        provenance::record_structure_serialization(
-            &mut self.state,
-            function,
+        self.record_structure_serialization(
+            "vkCmdCopyAccelerationStructureToMemoryKHR",
             false,
             info.src,
             info.dst,
@@ -516,7 +514,7 @@ impl Validator {
         serialized::check(&mut ctx, false, info);
         let report = ctx.finish();
         forget_deserialized(&mut self.state, info);
-        self.record_structure_deserialization(false, info);
+        self.record_deserialization(false, info.src, info.dst, true);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
             command_buffer,
@@ -542,10 +540,8 @@ impl Validator {
             "pInfo->src",
         );
         let report = ctx.finish();
-        let function = "vkCopyAccelerationStructureToMemoryKHR";
-        provenance::record_structure_serialization(
-            &mut self.state,
-            function,
+        self.record_structure_serialization(
+            "vkCopyAccelerationStructureToMemoryKHR",
             true,
             info.src,
             info.dst,
@@ -565,25 +561,8 @@ impl Validator {
         serialized::check(&mut ctx, true, info);
         let report = ctx.finish();
         forget_deserialized(&mut self.state, info);
-        self.record_structure_deserialization(true, info);
+        self.record_deserialization(true, info.src, info.dst, true);
         report
-    }
-
-    /// What an acceleration-structure deserialization (`host`: on the
-    /// host) leaves in its destination: what was serialized into its source.
-    fn record_structure_deserialization(
-        &mut self,
-        host: bool,
-        info: &CopyMemoryToAccelerationStructureInfo,
-    ) {
-        let contents = self.tier >= Tier::Content;
-        provenance::record_structure_deserialization(
-            &mut self.state,
-            host,
-            info.src,
-            info.dst,
-            contents,
-        );
     }
 
     /// `vkWriteAccelerationStructuresPropertiesKHR(device,

@@ -190,19 +190,6 @@ pub const COVERAGE: Coverage = Coverage {
 };
 
 impl Validator {
-    /// What a micromap deserialization (`host`: on the host) leaves in its
-    /// destination: what was serialized into its source.
-    fn record_micromap_deserialization(&mut self, host: bool, info: &CopyMemoryToMicromapInfo) {
-        let contents = self.tier >= crate::tier::Tier::Content;
-        provenance::record_micromap_deserialization(
-            &mut self.state,
-            host,
-            info.src,
-            info.dst,
-            contents,
-        );
-    }
-
     /// A host copy's read of micromap `pInfo->src` (absent without an
     /// info): it must be constructed by work the host has seen complete.
     fn host_src_constructed(
@@ -509,7 +496,7 @@ impl Validator {
         if let Some(info) = info {
             let construct = ExecEvent::Construct { object: info.dst };
             self.record_execution(command_buffer, "vkCmdCopyMemoryToMicromapEXT", [construct]);
-            self.record_micromap_deserialization(false, info);
+            self.record_deserialization(false, info.src, info.dst, false);
         }
         report
     }
@@ -654,7 +641,7 @@ impl Validator {
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
-            self.record_micromap_deserialization(true, info);
+            self.record_deserialization(true, info.src, info.dst, false);
         }
         report
     }

@@ -24,6 +24,7 @@ use ommcheck_vuids::vuid::{
 };
 use ommcheck_vuids::{khr as khr_values, Vuid};
 
+use crate::checks::accel_attach::memory_range;
 use crate::checks::serialized;
 use crate::checks::Ctx;
 use crate::model::accel::{
@@ -75,12 +76,7 @@ fn overwritten_by(state: &State, address: u64, since: u64) -> Option<(Handle, &'
         state
             .acceleration_structures
             .iter()
-            .find(|(h, s)| {
-                let range = s
-                    .address_range
-                    .or_else(|| storage(state, s.buffer, s.offset, s.size));
-                later(h) && inside(range)
-            })
+            .find(|(h, s)| later(h) && inside(memory_range(state, s)))
             .map(|(h, _)| (*h, "VkAccelerationStructureKHR"))
     })
 }
@@ -602,10 +598,7 @@ fn instance_references(state: &State, info: &BuildGeometryInfo) -> BTreeSet<Hand
                     .acceleration_structures
                     .iter()
                     .find(|(_, s)| {
-                        let range = s
-                            .address_range
-                            .or_else(|| storage(state, s.buffer, s.offset, s.size));
-                        range.is_some_and(|(start, _)| start == reference)
+                        memory_range(state, s).is_some_and(|(start, _)| start == reference)
                     })
                     .map(|(h, _)| *h)
             };
@@ -670,6 +663,36 @@ pub(crate) fn record_structure_builds(state: &mut State, infos: &[BuildGeometryI
 }
 
 impl crate::checks::Validator {
+    /// What a deserialization from `src` (`host`: host memory) into `dst`
+    /// (a micromap, or with `structure` an acceleration structure) leaves
+    /// in `dst`: what was serialized into its source.
+    pub(crate) fn record_deserialization(
+        &mut self,
+        host: bool,
+        src: u64,
+        dst: Handle,
+        structure: bool,
+    ) {
+        let contents = self.tier >= crate::tier::Tier::Content;
+        let state = &mut self.state;
+        if structure {
+            record_structure_deserialization(state, host, src, dst, contents);
+        } else {
+            record_micromap_deserialization(state, host, src, dst, contents);
+        }
+    }
+
+    /// A serialization of acceleration structure `src` writing at `dst`.
+    pub(crate) fn record_structure_serialization(
+        &mut self,
+        function: &'static str,
+        host: bool,
+        src: Handle,
+        dst: u64,
+    ) {
+        record_structure_serialization(&mut self.state, function, host, src, dst);
+    }
+
     /// The bytes a serialization the checker saw wrote at `address` (host
     /// memory when `host`), as an adaptor read them once it completed: their
     /// fingerprint is linked to that serialization, so a deserialization of

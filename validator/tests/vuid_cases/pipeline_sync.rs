@@ -591,13 +591,24 @@ fn run(
     ray_query: bool,
     shader: AccessingShader,
 ) -> Report {
+    run_on(v, command, TLAS, ray_query, shader)
+}
+
+/// `command` with PIPELINE bound, its `shader` reaching `structure`.
+fn run_on(
+    v: &mut Validator,
+    command: WorkCommand,
+    structure: Handle,
+    ray_query: bool,
+    shader: AccessingShader,
+) -> Report {
     v.cmd_run_shaders(
         command,
         &command_buffer(),
         &BoundWork {
             pipeline: PIPELINE,
             accesses: vec![AccelerationStructureAccess {
-                acceleration_structure: TLAS,
+                acceleration_structure: structure,
                 ray_query,
                 shader,
             }],
@@ -609,18 +620,8 @@ fn run(
 /// `named` (see [`crate::accel_attach::deserialized_world`]).
 fn deserialized_access(command: WorkCommand, named: Handle) -> Report {
     let mut v = crate::accel_attach::deserialized_world(named, 0);
-    v.cmd_run_shaders(
-        command,
-        &command_buffer(),
-        &BoundWork {
-            pipeline: PIPELINE,
-            accesses: vec![AccelerationStructureAccess {
-                acceleration_structure: DESERIALIZED_BLAS,
-                ray_query: true,
-                shader: AccessingShader::PipelineStage(RAYGEN),
-            }],
-        },
-    )
+    let raygen = AccessingShader::PipelineStage(RAYGEN);
+    run_on(&mut v, command, DESERIALIZED_BLAS, true, raygen)
 }
 
 /// 11636: KHR micromap geometry reached by a ray query, without the EXT
@@ -868,18 +869,8 @@ fn a_deserialized_structure_reached_through_instances_is_checked() {
             ..Default::default()
         };
         v.build_acceleration_structures(&[build], &[Some(vec![range])]);
-        let report = v.cmd_run_shaders(
-            WorkCommand::vkCmdTraceRaysKHR,
-            &command_buffer(),
-            &BoundWork {
-                pipeline: PIPELINE,
-                accesses: vec![AccelerationStructureAccess {
-                    acceleration_structure: TLAS,
-                    ray_query: false,
-                    shader: AccessingShader::PipelineStage(RAYGEN),
-                }],
-            },
-        );
+        let raygen = AccessingShader::PipelineStage(RAYGEN);
+        let report = run_on(&mut v, WorkCommand::vkCmdTraceRaysKHR, TLAS, false, raygen);
         let rule = vuid::vkCmdTraceRaysKHR::micromap_11637;
         assert_eq!(report.contains(rule), fails, "{report}");
         assert!(report.checked.contains(rule), "{report}");
