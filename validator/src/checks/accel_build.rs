@@ -416,7 +416,8 @@ impl Validator {
     }
 
     /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`. Its one
-    /// micromap rule is not decidable; the copy's effect is recorded.
+    /// micromap rule (11634) asks what a deserialized source's micromaps
+    /// were deserialized from (`provenance`); the copy's effect is recorded.
     pub fn cmd_copy_acceleration_structure(
         &mut self,
         command_buffer: &CommandBuffer,
@@ -468,12 +469,7 @@ impl Validator {
                 "pInfo->dst.deviceAddress",
             );
         }
-        provenance::deserialized_micromaps(
-            &mut ctx,
-            info.src,
-            to_memory_info::src_11582,
-            "pInfo->src",
-        );
+        provenance::serialization_source(&mut ctx, info.src);
         let report = ctx.finish();
         self.record_structure_serialization(
             "vkCmdCopyAccelerationStructureToMemoryKHR",
@@ -526,19 +522,16 @@ impl Validator {
 
     /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`:
     /// the host serialization. Its one micromap rule (11582, on the info
-    /// structure) is not decidable, and the 128-byte alignment of serialized
-    /// opacity micromaps (11699) is stated for the device command only.
+    /// structure) asks what a deserialized source's micromaps were
+    /// deserialized from (`provenance`), and the 128-byte alignment of
+    /// serialized opacity micromaps (11699) is stated for the device command
+    /// only. The serialization is recorded where it writes.
     pub fn copy_acceleration_structure_to_memory(
         &mut self,
         info: &CopyAccelerationStructureToMemoryInfo,
     ) -> Report {
         let mut ctx = self.ctx("vkCopyAccelerationStructureToMemoryKHR");
-        provenance::deserialized_micromaps(
-            &mut ctx,
-            info.src,
-            to_memory_info::src_11582,
-            "pInfo->src",
-        );
+        provenance::serialization_source(&mut ctx, info.src);
         let report = ctx.finish();
         self.record_structure_serialization(
             "vkCopyAccelerationStructureToMemoryKHR",

@@ -17,6 +17,7 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
+use ommcheck_vuids::vuid::VkCopyAccelerationStructureToMemoryInfoKHR as to_memory_info;
 use ommcheck_vuids::vuid::VkCopyMemoryToMicromapInfoEXT as from_memory_info;
 use ommcheck_vuids::vuid::{
     vkCmdBuildAccelerationStructuresIndirectKHR as indirect,
@@ -492,6 +493,12 @@ pub(crate) fn deserialized_micromaps(
             ),
         }
     }
+}
+
+/// `VkCopyAccelerationStructureToMemoryInfoKHR::src` of either serialization
+/// command: 11582 where it was constructed through deserialization.
+pub(crate) fn serialization_source(ctx: &mut Ctx<'_>, src: Handle) {
+    deserialized_micromaps(ctx, src, to_memory_info::src_11582, "pInfo->src");
 }
 
 /// An update build whose source was constructed through deserialization and
