@@ -387,11 +387,6 @@ pub(crate) fn record_structure_deserialization(
     }
 }
 
-/// The KHR micromap on this device whose buffer has device address `address`.
-fn micromap_at(state: &State, address: u64) -> Option<Handle> {
-    serialized::khr_micromap_at(state, address)
-}
-
 /// A command that uses acceleration structure `structure` (at `location`):
 /// if it was constructed through deserialization, each micromap it
 /// references that no update replaced must hold what was deserialized from
@@ -464,7 +459,7 @@ pub(crate) fn deserialized_micromaps(
     };
     for (g, content) in needed {
         let address = addresses.get(g).copied().unwrap_or(0);
-        let Some(micromap) = micromap_at(state, address) else {
+        let Some(micromap) = serialized::khr_micromap_at(state, address) else {
             // A NULL where the original had a micromap, or an address no
             // micromap has (11585 reports that one).
             ctx.require(
