@@ -308,3 +308,51 @@ fn a_version_the_application_asked_about_costs_no_call() {
     assert_eq!(deserialize(&chain, other_driver, 9), [INCOMPATIBLE]);
     assert_eq!(calls(COMPATIBILITY), []);
 }
+
+/// Serializes micromap `from` on the host into `data`, then deserializes
+/// `data` into `into`; the ids the deserialization drew.
+fn serialize_then_deserialize(
+    chain: &Chain,
+    data: &Serialized,
+    from: vk::MicromapEXT,
+    into: vk::MicromapEXT,
+) -> Vec<String> {
+    let serialize: vk::PFN_vkCopyMicromapToMemoryEXT =
+        device_fn(chain.device, c"vkCopyMicromapToMemoryEXT");
+    let to = vk::CopyMicromapToMemoryInfoEXT {
+        src: from,
+        dst: vk::DeviceOrHostAddressKHR {
+            host_address: data.0.as_ptr().cast_mut().cast(),
+        },
+        mode: vk::CopyMicromapModeEXT::SERIALIZE,
+        ..Default::default()
+    };
+    // SAFETY: a valid info whose destination is 64 bytes the test owns (the
+    // fake driver writes nothing).
+    let result = unsafe { serialize(chain.device, vk::DeferredOperationKHR::null(), &to) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    chain.collector.take();
+    let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
+        device_fn(chain.device, c"vkCopyMemoryToMicromapEXT");
+    let info = data.deserialize_into(into);
+    // SAFETY: a valid info whose source holds a 64-byte serialized header.
+    let result = unsafe { copy(chain.device, vk::DeferredOperationKHR::null(), &info) };
+    assert_eq!(result, vk::Result::SUCCESS);
+    chain.collector.take().into_iter().map(|m| m.id).collect()
+}
+
+#[test]
+fn a_host_deserialization_is_linked_to_the_serialization_at_its_address() {
+    const SMALLER: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-dst-07550";
+    let chain = Chain::new();
+    let micromap = |size| {
+        let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
+        chain.micromap(storage, size)
+    };
+    let (large, small) = (micromap(4096), micromap(2048));
+    let data = Serialized::new(DRIVER_UUID, 0);
+    let ids = serialize_then_deserialize(&chain, &data, large, small);
+    assert!(ids.iter().any(|id| id == SMALLER), "{ids:?}");
+    let ids = serialize_then_deserialize(&chain, &data, small, large);
+    assert!(!ids.iter().any(|id| id == SMALLER), "{ids:?}");
+}

@@ -83,6 +83,22 @@ pub static READS_CONTENTS: &[(&str, &str)] = &[
         "the serialized data's version (its first 32 bytes)",
     ),
     (
+        "VUID-VkCopyAccelerationStructureToMemoryInfoKHR-src-11582",
+        "the micromap addresses of the serialized header the structure was deserialized from",
+    ),
+    (
+        "VUID-vkCopyAccelerationStructureKHR-src-11587",
+        "the micromap addresses of the serialized header the structure was deserialized from",
+    ),
+    (
+        "VUID-vkCmdCopyAccelerationStructureKHR-src-11634",
+        "the micromap addresses of the serialized header the structure was deserialized from",
+    ),
+    (
+        "-micromap-11637",
+        "the micromap addresses of the serialized header the structure was deserialized from",
+    ),
+    (
         "OMMCHECK-build-usage-counts-match-triangles",
         "the triangle array's entries",
     ),

@@ -182,6 +182,13 @@ pub static NOT_CHECKED_BUILD_NOT_SEEN: OwnRule = OwnRule {
     link: CHECKER,
 };
 
+/// Not checked: no serialization the checker saw wrote the bytes deserialized.
+pub static NOT_CHECKED_SERIALIZATION_NOT_SEEN: OwnRule = OwnRule {
+    id: "OMMCHECK-not-checked-serialization-not-seen",
+    statement: "ommcheck knows what serialized bytes hold from the serialization it saw write them, and says which rules it did not check when a command deserializes, or uses what was deserialized from, bytes no serialization it saw wrote",
+    link: CHECKER,
+};
+
 /// Every own rule, for the README and the coverage report.
 pub static ALL: &[&OwnRule] = &[
     &HISTOGRAM_MISMATCH,

@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 mod buffers;
 pub mod execution;
+pub mod provenance;
 pub use buffers::{BufferMut, Buffers, WALK_AT_MOST};
 
 /// The memory a buffer is bound to.
@@ -277,6 +278,10 @@ pub struct State {
     /// adaptor that follows `vkMapMemory` (the layer) sets it before a host
     /// build; scenes do not describe mappings.
     pub mapped_micromaps: BTreeMap<Handle, u64>,
+    /// Where serialized bytes came from: the serializations seen, by where
+    /// they wrote and by the fingerprint of their bytes, and what each
+    /// deserialization constructed (`checks::provenance`).
+    pub provenance: provenance::Provenance,
 }
 
 impl State {

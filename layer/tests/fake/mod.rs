@@ -1402,6 +1402,15 @@ unsafe extern "system" fn get_device_micromap_compatibility(
     );
 }
 
+unsafe extern "system" fn copy_micromap_to_memory(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    _: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+) -> vk::Result {
+    record("vkCopyMicromapToMemoryEXT", vec![d.as_raw(), op.as_raw()]);
+    vk::Result::SUCCESS
+}
+
 unsafe extern "system" fn copy_memory_to_micromap(
     d: vk::Device,
     op: vk::DeferredOperationKHR,
@@ -1600,6 +1609,9 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         }
         b"vkCopyMemoryToMicromapEXT" => {
             void(copy_memory_to_micromap as vk::PFN_vkCopyMemoryToMicromapEXT)
+        }
+        b"vkCopyMicromapToMemoryEXT" => {
+            void(copy_micromap_to_memory as vk::PFN_vkCopyMicromapToMemoryEXT)
         }
         b"vkCmdCopyAccelerationStructureKHR" => {
             void(cmd_copy_acceleration_structure as vk::PFN_vkCmdCopyAccelerationStructureKHR)

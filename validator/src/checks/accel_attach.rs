@@ -112,14 +112,13 @@ pub const COVERAGE: Coverage = Coverage {
         indirect::micromap_11626,
         indirect::micromap_11627,
         indirect::micromap_11629,
+        cmd::micromap_11628,
+        indirect::micromap_11628,
         host::pInfos_10892,
         host::pInfos_11821,
         host::pInfos_11705,
     ],
-    not_decidable: &[
-        (cmd::micromap_11628, "needs which micromap was deserialized from which serialized data; serialized micromaps pass through application memory and storage the checker does not follow"),
-        (indirect::micromap_11628, "needs which micromap was deserialized from which serialized data; serialized micromaps pass through application memory and storage the checker does not follow"),
-    ],
+    not_decidable: &[],
 };
 
 /// `VkFormat` values of the 1.4.360 registry (vk.xml, extensions supported
@@ -1468,7 +1467,7 @@ fn referenced_structure(
 }
 
 /// The device-address range backing an acceleration structure, when known.
-fn memory_range(state: &State, structure: &AccelerationStructure) -> Option<(u64, u64)> {
+pub(crate) fn memory_range(state: &State, structure: &AccelerationStructure) -> Option<(u64, u64)> {
     structure.address_range.or_else(|| {
         let base = state.buffers.get(&structure.buffer)?.device_address?;
         let start = base.checked_add(structure.offset)?;
@@ -1488,6 +1487,8 @@ pub(crate) fn across_infos(ctx: &mut Ctx<'_>, command: BuildCommand, infos: &[Bu
         for (i, info) in infos.iter().enumerate() {
             if info.mode == BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE {
                 update_matches_original(ctx, command, i, info);
+                let indirect = command == BuildCommand::Indirect;
+                crate::checks::provenance::update_from_deserialized(ctx, indirect, i, info);
             }
         }
     }

@@ -40,7 +40,7 @@ use crate::checks::common::{
 use crate::checks::index_scan::IndexMix;
 use crate::checks::usage_counts::{self, PointerVuids};
 use crate::checks::usage_keys::UsageKeys;
-use crate::checks::{accel_attach, hygiene, serialized, Coverage};
+use crate::checks::{accel_attach, hygiene, provenance, serialized, Coverage};
 use crate::checks::{Ctx, Validator};
 use crate::device::Limits;
 use crate::model::accel::*;
@@ -64,8 +64,6 @@ use crate::state::{
     TriangleGeometryRecord,
 };
 use crate::tier::Tier;
-
-const DESERIALIZED_MICROMAPS: &str = "which serialized data a deserialized acceleration structure's micromaps came from is decided by memory contents that serializations (GPU copies at execution time, or host copies) write in an implementation's opaque format, not visible at the API boundary";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "accel_build",
@@ -125,12 +123,11 @@ pub const COVERAGE: Coverage = Coverage {
         from_memory_info::src_11583,
         from_memory_info::dst_11584,
         from_memory_info::dst_11585,
+        to_memory_info::src_11582,
+        cmd_copy::src_11634,
+        host_copy::src_11587,
     ],
-    not_decidable: &[
-        (to_memory_info::src_11582, DESERIALIZED_MICROMAPS),
-        (cmd_copy::src_11634, DESERIALIZED_MICROMAPS),
-        (host_copy::src_11587, DESERIALIZED_MICROMAPS),
-    ],
+    not_decidable: &[],
 };
 
 /// Flags a KHR opacity-micromap build may have (11562).
@@ -533,18 +530,26 @@ impl Validator {
             .insert(acceleration_structure, record);
     }
 
-    /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`. Its one
-    /// micromap rule is not decidable, so its rules report nothing; the
-    /// copy's effect is recorded
+    /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`: its rules
+    /// ([`Self::cmd_copy_acceleration_structure_rules`]), then its record
     /// ([`Self::record_cmd_copy_acceleration_structure`]).
     pub fn cmd_copy_acceleration_structure(
         &mut self,
         command_buffer: &CommandBuffer,
         info: &CopyAccelerationStructureInfo,
     ) -> Report {
-        let report = self.ctx("vkCmdCopyAccelerationStructureKHR").finish();
+        let report = self.cmd_copy_acceleration_structure_rules(info);
         self.record_cmd_copy_acceleration_structure(command_buffer, info);
         report
+    }
+
+    /// The rules of `vkCmdCopyAccelerationStructureKHR`: its one micromap
+    /// rule (11634) asks what a deserialized source's micromaps were
+    /// deserialized from (`provenance`).
+    pub fn cmd_copy_acceleration_structure_rules(&self, info: &CopyAccelerationStructureInfo) -> Report {
+        let mut ctx = self.ctx("vkCmdCopyAccelerationStructureKHR");
+        provenance::deserialized_micromaps(&mut ctx, info.src, cmd_copy::src_11634, "pInfo->src");
+        ctx.finish()
     }
 
     /// Records the copy `vkCmdCopyAccelerationStructureKHR` put in
@@ -564,12 +569,21 @@ impl Validator {
     }
 
     /// `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`, as
-    /// [`Self::cmd_copy_acceleration_structure`] on the host (its record:
+    /// [`Self::cmd_copy_acceleration_structure`] on the host (its rules:
+    /// [`Self::copy_acceleration_structure_rules`], its record:
     /// [`Self::record_copy_acceleration_structure`]).
     pub fn copy_acceleration_structure(&mut self, info: &CopyAccelerationStructureInfo) -> Report {
-        let report = self.ctx("vkCopyAccelerationStructureKHR").finish();
+        let report = self.copy_acceleration_structure_rules(info);
         self.record_copy_acceleration_structure(info);
         report
+    }
+
+    /// The rules of `vkCopyAccelerationStructureKHR` (11587, as
+    /// [`Self::cmd_copy_acceleration_structure_rules`] for 11634).
+    pub fn copy_acceleration_structure_rules(&self, info: &CopyAccelerationStructureInfo) -> Report {
+        let mut ctx = self.ctx("vkCopyAccelerationStructureKHR");
+        provenance::deserialized_micromaps(&mut ctx, info.src, host_copy::src_11587, "pInfo->src");
+        ctx.finish()
     }
 
     /// Records the copy `vkCopyAccelerationStructureKHR` made.
@@ -601,7 +615,15 @@ impl Validator {
                 "pInfo->dst.deviceAddress",
             );
         }
-        ctx.finish()
+        provenance::serialization_source(&mut ctx, info.src);
+        let report = ctx.finish();
+        self.record_structure_serialization(
+            "vkCmdCopyAccelerationStructureToMemoryKHR",
+            false,
+            info.src,
+            info.dst,
+        );
+        report
     }
 
     /// `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`:
@@ -660,6 +682,7 @@ impl Validator {
         info: &CopyMemoryToAccelerationStructureInfo,
     ) {
         forget_deserialized(&mut self.state, info);
+        self.record_deserialization(false, info.src, info.dst, true);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
             command_buffer,
@@ -670,14 +693,24 @@ impl Validator {
 
     /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`:
     /// the host serialization. Its one micromap rule (11582, on the info
-    /// structure) is not decidable, and the 128-byte alignment of serialized
-    /// opacity micromaps (11699) is stated for the device command only.
+    /// structure) asks what a deserialized source's micromaps were
+    /// deserialized from (`provenance`), and the 128-byte alignment of
+    /// serialized opacity micromaps (11699) is stated for the device command
+    /// only. The serialization is recorded where it writes.
     pub fn copy_acceleration_structure_to_memory(
         &mut self,
         info: &CopyAccelerationStructureToMemoryInfo,
     ) -> Report {
-        let _ = info;
-        self.ctx("vkCopyAccelerationStructureToMemoryKHR").finish()
+        let mut ctx = self.ctx("vkCopyAccelerationStructureToMemoryKHR");
+        provenance::serialization_source(&mut ctx, info.src);
+        let report = ctx.finish();
+        self.record_structure_serialization(
+            "vkCopyAccelerationStructureToMemoryKHR",
+            true,
+            info.src,
+            info.dst,
+        );
+        report
     }
 
     /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`:
@@ -709,12 +742,13 @@ impl Validator {
     }
 
     /// Forgets the build of the structure `vkCopyMemoryToAccelerationStructureKHR`
-    /// deserialized into.
+    /// deserialized into, and links it to what the bytes were serialized from.
     pub fn record_copy_memory_to_acceleration_structure(
         &mut self,
         info: &CopyMemoryToAccelerationStructureInfo,
     ) {
         forget_deserialized(&mut self.state, info);
+        self.record_deserialization(true, info.src, info.dst, true);
     }
 
     /// `vkWriteAccelerationStructuresPropertiesKHR(device,
@@ -766,6 +800,7 @@ fn record_copy(state: &mut State, info: &CopyAccelerationStructureInfo) {
         Some(attachments) => state.original_attachments.insert(info.dst, attachments),
         None => state.original_attachments.remove(&info.dst),
     };
+    provenance::record_copy(state, info.src, info.dst);
 }
 
 /// Remembers what each build made of its destination, and (for
@@ -785,6 +820,7 @@ fn record_builds(
     ranges: &[Option<Vec<BuildRangeInfo>>],
     host: Option<&[HostRange]>,
 ) {
+    provenance::record_structure_builds(state, infos);
     accel_attach::record_original_attachments(state, infos);
     for (i, info) in infos.iter().enumerate() {
         if !state

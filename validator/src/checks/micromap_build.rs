@@ -310,6 +310,7 @@ impl Validator {
                 })
                 .flatten();
             self.state.driver.forget_micromap(info.dst_micromap);
+            self.state.provenance.constructed(info.dst_micromap);
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
                 micromap.built = Some(BuildRecord {
                     flags: info.flags,

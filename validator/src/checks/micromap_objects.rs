@@ -19,6 +19,7 @@ use ommcheck_vuids::vuid::{
 use ommcheck_vuids::Vuid;
 
 use crate::checks::common::{self, CommandBufferVuids};
+use crate::checks::provenance;
 use crate::checks::Coverage;
 use crate::checks::{Ctx, Validator};
 use crate::model::micromap_objects::*;
@@ -29,9 +30,6 @@ use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
 use crate::state::execution::{ExecEvent, ReadRule};
 use crate::state::{HostRange, MemoryBinding, Micromap};
-
-const SERIALIZED_SOURCE: &str = "needs the micromap whose serialization src holds (the size used to serialize it): serialized data passes through application memory and storage the checker does not follow";
-const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
 
 pub const COVERAGE: Coverage = Coverage {
     module: "micromap_objects",
@@ -185,11 +183,10 @@ pub const COVERAGE: Coverage = Coverage {
         host_copy::deferredOperation_03678,
         host_to_memory::deferredOperation_03678,
         host_from_memory::deferredOperation_03678,
+        from_memory_info::dst_07550,
+        from_memory_info::src_07547,
     ],
-    not_decidable: &[
-        (from_memory_info::dst_07550, SERIALIZED_SOURCE),
-        (from_memory_info::src_07547, SERIALIZED_DATA),
-    ],
+    not_decidable: &[],
 };
 
 impl Validator {
@@ -397,6 +394,7 @@ impl Validator {
     pub fn record_micromap_destroyed(&mut self, micromap: Handle) {
         self.state.micromaps.remove(&micromap);
         self.state.execution.forget(micromap);
+        self.state.provenance.forget(micromap);
         self.state.driver.forget_micromap(micromap);
     }
 
@@ -456,6 +454,7 @@ impl Validator {
                 ExecEvent::Construct { object: info.dst },
             ];
             self.record_execution(command_buffer, "vkCmdCopyMicromapEXT", events);
+            provenance::record_copy(&mut self.state, info.src, info.dst);
         }
     }
 
@@ -520,6 +519,14 @@ impl Validator {
                 location: "pInfo->src".into(),
             };
             self.record_execution(command_buffer, "vkCmdCopyMicromapToMemoryEXT", [read]);
+            let function = "vkCmdCopyMicromapToMemoryEXT";
+            provenance::record_micromap_serialization(
+                &mut self.state,
+                function,
+                false,
+                info.src,
+                info.dst,
+            );
         }
     }
 
@@ -566,6 +573,7 @@ impl Validator {
                 cmd_from_memory::pInfo_07544,
                 "pInfo->src.deviceAddress",
             );
+            provenance::micromap_source(&mut ctx, false, info.src, info.dst);
         }
         ctx.finish()
     }
@@ -580,6 +588,7 @@ impl Validator {
         if let Some(info) = info {
             let construct = ExecEvent::Construct { object: info.dst };
             self.record_execution(command_buffer, "vkCmdCopyMemoryToMicromapEXT", [construct]);
+            self.record_deserialization(false, info.src, info.dst, false);
         }
     }
 
@@ -646,6 +655,7 @@ impl Validator {
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
+            provenance::record_copy(&mut self.state, info.src, info.dst);
         }
     }
 
@@ -659,7 +669,7 @@ impl Validator {
         info: Option<&CopyMicromapToMemoryInfo>,
     ) -> Report {
         let report = self.copy_micromap_to_memory_rules(device, deferred_operation, info);
-        self.record_copy_micromap_to_memory(deferred_operation);
+        self.record_copy_micromap_to_memory(deferred_operation, info);
         report
     }
 
@@ -707,10 +717,25 @@ impl Validator {
         report
     }
 
-    /// Records the serialization `vkCopyMicromapToMemoryEXT` made: only its
-    /// deferred operation, which runs it until reported complete.
-    pub fn record_copy_micromap_to_memory(&mut self, deferred_operation: Handle) {
+    /// Records the serialization `vkCopyMicromapToMemoryEXT` made: its
+    /// deferred operation, which runs it until reported complete, and the
+    /// serialization where it writes (`provenance`).
+    pub fn record_copy_micromap_to_memory(
+        &mut self,
+        deferred_operation: Handle,
+        info: Option<&CopyMicromapToMemoryInfo>,
+    ) {
         self.defer(deferred_operation);
+        if let Some(info) = info {
+            let function = "vkCopyMicromapToMemoryEXT";
+            provenance::record_micromap_serialization(
+                &mut self.state,
+                function,
+                true,
+                info.src,
+                info.dst,
+            );
+        }
     }
 
     /// `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`: `src`
@@ -764,6 +789,7 @@ impl Validator {
                 host_from_memory::pInfo_07564,
                 "pInfo->src.hostAddress",
             );
+            provenance::micromap_source(&mut ctx, true, info.src, info.dst);
         }
         ctx.finish()
     }
@@ -778,6 +804,7 @@ impl Validator {
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
+            self.record_deserialization(true, info.src, info.dst, false);
         }
     }
 
@@ -1976,7 +2003,7 @@ mod tests {
             (
                 "host copy to memory",
                 Box::new(|v| v.copy_micromap_to_memory_rules(1, 0, Some(&to_memory))),
-                Box::new(|v| v.record_copy_micromap_to_memory(0)),
+                Box::new(|v| v.record_copy_micromap_to_memory(0, Some(&to_memory))),
                 Box::new(|v| v.copy_micromap_to_memory(1, 0, Some(&to_memory))),
             ),
             (

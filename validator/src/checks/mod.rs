@@ -20,6 +20,7 @@ pub(crate) mod index_scan;
 pub mod micromap_build;
 pub mod micromap_objects;
 pub mod pipeline_sync;
+pub(crate) mod provenance;
 mod serialized;
 pub(crate) mod usage_counts;
 pub(crate) mod usage_keys;

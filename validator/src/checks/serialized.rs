@@ -22,6 +22,7 @@ use crate::model::accel::{
     CopyMemoryToAccelerationStructureInfo, ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
     ACCELERATION_STRUCTURE_TYPE_GENERIC, ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
 };
+use crate::model::Handle;
 use crate::report::RuleId;
 use crate::state::State;
 
@@ -99,9 +100,9 @@ fn blocks(bytes: &[u8]) -> Option<Vec<Block<'_>>> {
 /// What `address` is to 11585.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum HeaderAddress {
-    /// What `vkGetBufferDeviceAddress` returned for the buffer of a KHR
-    /// opacity micromap of the device that executes the command.
-    OnThisDevice,
+    /// What `vkGetBufferDeviceAddress` returned for the buffer of this KHR
+    /// opacity micromap of the device that executes the command (0: NULL).
+    OnThisDevice(Handle),
     /// The same, but the micromap or its buffer belongs to another
     /// `VkDevice`: the command's device has no such micromap.
     OnAnotherDevice,
@@ -138,7 +139,7 @@ fn header_address(state: &State, address: u64) -> HeaderAddress {
         if foreign(*handle) || foreign(buffer_handle) {
             found = HeaderAddress::OnAnotherDevice;
         } else {
-            return HeaderAddress::OnThisDevice;
+            return HeaderAddress::OnThisDevice(*handle);
         }
     }
     found
@@ -203,12 +204,12 @@ pub(crate) fn check(ctx: &mut Ctx<'_>, host: bool, info: &CopyMemoryToAccelerati
             // specification has the application keep the NULLs an
             // implementation wrote.
             let found = if address == 0 {
-                HeaderAddress::OnThisDevice
+                HeaderAddress::OnThisDevice(0)
             } else {
                 header_address(state, address)
             };
             ctx.require(
-                found == HeaderAddress::OnThisDevice,
+                matches!(found, HeaderAddress::OnThisDevice(_)),
                 from_memory_info::dst_11585,
                 || format!("pInfo->src (header block {i}, address {k})"),
                 || match found {
@@ -218,6 +219,61 @@ pub(crate) fn check(ctx: &mut Ctx<'_>, host: bool, info: &CopyMemoryToAccelerati
             );
         }
     }
+}
+
+/// The KHR opacity micromap of this device whose buffer has device
+/// address `address`.
+pub(crate) fn khr_micromap_at(state: &State, address: u64) -> Option<Handle> {
+    match header_address(state, address) {
+        HeaderAddress::OnThisDevice(handle) if address != 0 => Some(handle),
+        _ => None,
+    }
+}
+
+/// The opacity-micromap addresses of a block-based serialized header, in
+/// order, as far as `bytes` reach (bounded by them, not by the counts).
+pub(crate) fn micromap_addresses(bytes: &[u8]) -> Option<Vec<u64>> {
+    let blocks = blocks(bytes)?;
+    Some(
+        blocks
+            .iter()
+            .filter(|b| b.ty == BLOCK_TYPE_OPACITY_MICROMAP)
+            .flat_map(|b| b.addresses.chunks_exact(8))
+            .map(|w| u64::from_le_bytes(w.try_into().unwrap_or_default()))
+            .collect(),
+    )
+}
+
+/// Where the serialized size lies in the header.
+const SERIALIZED_SIZE_OFFSET: usize = 2 * 16;
+
+/// The fingerprint (xxh3-64) of the serialized data that starts `bytes`:
+/// its header's UUIDs and sizes, and everything after the addresses the
+/// application rewrites before deserializing (the handles of a top-level
+/// structure, the micromap blocks of a bottom-level one), up to the
+/// serialized size the header states. None when `bytes` hold less than that
+/// size or no header.
+pub(crate) fn fingerprint(bytes: &[u8]) -> Option<u64> {
+    let size = usize::try_from(u64_at(bytes, SERIALIZED_SIZE_OFFSET)?).ok()?;
+    let data = bytes.get(..size)?;
+    let fixed = data.get(..BLOCK_COUNT_OFFSET)?;
+    let packed = u64_at(data, BLOCK_COUNT_OFFSET)?;
+    let body = if (packed >> 32) as u32 == BLOCK_FORMAT_MARKER {
+        let blocks = blocks(data)?;
+        let end = blocks.last().map_or(BLOCK_COUNT_OFFSET + 8, |b| {
+            b.offset + BLOCK_HEADER_SIZE + b.addresses.len()
+        });
+        end
+    } else {
+        usize::try_from(packed)
+            .ok()
+            .and_then(|n| n.checked_mul(8))
+            .and_then(|n| n.checked_add(BLOCK_COUNT_OFFSET + 8))?
+    };
+    let mut hasher = xxhash_rust::xxh3::Xxh3::new();
+    hasher.update(fixed);
+    hasher.update(data.get(body..)?);
+    Some(hasher.digest())
 }
 
 #[cfg(test)]
@@ -248,6 +304,47 @@ mod tests {
         assert_eq!((blocks[0].offset, blocks[0].ty), (56, 0));
         assert_eq!(blocks[0].addresses.len(), 16);
         assert_eq!((blocks[1].offset, blocks[1].ty), (56 + 16 + 16, 7));
+    }
+
+    /// `bytes` with the serialized size at its place set to their length.
+    fn sized(mut bytes: Vec<u8>) -> Vec<u8> {
+        let len = bytes.len() as u64;
+        bytes[SERIALIZED_SIZE_OFFSET..SERIALIZED_SIZE_OFFSET + 8]
+            .copy_from_slice(&len.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn the_fingerprint_leaves_out_only_the_addresses_the_application_rewrites() {
+        let mut body = header(&[(0, &[0x1000, 0])], 1);
+        body.extend_from_slice(&[5u8; 32]);
+        let a = sized(body);
+        let mut rewritten = a.clone();
+        let first = BLOCK_COUNT_OFFSET + 8 + BLOCK_HEADER_SIZE;
+        rewritten[first..first + 8].copy_from_slice(&0x2000u64.to_le_bytes());
+        assert_eq!(fingerprint(&a), fingerprint(&rewritten));
+        assert_eq!(micromap_addresses(&rewritten), Some(vec![0x2000, 0]));
+        let mut other_body = a.clone();
+        *other_body.last_mut().expect("bytes") = 6;
+        assert_ne!(fingerprint(&a), fingerprint(&other_body));
+        let mut other_uuid = a.clone();
+        other_uuid[0] = 1;
+        assert_ne!(fingerprint(&a), fingerprint(&other_uuid));
+        assert_eq!(
+            fingerprint(&a[..a.len() - 1]),
+            None,
+            "shorter than its size"
+        );
+        // A top-level header: a count of handles, then the handles.
+        let mut top = vec![0u8; BLOCK_COUNT_OFFSET];
+        top.extend_from_slice(&2u64.to_le_bytes());
+        top.extend_from_slice(&[0x11u8; 16]);
+        top.extend_from_slice(&[7u8; 8]);
+        let top = sized(top);
+        let mut moved = top.clone();
+        moved[BLOCK_COUNT_OFFSET + 8] = 0x22;
+        assert_eq!(fingerprint(&top), fingerprint(&moved));
+        assert_eq!(micromap_addresses(&top), None);
     }
 
     #[test]

@@ -36,14 +36,19 @@ pub enum Cause {
     /// The build of a micromap (or acceleration structure) a command uses
     /// was not seen, so what it holds is unknown.
     BuildNotSeen,
+    /// No serialization the checker saw wrote the serialized bytes a command
+    /// reads (or the micromaps of the structure serialized are unknown), so
+    /// what they were serialized from is unknown.
+    SerializationNotSeen,
 }
 
 impl Cause {
-    pub const ALL: [Cause; 4] = [
+    pub const ALL: [Cause; 5] = [
         Cause::HostMemory,
         Cause::Contents,
         Cause::UnknownAddress,
         Cause::BuildNotSeen,
+        Cause::SerializationNotSeen,
     ];
 
     /// The rule id of the information finding.
@@ -53,6 +58,7 @@ impl Cause {
             Cause::Contents => &rules::NOT_CHECKED_CONTENTS,
             Cause::UnknownAddress => &rules::NOT_CHECKED_UNKNOWN_ADDRESS,
             Cause::BuildNotSeen => &rules::NOT_CHECKED_BUILD_NOT_SEEN,
+            Cause::SerializationNotSeen => &rules::NOT_CHECKED_SERIALIZATION_NOT_SEEN,
         }
     }
 
@@ -71,6 +77,7 @@ impl Cause {
             Cause::Contents => "give the bytes of the buffer holding it (Validator::set_buffer_contents or Buffer::contents; in a scene, the buffer's contents); the layer reads them at submission from mapped host-visible memory, or copies them back from the GPU (setting gpu_readback)",
             Cause::UnknownAddress => "track the buffer with its device address (Buffer::device_address, or Validator::create_buffer with the address vkGetBufferDeviceAddress returned; a scene assigns one to every buffer); the layer learns it from vkGetBufferDeviceAddress",
             Cause::BuildNotSeen => "check the build of that object before this call (Validator::cmd_build_micromaps, build_micromaps or cmd_build_acceleration_structures; in a scene, a build call earlier in calls); the layer sees the builds recorded while it is active",
+            Cause::SerializationNotSeen => "serialize the data through the checker before deserializing it (Validator::cmd_copy_micromap_to_memory, copy_micromap_to_memory or the acceleration-structure to-memory calls, at the address the deserialization reads; Validator::serialized_bytes links bytes an adaptor read back to them; in a scene, the serialization call earlier in calls); data serialized by another run or process is not followed",
         }
     }
 }

@@ -37,7 +37,7 @@ const OVERLAPPING: u64 = 0xa9;
 /// A bottom-level structure that is no micromap.
 const NOT_A_MICROMAP: u64 = 0xaa;
 /// The top-level structure instance builds write.
-const TLAS: u64 = 0xab;
+pub const TLAS: u64 = 0xab;
 /// KHR opacity micromaps: acceleration structures of type OPACITY_MICROMAP.
 const KHR_MICROMAP: u64 = 0xa6;
 const KHR_MICROMAP_OFFSET: u64 = 0x4000;
@@ -635,6 +635,7 @@ pub fn cases() -> Vec<Case> {
     cases.extend(instance_cases());
     cases.extend(cluster_cases());
     cases.extend(usage_count_cases());
+    cases.extend(provenance_cases());
     cases
 }
 
@@ -1743,4 +1744,280 @@ fn the_index_buffer_range_is_not_checked_without_buffer_addresses() {
     let known = ok_khr();
     assert!(known.checked.contains(cmd::indexBuffer_11577), "{known}");
     assert_eq!(known.not_checked().count(), 0, "{known}");
+}
+
+// Deserialized structures (11582, 11587, 11628, 11634; 11637 in pipeline_sync)
+
+/// KHR micromaps on buffers of their own, so that a serialized header names
+/// each by its buffer's address: one deserialized from KHR_MICROMAP's
+/// serialization, one that a build in this run wrote.
+const OWN_STORAGE: u64 = 0xd5;
+const OWN_STORAGE_ADDRESS: u64 = 0x50_0000;
+pub const DESERIALIZED_MICROMAP: u64 = 0xd6;
+const OTHER_STORAGE: u64 = 0xd7;
+const OTHER_STORAGE_ADDRESS: u64 = 0x51_0000;
+pub const OTHER_MICROMAP: u64 = 0xd8;
+/// Where the serializations write, in the input buffer (whose contents the
+/// checker has).
+const SERIALIZED_MICROMAP: u64 = INPUT_ADDRESS + 0x6000;
+const SERIALIZED_BLAS: u64 = INPUT_ADDRESS + 0x7000;
+/// The structure deserialized from BLAS's serialization.
+pub const DESERIALIZED_BLAS: u64 = BLAS_2;
+
+fn no_errors(report: Report) {
+    assert!(!report.has_errors(), "{report}");
+}
+
+/// A bottom-level serialized header with one opacity-micromap block holding `address`.
+fn header_naming(address: u64) -> Vec<u8> {
+    let mut bytes = vec![0u8; 48];
+    bytes.extend_from_slice(&((0xFFFF_FFFFu64 << 32) | 1).to_le_bytes());
+    bytes.extend_from_slice(&[0u8; 8]);
+    bytes.extend_from_slice(&1u64.to_le_bytes());
+    bytes.extend_from_slice(&address.to_le_bytes());
+    bytes
+}
+
+/// [`world`] where: BLAS was built (flags `flags`) with geometry 0 on
+/// KHR_MICROMAP; KHR_MICROMAP and BLAS were serialized on the device; the
+/// micromap was deserialized into DESERIALIZED_MICROMAP and the structure
+/// into DESERIALIZED_BLAS from a header naming micromap `named`
+/// (DESERIALIZED_MICROMAP or OTHER_MICROMAP); OTHER_MICROMAP holds what a
+/// build in this run put there.
+pub fn deserialized_world(named: u64, flags: u32) -> Validator {
+    use ommcheck::state::{Buffer, MemoryBinding};
+    let mut v = world();
+    let state = v.state_mut();
+    for (buffer, address, micromap) in [
+        (OWN_STORAGE, OWN_STORAGE_ADDRESS, DESERIALIZED_MICROMAP),
+        (OTHER_STORAGE, OTHER_STORAGE_ADDRESS, OTHER_MICROMAP),
+    ] {
+        state.buffers.insert(
+            buffer,
+            Buffer {
+                size: 0x1_0000,
+                usage: BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR,
+                device_address: Some(address),
+                memory: Some(MemoryBinding::default()),
+                ..Default::default()
+            },
+        );
+        state.acceleration_structures.insert(
+            micromap,
+            AccelerationStructure {
+                ty: ACCELERATION_STRUCTURE_TYPE_OPACITY_MICROMAP,
+                buffer,
+                size: 0x1000,
+                address_range: Some((address, address + 0x1000)),
+                ..Default::default()
+            },
+        );
+    }
+    let named_address = if named == OTHER_MICROMAP {
+        OTHER_STORAGE_ADDRESS
+    } else {
+        OWN_STORAGE_ADDRESS
+    };
+    let mut input = state.buffers.get_mut(&INPUT).expect("fixture buffer");
+    let mut contents = input.contents.as_deref().expect("contents").to_vec();
+    let header = header_naming(named_address);
+    let at = (SERIALIZED_BLAS - INPUT_ADDRESS) as usize;
+    contents[at..at + header.len()].copy_from_slice(&header);
+    input.contents = Some(ommcheck::Bytes::from(contents));
+    drop(input);
+    state.provenance.constructed(OTHER_MICROMAP);
+    let original = BuildGeometryInfo {
+        flags,
+        ..device_blas(khr_into(KHR_MICROMAP))
+    };
+    no_errors(cmd_in_ref(&mut v, &[original]));
+    let cb = command_buffer();
+    for (src, dst) in [(KHR_MICROMAP, SERIALIZED_MICROMAP), (BLAS, SERIALIZED_BLAS)] {
+        let info = CopyAccelerationStructureToMemoryInfo {
+            src,
+            dst,
+            mode: COPY_MODE_SERIALIZE,
+            ..Default::default()
+        };
+        no_errors(v.cmd_copy_acceleration_structure_to_memory(&cb, &info));
+    }
+    for (src, dst) in [
+        (SERIALIZED_MICROMAP, DESERIALIZED_MICROMAP),
+        (SERIALIZED_BLAS, DESERIALIZED_BLAS),
+    ] {
+        let info = CopyMemoryToAccelerationStructureInfo {
+            src,
+            dst,
+            mode: COPY_MODE_DESERIALIZE,
+            ..Default::default()
+        };
+        no_errors(v.cmd_copy_memory_to_acceleration_structure(&cb, &info));
+    }
+    v
+}
+
+fn cmd_in_ref(v: &mut Validator, infos: &[BuildGeometryInfo]) -> Report {
+    v.cmd_build_acceleration_structures(&command_buffer(), infos, &ranges(infos))
+}
+
+/// A copy of DESERIALIZED_BLAS (`host`: on the host), whose header named `named`.
+fn copy_deserialized(named: u64, host: bool) -> Report {
+    let mut v = deserialized_world(named, allow_update());
+    let info = CopyAccelerationStructureInfo {
+        src: DESERIALIZED_BLAS,
+        dst: NOT_A_MICROMAP,
+        mode: COPY_MODE_CLONE,
+        ..Default::default()
+    };
+    if host {
+        v.copy_acceleration_structure(&info)
+    } else {
+        v.cmd_copy_acceleration_structure(&command_buffer(), &info)
+    }
+}
+
+/// A serialization of DESERIALIZED_BLAS (`host`: on the host), whose header named `named`.
+fn serialize_deserialized(named: u64, host: bool) -> Report {
+    let mut v = deserialized_world(named, allow_update());
+    let info = CopyAccelerationStructureToMemoryInfo {
+        src: DESERIALIZED_BLAS,
+        dst: if host {
+            HOST_INDICES
+        } else {
+            INPUT_ADDRESS + 0x8000
+        },
+        mode: COPY_MODE_SERIALIZE,
+        ..Default::default()
+    };
+    if host {
+        v.copy_acceleration_structure_to_memory(&info)
+    } else {
+        v.cmd_copy_acceleration_structure_to_memory(&command_buffer(), &info)
+    }
+}
+
+/// An update of DESERIALIZED_BLAS (originally built allowing updates but
+/// not micromap updates) chaining `micromap` to geometry 0.
+fn update_deserialized(
+    micromap: u64,
+    build: fn(Validator, &[BuildGeometryInfo]) -> Report,
+) -> Report {
+    let v = deserialized_world(DESERIALIZED_MICROMAP, allow_update());
+    let update = BuildGeometryInfo {
+        flags: allow_update(),
+        mode: BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE,
+        src_acceleration_structure: DESERIALIZED_BLAS,
+        dst_acceleration_structure: DESERIALIZED_BLAS,
+        ..device_blas(khr_into(micromap))
+    };
+    build(v, &[update])
+}
+
+fn provenance_cases() -> Vec<Case> {
+    use ommcheck::vuids::vuid::{
+        vkCmdCopyAccelerationStructureKHR as cmd_copy, vkCopyAccelerationStructureKHR as host_copy,
+        VkCopyAccelerationStructureToMemoryInfoKHR as to_memory,
+    };
+    vec![
+        case(
+            cmd_copy::src_11634,
+            || copy_deserialized(OTHER_MICROMAP, false),
+            || copy_deserialized(DESERIALIZED_MICROMAP, false),
+        ),
+        case(
+            host_copy::src_11587,
+            || copy_deserialized(OTHER_MICROMAP, true),
+            || copy_deserialized(DESERIALIZED_MICROMAP, true),
+        ),
+        case(
+            to_memory::src_11582,
+            || serialize_deserialized(OTHER_MICROMAP, false),
+            || serialize_deserialized(DESERIALIZED_MICROMAP, true),
+        ),
+        case(
+            cmd::micromap_11628,
+            || update_deserialized(OTHER_MICROMAP, cmd_in),
+            || update_deserialized(DESERIALIZED_MICROMAP, cmd_in),
+        ),
+        case(
+            indirect::micromap_11628,
+            || update_deserialized(OTHER_MICROMAP, indirect_in),
+            || update_deserialized(DESERIALIZED_MICROMAP, indirect_in),
+        ),
+    ]
+}
+
+#[test]
+fn what_a_deserialized_structure_references_is_decided_only_where_known() {
+    use ommcheck::vuids::vuid::vkCmdCopyAccelerationStructureKHR as cmd_copy;
+    // Both paths decide the rule.
+    for named in [DESERIALIZED_MICROMAP, OTHER_MICROMAP] {
+        let report = copy_deserialized(named, false);
+        assert!(report.checked.contains(cmd_copy::src_11634), "{report}");
+    }
+    // The serialized micromap's bytes were never seen: its deserialization
+    // holds unknown contents, so the copy says it could not tell.
+    let mut v = deserialized_world(DESERIALIZED_MICROMAP, allow_update());
+    let unknown = CopyMemoryToAccelerationStructureInfo {
+        src: INPUT_ADDRESS + 0x9000,
+        dst: DESERIALIZED_MICROMAP,
+        mode: COPY_MODE_DESERIALIZE,
+        ..Default::default()
+    };
+    no_errors(v.cmd_copy_memory_to_acceleration_structure(&command_buffer(), &unknown));
+    let info = CopyAccelerationStructureInfo {
+        src: DESERIALIZED_BLAS,
+        dst: NOT_A_MICROMAP,
+        mode: COPY_MODE_CLONE,
+        ..Default::default()
+    };
+    let report = v.cmd_copy_acceleration_structure(&command_buffer(), &info);
+    assert!(!report.has_errors(), "{report}");
+    let finding = report.not_checked().next().expect("not checked");
+    assert_eq!(
+        finding.rule.as_str(),
+        "OMMCHECK-not-checked-serialization-not-seen"
+    );
+    // A structure deserialized from bytes no serialization wrote: not checked either.
+    let mut v = world();
+    let from_file = CopyMemoryToAccelerationStructureInfo {
+        src: INPUT_ADDRESS + 0x9000,
+        dst: BLAS,
+        mode: COPY_MODE_DESERIALIZE,
+        ..Default::default()
+    };
+    v.cmd_copy_memory_to_acceleration_structure(&command_buffer(), &from_file);
+    let report = v.cmd_copy_acceleration_structure(
+        &command_buffer(),
+        &CopyAccelerationStructureInfo { src: BLAS, ..info },
+    );
+    assert!(!report.has_errors(), "{report}");
+    assert_eq!(report.not_checked().count(), 1, "{report}");
+}
+
+#[test]
+fn an_update_replaces_what_a_deserialized_structure_must_reference() {
+    use ommcheck::vuids::vuid::vkCmdCopyAccelerationStructureKHR as cmd_copy;
+    // Originally built allowing micromap updates: the update may chain any
+    // micromap, and replaces the one the copy would ask about.
+    let flags = allow_update()
+        | khr_values::BUILD_ACCELERATION_STRUCTURE_ALLOW_OPACITY_MICROMAP_UPDATE_BIT_KHR.as_raw();
+    let mut v = deserialized_world(OTHER_MICROMAP, flags);
+    let update = BuildGeometryInfo {
+        flags,
+        mode: BUILD_ACCELERATION_STRUCTURE_MODE_UPDATE,
+        src_acceleration_structure: DESERIALIZED_BLAS,
+        dst_acceleration_structure: DESERIALIZED_BLAS,
+        ..device_blas(khr_into(OTHER_MICROMAP))
+    };
+    no_errors(cmd_in_ref(&mut v, &[update]));
+    let info = CopyAccelerationStructureInfo {
+        src: DESERIALIZED_BLAS,
+        dst: NOT_A_MICROMAP,
+        mode: COPY_MODE_CLONE,
+        ..Default::default()
+    };
+    let report = v.cmd_copy_acceleration_structure(&command_buffer(), &info);
+    assert!(report.findings.is_empty(), "{report}");
+    assert!(report.checked.contains(cmd_copy::src_11634), "{report}");
 }

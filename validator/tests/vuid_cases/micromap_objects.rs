@@ -594,6 +594,7 @@ pub fn cases() -> Vec<Case> {
     cases.extend(copy_cases());
     cases.extend(serialization_cases());
     cases.extend(deserialization_cases());
+    cases.extend(provenance_cases());
     cases.extend(property_cases());
     cases.extend(query_cases());
     cases.extend(command_buffer_cases!(cmd_copy, cmd_copy_on));
@@ -1371,4 +1372,232 @@ fn a_known_device_handle_must_match() {
         .destroy_micromap(DEVICE + 1, 0, None)
         .contains(destroy::device_parameter));
     assert!(v.destroy_micromap(DEVICE, 0, None).is_empty());
+}
+
+// Provenance of serialized micromaps (07547, 07550)
+
+/// `world` after serializing `serialized` on the device to INPUT_ADDRESS
+/// (`host`: on the host to HOST_DATA), then deserializing from there
+/// into `into`.
+fn serialize_then_deserialize(
+    mut v: Validator,
+    host: bool,
+    serialized: Handle,
+    into: Handle,
+) -> Report {
+    let at = if host { HOST_DATA } else { INPUT_ADDRESS };
+    let to = CopyMicromapToMemoryInfo {
+        src: serialized,
+        ..to_memory_info(at)
+    };
+    let from = CopyMemoryToMicromapInfo {
+        dst: into,
+        ..from_memory_info(at)
+    };
+    if host {
+        let report = v.copy_micromap_to_memory(DEVICE, 0, Some(&to));
+        assert!(!report.has_errors(), "{report}");
+        v.copy_memory_to_micromap(DEVICE, 0, Some(&from))
+    } else {
+        let report = v.cmd_copy_micromap_to_memory(&command_buffer(), Some(&to));
+        assert!(!report.has_errors(), "{report}");
+        v.cmd_copy_memory_to_micromap(&command_buffer(), Some(&from))
+    }
+}
+
+/// [`world`] where MICROMAP was created twice as large as MICROMAP_2.
+fn world_with_larger_micromap() -> Validator {
+    let mut v = world();
+    if let Some(m) = v.state_mut().micromaps.get_mut(&MICROMAP) {
+        m.size = 0x2000;
+    }
+    v
+}
+
+/// Deserializes into MICROMAP from the memory of MICROMAP_2, which a copy
+/// recorded just before wrote (`overwritten`), or from bytes serialized
+/// from MICROMAP_2 there after that copy.
+fn deserialize_from_micromap_memory(overwritten: bool) -> Report {
+    let mut v = world();
+    let clone = CopyMicromapInfo {
+        src: MICROMAP,
+        dst: MICROMAP_2,
+        mode: COPY_MICROMAP_MODE_CLONE_EXT,
+        ..Default::default()
+    };
+    let report = v.cmd_copy_micromap(&command_buffer(), Some(&clone));
+    assert!(!report.has_errors(), "{report}");
+    let at = STORAGE_ADDRESS + 0x8000;
+    if !overwritten {
+        let to = CopyMicromapToMemoryInfo {
+            src: MICROMAP_2,
+            ..to_memory_info(at)
+        };
+        v.cmd_copy_micromap_to_memory(&command_buffer(), Some(&to));
+    }
+    v.cmd_copy_memory_to_micromap(&command_buffer(), Some(&from_memory_info(at)))
+}
+
+fn provenance_cases() -> Vec<Case> {
+    vec![
+        case(
+            from_memory_info::src_07547,
+            || deserialize_from_micromap_memory(true),
+            || deserialize_from_micromap_memory(false),
+        ),
+        case(
+            from_memory_info::dst_07550,
+            || {
+                serialize_then_deserialize(
+                    world_with_larger_micromap(),
+                    false,
+                    MICROMAP,
+                    MICROMAP_2,
+                )
+            },
+            || serialize_then_deserialize(world_with_larger_micromap(), true, MICROMAP_2, MICROMAP),
+        ),
+    ]
+}
+
+#[test]
+fn serialized_micromaps_are_followed_on_the_device_and_the_host() {
+    for host in [false, true] {
+        let report = serialize_then_deserialize(world(), host, MICROMAP, MICROMAP_2);
+        assert!(
+            report.checked.contains(from_memory_info::src_07547),
+            "{report}"
+        );
+        assert!(
+            report.checked.contains(from_memory_info::dst_07550),
+            "{report}"
+        );
+        assert!(report.findings.is_empty(), "{report}");
+        let larger =
+            serialize_then_deserialize(world_with_larger_micromap(), host, MICROMAP, MICROMAP_2);
+        assert_eq!(
+            larger.ids(),
+            ["VUID-VkCopyMemoryToMicromapInfoEXT-dst-07550"],
+            "{larger}"
+        );
+    }
+}
+
+#[test]
+fn bytes_no_serialization_wrote_are_not_checked_and_say_why() {
+    let report = world()
+        .cmd_copy_memory_to_micromap(&command_buffer(), Some(&from_memory_info(INPUT_ADDRESS)));
+    assert!(!report.has_errors(), "{report}");
+    let finding = report
+        .not_checked()
+        .next()
+        .expect("a not-checked information");
+    assert_eq!(
+        finding.rule.as_str(),
+        "OMMCHECK-not-checked-serialization-not-seen"
+    );
+    assert!(
+        finding.message.contains("no serialization the checker saw"),
+        "{}",
+        finding.message
+    );
+}
+
+/// Serialized micromap bytes: a header whose serialized size is `len`, then `fill`.
+fn serialized_bytes(len: usize, fill: u8) -> Vec<u8> {
+    let mut bytes = vec![fill; len];
+    bytes[32..40].copy_from_slice(&(len as u64).to_le_bytes());
+    bytes[48..56].fill(0);
+    bytes
+}
+
+#[test]
+fn bytes_linked_by_their_fingerprint_are_followed_wherever_they_are_read() {
+    use ommcheck::state::HostRange;
+    const ELSEWHERE: u64 = 0x7300_0000;
+    let mut v = world_with_larger_micromap();
+    let to = to_memory_info(HOST_DATA);
+    v.copy_micromap_to_memory(DEVICE, 0, Some(&to));
+    let bytes = serialized_bytes(256, 7);
+    assert!(v.serialized_bytes(true, HOST_DATA, &bytes));
+    assert!(
+        !v.serialized_bytes(true, ELSEWHERE, &bytes),
+        "nothing serialized there"
+    );
+    assert!(
+        !v.serialized_bytes(true, HOST_DATA, &bytes[..100]),
+        "shorter than its size"
+    );
+    // The same bytes elsewhere (written back from a file): linked to MICROMAP.
+    v.state_mut().host_memory.push(HostRange {
+        address: ELSEWHERE,
+        bytes: ommcheck::Bytes::from(bytes.clone()),
+    });
+    let from = CopyMemoryToMicromapInfo {
+        dst: MICROMAP_2,
+        ..from_memory_info(ELSEWHERE)
+    };
+    let report = v.copy_memory_to_micromap(DEVICE, 0, Some(&from));
+    assert_eq!(
+        report.ids(),
+        ["VUID-VkCopyMemoryToMicromapInfoEXT-dst-07550"],
+        "{report}"
+    );
+    assert!(
+        report.findings[0].message.contains("fingerprint"),
+        "{report}"
+    );
+    // Other bytes there: not known.
+    let other = serialized_bytes(256, 8);
+    v.state_mut().host_memory.push(HostRange {
+        address: ELSEWHERE + 0x1000,
+        bytes: ommcheck::Bytes::from(other),
+    });
+    let from = CopyMemoryToMicromapInfo {
+        dst: MICROMAP_2,
+        ..from_memory_info(ELSEWHERE + 0x1000)
+    };
+    let report = v.copy_memory_to_micromap(DEVICE, 0, Some(&from));
+    assert!(!report.has_errors(), "{report}");
+    assert_eq!(report.not_checked().count(), 1, "{report}");
+}
+
+#[test]
+fn an_acceleration_structure_serialization_is_no_micromap_data() {
+    use ommcheck::model::accel::{
+        CopyAccelerationStructureToMemoryInfo, ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+        COPY_MODE_SERIALIZE,
+    };
+    use ommcheck::state::AccelerationStructure;
+    const BLAS: Handle = 0xa5;
+    let mut v = world();
+    v.state_mut().acceleration_structures.insert(
+        BLAS,
+        AccelerationStructure {
+            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+            buffer: STORAGE,
+            offset: 0xc000,
+            size: 0x1000,
+            ..Default::default()
+        },
+    );
+    let to = CopyAccelerationStructureToMemoryInfo {
+        src: BLAS,
+        dst: HOST_DATA,
+        mode: COPY_MODE_SERIALIZE,
+        ..Default::default()
+    };
+    assert!(!v.copy_acceleration_structure_to_memory(&to).has_errors());
+    let report = v.copy_memory_to_micromap(DEVICE, 0, Some(&from_memory_info(HOST_DATA)));
+    assert_eq!(
+        report.ids(),
+        ["VUID-VkCopyMemoryToMicromapInfoEXT-src-07547"],
+        "{report}"
+    );
+    assert!(
+        report.findings[0]
+            .message
+            .contains("vkCopyAccelerationStructureToMemoryKHR"),
+        "{report}"
+    );
 }

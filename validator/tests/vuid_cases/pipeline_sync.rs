@@ -30,6 +30,7 @@ use ommcheck::vuids::vuid::{
 };
 use ommcheck::{Device, Report, Validator};
 
+use crate::accel_attach::{DESERIALIZED_BLAS, DESERIALIZED_MICROMAP, OTHER_MICROMAP};
 use crate::fixtures::{command_buffer, device};
 use crate::{case, Case};
 
@@ -590,18 +591,37 @@ fn run(
     ray_query: bool,
     shader: AccessingShader,
 ) -> Report {
+    run_on(v, command, TLAS, ray_query, shader)
+}
+
+/// `command` with PIPELINE bound, its `shader` reaching `structure`.
+fn run_on(
+    v: &mut Validator,
+    command: WorkCommand,
+    structure: Handle,
+    ray_query: bool,
+    shader: AccessingShader,
+) -> Report {
     v.cmd_run_shaders(
         command,
         &command_buffer(),
         &BoundWork {
             pipeline: PIPELINE,
             accesses: vec![AccelerationStructureAccess {
-                acceleration_structure: TLAS,
+                acceleration_structure: structure,
                 ray_query,
                 shader,
             }],
         },
     )
+}
+
+/// 11637: the shaders access a structure deserialized from a header naming
+/// `named` (see [`crate::accel_attach::deserialized_world`]).
+fn deserialized_access(command: WorkCommand, named: Handle) -> Report {
+    let mut v = crate::accel_attach::deserialized_world(named, 0);
+    let raygen = AccessingShader::PipelineStage(RAYGEN);
+    run_on(&mut v, command, DESERIALIZED_BLAS, true, raygen)
 }
 
 /// 11636: KHR micromap geometry reached by a ray query, without the EXT
@@ -724,6 +744,9 @@ macro_rules! work_cases {
             case(vuid::$plain::micromap_11639,
                 || mixed_shader(WorkCommand::$plain, SHADER_CREATE_DISALLOW_MIXED_SPECIAL_INDEX),
                 || mixed_shader(WorkCommand::$plain, 0)),
+            case(vuid::$plain::micromap_11637,
+                || deserialized_access(WorkCommand::$plain, OTHER_MICROMAP),
+                || deserialized_access(WorkCommand::$plain, DESERIALIZED_MICROMAP)),
         ]);)*
         $(cases.extend([
             case(vuid::$trace::micromap_11636,
@@ -738,6 +761,9 @@ macro_rules! work_cases {
             case(vuid::$trace::micromap_11640,
                 || traced_opacity(WorkCommand::$trace, 0),
                 || traced_opacity(WorkCommand::$trace, CREATE_RAY_TRACING_OPACITY_MICROMAP)),
+            case(vuid::$trace::micromap_11637,
+                || deserialized_access(WorkCommand::$trace, OTHER_MICROMAP),
+                || deserialized_access(WorkCommand::$trace, DESERIALIZED_MICROMAP)),
         ]);)*
         cases
     }};
@@ -810,4 +836,43 @@ fn a_traced_structure_whose_build_was_not_seen_is_reported_not_checked_once() {
     let mut built = work_world(device(), MicromapGeometry::default(), 0, false, 0);
     let report = built.cmd_run_shaders(command, &command_buffer(), &bound);
     report.assert_fully_checked();
+}
+
+/// 11637 through a top-level structure: the shaders reach TLAS, whose one
+/// instance references the deserialized structure.
+#[test]
+fn a_deserialized_structure_reached_through_instances_is_checked() {
+    use crate::accel_attach::TLAS;
+    for (named, fails) in [(OTHER_MICROMAP, true), (DESERIALIZED_MICROMAP, false)] {
+        let mut v = crate::accel_attach::deserialized_world(named, 0);
+        let instances = InstancesData {
+            instances: Some(vec![Instance {
+                acceleration_structure_reference: DESERIALIZED_BLAS,
+                ..Default::default()
+            }]),
+            ..Default::default()
+        };
+        let geometry = Geometry {
+            geometry_type: GEOMETRY_TYPE_INSTANCES,
+            geometry: GeometryData::Instances(instances),
+            ..Default::default()
+        };
+        let build = BuildGeometryInfo {
+            dst_acceleration_structure: TLAS,
+            ..BuildGeometryInfo::with_geometries(
+                ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL,
+                vec![geometry],
+            )
+        };
+        let range = BuildRangeInfo {
+            primitive_count: 1,
+            ..Default::default()
+        };
+        v.build_acceleration_structures(&[build], &[Some(vec![range])]);
+        let raygen = AccessingShader::PipelineStage(RAYGEN);
+        let report = run_on(&mut v, WorkCommand::vkCmdTraceRaysKHR, TLAS, false, raygen);
+        let rule = vuid::vkCmdTraceRaysKHR::micromap_11637;
+        assert_eq!(report.contains(rule), fails, "{report}");
+        assert!(report.checked.contains(rule), "{report}");
+    }
 }

@@ -19,8 +19,6 @@ use crate::report::{ObjectRef, Report, RuleId};
 use crate::state::{HostMemory, HostRange, State};
 use crate::tier::Tier;
 
-const DESERIALIZED: &str = "needs the serialized bytes of the micromaps an acceleration structure was deserialized from and of those it was built with, which are device memory contents the application never hands over";
-
 /// The VUIDs one command has for the shared rules.
 struct WorkVuids {
     function: &'static str,
@@ -29,6 +27,8 @@ struct WorkVuids {
     shader_mixed: Vuid,
     /// Only the ray-tracing pipeline commands have 11640.
     pipeline_opacity: Option<Vuid>,
+    /// 11637: what a deserialized structure's micromaps hold.
+    deserialized: Vuid,
 }
 
 macro_rules! work_commands {
@@ -53,6 +53,7 @@ macro_rules! work_commands {
                         pipeline_mixed: vuid::$plain::micromap_11638,
                         shader_mixed: vuid::$plain::micromap_11639,
                         pipeline_opacity: None,
+                        deserialized: vuid::$plain::micromap_11637,
                     },)*
                     $(WorkCommand::$trace => WorkVuids {
                         function: stringify!($trace),
@@ -60,21 +61,20 @@ macro_rules! work_commands {
                         pipeline_mixed: vuid::$trace::micromap_11638,
                         shader_mixed: vuid::$trace::micromap_11639,
                         pipeline_opacity: Some(vuid::$trace::micromap_11640),
+                        deserialized: vuid::$trace::micromap_11637,
                     },)*
                 }
             }
         }
 
         pub(super) const ENFORCED: &[Vuid] = &[
-            $(vuid::$plain::micromap_11636, vuid::$plain::micromap_11638, vuid::$plain::micromap_11639,)*
-            $(vuid::$trace::micromap_11636, vuid::$trace::micromap_11638, vuid::$trace::micromap_11639,
-              vuid::$trace::micromap_11640,)*
+            $(vuid::$plain::micromap_11636, vuid::$plain::micromap_11637, vuid::$plain::micromap_11638,
+              vuid::$plain::micromap_11639,)*
+            $(vuid::$trace::micromap_11636, vuid::$trace::micromap_11637, vuid::$trace::micromap_11638,
+              vuid::$trace::micromap_11639, vuid::$trace::micromap_11640,)*
         ];
 
-        pub(super) const NOT_DECIDABLE: &[(Vuid, &str)] = &[
-            $((vuid::$plain::micromap_11637, DESERIALIZED),)*
-            $((vuid::$trace::micromap_11637, DESERIALIZED),)*
-        ];
+        pub(super) const NOT_DECIDABLE: &[(Vuid, &str)] = &[];
     };
 }
 
@@ -119,6 +119,8 @@ impl Validator {
         // Structures already reported as built unseen, once each.
         let mut unseen: Vec<u64> = Vec::new();
         for access in &bound.accesses {
+            let structure = access.acceleration_structure;
+            crate::checks::provenance::accessed(&mut ctx, structure, vuids.deserialized);
             let Some(geometry) = ctx
                 .state
                 .and_then(|state| state.micromap_geometry.get(&access.acceleration_structure))
