@@ -165,6 +165,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
         let index_mixes = std::mem::take(&mut ctx.index_mixes);
+        crate::report::objects::acceleration_builds(&mut ctx.report, infos);
         let report = ctx.finish();
         record_builds(&mut self.state, self.tier, infos, build_range_infos, false);
         self.record_micromap_geometry_after_checks(infos, build_range_infos, &index_mixes);
@@ -196,6 +197,7 @@ impl Validator {
         );
         let mut ctx = self.ctx(BuildCommand::Indirect.function());
         builds(&mut ctx, BuildCommand::Indirect, infos, None);
+        crate::report::objects::acceleration_builds(&mut ctx.report, infos);
         let report = ctx.finish();
         record_builds(&mut self.state, self.tier, infos, &[], false);
         // Primitive counts live in device memory: no index buffer is read.
@@ -217,6 +219,7 @@ impl Validator {
     ) -> Report {
         let mut ctx = self.ctx(BuildCommand::Host.function());
         builds(&mut ctx, BuildCommand::Host, infos, Some(build_range_infos));
+        crate::report::objects::acceleration_builds(&mut ctx.report, infos);
         let report = ctx.finish();
         record_builds(&mut self.state, self.tier, infos, build_range_infos, true);
         self.record_micromap_geometry(infos, build_range_infos);

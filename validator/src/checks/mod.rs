@@ -22,6 +22,7 @@ pub mod micromap_objects;
 pub mod pipeline_sync;
 mod serialized;
 pub(crate) mod usage_counts;
+pub(crate) mod usage_hints;
 pub(crate) mod usage_keys;
 mod validator;
 
