@@ -1312,7 +1312,9 @@ fn usage_counts_match_indices(
     };
     // A count under the wrong key: one finding, with a hint.
     let sums: BTreeMap<(u32, u32), u64> = declared.iter().map(|(key, d)| (*key, d.0)).collect();
-    let misplaced = usage_hints::misplaced(&sums, &found);
+    let limits = &ctx.device.limits;
+    let misplaced =
+        usage_hints::misplaced(&sums, &found, |k| usage_hints::valid_key(k, names, limits));
     for (format, level) in keys {
         let (said, first) = declared.get(&(format, level)).copied().unwrap_or((0, None));
         let has = found.get(&(format, level)).copied().unwrap_or(0);

@@ -585,7 +585,27 @@ pub(crate) fn usage_counts_match_triangles(
         })
     };
     // A count under the wrong key: one finding, with a hint.
-    let misplaced = usage_hints::misplaced(&declared, found);
+    // No hint where a triangle entry's format or level broke a rule of its
+    // own (a format the build's flags forbid): there the triangle is what
+    // is wrong.
+    let entries = location
+        .rsplit_once('.')
+        .map(|(at, _)| format!("{at}.triangleArray["));
+    let entry_failed = entries.is_some_and(|entries| {
+        ctx.report.findings.iter().any(|f| {
+            f.severity == Severity::Error
+                && f.location.starts_with(&entries)
+                && (f.location.ends_with(".format") || f.location.ends_with(".subdivisionLevel"))
+        })
+    });
+    let limits = &ctx.device.limits;
+    let misplaced = if entry_failed {
+        Vec::new()
+    } else {
+        usage_hints::misplaced(&declared, found, |k| {
+            usage_hints::valid_key(k, names, limits)
+        })
+    };
     for key in keys {
         if misplaced.iter().any(|m| m.meant == key) {
             continue; // Folded into the finding of the key it was written under.
