@@ -164,6 +164,7 @@ pub unsafe extern "system" fn create_device(
                     shadows: Shadows::new(settings.gpu_readback_max_bytes),
                     submissions: Default::default(),
                     driver_answers: None,
+                    core_not_checked: Default::default(),
                 }),
                 readback_arena: Default::default(),
             });
@@ -203,7 +204,15 @@ unsafe extern "system" fn destroy_device(
         let totals = {
             let mut state = data.state();
             state.submissions = Default::default();
-            readback::not_checked_totals(device.as_raw(), state.memory_layout.not_checked_counts())
+            let mut totals = readback::not_checked_totals(
+                device.as_raw(),
+                state.memory_layout.not_checked_counts(),
+            );
+            totals.extend(crate::intercept::core_not_checked_totals(
+                device.as_raw(),
+                state.core_not_checked.counts(),
+            ));
+            totals
         };
         data.instance.reporter.deliver(&totals, false);
         data.readback_arena
@@ -762,7 +771,9 @@ unsafe extern "system" fn cmd_build_micromaps(
 
 /// `vkBuildMicromapsEXT`: checked at the call, reading (at the content tier
 /// and above) the triangle array and, where it lies in mapped memory, the
-/// data in full, then passed on unless a messenger asks to skip it.
+/// data in full, then passed on unless a messenger asks to skip it; what
+/// it builds is recorded, from what was read before the call, once the
+/// driver accepted it.
 unsafe extern "system" fn build_micromaps(
     device: vk::Device,
     deferred_operation: vk::DeferredOperationKHR,
@@ -776,6 +787,7 @@ unsafe extern "system" fn build_micromaps(
             let Some((data, next)) = device_and(device, |f| f.build_micromaps) else {
                 return vk::Result::ERROR_INITIALIZATION_FAILED;
             };
+            let mut read = None;
             let skip = check(
                 &data,
                 "vkBuildMicromapsEXT",
@@ -797,23 +809,34 @@ unsafe extern "system" fn build_micromaps(
                     }
                     // SAFETY: the application's arguments, valid as the API
                     // requires; mapped ranges stay readable until unmapped.
-                    unsafe {
-                        state.validator.build_micromaps_raw_reading(
+                    let build = unsafe {
+                        state.validator.read_build_micromaps_raw(
                             device,
                             deferred_operation,
                             info_count,
                             infos,
                             &mapped,
                         )
-                    }
+                    };
+                    let report = state.validator.build_micromaps_read_rules(&build);
+                    read = Some(build);
+                    report
                 },
             );
             if skip {
                 return vk::Result::ERROR_VALIDATION_FAILED_EXT;
             }
-            // SAFETY: the next layer's function, with the application's arguments.
-            deferrable(device, deferred_operation, || unsafe {
-                next(device, deferred_operation, info_count, infos)
+            deferrable(device, deferred_operation, || {
+                // SAFETY: the next layer's function, with the application's arguments.
+                let result = unsafe { next(device, deferred_operation, info_count, infos) };
+                // Any success code: built, deferred or not. Recorded before
+                // a build the driver ran at once completes its operation.
+                if let (true, Some(build)) = (result.as_raw() >= 0, read) {
+                    track(&data, "vkBuildMicromapsEXT", |state| {
+                        state.validator.record_build_micromaps_read(build);
+                    });
+                }
+                result
             })
         },
     )

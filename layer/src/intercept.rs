@@ -14,11 +14,12 @@ use std::sync::Arc;
 
 use ash::vk;
 use ash::vk::Handle as _;
+use ommcheck::report::not_checked::Cause;
 use ommcheck::{Report, Severity};
 
 use crate::dispatch::next_fns::DeviceFns;
 use crate::dispatch::{DeviceData, DeviceState, DEVICES, INSTANCES};
-use crate::report::{Message, Reporter, INTERNAL_ERROR};
+use crate::report::{CauseCounts, Message, Reporter, INTERNAL_ERROR};
 
 /// Runs an exported function's `body`; a panic becomes one error message to
 /// every messenger and `on_panic` is returned.
@@ -129,12 +130,73 @@ pub(crate) fn check(
 ) -> bool {
     let outcome = {
         let mut state = data.state();
-        catch_unwind(AssertUnwindSafe(|| {
+        let outcome = catch_unwind(AssertUnwindSafe(|| {
             panic_if_asked();
             body(&mut state)
-        }))
+        }));
+        outcome.map(|report| once_per_cause(report, &mut state.core_not_checked))
     };
     deliver_checked(&data.instance.reporter, function, call_object, outcome)
+}
+
+/// The core's not-checked information as the layer says it, so that a
+/// clean report at the default level means checked: the first finding of
+/// each cause on a device is a warning that says it comes once, later ones
+/// are counted for [`core_not_checked_totals`]. Two causes stay
+/// information: unread device contents (`OMMCHECK-not-checked-contents`),
+/// which the layer's own `OMMCHECK-layer-contents-not-checked` warning
+/// already says per device with its reason, and a build not seen, which in
+/// the layer is a build that never ran while it was loaded, and so comes
+/// with the error that the micromap was not built.
+const SAID_AS_WARNINGS: [Cause; 2] = [Cause::HostMemory, Cause::UnknownAddress];
+
+pub(crate) fn once_per_cause(mut report: Report, said: &mut CauseCounts) -> Report {
+    // Each cause counts once per call; the call that first has it says
+    // all of its findings of it (they name different places).
+    let mut first = Vec::new();
+    for cause in Cause::ALL {
+        let in_call = report
+            .findings
+            .iter()
+            .any(|f| Cause::of(f.rule) == Some(cause));
+        if cause != Cause::Contents && in_call && said.first_report_of(cause.rule().id, 1) {
+            first.push(cause);
+        }
+    }
+    report.findings.retain_mut(|finding| {
+        let Some(cause) = Cause::of(finding.rule).filter(|c| SAID_AS_WARNINGS.contains(c)) else {
+            return true;
+        };
+        if !first.contains(&cause) {
+            return false;
+        }
+        finding.severity = Severity::Warning;
+        finding.message.push_str(&format!(
+            " This is reported once per device and cause (`{}`); vkDestroyDevice says how many calls it affected in all.",
+            cause.rule().id
+        ));
+        true
+    });
+    report
+}
+
+/// The warnings of a device's destruction for the core's not-checked
+/// causes that came up more than once (`counts`, from
+/// [`once_per_cause`]): how many calls each kept from being checked in
+/// full.
+pub(crate) fn core_not_checked_totals(device: u64, counts: &[(&'static str, u64)]) -> Vec<Message> {
+    counts
+        .iter()
+        .filter(|(_, count)| *count > 1)
+        .map(|(id, count)| {
+            let text = format!(
+                "{count} calls on VkDevice {device:#x} had rules not checked for the cause `{id}`; the first was reported with the rules, the reason and what lets them run."
+            );
+            let mut message = Message::about_layer(id, Severity::Warning, "vkDestroyDevice", &text);
+            message.objects.push((vk::ObjectType::DEVICE, device));
+            message
+        })
+        .collect()
 }
 
 /// Delivers what a check (run under `catch_unwind`) found about
@@ -222,4 +284,73 @@ pub(crate) fn track_with<R>(
 
 pub(crate) fn device_object(device: vk::Device) -> (vk::ObjectType, u64) {
     (vk::ObjectType::DEVICE, device.as_raw())
+}
+
+#[cfg(test)]
+mod tests {
+    use ommcheck::report::not_checked::Cause;
+    use ommcheck::{Finding, Report, Severity};
+
+    use super::{core_not_checked_totals, once_per_cause};
+    use crate::report::CauseCounts;
+
+    fn not_checked(cause: Cause) -> Finding {
+        Finding::new(
+            cause.rule(),
+            Severity::Info,
+            "vkBuildMicromapsEXT",
+            "pInfos[0].data",
+            "m",
+        )
+    }
+
+    #[test]
+    fn the_cores_not_checked_causes_warn_once_per_device_and_are_counted() {
+        let mut said = CauseCounts::default();
+        let report = |findings: Vec<Finding>| Report {
+            findings,
+            ..Report::default()
+        };
+        let first = once_per_cause(
+            report(vec![
+                not_checked(Cause::HostMemory),
+                not_checked(Cause::HostMemory),
+                not_checked(Cause::Contents),
+            ]),
+            &mut said,
+        );
+        let kept: Vec<(&str, Severity)> = first
+            .findings
+            .iter()
+            .map(|f| (f.rule.as_str(), f.severity))
+            .collect();
+        assert_eq!(
+            kept,
+            [
+                // Both places of the first call are said.
+                ("OMMCHECK-not-checked-host-memory", Severity::Warning),
+                ("OMMCHECK-not-checked-host-memory", Severity::Warning),
+                // The layer's own warning covers unread device contents.
+                ("OMMCHECK-not-checked-contents", Severity::Info),
+            ]
+        );
+        let again = once_per_cause(report(vec![not_checked(Cause::HostMemory)]), &mut said);
+        assert!(again.findings.is_empty());
+        let totals = core_not_checked_totals(0xd, said.counts());
+        assert_eq!(totals.len(), 1);
+        assert_eq!(totals[0].id, "OMMCHECK-not-checked-host-memory");
+        assert!(
+            totals[0].text.contains("2 calls on VkDevice 0xd"),
+            "{}",
+            totals[0].text
+        );
+        // A cause said once needs no total.
+        let mut once = CauseCounts::default();
+        once_per_cause(report(vec![not_checked(Cause::UnknownAddress)]), &mut once);
+        assert!(core_not_checked_totals(0xd, once.counts()).is_empty());
+        // A build not seen stays information (it comes with the error
+        // that the micromap was not built).
+        let unseen = once_per_cause(report(vec![not_checked(Cause::BuildNotSeen)]), &mut once);
+        assert_eq!(unseen.findings[0].severity, Severity::Info);
+    }
 }

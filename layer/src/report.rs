@@ -20,6 +20,33 @@ use crate::settings::Settings;
 
 pub use crate::ids::{CONTENTS_NOT_CHECKED, EFFECTIVE_SETTINGS, INTERNAL_ERROR, SETTINGS_PROBLEM};
 
+/// How often each cause of a once-per-device warning came up on one
+/// device, in the order first reported (few causes: a list).
+#[derive(Debug, Default)]
+pub struct CauseCounts(Vec<(&'static str, u64)>);
+
+impl CauseCounts {
+    /// Counts `count` more of `cause`; true for the first report of
+    /// `cause` on the device, which is when its warning is said.
+    pub fn first_report_of(&mut self, cause: &'static str, count: u64) -> bool {
+        match self.0.iter_mut().find(|(c, _)| *c == cause) {
+            Some((_, total)) => {
+                *total = total.saturating_add(count);
+                false
+            }
+            None => {
+                self.0.push((cause, count));
+                true
+            }
+        }
+    }
+
+    /// Each cause with its count, in the order first reported.
+    pub fn counts(&self) -> &[(&'static str, u64)] {
+        &self.0
+    }
+}
+
 /// One message to deliver.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Message {

@@ -165,6 +165,47 @@ fn a_host_build_with_data_past_the_mapped_memory_reports_the_data_range() {
     assert_eq!(calls("vkBuildMicromapsEXT").len(), 2);
 }
 
+/// Rules the core could not decide are visible at the default report
+/// level: the first host build whose micromap data lies in host memory the
+/// layer cannot see (not in a mapped allocation) gets one warning naming
+/// the cause; the next such build is counted, not said again.
+#[test]
+fn host_memory_the_layer_cannot_read_is_a_warning_once_per_device() {
+    let chain = Chain::new();
+    let mut build = HostBuild::new(&chain);
+    let unmapped = Box::new([0x1u8, 0x2]);
+    let info = vk::MicromapBuildInfoEXT {
+        data: vk::DeviceOrHostAddressConstKHR {
+            host_address: unmapped.as_ptr().cast(),
+        },
+        ..build.info()
+    };
+    assert_eq!(host_build(&chain, &info), vk::Result::SUCCESS);
+    let received = chain.collector.take();
+    assert_eq!(
+        ids(&received),
+        ["OMMCHECK-not-checked-host-memory"],
+        "{received:#?}"
+    );
+    assert_eq!(
+        received[0].severity,
+        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+    );
+    assert!(
+        received[0]
+            .text
+            .contains("reported once per device and cause"),
+        "{}",
+        received[0].text
+    );
+    assert_eq!(host_build(&chain, &info), vk::Result::SUCCESS);
+    assert!(chain.collector.take().is_empty(), "said twice");
+    // Data the layer can read is checked, and says nothing.
+    let info = build.info();
+    assert_eq!(host_build(&chain, &info), vk::Result::SUCCESS);
+    assert!(chain.collector.take().is_empty());
+}
+
 #[test]
 fn a_callback_returning_true_skips_the_call() {
     let chain = Chain::new();
@@ -193,6 +234,39 @@ fn a_callback_returning_true_skips_the_call() {
     // A valid call is not skipped, whatever the callback would answer.
     cmd_build(&chain, &device.info());
     assert_eq!(calls("vkCmdBuildMicromapsEXT").len(), 1);
+}
+
+/// A host build is recorded after the driver accepted it: a skipped one
+/// leaves its micromap unconstructed, the next valid one constructs it.
+#[test]
+fn a_skipped_host_build_is_not_recorded() {
+    let chain = Chain::new();
+    let mut build = HostBuild::new(&chain);
+    let constructed = |chain: &Chain| {
+        let kept = layer::testing::kept_per_object(chain.device).expect("a known device");
+        kept.iter()
+            .find(|(what, _)| *what == "constructed")
+            .map(|(_, n)| *n)
+            .expect("the constructed objects are counted")
+    };
+    let before = constructed(&chain);
+    chain.collector.answer_with(vk::TRUE);
+    // Triangle 1's data one byte past the mapping: reported, and skipped.
+    build.triangles[8] = 2;
+    let skipped = host_build(&chain, &build.info());
+    assert_eq!(skipped, vk::Result::ERROR_VALIDATION_FAILED_EXT);
+    assert_eq!(ids(&chain.collector.take()), [DATA_IN_RANGE]);
+    assert_eq!(
+        constructed(&chain),
+        before,
+        "the skipped build was recorded"
+    );
+
+    // A valid call is not skipped, whatever the callback would answer.
+    build.triangles[8] = 1;
+    assert_eq!(host_build(&chain, &build.info()), vk::Result::SUCCESS);
+    assert!(chain.collector.take().is_empty());
+    assert_eq!(constructed(&chain), before + 1);
 }
 
 #[test]

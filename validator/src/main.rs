@@ -90,6 +90,15 @@ enum Command {
         scenes: Vec<std::path::PathBuf>,
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
+        /// Also draw each ray that read a micromap triangle into DIR
+        /// (`SCENE-rayN.svg`, or `.png` with --draw-png): the triangle, the
+        /// hit as a dot, and the micro-triangles within its error bound
+        /// outlined (docs/pictures.md).
+        #[arg(long, value_name = "DIR")]
+        draw: Option<std::path::PathBuf>,
+        /// With --draw: write PNG instead of SVG.
+        #[arg(long, requires = "draw")]
+        draw_png: bool,
     },
     /// Count the micro-triangles of each micromap the scene builds, by state.
     ///
@@ -200,7 +209,15 @@ fn main() -> ExitCode {
             deny,
             tier,
         ),
-        Command::Trace { scenes, format } => trace_command(&scenes, format),
+        Command::Trace {
+            scenes,
+            format,
+            draw,
+            draw_png,
+        } => {
+            let draw = draw.map(|dir| (dir, if draw_png { "png" } else { "svg" }));
+            trace_command(&scenes, format, draw.as_ref())
+        }
         Command::Stats {
             scenes,
             states: true,
@@ -420,7 +437,11 @@ fn scene_files(paths: &[std::path::PathBuf]) -> Result<Vec<std::path::PathBuf>, 
 /// `ommcheck trace`: reads every scene first (status 2 before anything runs
 /// when one cannot be read or resolved), then for each the calls' findings
 /// and each ray's answer.
-fn trace_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
+fn trace_command(
+    paths: &[std::path::PathBuf],
+    format: Format,
+    draw: Option<&(std::path::PathBuf, &str)>,
+) -> ExitCode {
     let options = CheckOptions {
         tier: ommcheck::Tier::Simulate,
         ..CheckOptions::default()
@@ -455,11 +476,52 @@ fn trace_command(paths: &[std::path::PathBuf], format: Format) -> ExitCode {
             }
         }
     }
+    if let Some((dir, extension)) = draw {
+        for (path, report) in paths.iter().zip(&reports) {
+            if let Err(error) = draw_rays(path, report, &options, dir, extension) {
+                eprintln!("ommcheck: {error}");
+                return ExitCode::from(2);
+            }
+        }
+    }
     if summary.success() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
     }
+}
+
+/// `ommcheck trace --draw`: a picture of each ray of `report` that read a
+/// micromap triangle, in `dir` as `STEM-rayN.EXTENSION`; a ray that read
+/// none is said on stderr. An error: the scene or a file failed.
+fn draw_rays(
+    path: &std::path::Path,
+    report: &TraceReport,
+    options: &CheckOptions,
+    dir: &std::path::Path,
+    extension: &str,
+) -> Result<(), String> {
+    let scene = Scene::load(path).map_err(|e| e.to_string())?;
+    let drawable =
+        ommcheck::draw::Drawable::run_with(&scene, options).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let stem = path
+        .file_stem()
+        .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
+    for ray in &report.rays {
+        match drawable.ray(ray) {
+            Ok(picture) => {
+                let file = dir.join(format!("{stem}-ray{}.{extension}", ray.ray));
+                picture.write(&file).map_err(|e| e.to_string())?;
+                eprintln!("ommcheck: wrote {}", file.display());
+            }
+            Err(why) => eprintln!(
+                "ommcheck: {}: rays[{}] not drawn: {why}",
+                report.path, ray.ray
+            ),
+        }
+    }
+    Ok(())
 }
 
 /// `ommcheck stats`: reads and runs every scene first (status 2 before

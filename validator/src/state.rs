@@ -168,6 +168,66 @@ pub struct HostRange {
     pub bytes: Bytes,
 }
 
+/// The host memory one call may read: the ranges the application
+/// described (kept in [`State`] across calls), then those an adaptor read
+/// for this call alone, which nothing keeps after it (the application may
+/// change or free that memory once the call returns). Checks and the
+/// record of host builds read host memory through this, never through the
+/// state.
+#[derive(Clone, Copy, Debug)]
+pub struct HostMemory<'a> {
+    described: &'a [HostRange],
+    read_for_call: &'a [HostRange],
+}
+
+impl<'a> HostMemory<'a> {
+    /// Described ranges first, as an address in both is read from the
+    /// application's description.
+    fn ranges(self) -> impl Iterator<Item = &'a HostRange> {
+        self.described.iter().chain(self.read_for_call)
+    }
+
+    /// Whether this is all the host memory the application may use, so
+    /// that an address outside it is outside valid memory: only where the
+    /// application described memory. What an adaptor read for the call is
+    /// not all of it.
+    pub fn describes_all(self) -> bool {
+        !self.described.is_empty()
+    }
+
+    /// The bytes `[address, address + len)`, where one range holds them all.
+    pub fn read(self, address: u64, len: u64) -> Option<&'a [u8]> {
+        let end = address.checked_add(len)?;
+        self.ranges().find_map(|r| {
+            let r_end = r.address.checked_add(r.bytes.len() as u64)?;
+            if address < r.address || end > r_end {
+                return None;
+            }
+            let from = usize::try_from(address - r.address).ok()?;
+            let to = usize::try_from(end - r.address).ok()?;
+            r.bytes.get(from..to)
+        })
+    }
+
+    /// The bytes from `address` to the end of the range holding it.
+    pub fn bytes_from(self, address: u64) -> Option<&'a [u8]> {
+        self.ranges().find_map(|r| {
+            let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
+            // An address one past the end belongs to no range.
+            (offset < r.bytes.len()).then(|| &r.bytes[offset..])
+        })
+    }
+
+    /// The memory from `address` on, shared: the range holding `address`
+    /// and the offset of `address` in it.
+    pub fn contents_from(self, address: u64) -> Option<(Bytes, usize)> {
+        self.ranges().find_map(|r| {
+            let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
+            (offset < r.bytes.len()).then(|| (r.bytes.clone(), offset))
+        })
+    }
+}
+
 /// Everything tracked.
 #[derive(Clone, Debug, Default)]
 pub struct State {
@@ -176,11 +236,11 @@ pub struct State {
     pub micromaps: BTreeMap<Handle, Micromap>,
     pub acceleration_structures: BTreeMap<Handle, AccelerationStructure>,
     pub query_pools: BTreeMap<Handle, QueryPool>,
+    /// Host memory the application described to the checker (a scene, or
+    /// [`crate::Validator::describe_host_memory`]), kept across calls. What
+    /// an adaptor reads for one call alone never comes here: it reaches
+    /// that call's rules and record beside this, in a [`HostMemory`].
     pub host_memory: Vec<HostRange>,
-    /// `host_memory` holds only what the checker read for the current call
-    /// (the raw entry points a layer uses), not every range the application
-    /// described (a scene): an address outside it is not known to be invalid.
-    pub host_memory_partial: bool,
     /// `VkDeferredOperationKHR` handles the application created
     /// (`vkCreateDeferredOperationKHR`) and has not destroyed.
     pub deferred_operations: BTreeSet<Handle>,
@@ -292,33 +352,21 @@ impl State {
         })
     }
 
-    /// Whether `host_memory` is all the host memory the application
-    /// described, so that an address outside it is outside valid memory.
-    pub fn describes_all_host_memory(&self) -> bool {
-        !self.host_memory.is_empty() && !self.host_memory_partial
+    /// The host memory a call reads that the application described, and
+    /// `read_for_call`, what an adaptor read for this call alone (empty
+    /// for the static API and scenes).
+    pub fn host_memory<'a>(&'a self, read_for_call: &'a [HostRange]) -> HostMemory<'a> {
+        HostMemory {
+            described: &self.host_memory,
+            read_for_call,
+        }
     }
 
-    /// The bytes `[address, address + len)` of host memory the application described.
-    pub fn read_host(&self, address: u64, len: u64) -> Option<&[u8]> {
-        let end = address.checked_add(len)?;
-        self.host_memory.iter().find_map(|r| {
-            let r_end = r.address.checked_add(r.bytes.len() as u64)?;
-            if address < r.address || end > r_end {
-                return None;
-            }
-            let from = usize::try_from(address - r.address).ok()?;
-            let to = usize::try_from(end - r.address).ok()?;
-            r.bytes.get(from..to)
-        })
-    }
-
-    /// The whole host range that contains `address`: `(bytes from address on)`.
+    /// The bytes from `address` to the end of the range of host memory the
+    /// application described that holds it (what an adaptor read for one
+    /// call is never here: checks read [`Self::host_memory`] instead).
     pub fn host_bytes_from(&self, address: u64) -> Option<&[u8]> {
-        self.host_memory.iter().find_map(|r| {
-            let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
-            // An address one past the end belongs to no range.
-            (offset < r.bytes.len()).then(|| &r.bytes[offset..])
-        })
+        self.host_memory(&[]).bytes_from(address)
     }
 
     /// The device memory from `address` on, shared: the contents of the
@@ -327,15 +375,6 @@ impl State {
         self.buffers_at(address).find_map(|(_, b)| {
             let (contents, offset) = b.contents_at(address)?;
             Some((contents.clone(), offset))
-        })
-    }
-
-    /// The host memory from `address` on, shared: the range holding
-    /// `address` and the offset of `address` in it.
-    pub fn host_contents_from(&self, address: u64) -> Option<(Bytes, usize)> {
-        self.host_memory.iter().find_map(|r| {
-            let offset = usize::try_from(address.checked_sub(r.address)?).ok()?;
-            (offset < r.bytes.len()).then(|| (r.bytes.clone(), offset))
         })
     }
 
@@ -406,14 +445,35 @@ mod tests {
             address: 0x50,
             bytes: crate::Bytes::from(vec![9u8; 8]),
         });
-        assert_eq!(state.read_host(0x52, 4), Some(&[9u8; 4][..]));
-        assert_eq!(state.read_host(0x56, 4), None);
-        assert_eq!(state.read_host(0x40, 4), None);
-        assert_eq!(state.host_bytes_from(0x57).map(<[u8]>::len), Some(1));
-        assert_eq!(state.host_bytes_from(0x58), None);
-        assert!(state.describes_all_host_memory());
-        state.host_memory_partial = true;
-        assert!(!state.describes_all_host_memory());
+        let host = state.host_memory(&[]);
+        assert_eq!(host.read(0x52, 4), Some(&[9u8; 4][..]));
+        assert_eq!(host.read(0x56, 4), None);
+        assert_eq!(host.read(0x40, 4), None);
+        assert_eq!(host.bytes_from(0x57).map(<[u8]>::len), Some(1));
+        assert_eq!(host.bytes_from(0x58), None);
+        assert!(host.describes_all());
+    }
+
+    /// What an adaptor read for a call is read after the described memory
+    /// and is not all the memory there is; the state does not keep it.
+    #[test]
+    fn host_memory_read_for_a_call_is_seen_beside_the_described_memory() {
+        let mut state = State::default();
+        let read = [HostRange {
+            address: 0x90,
+            bytes: crate::Bytes::from(vec![3u8; 4]),
+        }];
+        let call = state.host_memory(&read);
+        assert_eq!(call.read(0x90, 4), Some(&[3u8; 4][..]));
+        assert!(!call.describes_all(), "only what was read for the call");
+        state.host_memory.push(HostRange {
+            address: 0x90,
+            bytes: crate::Bytes::from(vec![9u8; 8]),
+        });
+        let both = state.host_memory(&read);
+        assert_eq!(both.read(0x90, 4), Some(&[9u8; 4][..]), "described first");
+        assert!(both.describes_all());
+        assert_eq!(state.host_memory(&[]).read(0x94, 4), Some(&[9u8; 4][..]));
     }
 
     #[test]

@@ -411,8 +411,9 @@ mod tests {
         let data = vec![0xabu8; 16];
         let address = v.describe_host_memory(data.as_slice());
         assert_eq!(address, data.as_ptr().expose_provenance() as u64);
-        assert_eq!(v.state().read_host(address + 8, 8), Some(&[0xab; 8][..]));
-        assert!(v.state().describes_all_host_memory());
+        let host = v.state().host_memory(&[]);
+        assert_eq!(host.read(address + 8, 8), Some(&[0xab; 8][..]));
+        assert!(host.describes_all());
     }
 
     #[test]

@@ -279,3 +279,98 @@ fn the_states_dump_agrees_with_the_simulators_lookups() {
         (256 - offset) * 4
     );
 }
+
+/// `ommcheck trace --draw`: a ray's hit on the micromap triangle it read,
+/// with the micro-triangles within its error bound outlined; a ray that
+/// read no micromap triangle has no picture and says why.
+#[test]
+fn a_traced_ray_is_drawn_on_the_triangle_it_read() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/trace-4state-quad.json");
+    let scene = Scene::load(&path).expect("the scene loads");
+    let options = ommcheck::scene::CheckOptions {
+        tier: ommcheck::Tier::Simulate,
+        ..Default::default()
+    };
+    let trace = scene.trace(&options).expect("the scene traces");
+    let drawable = draw::Drawable::run_with(&scene, &options).expect("the scene runs");
+    let ray = |name: &str| {
+        trace
+            .rays
+            .iter()
+            .find(|r| r.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no ray {name}"))
+    };
+    let description = |picture: &draw::Picture| {
+        picture
+            .svg
+            .split_once("<desc>")
+            .and_then(|(_, rest)| rest.split_once("</desc>"))
+            .map(|(desc, _)| desc.to_string())
+            .unwrap_or_default()
+    };
+    // On a micro-edge: both neighbours are outlined.
+    let edge = drawable
+        .ray(ray("micro-edge"))
+        .expect("a micromap ray draws");
+    assert_matches_reference(&edge, "ray-micro-edge");
+    let desc = description(&edge);
+    assert!(
+        desc.contains("2 micro-triangles lie within its error bound (outlined): 1, 2"),
+        "{desc}"
+    );
+    // Inside one micro-triangle: that one alone.
+    let unknown = drawable.ray(ray("unknown")).expect("a micromap ray draws");
+    let desc = description(&unknown);
+    assert!(
+        desc.contains("micro-triangle 2 alone lies within its error bound")
+            && desc.contains("u = 0.6, v = 0.2")
+            && desc.contains("Outcome: non-opaque"),
+        "{desc}"
+    );
+    // A special index reads no micromap triangle.
+    let special = match drawable.ray(ray("special index")) {
+        Ok(_) => panic!("a special index has no micromap triangle to draw"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        special.contains("read no micromap triangle (special index)"),
+        "{special}"
+    );
+}
+
+/// `ommcheck trace --draw DIR [--draw-png]` writes one picture per ray that
+/// read a micromap triangle and says on stderr why the others have none.
+#[test]
+fn trace_draw_writes_a_picture_per_micromap_ray() {
+    let scene =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes/trace-4state-quad.json");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/pictures-cli/rays");
+    let _ = std::fs::remove_dir_all(&dir);
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_ommcheck"))
+        .arg("trace")
+        .arg(&scene)
+        .arg("--draw")
+        .arg(&dir)
+        .arg("--draw-png")
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{output:?}");
+    let mut written: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    // Rays 0 to 6 read micromap triangle 0; 7 and 8 a special index, 9 has
+    // micromaps off, 10 misses.
+    let expected: Vec<String> = (0..7)
+        .map(|i| format!("trace-4state-quad-ray{i}.png"))
+        .collect();
+    assert_eq!(written, expected);
+    let png = std::fs::read(dir.join("trace-4state-quad-ray0.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("rays[10] not drawn: ray 10 'miss' read no micromap triangle"),
+        "{stderr}"
+    );
+}

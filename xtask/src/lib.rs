@@ -26,6 +26,8 @@ pub mod features;
 #[cfg(feature = "driver")]
 pub mod fuzz;
 #[cfg(feature = "driver")]
+pub mod fuzz_record;
+#[cfg(feature = "driver")]
 mod host;
 #[cfg(feature = "generate")]
 pub mod khr;

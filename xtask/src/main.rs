@@ -243,29 +243,52 @@ mod driver {
             /// Do not install missing prerequisites; report them.
             #[arg(long)]
             no_install: bool,
-            /// Instead of the suite: the loader end-to-end tests (tests/loader.rs,
-            /// tests/layer_e2e.rs) with the test binaries and the layer built
-            /// with AddressSanitizer (nightly).
+        },
+        /// The tests through the real Vulkan loader (tests/loader.rs,
+        /// tests/layer_e2e.rs, tests/fake_driver.rs) with the test binaries,
+        /// the layer and the fake driver built with AddressSanitizer
+        /// (nightly). Not part of `test`: its build alone takes longer than
+        /// CI can spare (docs/hostile-input.md).
+        Asan {
+            /// Do not install missing prerequisites; report them.
             #[arg(long)]
-            sanitize: bool,
+            no_install: bool,
         },
         /// Fuzz the reader (device and host builds), decoder, simulator and
         /// scene parser with cargo-fuzz (installing nightly and cargo-fuzz where
         /// missing).
         Fuzz {
             /// 25 s per target, as `cargo xtask test` runs it.
-            #[arg(long, conflicts_with_all = ["long", "seconds"])]
+            #[arg(long, conflicts_with_all = ["long", "seconds", "minutes"])]
             smoke: bool,
             /// 10 minutes per target.
-            #[arg(long, conflicts_with = "seconds")]
+            #[arg(long, conflicts_with_all = ["seconds", "minutes"])]
             long: bool,
             /// Seconds per target (default: the smoke run's).
-            #[arg(long)]
+            #[arg(long, conflicts_with = "minutes")]
             seconds: Option<u64>,
-            /// Afterwards, replace fuzz/corpus/<target> with the inputs of it and
-            /// of the run that add coverage.
+            /// Fuzzing that accumulates: N minutes per target from the kept
+            /// corpus, then merge into fuzz/corpus/<target> and record the
+            /// executions in fuzz/executions.tsv and docs/hostile-input.md
+            /// (`--seconds 60N --minimize`).
+            #[arg(long)]
+            minutes: Option<u64>,
+            /// libFuzzer processes per target, side by side (one per core).
+            #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..))]
+            jobs: u16,
+            /// Afterwards, add to fuzz/corpus/<target> the inputs of the run that
+            /// reach new edges (deleting none), and record the run's executions.
             #[arg(long)]
             minimize: bool,
+            /// Take the fuzz binaries from DIR (as `--build-only` leaves them)
+            /// instead of building: no toolchain needed. The corpus and the
+            /// record are those under the current directory, which must be the
+            /// repository's root.
+            #[arg(long, conflicts_with = "build_only")]
+            prebuilt: Option<PathBuf>,
+            /// Only build the fuzz binaries, and print their directory.
+            #[arg(long)]
+            build_only: bool,
             /// Targets to run (default: all).
             targets: Vec<String>,
         },
@@ -352,37 +375,48 @@ mod driver {
                 iterations,
                 prebuilt,
             } => xtask::stress::threads(&root, rounds, iterations, prebuilt.as_deref()),
-            Task::Test {
-                no_install,
-                sanitize: false,
-            } => xtask::testing::run(&root, !no_install),
-            Task::Test {
-                no_install,
-                sanitize: true,
-            } => xtask::testing::sanitize(&root, !no_install),
+            Task::Test { no_install } => xtask::testing::run(&root, !no_install),
+            Task::Asan { no_install } => xtask::testing::sanitize(&root, !no_install),
+            Task::Fuzz {
+                build_only: true, ..
+            } => xtask::fuzz::build(&root).map(|dir| println!("{}", dir.display())),
             Task::Fuzz {
                 smoke: _,
                 long,
                 seconds,
+                minutes,
+                jobs,
                 minimize,
+                prebuilt,
+                build_only: false,
                 targets,
             } => {
-                let seconds = seconds.unwrap_or(if long {
-                    xtask::fuzz::LONG_SECONDS
-                } else {
-                    xtask::fuzz::SMOKE_SECONDS
-                });
+                let seconds = match (minutes, seconds, long) {
+                    (Some(minutes), _, _) => minutes * 60,
+                    (None, Some(seconds), _) => seconds,
+                    (None, None, true) => xtask::fuzz::LONG_SECONDS,
+                    (None, None, false) => xtask::fuzz::SMOKE_SECONDS,
+                };
                 let targets = if targets.is_empty() {
                     xtask::fuzz::TARGETS.map(String::from).to_vec()
                 } else {
                     targets
+                };
+                // Prebuilt binaries are carried to another machine with the
+                // repository, where this build's path does not exist.
+                let root = if prebuilt.is_some() {
+                    std::env::current_dir().unwrap_or(root)
+                } else {
+                    root
                 };
                 xtask::fuzz::run(
                     &root,
                     &xtask::fuzz::Options {
                         seconds,
                         targets,
-                        minimize,
+                        jobs: usize::from(jobs),
+                        minimize: minimize || minutes.is_some(),
+                        prebuilt,
                     },
                 )
                 .map(|_| ())

@@ -11,6 +11,7 @@ use ommcheck::raw::MAX_HOST_BYTES;
 
 use super::DeviceState;
 use crate::read;
+use crate::report::CauseCounts;
 
 /// Where buffers lie in device memory and where memory is mapped.
 #[derive(Debug, Default)]
@@ -22,7 +23,7 @@ pub struct MemoryLayout {
     /// The causes [`crate::report::CONTENTS_NOT_CHECKED`] was reported for
     /// on this device, each with the builds it kept from being checked
     /// (few causes: a list keeps them in the order first reported).
-    not_checked: Vec<(&'static str, u64)>,
+    not_checked: CauseCounts,
 }
 
 impl MemoryLayout {
@@ -54,22 +55,13 @@ impl MemoryLayout {
     /// the cause is reported for what it may keep from being checked but
     /// kept no build from it this time).
     pub fn first_report_of(&mut self, cause: &'static str, builds: u64) -> bool {
-        match self.not_checked.iter_mut().find(|(c, _)| *c == cause) {
-            Some((_, count)) => {
-                *count = count.saturating_add(builds);
-                false
-            }
-            None => {
-                self.not_checked.push((cause, builds));
-                true
-            }
-        }
+        self.not_checked.first_report_of(cause, builds)
     }
 
     /// Each cause of [`Self::first_report`] with the builds it counted, in
     /// the order first reported.
     pub fn not_checked_counts(&self) -> &[(&'static str, u64)] {
-        &self.not_checked
+        self.not_checked.counts()
     }
 
     /// Whether `buffer`'s memory is mapped now.

@@ -60,6 +60,9 @@ pub struct DeviceState {
     /// The next layer's answers (build sizes, compatibility) the checks use, where the
     /// device can be asked (`driver_answers`).
     pub driver_answers: Option<Arc<next_layer_answers::NextLayerAnswers>>,
+    /// The core's `OMMCHECK-not-checked-*` causes said on this device, with
+    /// how many calls each kept from being checked in full.
+    pub core_not_checked: crate::report::CauseCounts,
 }
 
 /// What the layer keeps of a `VkDevice`.

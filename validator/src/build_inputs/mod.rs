@@ -14,7 +14,7 @@ use crate::model::accel::{
 };
 use crate::model::Handle;
 use crate::model::{MicromapBuildInfo, MicromapTriangle, UsageCounts};
-use crate::state::State;
+use crate::state::{HostMemory, State};
 use crate::Bytes;
 use indirect::IndirectRanges;
 
@@ -330,19 +330,17 @@ impl UnplacedReads {
 /// all: `primitiveCount` instances from `data + primitiveOffset`, or as
 /// many pointers there and the instance each non-NULL pointer points to.
 /// Geometries whose instances are not all readable keep None (their rules
-/// are not decided).
+/// are not decided). `host`: the build's addresses are host addresses, in
+/// this memory.
 pub fn read_instances(
     state: &State,
     infos: &mut [BuildGeometryInfo],
     ranges: &[Option<Vec<BuildRangeInfo>>],
-    host: bool,
+    host: Option<HostMemory<'_>>,
 ) {
-    let read = |address: u64, len: u64| {
-        if host {
-            state.read_host(address, len)
-        } else {
-            state.read_device(address, len)
-        }
+    let read = |address: u64, len: u64| match host {
+        Some(host) => host.read(address, len),
+        None => state.read_device(address, len),
     };
     for (i, info) in infos.iter_mut().enumerate() {
         let info_ranges = ranges.get(i).and_then(Option::as_ref);

@@ -735,7 +735,7 @@ fn index_buffer_in_range(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, count
     let len = a.index_stride.checked_mul(count).map(|len| len.max(size));
     let inside = len.is_some_and(|len| state.range_in_one_buffer(a.index_buffer, len));
     if !inside {
-        let available = common::bytes_available(state, false, a.index_buffer).unwrap_or(0);
+        let available = common::bytes_available(state, None, a.index_buffer).unwrap_or(0);
         let held = common::elements_inside(available, size, a.index_stride);
         ctx.error(
             cmd::indexBuffer_11577,
@@ -765,14 +765,15 @@ fn index_buffer_holds_every_index(
     if a.kind == Kind::Khr && command == BuildCommand::Cmd {
         return;
     }
-    let (Some(state), Some(size)) = (ctx.state, index_size(a.index_type)) else {
+    let (Some(state), Some(host), Some(size)) = (ctx.state, ctx.host(), index_size(a.index_type))
+    else {
         return;
     };
     if count == 0 || a.index_buffer == 0 {
         return;
     }
     // An address inside no buffer is the address rules' finding.
-    let host = command == BuildCommand::Host;
+    let host = (command == BuildCommand::Host).then_some(host);
     let Some(available) = common::bytes_available(state, host, a.index_buffer) else {
         return;
     };
@@ -920,11 +921,11 @@ fn index_contents(
         }
         return None;
     };
-    let Some(state) = ctx.contents() else {
+    let (Some(state), Some(host)) = (ctx.contents(), ctx.host()) else {
         return None; // Below the content tier no index is read.
     };
     let bytes = match command {
-        BuildCommand::Host => state.host_bytes_from(a.index_buffer),
+        BuildCommand::Host => host.bytes_from(a.index_buffer),
         _ => state.device_bytes_from(a.index_buffer),
     };
     let not_special_rule: RuleId = match (a.kind, command) {
@@ -1259,8 +1260,9 @@ fn usage_counts_match_indices(
             None => return,
         },
         Some(size) => {
-            let bytes = match command {
-                BuildCommand::Host => state.host_bytes_from(a.index_buffer),
+            let bytes = match (command, ctx.host()) {
+                (BuildCommand::Host, Some(host)) => host.bytes_from(a.index_buffer),
+                (BuildCommand::Host, None) => None,
                 _ => state.device_bytes_from(a.index_buffer),
             };
             let Some(bytes) = bytes else {
@@ -1431,7 +1433,7 @@ fn instances_in_range(
 ) {
     const INSTANCE_SIZE: u64 = 64;
     const POINTER_SIZE: u64 = 8;
-    let Some(state) = ctx.state else {
+    let (Some(state), Some(host)) = (ctx.state, ctx.host()) else {
         return;
     };
     let count = u64::from(range.primitive_count);
@@ -1443,7 +1445,7 @@ fn instances_in_range(
         return;
     };
     // An address inside no buffer is the address rules' finding.
-    let host = command == BuildCommand::Host;
+    let host = (command == BuildCommand::Host).then_some(host);
     let Some(available) = common::bytes_available(state, host, start) else {
         return;
     };

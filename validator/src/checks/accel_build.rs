@@ -37,6 +37,7 @@ use crate::checks::common::{
     self, bytes_available, readable_entries, usage_counts_match_triangles, CleanRun, Tally,
     TriangleHistogram,
 };
+use crate::checks::index_scan::IndexMix;
 use crate::checks::usage_counts::{self, PointerVuids};
 use crate::checks::usage_keys::UsageKeys;
 use crate::checks::{accel_attach, hygiene, serialized, Coverage};
@@ -59,7 +60,8 @@ use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
 use crate::state::{
-    AccelerationStructure, BuildRecord, OpacityAttachmentRecord, State, TriangleGeometryRecord,
+    AccelerationStructure, BuildRecord, HostMemory, HostRange, OpacityAttachmentRecord, State,
+    TriangleGeometryRecord,
 };
 use crate::tier::Tier;
 
@@ -153,35 +155,106 @@ const MICROMAP_SERIALIZATION_ALIGNMENT: u64 = 128;
 
 impl Validator {
     /// `vkCmdBuildAccelerationStructuresKHR(commandBuffer, infoCount, pInfos, ppBuildRangeInfos)`;
-    /// `build_range_infos[i]` is `ppBuildRangeInfos[i]` (None, or missing: NULL).
+    /// `build_range_infos[i]` is `ppBuildRangeInfos[i]` (None, or missing:
+    /// NULL). Its rules ([`Self::cmd_build_acceleration_structures_rules`]),
+    /// then its record ([`Self::record_cmd_build_acceleration_structures`]),
+    /// which here reuses what the rules found in the index buffers they
+    /// read in full instead of reading them again.
     pub fn cmd_build_acceleration_structures(
         &mut self,
         command_buffer: &CommandBuffer,
         infos: &[BuildGeometryInfo],
         build_range_infos: &[Option<Vec<BuildRangeInfo>>],
     ) -> Report {
+        let (report, index_mixes) = self.cmd_build_rules_reading(infos, build_range_infos);
+        self.record_cmd_builds(command_buffer, infos, build_range_infos, &index_mixes);
+        report
+    }
+
+    /// The rules of `vkCmdBuildAccelerationStructuresKHR`; records nothing.
+    pub fn cmd_build_acceleration_structures_rules(
+        &self,
+        command_buffer: &CommandBuffer,
+        infos: &[BuildGeometryInfo],
+        build_range_infos: &[Option<Vec<BuildRangeInfo>>],
+    ) -> Report {
         // No catalog VUID to cite for the command buffer (see the module doc).
         let _ = command_buffer;
+        self.cmd_build_rules_reading(infos, build_range_infos).0
+    }
+
+    /// Records the builds `vkCmdBuildAccelerationStructuresKHR` put in
+    /// `command_buffer`.
+    pub fn record_cmd_build_acceleration_structures(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[BuildGeometryInfo],
+        build_range_infos: &[Option<Vec<BuildRangeInfo>>],
+    ) {
+        self.record_cmd_builds(command_buffer, infos, build_range_infos, &[]);
+    }
+
+    /// The rules of the device build, and the index buffers they read in
+    /// full, for its record.
+    fn cmd_build_rules_reading(
+        &self,
+        infos: &[BuildGeometryInfo],
+        build_range_infos: &[Option<Vec<BuildRangeInfo>>],
+    ) -> (Report, Vec<IndexMix>) {
         let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
         let index_mixes = std::mem::take(&mut ctx.index_mixes);
         crate::report::objects::acceleration_builds(&mut ctx.report, infos);
-        let report = ctx.finish();
-        record_builds(&mut self.state, self.tier, infos, build_range_infos, false);
-        self.record_micromap_geometry_after_checks(infos, build_range_infos, &index_mixes);
+        (ctx.finish(), index_mixes)
+    }
+
+    /// [`Self::record_cmd_build_acceleration_structures`], with what the
+    /// rules found in the index buffers they read (`index_mixes`, which are
+    /// not read again).
+    fn record_cmd_builds(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[BuildGeometryInfo],
+        build_range_infos: &[Option<Vec<BuildRangeInfo>>],
+        index_mixes: &[IndexMix],
+    ) {
+        record_builds(&mut self.state, self.tier, infos, build_range_infos, None);
+        self.record_micromap_geometry_after_checks(infos, build_range_infos, index_mixes);
         self.record_acceleration_structure_builds(
             command_buffer,
             BuildCommand::Cmd.function(),
             infos,
             false,
         );
-        report
     }
 
     /// `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer, infoCount, pInfos,
-    /// pIndirectDeviceAddresses, pIndirectStrides, ppMaxPrimitiveCounts)`.
+    /// pIndirectDeviceAddresses, pIndirectStrides, ppMaxPrimitiveCounts)`:
+    /// its rules ([`Self::cmd_build_acceleration_structures_indirect_rules`]),
+    /// then its record ([`Self::record_cmd_build_acceleration_structures_indirect`]).
     pub fn cmd_build_acceleration_structures_indirect(
         &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[BuildGeometryInfo],
+        indirect_device_addresses: &[u64],
+        indirect_strides: &[u32],
+        max_primitive_counts: &[Option<Vec<u32>>],
+    ) -> Report {
+        let report = self.cmd_build_acceleration_structures_indirect_rules(
+            command_buffer,
+            infos,
+            indirect_device_addresses,
+            indirect_strides,
+            max_primitive_counts,
+        );
+        self.record_cmd_build_acceleration_structures_indirect(command_buffer, infos);
+        report
+    }
+
+    /// The rules of `vkCmdBuildAccelerationStructuresIndirectKHR`; records
+    /// nothing.
+    pub fn cmd_build_acceleration_structures_indirect_rules(
+        &self,
         command_buffer: &CommandBuffer,
         infos: &[BuildGeometryInfo],
         indirect_device_addresses: &[u64],
@@ -191,6 +264,7 @@ impl Validator {
         // The indirect arguments carry no micromap rule, and the command
         // buffer has no catalog VUID (see the module doc).
         let _ = (
+            command_buffer,
             indirect_device_addresses,
             indirect_strides,
             max_primitive_counts,
@@ -198,8 +272,17 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Indirect.function());
         builds(&mut ctx, BuildCommand::Indirect, infos, None);
         crate::report::objects::acceleration_builds(&mut ctx.report, infos);
-        let report = ctx.finish();
-        record_builds(&mut self.state, self.tier, infos, &[], false);
+        ctx.finish()
+    }
+
+    /// Records the builds `vkCmdBuildAccelerationStructuresIndirectKHR`
+    /// put in `command_buffer` (their ranges are the GPU's to read).
+    pub fn record_cmd_build_acceleration_structures_indirect(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[BuildGeometryInfo],
+    ) {
+        record_builds(&mut self.state, self.tier, infos, &[], None);
         // Primitive counts live in device memory: no index buffer is read.
         self.record_micromap_geometry(infos, &[]);
         self.record_acceleration_structure_builds(
@@ -208,25 +291,57 @@ impl Validator {
             infos,
             true,
         );
-        report
     }
 
-    /// `vkBuildAccelerationStructuresKHR(device, deferredOperation, infoCount, pInfos, ppBuildRangeInfos)`.
+    /// `vkBuildAccelerationStructuresKHR(device, deferredOperation, infoCount, pInfos, ppBuildRangeInfos)`:
+    /// its rules ([`Self::build_acceleration_structures_rules`]), then its
+    /// record ([`Self::record_acceleration_structures_built`]), reading the
+    /// host memory the application described.
     pub fn build_acceleration_structures(
         &mut self,
         infos: &[BuildGeometryInfo],
         build_range_infos: &[Option<Vec<BuildRangeInfo>>],
     ) -> Report {
-        let mut ctx = self.ctx(BuildCommand::Host.function());
+        let report = self.build_acceleration_structures_rules(infos, build_range_infos, &[]);
+        self.record_acceleration_structures_built(infos, build_range_infos, &[]);
+        report
+    }
+
+    /// The rules of `vkBuildAccelerationStructuresKHR`, before the call,
+    /// with `read_for_call`, the host memory an adaptor read for it (see
+    /// [`HostMemory`]); records nothing.
+    pub fn build_acceleration_structures_rules(
+        &self,
+        infos: &[BuildGeometryInfo],
+        build_range_infos: &[Option<Vec<BuildRangeInfo>>],
+        read_for_call: &[HostRange],
+    ) -> Report {
+        let mut ctx = self.ctx_reading(BuildCommand::Host.function(), read_for_call);
         builds(&mut ctx, BuildCommand::Host, infos, Some(build_range_infos));
         crate::report::objects::acceleration_builds(&mut ctx.report, infos);
-        let report = ctx.finish();
-        record_builds(&mut self.state, self.tier, infos, build_range_infos, true);
-        self.record_micromap_geometry(infos, build_range_infos);
+        ctx.finish()
+    }
+
+    /// Records what `vkBuildAccelerationStructuresKHR` built, reading its
+    /// inputs in the host memory the application described and
+    /// `read_for_call` (as its rules did).
+    pub fn record_acceleration_structures_built(
+        &mut self,
+        infos: &[BuildGeometryInfo],
+        build_range_infos: &[Option<Vec<BuildRangeInfo>>],
+        read_for_call: &[HostRange],
+    ) {
+        record_builds(
+            &mut self.state,
+            self.tier,
+            infos,
+            build_range_infos,
+            Some(read_for_call),
+        );
+        self.record_micromap_geometry_reading(infos, build_range_infos, &[], read_for_call);
         for info in infos {
             self.constructed_on_host(info.dst_acceleration_structure, 0);
         }
-        report
     }
 
     /// `vkGetAccelerationStructureBuildSizesKHR(device, buildType, pBuildInfo,
@@ -422,13 +537,26 @@ impl Validator {
     }
 
     /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`. Its one
-    /// micromap rule is not decidable; the copy's effect is recorded.
+    /// micromap rule is not decidable, so its rules report nothing; the
+    /// copy's effect is recorded
+    /// ([`Self::record_cmd_copy_acceleration_structure`]).
     pub fn cmd_copy_acceleration_structure(
         &mut self,
         command_buffer: &CommandBuffer,
         info: &CopyAccelerationStructureInfo,
     ) -> Report {
         let report = self.ctx("vkCmdCopyAccelerationStructureKHR").finish();
+        self.record_cmd_copy_acceleration_structure(command_buffer, info);
+        report
+    }
+
+    /// Records the copy `vkCmdCopyAccelerationStructureKHR` put in
+    /// `command_buffer`.
+    pub fn record_cmd_copy_acceleration_structure(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: &CopyAccelerationStructureInfo,
+    ) {
         record_copy(&mut self.state, info);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
@@ -436,20 +564,26 @@ impl Validator {
             "vkCmdCopyAccelerationStructureKHR",
             [construct],
         );
-        report
     }
 
     /// `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`, as
-    /// [`Self::cmd_copy_acceleration_structure`] on the host.
+    /// [`Self::cmd_copy_acceleration_structure`] on the host (its record:
+    /// [`Self::record_copy_acceleration_structure`]).
     pub fn copy_acceleration_structure(&mut self, info: &CopyAccelerationStructureInfo) -> Report {
         let report = self.ctx("vkCopyAccelerationStructureKHR").finish();
-        record_copy(&mut self.state, info);
-        self.constructed_on_host(info.dst, 0);
+        self.record_copy_acceleration_structure(info);
         report
     }
 
+    /// Records the copy `vkCopyAccelerationStructureKHR` made.
+    pub fn record_copy_acceleration_structure(&mut self, info: &CopyAccelerationStructureInfo) {
+        record_copy(&mut self.state, info);
+        self.constructed_on_host(info.dst, 0);
+    }
+
     /// `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`:
-    /// serializing an opacity micromap needs 128-byte alignment.
+    /// serializing an opacity micromap needs 128-byte alignment. It
+    /// changes nothing the checker tracks: its rules are the whole call.
     pub fn cmd_copy_acceleration_structure_to_memory(
         &mut self,
         command_buffer: &CommandBuffer,
@@ -478,12 +612,28 @@ impl Validator {
     /// blocks of a bottom-level serialized header are checked where its
     /// contents are known (see `serialized`); what the destination holds
     /// afterwards is whatever was serialized, so its recorded build is
-    /// forgotten.
+    /// forgotten. Its rules
+    /// ([`Self::cmd_copy_memory_to_acceleration_structure_rules`]), then its
+    /// record ([`Self::record_cmd_copy_memory_to_acceleration_structure`]).
     pub fn cmd_copy_memory_to_acceleration_structure(
         &mut self,
         command_buffer: &CommandBuffer,
         info: &CopyMemoryToAccelerationStructureInfo,
     ) -> Report {
+        let report = self.cmd_copy_memory_to_acceleration_structure_rules(command_buffer, info);
+        self.record_cmd_copy_memory_to_acceleration_structure(command_buffer, info);
+        report
+    }
+
+    /// The rules of `vkCmdCopyMemoryToAccelerationStructureKHR`; records
+    /// nothing.
+    pub fn cmd_copy_memory_to_acceleration_structure_rules(
+        &self,
+        command_buffer: &CommandBuffer,
+        info: &CopyMemoryToAccelerationStructureInfo,
+    ) -> Report {
+        // No catalog VUID to cite for the command buffer (see the module doc).
+        let _ = command_buffer;
         let mut ctx = self.ctx("vkCmdCopyMemoryToAccelerationStructureKHR");
         // Only an opacity micromap deserializes into a structure created as
         // one, so the destination's creation type tells what src holds.
@@ -501,7 +651,17 @@ impl Validator {
             );
         }
         serialized::check(&mut ctx, false, info);
-        let report = ctx.finish();
+        ctx.finish()
+    }
+
+    /// Records the deserialization `vkCmdCopyMemoryToAccelerationStructureKHR`
+    /// put in `command_buffer`: the destination's recorded build is
+    /// forgotten.
+    pub fn record_cmd_copy_memory_to_acceleration_structure(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: &CopyMemoryToAccelerationStructureInfo,
+    ) {
         forget_deserialized(&mut self.state, info);
         let construct = ExecEvent::Construct { object: info.dst };
         self.record_execution(
@@ -509,7 +669,6 @@ impl Validator {
             "vkCmdCopyMemoryToAccelerationStructureKHR",
             [construct],
         );
-        report
     }
 
     /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`:
@@ -527,16 +686,38 @@ impl Validator {
     /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`:
     /// the host deserialization, whose serialized header is host memory
     /// (11583, 11584, 11585); what the destination holds afterwards is
-    /// whatever was serialized, so its recorded build is forgotten.
+    /// whatever was serialized, so its recorded build is forgotten. The
+    /// rules ([`Self::copy_memory_to_acceleration_structure_rules`]), then
+    /// the record ([`Self::record_copy_memory_to_acceleration_structure`]).
     pub fn copy_memory_to_acceleration_structure(
         &mut self,
         info: &CopyMemoryToAccelerationStructureInfo,
     ) -> Report {
-        let mut ctx = self.ctx("vkCopyMemoryToAccelerationStructureKHR");
-        serialized::check(&mut ctx, true, info);
-        let report = ctx.finish();
-        forget_deserialized(&mut self.state, info);
+        let report = self.copy_memory_to_acceleration_structure_rules(info, &[]);
+        self.record_copy_memory_to_acceleration_structure(info);
         report
+    }
+
+    /// The rules of `vkCopyMemoryToAccelerationStructureKHR`, before the
+    /// call, with `read_for_call`, the host memory an adaptor read for it
+    /// (see [`HostMemory`]); records nothing.
+    pub fn copy_memory_to_acceleration_structure_rules(
+        &self,
+        info: &CopyMemoryToAccelerationStructureInfo,
+        read_for_call: &[HostRange],
+    ) -> Report {
+        let mut ctx = self.ctx_reading("vkCopyMemoryToAccelerationStructureKHR", read_for_call);
+        serialized::check(&mut ctx, true, info);
+        ctx.finish()
+    }
+
+    /// Forgets the build of the structure `vkCopyMemoryToAccelerationStructureKHR`
+    /// deserialized into.
+    pub fn record_copy_memory_to_acceleration_structure(
+        &mut self,
+        info: &CopyMemoryToAccelerationStructureInfo,
+    ) {
+        forget_deserialized(&mut self.state, info);
     }
 
     /// `vkWriteAccelerationStructuresPropertiesKHR(device,
@@ -595,7 +776,8 @@ fn record_copy(state: &mut State, info: &CopyAccelerationStructureInfo) {
 /// micromap build's content (its triangle array as read, its data shared
 /// with the memory holding it), and a bottom-level build's triangles
 /// geometries with their build ranges, for the simulator. `host`: the
-/// addresses are host addresses.
+/// addresses are host addresses, and this is what an adaptor read of host
+/// memory for the call (see [`HostMemory`]).
 /// Contents (the micromap's triangles and data) are recorded only from the
 /// content tier up: below it nothing is decoded, so a build costs the same
 /// whatever its size.
@@ -604,7 +786,7 @@ fn record_builds(
     tier: Tier,
     infos: &[BuildGeometryInfo],
     ranges: &[Option<Vec<BuildRangeInfo>>],
-    host: bool,
+    host: Option<&[HostRange]>,
 ) {
     accel_attach::record_original_attachments(state, infos);
     for (i, info) in infos.iter().enumerate() {
@@ -619,7 +801,10 @@ fn record_builds(
             .geometries_read()
             .find_map(|(_, g)| g.micromap.as_ref())
             .filter(|_| tier >= Tier::Content)
-            .and_then(|data| micromap_content(state, host, data))
+            .and_then(|data| {
+                let host = host.map(|read_for_call| state.host_memory(read_for_call));
+                micromap_content(state, host, data)
+            })
             .map(Arc::new);
         let geometries = info
             .geometries_read()
@@ -637,7 +822,7 @@ fn record_builds(
                 triangle_count: micromap_triangle_count(info),
                 content,
                 geometries,
-                host,
+                host: host.is_some(),
             });
         }
     }
@@ -648,7 +833,7 @@ fn record_builds(
 /// 11646/11647 report it) and its data, shared.
 pub(crate) fn micromap_content(
     state: &State,
-    host: bool,
+    host: Option<HostMemory<'_>>,
     data: &GeometryMicromapData,
 ) -> Option<MicromapContent> {
     let total = data.usage_counts.total();
@@ -1249,7 +1434,7 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
         cmd::micromap_11554,
         || format!("{at}.triangleArray"),
         || {
-            let available = bytes_available(state, false, start).unwrap_or(0);
+            let available = bytes_available(state, None, start).unwrap_or(0);
             let inside = readable_entries(available, data.triangle_array_stride).min(total);
             format!(
                 "{} at stride {} ({len} bytes from {start:#x}) {} past the end of the buffer it lies in, {available} bytes from there ({} inside: {})",
@@ -1263,21 +1448,29 @@ fn triangle_array_in_buffer(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMi
     );
 }
 
-/// The memory holding `address`, shared, and the offset of `address` in it.
-fn contents_from(state: &State, host: bool, address: u64) -> Option<(Bytes, usize)> {
-    if host {
-        state.host_contents_from(address)
-    } else {
-        state.device_contents_from(address)
+/// The memory holding `address`, shared, and the offset of `address` in
+/// it: in `host` memory where given, else in the tracked buffers.
+fn contents_from(
+    state: &State,
+    host: Option<HostMemory<'_>>,
+    address: u64,
+) -> Option<(Bytes, usize)> {
+    match host {
+        Some(host) => host.contents_from(address),
+        None => state.device_contents_from(address),
     }
 }
 
-/// The bytes from `address` to the end of the memory holding it.
-fn bytes_from(state: &State, host: bool, address: u64) -> Option<&[u8]> {
-    if host {
-        state.host_bytes_from(address)
-    } else {
-        state.device_bytes_from(address)
+/// The bytes from `address` to the end of the memory holding it, in `host`
+/// memory where given, else in the tracked buffers.
+fn bytes_from<'a>(
+    state: &'a State,
+    host: Option<HostMemory<'a>>,
+    address: u64,
+) -> Option<&'a [u8]> {
+    match host {
+        Some(host) => host.bytes_from(address),
+        None => state.device_bytes_from(address),
     }
 }
 
@@ -1307,7 +1500,7 @@ impl TriangleArrayCheck {
         if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
             return;
         }
-        let host = self.command.reads_host_memory();
+        let host = ctx.host().filter(|_| self.command.reads_host_memory());
         let data_available = bytes_available(state, host, data.data);
         let data_rule: RuleId = if self.command == BuildCommand::Cmd {
             cmd::micromap_11553.into()
@@ -1320,7 +1513,7 @@ impl TriangleArrayCheck {
             skipped.push(data_rule);
             common::unreadable(
                 ctx,
-                host,
+                host.is_some(),
                 data.triangle_array,
                 &skipped,
                 format_args!("{}.triangleArray", self.at),
@@ -1333,7 +1526,7 @@ impl TriangleArrayCheck {
         } else {
             common::unreadable(
                 ctx,
-                host,
+                host.is_some(),
                 data.data,
                 &[data_rule],
                 format_args!("{}.data", self.at),
@@ -1579,5 +1772,53 @@ mod tests {
         assert!(!v.state().acceleration_structures.contains_key(&10));
         v.record_acceleration_structure2_created(&opacity, 10);
         assert!(v.state().acceleration_structures[&10].created_with_2);
+    }
+
+    /// A host build's and a host deserialization's rules record nothing
+    /// (run twice, they report the same), and their records alone make of
+    /// the state what the whole calls do.
+    #[test]
+    fn host_builds_and_deserializations_are_rules_then_record() {
+        let mut v = Validator::new(Device::default());
+        let create = AccelerationStructureCreateInfo {
+            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+            size: 256,
+            ..Default::default()
+        };
+        v.create_acceleration_structure(&create, 9);
+        let tracked = |v: &Validator| format!("{:?}", v.state());
+        let infos = [BuildGeometryInfo {
+            ty: ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL,
+            dst_acceleration_structure: 9,
+            ..Default::default()
+        }];
+        let ranges = [Some(Vec::new())];
+        let before = tracked(&v);
+        let rules = v.build_acceleration_structures_rules(&infos, &ranges, &[]);
+        assert_eq!(tracked(&v), before);
+        assert_eq!(
+            v.build_acceleration_structures_rules(&infos, &ranges, &[]),
+            rules
+        );
+        let mut whole = v.clone();
+        assert_eq!(whole.build_acceleration_structures(&infos, &ranges), rules);
+        v.record_acceleration_structures_built(&infos, &ranges, &[]);
+        assert!(v.state().acceleration_structures[&9].built.is_some());
+        assert_eq!(tracked(&v), tracked(&whole));
+
+        let deserialize = CopyMemoryToAccelerationStructureInfo {
+            dst: 9,
+            ..Default::default()
+        };
+        let before = tracked(&v);
+        let rules = v.copy_memory_to_acceleration_structure_rules(&deserialize, &[]);
+        assert_eq!(tracked(&v), before);
+        assert_eq!(
+            whole.copy_memory_to_acceleration_structure(&deserialize),
+            rules
+        );
+        v.record_copy_memory_to_acceleration_structure(&deserialize);
+        assert!(v.state().acceleration_structures[&9].built.is_none());
+        assert_eq!(tracked(&v), tracked(&whole));
     }
 }

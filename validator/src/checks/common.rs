@@ -16,7 +16,7 @@ use crate::report::count as count_of;
 use crate::report::not_checked::Cause;
 use crate::report::{ObjectRef, RuleId, Severity};
 use crate::rules;
-use crate::state::State;
+use crate::state::{HostMemory, State};
 
 /// The implicit command-buffer VUIDs of one `vkCmd*` command.
 pub(crate) struct CommandBufferVuids {
@@ -302,9 +302,14 @@ pub(crate) fn readable_entries(len: u64, stride: u64) -> u64 {
 /// How many bytes from `address` on lie inside the buffer (or described host
 /// memory) holding it, whether or not the checker can read them; known from
 /// the state tier up.
-pub(crate) fn bytes_available(state: &State, host: bool, address: u64) -> Option<u64> {
-    if host {
-        return state.host_bytes_from(address).map(|b| b.len() as u64);
+/// `host`: the host memory the address points into (None: device memory).
+pub(crate) fn bytes_available(
+    state: &State,
+    host: Option<HostMemory<'_>>,
+    address: u64,
+) -> Option<u64> {
+    if let Some(host) = host {
+        return host.bytes_from(address).map(|b| b.len() as u64);
     }
     state
         .buffers_at(address)
@@ -346,14 +351,14 @@ pub(crate) fn unreadable(
     rules: &[RuleId],
     location: impl Display,
 ) {
-    let Some(state) = ctx.state else {
+    let (Some(state), Some(host_memory)) = (ctx.state, ctx.host()) else {
         return;
     };
     if address == 0 {
         return;
     }
     if host {
-        if state.describes_all_host_memory() && state.host_bytes_from(address).is_none() {
+        if host_memory.describes_all() && host_memory.bytes_from(address).is_none() {
             return;
         }
         ctx.not_checked(
@@ -670,7 +675,7 @@ pub(crate) fn triangle_array_holds_every_entry(
     counts: &UsageCounts,
     names: FormatKind,
 ) {
-    let Some(state) = ctx.state else {
+    let (Some(state), Some(host_memory)) = (ctx.state, ctx.host()) else {
         return;
     };
     let total = counts.total();
@@ -678,7 +683,7 @@ pub(crate) fn triangle_array_holds_every_entry(
         return;
     }
     // An address inside no buffer is the address rules' finding.
-    let Some(available) = bytes_available(state, host, address) else {
+    let Some(available) = bytes_available(state, host.then_some(host_memory), address) else {
         return;
     };
     let inside = readable_entries(available, stride);

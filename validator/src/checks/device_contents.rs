@@ -18,11 +18,11 @@ use crate::model::CommandBuffer;
 use crate::model::Handle;
 use crate::report::Report;
 use crate::sim::decode::MicromapContent;
+use crate::tier::Tier;
 
 impl Validator {
     /// The rules of a recorded device build against the state as it is,
-    /// without recording anything; with each micromap info's content as far
-    /// as it could be read.
+    /// without recording anything.
     /// `name_unread`: device memory still unreadable is reported as not
     /// checked (else it is the adaptor's to report).
     fn device_build_rules(
@@ -30,19 +30,12 @@ impl Validator {
         command_buffer: &CommandBuffer,
         build: &DeviceBuild,
         name_unread: bool,
-    ) -> (Report, Vec<Option<MicromapContent>>) {
+    ) -> Report {
         let mut ctx = self.ctx(build.function());
         ctx.device_contents_later = !name_unread;
-        let contents = match build {
+        match build {
             DeviceBuild::Micromaps(infos) => {
-                // The triangle counts were recorded with the builds.
-                let mut triangle_counts = Vec::new();
-                micromap_build::cmd_build_micromaps_rules(
-                    &mut ctx,
-                    command_buffer,
-                    infos,
-                    &mut triangle_counts,
-                )
+                micromap_build::cmd_build_micromaps_rules(&mut ctx, command_buffer, infos)
             }
             DeviceBuild::AccelerationStructures {
                 infos,
@@ -55,10 +48,9 @@ impl Validator {
                 let known = !indirect || ranges.iter().any(Option::is_some);
                 let ranges = known.then_some(ranges.as_slice());
                 accel_build::builds(&mut ctx, DeviceBuild::command(*indirect), infos, ranges);
-                Vec::new()
             }
-        };
-        (ctx.finish(), contents)
+        }
+        ctx.finish()
     }
 
     /// Checks what a recorded device build reads, now that `contents` (a
@@ -153,7 +145,7 @@ impl Validator {
                 indirect_ranges,
             } if reads_instances => {
                 let mut infos = infos.clone();
-                read_instances(&self.state, &mut infos, ranges, false);
+                read_instances(&self.state, &mut infos, ranges, None);
                 with_instances = DeviceBuild::AccelerationStructures {
                     infos,
                     ranges: ranges.clone(),
@@ -164,8 +156,8 @@ impl Validator {
             }
             _ => build,
         };
-        let (with, micromap_contents) = self.device_build_rules(command_buffer, build, name_unread);
-        let built = self.built_contents(build, micromap_contents);
+        let with = self.device_build_rules(command_buffer, build, name_unread);
+        let built = self.built_contents(build);
         // Restored in reverse, so a buffer named twice gets its first value back.
         for (handle, old, old_offset) in previous.into_iter().rev() {
             if let Some(mut buffer) = self.state.buffers.get_mut(&handle) {
@@ -180,7 +172,7 @@ impl Validator {
         let findings = if with.findings.is_empty() {
             with.findings
         } else {
-            let (without, _) = self.device_build_rules(command_buffer, recorded, false);
+            let without = self.device_build_rules(command_buffer, recorded, false);
             with.findings
                 .into_iter()
                 .filter(|finding| !without.findings.contains(finding))
@@ -197,16 +189,16 @@ impl Validator {
     /// The content of each destination the build made, where it could be
     /// read from the contents known now: by micromap or acceleration
     /// structure handle.
-    fn built_contents(
-        &self,
-        build: &DeviceBuild,
-        micromap_contents: Vec<Option<MicromapContent>>,
-    ) -> Vec<(Built, MicromapContent)> {
+    fn built_contents(&self, build: &DeviceBuild) -> Vec<(Built, MicromapContent)> {
         match build {
+            // Below the content tier a build's record keeps no content.
+            DeviceBuild::Micromaps(_) if self.tier < Tier::Content => Vec::new(),
             DeviceBuild::Micromaps(infos) => infos
                 .iter()
-                .zip(micromap_contents)
-                .filter_map(|(info, content)| Some((Built::Micromap(info.dst_micromap), content?)))
+                .filter_map(|info| {
+                    let content = micromap_build::built_content(&self.state, None, info)?;
+                    Some((Built::Micromap(info.dst_micromap), content))
+                })
                 .collect(),
             DeviceBuild::AccelerationStructures { infos, .. } => infos
                 .iter()
@@ -216,7 +208,7 @@ impl Validator {
                         .1
                         .iter()
                         .find_map(|(_, g)| g.micromap.as_ref())
-                        .and_then(|data| accel_build::micromap_content(&self.state, false, data))?;
+                        .and_then(|data| accel_build::micromap_content(&self.state, None, data))?;
                     Some((Built::Structure(info.dst_acceleration_structure), content))
                 })
                 .collect(),
@@ -522,7 +514,7 @@ pub(crate) mod tests {
             validator.check_device_build_contents(&cb, &build, known(7, 0, indices([0, 1])));
         assert!(valid.findings.is_empty(), "{valid:#?}");
         // The fault is there: the rules report it where nothing filters it.
-        let (all, _) = validator.device_build_rules(&cb, &build, false);
+        let all = validator.device_build_rules(&cb, &build, false);
         assert!(
             all.findings.iter().any(|f| f.rule.as_str()
                 == "VUID-VkAccelerationStructureTrianglesOpacityMicromapEXT-pUsageCounts-07335"),

@@ -199,7 +199,7 @@ pub(crate) fn serialized_size_fits(
     info: &CopyMicromapToMemoryInfo,
     host_address: bool,
 ) {
-    let Some(state) = ctx.state else {
+    let (Some(state), Some(host)) = (ctx.state, ctx.host()) else {
         return;
     };
     let Some(size) = state.driver.serialization_size(info.src) else {
@@ -207,7 +207,7 @@ pub(crate) fn serialized_size_fits(
     };
     let dst = info.dst;
     let room = if host_address {
-        state.host_bytes_from(dst).map(|bytes| bytes.len() as u64)
+        host.bytes_from(dst).map(|bytes| bytes.len() as u64)
     } else {
         state
             .buffers_at(dst)
@@ -240,14 +240,14 @@ pub(crate) fn serialized_size_fits(
 /// Decided where those bytes are known (described host memory, stated
 /// buffer contents) and the driver answered for them.
 pub(crate) fn compatible_source(ctx: &mut Ctx<'_>, info: &CopyMemoryToMicromapInfo, host: bool) {
-    let Some(state) = ctx.state else {
+    let (Some(state), Some(host_memory)) = (ctx.state, ctx.host()) else {
         return;
     };
     if !ctx.contents || !state.driver.any_compatibility() || info.src == 0 {
         return;
     }
     let bytes = if host {
-        state.host_bytes_from(info.src)
+        host_memory.bytes_from(info.src)
     } else {
         state.device_bytes_from(info.src)
     };
@@ -304,15 +304,15 @@ fn host_scratch_range(
     info: &MicromapBuildInfo,
     sizes: MicromapBuildSizes,
 ) {
-    let Some(state) = ctx.state else {
+    let Some(host) = ctx.host() else {
         return;
     };
     let (start, len) = (info.scratch_data, sizes.build_scratch_size);
-    if start == 0 || len == 0 || !state.describes_all_host_memory() {
+    if start == 0 || len == 0 || !host.describes_all() {
         return;
     }
     ctx.require(
-        state.read_host(start, len).is_some(),
+        host.read(start, len).is_some(),
         host::pInfos_07556,
         || format!("pInfos[{i}].scratchData.hostAddress"),
         || {

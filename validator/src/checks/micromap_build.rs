@@ -27,7 +27,8 @@ use crate::report::location::Locate;
 use crate::report::{Report, RuleId};
 use crate::rules;
 use crate::sim::decode::{MicromapContent, TriangleEntries};
-use crate::state::BuildRecord;
+use crate::state::{BuildRecord, HostMemory, HostRange, State};
+use crate::tier::Tier;
 
 pub const COVERAGE: Coverage = Coverage {
     module: "micromap_build",
@@ -102,42 +103,77 @@ pub(crate) enum Side {
 }
 
 impl Validator {
-    /// `vkCmdBuildMicromapsEXT(commandBuffer, infoCount, pInfos)`.
+    /// `vkCmdBuildMicromapsEXT(commandBuffer, infoCount, pInfos)`: its rules
+    /// ([`Self::cmd_build_micromaps_rules`]), then its record
+    /// ([`Self::record_cmd_build_micromaps`]).
     pub fn cmd_build_micromaps(
         &mut self,
         command_buffer: &CommandBuffer,
         infos: &[MicromapBuildInfo],
     ) -> Report {
-        let mut triangle_counts = std::mem::take(&mut self.spare_triangle_counts);
+        let report = self.cmd_build_micromaps_rules(command_buffer, infos);
+        self.record_cmd_build_micromaps(command_buffer, infos);
+        report
+    }
+
+    /// The rules of `vkCmdBuildMicromapsEXT`; records nothing.
+    pub fn cmd_build_micromaps_rules(
+        &self,
+        command_buffer: &CommandBuffer,
+        infos: &[MicromapBuildInfo],
+    ) -> Report {
         let mut ctx = self.ctx("vkCmdBuildMicromapsEXT");
-        let contents =
-            cmd_build_micromaps_rules(&mut ctx, command_buffer, infos, &mut triangle_counts);
+        cmd_build_micromaps_rules(&mut ctx, command_buffer, infos);
         crate::report::objects::micromap_builds(&mut ctx.report, infos);
-        let report = ctx.finish();
-        self.record_builds(infos, contents, &triangle_counts);
-        self.spare_triangle_counts = triangle_counts;
+        ctx.finish()
+    }
+
+    /// Records the builds `vkCmdBuildMicromapsEXT` put in `command_buffer`:
+    /// what each makes of its destination, as far as the tracked buffers'
+    /// contents tell now.
+    pub fn record_cmd_build_micromaps(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        infos: &[MicromapBuildInfo],
+    ) {
+        self.record_builds(infos, None);
         let constructs = infos
             .iter()
             .map(|info| crate::state::execution::ExecEvent::Construct {
                 object: info.dst_micromap,
             });
         self.record_execution(command_buffer, "vkCmdBuildMicromapsEXT", constructs);
-        report
     }
 
     /// `vkBuildMicromapsEXT(device, deferredOperation, infoCount, pInfos)`: a
     /// build on the host; every address is a host address. A non-NULL
     /// `deferred_operation` is taken to be running the build until
-    /// [`Validator::deferred_operation_completed`] says otherwise.
+    /// [`Validator::deferred_operation_completed`] says otherwise. Its rules
+    /// ([`Self::build_micromaps_rules`]), then its record
+    /// ([`Self::record_micromaps_built`]), reading the host memory the
+    /// application described.
     pub fn build_micromaps(
         &mut self,
         device: Handle,
         deferred_operation: Handle,
         infos: &[MicromapBuildInfo],
     ) -> Report {
-        // Each info's triangle count, kept in the list the last build left.
-        let mut triangle_counts = std::mem::take(&mut self.spare_triangle_counts);
-        let mut ctx = self.ctx("vkBuildMicromapsEXT");
+        let report = self.build_micromaps_rules(device, deferred_operation, infos, &[]);
+        self.record_micromaps_built(deferred_operation, infos, &[]);
+        report
+    }
+
+    /// The rules of `vkBuildMicromapsEXT`, before the call, with
+    /// `read_for_call`, the host memory an adaptor read for it (see
+    /// [`crate::state::HostMemory`]); records nothing.
+    pub fn build_micromaps_rules(
+        &self,
+        device: Handle,
+        deferred_operation: Handle,
+        infos: &[MicromapBuildInfo],
+        read_for_call: &[HostRange],
+    ) -> Report {
+        let mut ctx = self.ctx_reading("vkBuildMicromapsEXT", read_for_call);
         common::device_handle(&mut ctx, device, host::device_parameter);
         common::deferred_operation(
             &mut ctx,
@@ -160,17 +196,9 @@ impl Validator {
             String::new,
             || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromapHostCommands feature is not enabled".into(),
         );
-        let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
-        triangle_counts.clear();
         for (i, info) in infos.iter().enumerate() {
             let at = "pInfos".index(i);
-            let mut triangles = 0;
-            let content = build_info(&mut ctx, at, info, Side::Host, &mut triangles);
-            triangle_counts.push(triangles);
-            // Below the content tier nothing is read (None): no list is kept.
-            if ctx.contents {
-                contents.push(content);
-            }
+            build_info(&mut ctx, at, info, Side::Host);
             ctx.require(
                 info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
                 host::mode_07462,
@@ -211,9 +239,8 @@ impl Validator {
                 // memory, or outside all of it; otherwise the triangle-array
                 // check says it was not checked (from the content tier on).
                 if needed
-                    && ctx.state.is_some_and(|state| {
-                        state.describes_all_host_memory()
-                            || state.host_bytes_from(address).is_some()
+                    && ctx.host().is_some_and(|host| {
+                        host.describes_all() || host.bytes_from(address).is_some()
                     })
                 {
                     ctx.checked(&[vuid.into()]);
@@ -225,9 +252,8 @@ impl Validator {
                         "the host address is NULL, but the build has triangles",
                     );
                 } else if needed
-                    && ctx.state.is_some_and(|state| {
-                        state.describes_all_host_memory()
-                            && state.host_bytes_from(address).is_none()
+                    && ctx.host().is_some_and(|host| {
+                        host.describes_all() && host.bytes_from(address).is_none()
                     })
                 {
                     ctx.error(
@@ -254,34 +280,43 @@ impl Validator {
         crate::checks::driver_sizes::build_sizes(&mut ctx, infos, Side::Host);
         crate::checks::driver_sizes::host_scratch_overlaps(&mut ctx, infos);
         crate::report::objects::micromap_builds(&mut ctx.report, infos);
-        let report = ctx.finish();
-        self.record_builds(infos, contents, &triangle_counts);
-        self.spare_triangle_counts = triangle_counts;
+        ctx.finish()
+    }
+
+    /// Records what `vkBuildMicromapsEXT` built (or, deferred, is
+    /// building), reading its inputs in the host memory the application
+    /// described and `read_for_call` (as its rules did).
+    pub fn record_micromaps_built(
+        &mut self,
+        deferred_operation: Handle,
+        infos: &[MicromapBuildInfo],
+        read_for_call: &[HostRange],
+    ) {
+        self.record_builds(infos, Some(read_for_call));
         self.defer(deferred_operation);
         for info in infos {
             self.constructed_on_host(info.dst_micromap, deferred_operation);
         }
-        report
     }
 
-    /// Remembers what each build made of its destination micromap, with
-    /// the content `build_info` read for it (`contents[i]` for `infos[i]`)
-    /// and its triangle count (`triangle_counts[i]`).
-    fn record_builds(
-        &mut self,
-        infos: &[MicromapBuildInfo],
-        contents: Vec<Option<MicromapContent>>,
-        triangle_counts: &[u64],
-    ) {
-        let mut contents = contents.into_iter();
-        for (info, &triangle_count) in infos.iter().zip(triangle_counts) {
-            let content = contents.next().flatten();
+    /// Remembers what each build made of its destination micromap: its
+    /// triangle count and (from the content tier up) its content as far as
+    /// the memory it reads is known. `host`: a host build, with the host
+    /// memory read for the call.
+    fn record_builds(&mut self, infos: &[MicromapBuildInfo], host: Option<&[HostRange]>) {
+        for info in infos {
+            let content = (self.tier >= Tier::Content)
+                .then(|| {
+                    let host = host.map(|read_for_call| self.state.host_memory(read_for_call));
+                    built_content(&self.state, host, info)
+                })
+                .flatten();
             self.state.driver.forget_micromap(info.dst_micromap);
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
                 micromap.built = Some(BuildRecord {
                     flags: info.flags,
                     ty: info.ty,
-                    triangle_count,
+                    triangle_count: info.usage_counts.total(),
                     content: content.map(Arc::new),
                     ..Default::default()
                 });
@@ -290,15 +325,12 @@ impl Validator {
     }
 }
 
-/// The rules of `vkCmdBuildMicromapsEXT` (without recording the builds);
-/// returns each info's content as far as the checker could read it, and
-/// puts each info's triangle count in `triangle_counts` (cleared first).
+/// The rules of `vkCmdBuildMicromapsEXT` (without recording the builds).
 pub(crate) fn cmd_build_micromaps_rules(
     ctx: &mut Ctx<'_>,
     command_buffer: &CommandBuffer,
     infos: &[MicromapBuildInfo],
-    triangle_counts: &mut Vec<u64>,
-) -> Vec<Option<MicromapContent>> {
+) {
     common::command_buffer(
         ctx,
         command_buffer,
@@ -323,17 +355,9 @@ pub(crate) fn cmd_build_micromaps_rules(
         String::new,
         || "the VkPhysicalDeviceOpacityMicromapFeaturesEXT::micromap feature is not enabled".into(),
     );
-    let mut contents = Vec::with_capacity(if ctx.contents { infos.len() } else { 0 });
-    triangle_counts.clear();
     for (i, info) in infos.iter().enumerate() {
         let at = "pInfos".index(i);
-        let mut triangles = 0;
-        let content = build_info(ctx, at, info, Side::Device, &mut triangles);
-        triangle_counts.push(triangles);
-        // Below the content tier nothing is read (None): no list is kept.
-        if ctx.contents {
-            contents.push(content);
-        }
+        build_info(ctx, at, info, Side::Device);
         ctx.require(
             info.mode == BUILD_MICROMAP_MODE_BUILD_EXT,
             cmd::mode_07462,
@@ -424,7 +448,6 @@ pub(crate) fn cmd_build_micromaps_rules(
     }
     overlaps(ctx, infos, Side::Device);
     crate::checks::driver_sizes::build_sizes(ctx, infos, Side::Device);
-    contents
 }
 
 /// Looks up `dstMicromap` (07463) and checks the build type matches its
@@ -580,17 +603,13 @@ fn overlaps(ctx: &mut Ctx<'_>, infos: &[MicromapBuildInfo], side: Side) {
 }
 
 /// `VkMicromapBuildInfoEXT` itself, the usage counts, and (when the checker
-/// can read them) the triangle array's entries, which it returns with the
-/// data for the build's record. Puts the sum of the usage counts, which the
-/// pass over them works out on the way, in `triangles` (an out-parameter
-/// rather than a pair: returning the pair copied the content per call).
+/// can read them) the triangle array's entries.
 pub(crate) fn build_info(
     ctx: &mut Ctx<'_>,
     at: impl Display + Copy,
     info: &MicromapBuildInfo,
     side: Side,
-    triangles: &mut u64,
-) -> Option<MicromapContent> {
+) {
     ctx.require(
         info.s_type == STRUCTURE_TYPE_MICROMAP_BUILD_INFO_EXT,
         info_vuid::sType_sType,
@@ -636,8 +655,7 @@ pub(crate) fn build_info(
     usage_counts::pointer_rules(ctx, at, counts, &USAGE_POINTERS);
 
     if !(opacity || displacement) {
-        *triangles = counts.total();
-        return None;
+        return;
     }
     let maxima = usage_keys::ext_usage_maxima(&ctx.device.limits);
     let keys = UsageKeys::ext(opacity, maxima);
@@ -647,7 +665,6 @@ pub(crate) fn build_info(
     // only where some entry is outside the table.
     let scan = keys.scan(counts);
     let total = scan.total;
-    *triangles = total;
     for (k, usage) in scan.entries {
         let loc = format_args!("{at}.{member}[{k}]");
         usage_counts::entry_rules(ctx, loc, usage, opacity, maxima, &USAGE_ENTRIES);
@@ -662,9 +679,53 @@ pub(crate) fn build_info(
             &info.usage_counts,
             format_names(opacity),
         );
-        return triangle_array(ctx, at, info, side, opacity, total);
+        triangle_array(ctx, at, info, side, opacity, total);
     }
-    None
+}
+
+/// What a build of `info` makes of its destination, as far as the memory
+/// it reads is known: the triangle array's entries (as many as its bytes
+/// hold, at most the usage counts' sum), and the data, both shared with the
+/// memory holding them; None where the type is neither opacity nor
+/// displacement, there are no triangles or the array is unreadable (as for
+/// the rules, which then read no entry). `host`: a host build's memory (None: device
+/// memory, in the tracked buffers).
+pub(crate) fn built_content(
+    state: &State,
+    host: Option<HostMemory<'_>>,
+    info: &MicromapBuildInfo,
+) -> Option<MicromapContent> {
+    let opacity = info.ty == MICROMAP_TYPE_OPACITY_MICROMAP_EXT;
+    let displacement = info.ty == MICROMAP_TYPE_DISPLACEMENT_MICROMAP_NV;
+    let triangles = info.usage_counts.total();
+    if !(opacity || displacement) || triangles == 0 {
+        return None;
+    }
+    let shared_from = |address: u64| match host {
+        Some(host) => host.contents_from(address),
+        None => state.device_contents_from(address),
+    };
+    let (array_memory, array_start) = shared_from(info.triangle_array)?;
+    let array_len = array_memory.get(array_start..)?.len() as u64;
+    let stride = info.triangle_array_stride;
+    // A stride of 0 makes every triangle read the one entry.
+    let entries_to_read = if stride == 0 { 1 } else { triangles };
+    let entries_read = readable_entries(array_len, stride).min(entries_to_read);
+    // A view of the array's bytes, not a copy of its entries.
+    let entries = TriangleEntries::shared(
+        array_memory,
+        array_start,
+        stride.max(MicromapTriangle::SIZE),
+        entries_read,
+    )
+    .unwrap_or_else(|| Vec::new().into());
+    let (data, data_start) = shared_from(info.data).unwrap_or_else(|| (crate::Bytes::new(), 0));
+    let content = MicromapContent::at(entries, data, data_start);
+    Some(if stride == 0 {
+        content.repeating(triangles)
+    } else {
+        content
+    })
 }
 
 /// `VkMicromapBuildInfoEXT`'s usage-count pointers (07516).
@@ -748,8 +809,7 @@ fn entry_rules(opacity: bool) -> Vec<RuleId> {
 
 /// The triangle array's entries, when the checker can read them: each entry's
 /// format and level (11657-11661), its data inside `data`, and the usage
-/// counts against the entries. Returns the entries read and the data (shared
-/// with the memory holding it), or None when the array is unreadable.
+/// counts against the entries.
 fn triangle_array(
     ctx: &mut Ctx<'_>,
     at: impl Display,
@@ -757,12 +817,14 @@ fn triangle_array(
     side: Side,
     opacity: bool,
     triangles: u64,
-) -> Option<MicromapContent> {
+) {
     // The bytes borrow the tracked state, not the context, so findings can
     // be reported while reading. Below the content tier nothing is read.
-    let state = ctx.contents()?;
+    let (Some(state), Some(host_memory)) = (ctx.contents(), ctx.host()) else {
+        return;
+    };
     if triangles == 0 {
-        return None;
+        return;
     }
     // Past this point the array is read, which costs far more than
     // writing out the location once.
@@ -771,7 +833,7 @@ fn triangle_array(
     // The memory holding an address, shared, and the address's offset in it.
     let shared_from = |address: u64| match side {
         Side::Device => state.device_contents_from(address),
-        Side::Host => state.host_contents_from(address),
+        Side::Host => host_memory.contents_from(address),
         Side::SizeQuery => None,
     };
     let host = side == Side::Host;
@@ -782,7 +844,7 @@ fn triangle_array(
     // Where a host build's address rules are not decided (the memory was
     // not described), this finding names them with the content rules.
     let host_address = |vuid: ommcheck_vuids::Vuid, readable: bool| {
-        (host && !readable && !state.describes_all_host_memory()).then_some(RuleId::from(vuid))
+        (host && !readable && !host_memory.describes_all()).then_some(RuleId::from(vuid))
     };
     let shared_array = shared_from(info.triangle_array);
     let Some(array) = shared_array
@@ -799,7 +861,7 @@ fn triangle_array(
             &skipped,
             at.text(".triangleArray"),
         );
-        return None;
+        return;
     };
     ctx.checked(&entry_rules(opacity));
     let data_rules: Vec<RuleId> = opacity
@@ -983,16 +1045,16 @@ fn triangle_array(
             ),
         );
     }
-    // A view of the array's bytes, not a copy of its entries.
-    let entries = shared_array
-        .and_then(|(memory, start)| {
-            let stride = stride.max(MicromapTriangle::SIZE);
-            TriangleEntries::shared(memory, start, stride, entries_read)
-        })
-        .unwrap_or_else(|| Vec::new().into());
     // Information about the data blocks themselves reads every byte of
     // them; it is no validity rule, so it runs from the simulate tier up.
     if let (true, true, Some(data)) = (opacity, ctx.hygiene, data) {
+        // A view of the array's bytes, not a copy of its entries.
+        let entries = shared_array
+            .and_then(|(memory, start)| {
+                let stride = stride.max(MicromapTriangle::SIZE);
+                TriangleEntries::shared(memory, start, stride, entries_read)
+            })
+            .unwrap_or_else(|| Vec::new().into());
         hygiene::opacity_blocks(ctx, at, data, &entries);
     }
     let histogram = histogram.into_map();
@@ -1003,13 +1065,6 @@ fn triangle_array(
         let location = format!("{at}.{}", info.usage_counts.member());
         usage_counts_match_triangles(ctx, &location, &info.usage_counts, &histogram, names);
     }
-    let (data, data_start) = shared_data.unwrap_or_else(|| (crate::Bytes::new(), 0));
-    let content = MicromapContent::at(entries, data, data_start);
-    Some(if stride == 0 {
-        content.repeating(triangles)
-    } else {
-        content
-    })
 }
 
 #[cfg(test)]
@@ -1098,6 +1153,100 @@ mod tests {
                         info.usage_counts.count
                     );
                 }
+            }
+        }
+    }
+
+    /// A host build of one 2-state triangle whose triangle array (at
+    /// 0x1000) and data (at 0x2000) are `memory`, and a validator at the
+    /// content tier that tracks its destination micromap 7.
+    fn host_build(memory: &[HostRange]) -> (Validator, MicromapBuildInfo) {
+        let mut v = Validator::new(Device::with_everything(crate::Profile::SpecMinimum));
+        v.set_tier(Tier::Content);
+        v.state_mut().micromaps.insert(
+            7,
+            Micromap {
+                ty: MICROMAP_TYPE_OPACITY_MICROMAP_EXT,
+                ..Default::default()
+            },
+        );
+        v.state_mut().host_memory.extend(memory.iter().cloned());
+        let info = MicromapBuildInfo {
+            dst_micromap: 7,
+            usage_counts: UsageCounts::array(vec![MicromapUsage {
+                count: 1,
+                subdivision_level: 0,
+                format: OPACITY_MICROMAP_FORMAT_2_STATE,
+            }]),
+            triangle_array: 0x1000,
+            triangle_array_stride: 8,
+            data: 0x2000,
+            scratch_data: 0x3000,
+            ..Default::default()
+        };
+        (v, info)
+    }
+
+    /// One triangle at data offset 0, 2-state, level 0; and its data byte.
+    fn triangle_memory() -> Vec<HostRange> {
+        vec![
+            HostRange {
+                address: 0x1000,
+                bytes: crate::Bytes::from(vec![0u8, 0, 0, 0, 0, 0, 1, 0]),
+            },
+            HostRange {
+                address: 0x2000,
+                bytes: crate::Bytes::from(vec![0xffu8]),
+            },
+        ]
+    }
+
+    /// The rules of a build leave the state as it was (run twice, they
+    /// report the same); its record alone makes of the state what the
+    /// whole call does; the two in turn are the whole call. With the host
+    /// memory described and with it read for the call alone, which the
+    /// state never keeps.
+    #[test]
+    fn building_is_rules_then_record() {
+        for described in [true, false] {
+            let memory = triangle_memory();
+            let (kept, read_for_call) = if described {
+                (&memory[..], &[][..])
+            } else {
+                (&[][..], &memory[..])
+            };
+            let (mut v, info) = host_build(kept);
+            let infos = [info];
+            let before = format!("{:?}", v.state());
+            let report = v.build_micromaps_rules(1, 0, &infos, read_for_call);
+            assert_eq!(
+                format!("{:?}", v.state()),
+                before,
+                "the rules changed the state"
+            );
+            assert_eq!(v.build_micromaps_rules(1, 0, &infos, read_for_call), report);
+            assert!(
+                report.checked.contains(&rules::TRIANGLE_DATA_RANGE),
+                "the data was read: {report:?}"
+            );
+
+            let (mut recorded, _) = host_build(kept);
+            recorded.record_micromaps_built(0, &infos, read_for_call);
+            let built = recorded.state().micromaps[&7].built.clone().expect("built");
+            assert_eq!(built.triangle_count, 1);
+            let content = built.content.expect("the content was read");
+            assert_eq!(&content.data[..], &[0xffu8][..]);
+            assert_eq!(recorded.state().host_memory.len(), kept.len());
+
+            v.record_micromaps_built(0, &infos, read_for_call);
+            assert_eq!(
+                format!("{:?}", v.state()),
+                format!("{:?}", recorded.state())
+            );
+            if described {
+                let (mut whole, _) = host_build(kept);
+                assert_eq!(whole.build_micromaps(1, 0, &infos), report);
+                assert_eq!(format!("{:?}", whole.state()), format!("{:?}", v.state()));
             }
         }
     }

@@ -28,7 +28,7 @@ use crate::model::{CommandBuffer, MicromapBuildInfo};
 use crate::report::count as count_of;
 use crate::report::{ObjectRef, Report};
 use crate::state::execution::{ExecEvent, ReadRule};
-use crate::state::{MemoryBinding, Micromap};
+use crate::state::{HostRange, MemoryBinding, Micromap};
 
 const SERIALIZED_SOURCE: &str = "needs the micromap whose serialization src holds (the size used to serialize it): serialized data passes through application memory and storage the checker does not follow";
 const SERIALIZED_DATA: &str = "serialized micromap data is an opaque, implementation-defined blob the checker cannot interpret";
@@ -247,9 +247,27 @@ struct HostCallVuids {
 impl Validator {
     /// `vkCreateMicromapEXT(device, pCreateInfo, pAllocator, pMicromap)`;
     /// `micromap` is `None` for a NULL `pMicromap`, else the handle the call
-    /// returned, which is then tracked.
+    /// returned, which is then tracked: the call's rules
+    /// ([`Self::create_micromap_rules`]), then its record
+    /// ([`Self::record_micromap`]).
     pub fn create_micromap(
         &mut self,
+        device: Handle,
+        info: Option<&MicromapCreateInfo>,
+        allocator: Option<&AllocationCallbacks>,
+        micromap: Option<Handle>,
+    ) -> Report {
+        let report = self.create_micromap_rules(device, info, allocator, micromap);
+        if let (Some(info), Some(handle)) = (info, micromap) {
+            self.record_micromap(handle, info, allocator.is_some());
+        }
+        report
+    }
+
+    /// The rules of `vkCreateMicromapEXT`, before the call (`micromap`:
+    /// whether `pMicromap` is NULL, its value unread); records nothing.
+    pub fn create_micromap_rules(
+        &self,
         device: Handle,
         info: Option<&MicromapCreateInfo>,
         allocator: Option<&AllocationCallbacks>,
@@ -280,19 +298,13 @@ impl Validator {
             return ctx.finish();
         };
         micromap_create_info(&mut ctx, info);
-        let report = ctx.finish();
-        if let Some(handle) = micromap.filter(|h| *h != 0) {
-            let record = self.created_micromap(info, allocator.is_some());
-            self.state.micromaps.insert(handle, record);
-        }
-        report
+        ctx.finish()
     }
 
-    /// Records a micromap the driver created from `info` without checking
-    /// the call again: a layer checks `vkCreateMicromapEXT` before calling
-    /// down ([`Self::create_micromap`] with handle 0, which records nothing)
-    /// and records the handle the driver returned with this. Handle 0 is
-    /// ignored.
+    /// Tracks the micromap `vkCreateMicromapEXT` created from `info`
+    /// (`micromap`; 0: none, nothing is tracked), without checking the
+    /// call: a layer runs [`Self::create_micromap_rules`] before calling
+    /// down and records the handle the driver returned with this.
     pub fn record_micromap(
         &mut self,
         micromap: Handle,
@@ -326,9 +338,22 @@ impl Validator {
     }
 
     /// `vkDestroyMicromapEXT(device, micromap, pAllocator)`; stops tracking
-    /// the micromap.
+    /// the micromap: the rules ([`Self::destroy_micromap_rules`]), then the
+    /// record ([`Self::record_micromap_destroyed`]).
     pub fn destroy_micromap(
         &mut self,
+        device: Handle,
+        micromap: Handle,
+        allocator: Option<&AllocationCallbacks>,
+    ) -> Report {
+        let report = self.destroy_micromap_rules(device, micromap, allocator);
+        self.record_micromap_destroyed(micromap);
+        report
+    }
+
+    /// The rules of `vkDestroyMicromapEXT`, before the call; records nothing.
+    pub fn destroy_micromap_rules(
+        &self,
         device: Handle,
         micromap: Handle,
         allocator: Option<&AllocationCallbacks>,
@@ -365,15 +390,32 @@ impl Validator {
         if micromap != 0 {
             report.extend(self.destroyed_in_flight(micromap));
         }
-        self.state.micromaps.remove(&micromap);
-        self.state.execution.forget(micromap);
-        self.state.driver.forget_micromap(micromap);
         report
     }
 
-    /// `vkCmdCopyMicromapEXT(commandBuffer, pInfo)`; `None` is a NULL `pInfo`.
+    /// Stops tracking `micromap`, which `vkDestroyMicromapEXT` destroyed.
+    pub fn record_micromap_destroyed(&mut self, micromap: Handle) {
+        self.state.micromaps.remove(&micromap);
+        self.state.execution.forget(micromap);
+        self.state.driver.forget_micromap(micromap);
+    }
+
+    /// `vkCmdCopyMicromapEXT(commandBuffer, pInfo)`; `None` is a NULL
+    /// `pInfo`: the rules ([`Self::cmd_copy_micromap_rules`]), then the
+    /// record ([`Self::record_cmd_copy_micromap`]).
     pub fn cmd_copy_micromap(
         &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMicromapInfo>,
+    ) -> Report {
+        let report = self.cmd_copy_micromap_rules(command_buffer, info);
+        self.record_cmd_copy_micromap(command_buffer, info);
+        report
+    }
+
+    /// The rules of `vkCmdCopyMicromapEXT`; records nothing.
+    pub fn cmd_copy_micromap_rules(
+        &self,
         command_buffer: &CommandBuffer,
         info: Option<&CopyMicromapInfo>,
     ) -> Report {
@@ -395,7 +437,15 @@ impl Validator {
             bound_to_device_memory(&mut ctx, src, cmd_copy::buffer_07529, "pInfo->src");
             bound_to_device_memory(&mut ctx, dst, cmd_copy::buffer_07530, "pInfo->dst");
         }
-        let report = ctx.finish();
+        ctx.finish()
+    }
+
+    /// Records the copy `vkCmdCopyMicromapEXT` put in `command_buffer`.
+    pub fn record_cmd_copy_micromap(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMicromapInfo>,
+    ) {
         if let Some(info) = info {
             let events = [
                 ExecEvent::Read {
@@ -407,12 +457,24 @@ impl Validator {
             ];
             self.record_execution(command_buffer, "vkCmdCopyMicromapEXT", events);
         }
+    }
+
+    /// `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`: `dst` is a
+    /// device address. The rules ([`Self::cmd_copy_micromap_to_memory_rules`]),
+    /// then the record ([`Self::record_cmd_copy_micromap_to_memory`]).
+    pub fn cmd_copy_micromap_to_memory(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMicromapToMemoryInfo>,
+    ) -> Report {
+        let report = self.cmd_copy_micromap_to_memory_rules(command_buffer, info);
+        self.record_cmd_copy_micromap_to_memory(command_buffer, info);
         report
     }
 
-    /// `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`: `dst` is a device address.
-    pub fn cmd_copy_micromap_to_memory(
-        &mut self,
+    /// The rules of `vkCmdCopyMicromapToMemoryEXT`; records nothing.
+    pub fn cmd_copy_micromap_to_memory_rules(
+        &self,
         command_buffer: &CommandBuffer,
         info: Option<&CopyMicromapToMemoryInfo>,
     ) -> Report {
@@ -441,7 +503,16 @@ impl Validator {
             );
             crate::checks::driver_sizes::serialized_size_fits(&mut ctx, info, false);
         }
-        let report = ctx.finish();
+        ctx.finish()
+    }
+
+    /// Records the serialization `vkCmdCopyMicromapToMemoryEXT` put in
+    /// `command_buffer`.
+    pub fn record_cmd_copy_micromap_to_memory(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMicromapToMemoryInfo>,
+    ) {
         if let Some(info) = info {
             let read = ExecEvent::Read {
                 object: info.src,
@@ -450,12 +521,24 @@ impl Validator {
             };
             self.record_execution(command_buffer, "vkCmdCopyMicromapToMemoryEXT", [read]);
         }
+    }
+
+    /// `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`: `src` is a
+    /// device address. The rules ([`Self::cmd_copy_memory_to_micromap_rules`]),
+    /// then the record ([`Self::record_cmd_copy_memory_to_micromap`]).
+    pub fn cmd_copy_memory_to_micromap(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMemoryToMicromapInfo>,
+    ) -> Report {
+        let report = self.cmd_copy_memory_to_micromap_rules(command_buffer, info);
+        self.record_cmd_copy_memory_to_micromap(command_buffer, info);
         report
     }
 
-    /// `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`: `src` is a device address.
-    pub fn cmd_copy_memory_to_micromap(
-        &mut self,
+    /// The rules of `vkCmdCopyMemoryToMicromapEXT`; records nothing.
+    pub fn cmd_copy_memory_to_micromap_rules(
+        &self,
         command_buffer: &CommandBuffer,
         info: Option<&CopyMemoryToMicromapInfo>,
     ) -> Report {
@@ -484,17 +567,39 @@ impl Validator {
                 "pInfo->src.deviceAddress",
             );
         }
-        let report = ctx.finish();
+        ctx.finish()
+    }
+
+    /// Records the deserialization `vkCmdCopyMemoryToMicromapEXT` put in
+    /// `command_buffer`.
+    pub fn record_cmd_copy_memory_to_micromap(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        info: Option<&CopyMemoryToMicromapInfo>,
+    ) {
         if let Some(info) = info {
             let construct = ExecEvent::Construct { object: info.dst };
             self.record_execution(command_buffer, "vkCmdCopyMemoryToMicromapEXT", [construct]);
         }
+    }
+
+    /// `vkCopyMicromapEXT(device, deferredOperation, pInfo)`: the rules
+    /// ([`Self::copy_micromap_rules`]), then the record
+    /// ([`Self::record_copy_micromap`]).
+    pub fn copy_micromap(
+        &mut self,
+        device: Handle,
+        deferred_operation: Handle,
+        info: Option<&CopyMicromapInfo>,
+    ) -> Report {
+        let report = self.copy_micromap_rules(device, deferred_operation, info);
+        self.record_copy_micromap(deferred_operation, info);
         report
     }
 
-    /// `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
-    pub fn copy_micromap(
-        &mut self,
+    /// The rules of `vkCopyMicromapEXT`, before the call; records nothing.
+    pub fn copy_micromap_rules(
+        &self,
         device: Handle,
         deferred_operation: Handle,
         info: Option<&CopyMicromapInfo>,
@@ -529,17 +634,39 @@ impl Validator {
             host_copy::src_11670,
             info.map(|i| i.src),
         ));
+        report
+    }
+
+    /// Records the copy `vkCopyMicromapEXT` made (or, deferred, is making).
+    pub fn record_copy_micromap(
+        &mut self,
+        deferred_operation: Handle,
+        info: Option<&CopyMicromapInfo>,
+    ) {
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
         }
-        report
     }
 
     /// `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`: `dst`
-    /// is a host address.
+    /// is a host address. The rules ([`Self::copy_micromap_to_memory_rules`]),
+    /// then the record ([`Self::record_copy_micromap_to_memory`]).
     pub fn copy_micromap_to_memory(
         &mut self,
+        device: Handle,
+        deferred_operation: Handle,
+        info: Option<&CopyMicromapToMemoryInfo>,
+    ) -> Report {
+        let report = self.copy_micromap_to_memory_rules(device, deferred_operation, info);
+        self.record_copy_micromap_to_memory(deferred_operation);
+        report
+    }
+
+    /// The rules of `vkCopyMicromapToMemoryEXT`, before the call; records
+    /// nothing.
+    pub fn copy_micromap_to_memory_rules(
+        &self,
         device: Handle,
         deferred_operation: Handle,
         info: Option<&CopyMicromapToMemoryInfo>,
@@ -577,19 +704,41 @@ impl Validator {
             to_memory_info::src_07540,
             info.map(|i| i.src),
         ));
-        self.defer(deferred_operation);
         report
     }
 
+    /// Records the serialization `vkCopyMicromapToMemoryEXT` made: only its
+    /// deferred operation, which runs it until reported complete.
+    pub fn record_copy_micromap_to_memory(&mut self, deferred_operation: Handle) {
+        self.defer(deferred_operation);
+    }
+
     /// `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`: `src`
-    /// is a host address.
+    /// is a host address. The rules ([`Self::copy_memory_to_micromap_rules`],
+    /// reading the host memory the application described), then the record
+    /// ([`Self::record_copy_memory_to_micromap`]).
     pub fn copy_memory_to_micromap(
         &mut self,
         device: Handle,
         deferred_operation: Handle,
         info: Option<&CopyMemoryToMicromapInfo>,
     ) -> Report {
-        let mut ctx = self.ctx("vkCopyMemoryToMicromapEXT");
+        let report = self.copy_memory_to_micromap_rules(device, deferred_operation, info, &[]);
+        self.record_copy_memory_to_micromap(deferred_operation, info);
+        report
+    }
+
+    /// The rules of `vkCopyMemoryToMicromapEXT`, before the call, with
+    /// `read_for_call`, the host memory an adaptor read for it (see
+    /// [`crate::state::HostMemory`]); records nothing.
+    pub fn copy_memory_to_micromap_rules(
+        &self,
+        device: Handle,
+        deferred_operation: Handle,
+        info: Option<&CopyMemoryToMicromapInfo>,
+        read_for_call: &[HostRange],
+    ) -> Report {
+        let mut ctx = self.ctx_reading("vkCopyMemoryToMicromapEXT", read_for_call);
         let vuids = HostCallVuids {
             device: host_from_memory::device_parameter,
             deferred_operation: common::DeferredOperationVuids {
@@ -616,12 +765,20 @@ impl Validator {
                 "pInfo->src.hostAddress",
             );
         }
-        let report = ctx.finish();
+        ctx.finish()
+    }
+
+    /// Records the deserialization `vkCopyMemoryToMicromapEXT` made (or,
+    /// deferred, is making).
+    pub fn record_copy_memory_to_micromap(
+        &mut self,
+        deferred_operation: Handle,
+        info: Option<&CopyMemoryToMicromapInfo>,
+    ) {
         self.defer(deferred_operation);
         if let Some(info) = info {
             self.constructed_on_host(info.dst, deferred_operation);
         }
-        report
     }
 
     /// `vkCmdWriteMicromapsPropertiesEXT(commandBuffer, micromapCount,
@@ -641,6 +798,24 @@ impl Validator {
             query_pool,
             first_query,
         );
+        self.record_cmd_write_micromaps_properties(
+            command_buffer,
+            micromaps,
+            query_pool,
+            first_query,
+        );
+        report
+    }
+
+    /// Records the property writes `vkCmdWriteMicromapsPropertiesEXT` put
+    /// in `command_buffer`.
+    pub fn record_cmd_write_micromaps_properties(
+        &mut self,
+        command_buffer: &CommandBuffer,
+        micromaps: &MicromapList,
+        query_pool: Handle,
+        first_query: u32,
+    ) {
         let reads = listed_handles(micromaps).map(|(k, object)| ExecEvent::Read {
             object,
             rule: ReadRule::PropertiesMicromap,
@@ -653,12 +828,11 @@ impl Validator {
         };
         let events: Vec<_> = reads.chain([write]).collect();
         self.record_execution(command_buffer, "vkCmdWriteMicromapsPropertiesEXT", events);
-        report
     }
 
-    /// The rules of [`Self::cmd_write_micromaps_properties`].
-    fn cmd_write_micromaps_properties_rules(
-        &mut self,
+    /// The rules of [`Self::cmd_write_micromaps_properties`]; records nothing.
+    pub fn cmd_write_micromaps_properties_rules(
+        &self,
         command_buffer: &CommandBuffer,
         micromaps: &MicromapList,
         query_type: i32,
@@ -757,7 +931,8 @@ impl Validator {
 
     /// `vkWriteMicromapsPropertiesEXT(device, micromapCount, pMicromaps,
     /// queryType, dataSize, pData, stride)`; `data` is the host address
-    /// `pData` (0: NULL).
+    /// `pData` (0: NULL). It changes nothing the checker tracks: its rules
+    /// ([`Self::write_micromaps_properties_rules`]) are the whole call.
     pub fn write_micromaps_properties(
         &mut self,
         device: Handle,
@@ -767,7 +942,22 @@ impl Validator {
         data: u64,
         stride: u64,
     ) -> Report {
-        let mut report = self.write_micromaps_properties_rules(
+        self.write_micromaps_properties_rules(
+            device, micromaps, query_type, data_size, data, stride,
+        )
+    }
+
+    /// The rules of `vkWriteMicromapsPropertiesEXT`; records nothing.
+    pub fn write_micromaps_properties_rules(
+        &self,
+        device: Handle,
+        micromaps: &MicromapList,
+        query_type: i32,
+        data_size: u64,
+        data: u64,
+        stride: u64,
+    ) -> Report {
+        let mut report = self.write_micromaps_properties_parameters(
             device, micromaps, query_type, data_size, data, stride,
         );
         let reads: Vec<_> = listed_handles(micromaps)
@@ -782,8 +972,8 @@ impl Validator {
     }
 
     /// The rules of [`Self::write_micromaps_properties`] but 11671.
-    fn write_micromaps_properties_rules(
-        &mut self,
+    fn write_micromaps_properties_parameters(
+        &self,
         device: Handle,
         micromaps: &MicromapList,
         query_type: i32,
@@ -875,7 +1065,6 @@ impl Validator {
                 "pBuildInfo",
                 info,
                 crate::checks::micromap_build::Side::SizeQuery,
-                &mut 0,
             );
         }
         match size_info {
@@ -1315,17 +1504,18 @@ fn serialized_host_address(
 ) {
     if address == 0 {
         ctx.error(valid, location, "the host address is NULL");
-    } else if ctx.state.is_some_and(|state| {
-        state.describes_all_host_memory() && state.host_bytes_from(address).is_none()
-    }) {
+    } else if ctx
+        .host()
+        .is_some_and(|host| host.describes_all() && host.bytes_from(address).is_none())
+    {
         ctx.error(
             valid,
             location,
             format!("{address:#x} is outside the host memory the application described"),
         );
     } else if ctx
-        .state
-        .is_some_and(|state| state.host_bytes_from(address).is_some())
+        .host()
+        .is_some_and(|host| host.bytes_from(address).is_some())
     {
         ctx.checked(&[valid.into()]);
     } else {
@@ -1427,9 +1617,10 @@ fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride
         if data_size > 0 {
             ctx.error(host_write::pData_parameter, "pData", "pData is NULL");
         }
-    } else if ctx.state.is_some_and(|state| {
-        state.describes_all_host_memory() && state.read_host(data, data_size).is_none()
-    }) {
+    } else if ctx
+        .host()
+        .is_some_and(|host| host.describes_all() && host.read(data, data_size).is_none())
+    {
         ctx.error(
             host_write::pData_parameter,
             "pData",
@@ -1438,8 +1629,8 @@ fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride
             ),
         );
     } else if ctx
-        .state
-        .is_some_and(|state| state.read_host(data, data_size).is_some())
+        .host()
+        .is_some_and(|host| host.read(data, data_size).is_some())
     {
         ctx.checked(&[host_write::pData_parameter.into()]);
     } else {
@@ -1683,5 +1874,167 @@ mod tests {
         );
         assert!(report.contains(host_write::pData_parameter));
         assert!(!report.contains(host_write::queryType_10072));
+    }
+
+    /// The state as text, to compare states (it has no `PartialEq`).
+    fn tracked(v: &Validator) -> String {
+        format!("{:?}", v.state())
+    }
+
+    /// Each micromap command's rules leave the state as it was (run twice,
+    /// they report the same), and its record alone makes of the state what
+    /// the whole call does.
+    #[test]
+    fn micromap_commands_are_rules_then_record() {
+        let mut v = host_validator();
+        v.state_mut().buffers.insert(
+            7,
+            Buffer {
+                size: 4096,
+                usage: BUFFER_USAGE_MICROMAP_STORAGE_BIT_EXT,
+                ..Default::default()
+            },
+        );
+        let create = MicromapCreateInfo {
+            buffer: 7,
+            size: 256,
+            ..Default::default()
+        };
+        let (src, dst) = (0x51, 0x52);
+        let command_buffer = CommandBuffer {
+            handle: 3,
+            recording: true,
+            ..Default::default()
+        };
+        let copy = CopyMicromapInfo {
+            src,
+            dst,
+            mode: COPY_MICROMAP_MODE_CLONE_EXT,
+            ..Default::default()
+        };
+        let to_memory = CopyMicromapToMemoryInfo {
+            src,
+            dst: 0x1000,
+            ..Default::default()
+        };
+        let from_memory = CopyMemoryToMicromapInfo {
+            src: 0x1000,
+            dst,
+            ..Default::default()
+        };
+        let list = MicromapList {
+            count: 1,
+            handles: Some(vec![src]),
+        };
+        type Rules<'a> = Box<dyn Fn(&Validator) -> Report + 'a>;
+        type Record<'a> = Box<dyn Fn(&mut Validator) + 'a>;
+        type Whole<'a> = Box<dyn Fn(&mut Validator) -> Report + 'a>;
+        let cb = &command_buffer;
+        let commands: Vec<(&str, Rules, Record, Whole)> = vec![
+            (
+                "create",
+                Box::new(|v| v.create_micromap_rules(1, Some(&create), None, Some(src))),
+                Box::new(|v| v.record_micromap(src, &create, false)),
+                Box::new(|v| v.create_micromap(1, Some(&create), None, Some(src))),
+            ),
+            (
+                "create the second",
+                Box::new(|v| v.create_micromap_rules(1, Some(&create), None, Some(dst))),
+                Box::new(|v| v.record_micromap(dst, &create, false)),
+                Box::new(|v| v.create_micromap(1, Some(&create), None, Some(dst))),
+            ),
+            (
+                "cmd copy",
+                Box::new(|v| v.cmd_copy_micromap_rules(cb, Some(&copy))),
+                Box::new(|v| v.record_cmd_copy_micromap(cb, Some(&copy))),
+                Box::new(|v| v.cmd_copy_micromap(cb, Some(&copy))),
+            ),
+            (
+                "cmd copy to memory",
+                Box::new(|v| v.cmd_copy_micromap_to_memory_rules(cb, Some(&to_memory))),
+                Box::new(|v| v.record_cmd_copy_micromap_to_memory(cb, Some(&to_memory))),
+                Box::new(|v| v.cmd_copy_micromap_to_memory(cb, Some(&to_memory))),
+            ),
+            (
+                "cmd copy from memory",
+                Box::new(|v| v.cmd_copy_memory_to_micromap_rules(cb, Some(&from_memory))),
+                Box::new(|v| v.record_cmd_copy_memory_to_micromap(cb, Some(&from_memory))),
+                Box::new(|v| v.cmd_copy_memory_to_micromap(cb, Some(&from_memory))),
+            ),
+            (
+                "cmd write properties",
+                Box::new(|v| v.cmd_write_micromaps_properties_rules(cb, &list, 0, 9, 0)),
+                Box::new(|v| v.record_cmd_write_micromaps_properties(cb, &list, 9, 0)),
+                Box::new(|v| v.cmd_write_micromaps_properties(cb, &list, 0, 9, 0)),
+            ),
+            (
+                "host copy",
+                Box::new(|v| v.copy_micromap_rules(1, 0, Some(&copy))),
+                Box::new(|v| v.record_copy_micromap(0, Some(&copy))),
+                Box::new(|v| v.copy_micromap(1, 0, Some(&copy))),
+            ),
+            (
+                "host copy to memory",
+                Box::new(|v| v.copy_micromap_to_memory_rules(1, 0, Some(&to_memory))),
+                Box::new(|v| v.record_copy_micromap_to_memory(0)),
+                Box::new(|v| v.copy_micromap_to_memory(1, 0, Some(&to_memory))),
+            ),
+            (
+                "host copy from memory",
+                Box::new(|v| v.copy_memory_to_micromap_rules(1, 0, Some(&from_memory), &[])),
+                Box::new(|v| v.record_copy_memory_to_micromap(0, Some(&from_memory))),
+                Box::new(|v| v.copy_memory_to_micromap(1, 0, Some(&from_memory))),
+            ),
+            (
+                "destroy",
+                Box::new(|v| v.destroy_micromap_rules(1, dst, None)),
+                Box::new(|v| v.record_micromap_destroyed(dst)),
+                Box::new(|v| v.destroy_micromap(1, dst, None)),
+            ),
+        ];
+        for (name, rules, record, whole) in &commands {
+            let before = tracked(&v);
+            let report = rules(&v);
+            assert_eq!(tracked(&v), before, "{name}: the rules changed the state");
+            assert_eq!(
+                rules(&v),
+                report,
+                "{name}: the rules depend on more than the state"
+            );
+            let mut called = v.clone();
+            assert_eq!(
+                whole(&mut called),
+                report,
+                "{name}: the call reports its rules"
+            );
+            record(&mut v);
+            assert_eq!(
+                tracked(&v),
+                tracked(&called),
+                "{name}: the record is the call's"
+            );
+        }
+        assert!(v.state().micromaps.contains_key(&src));
+        assert!(!v.state().micromaps.contains_key(&dst), "destroyed");
+    }
+
+    /// The whole call is its rules, then its record.
+    #[test]
+    fn the_whole_call_reports_its_rules_and_leaves_its_record() {
+        let info = MicromapCreateInfo {
+            size: 256,
+            ..Default::default()
+        };
+        let mut split = host_validator();
+        let rules = split.create_micromap_rules(1, Some(&info), None, Some(5));
+        split.record_micromap(5, &info, false);
+        let mut whole = host_validator();
+        assert_eq!(whole.create_micromap(1, Some(&info), None, Some(5)), rules);
+        assert_eq!(tracked(&whole), tracked(&split));
+
+        let rules = split.destroy_micromap_rules(1, 5, None);
+        split.record_micromap_destroyed(5);
+        assert_eq!(whole.destroy_micromap(1, 5, None), rules);
+        assert_eq!(tracked(&whole), tracked(&split));
     }
 }

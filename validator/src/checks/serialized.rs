@@ -148,7 +148,7 @@ fn header_address(state: &State, address: u64) -> HeaderAddress {
 /// `host`), for a destination created bottom-level (or generic, when the
 /// header says it is block-based).
 pub(crate) fn check(ctx: &mut Ctx<'_>, host: bool, info: &CopyMemoryToAccelerationStructureInfo) {
-    let Some(state) = ctx.state else {
+    let (Some(state), Some(host_memory)) = (ctx.state, ctx.host()) else {
         return;
     };
     if !ctx.contents {
@@ -163,7 +163,7 @@ pub(crate) fn check(ctx: &mut Ctx<'_>, host: bool, info: &CopyMemoryToAccelerati
         return;
     }
     let bytes = if host {
-        state.host_bytes_from(info.src)
+        host_memory.bytes_from(info.src)
     } else {
         state.device_bytes_from(info.src)
     };

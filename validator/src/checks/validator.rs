@@ -6,7 +6,7 @@ use crate::device::Device;
 use crate::model::Handle;
 use crate::report::not_checked::Cause;
 use crate::report::{Finding, ObjectRef, Report, RuleId, Severity};
-use crate::state::State;
+use crate::state::{HostMemory, HostRange, State};
 use crate::tier::Tier;
 
 /// Checks calls against a device and the objects earlier calls created.
@@ -27,10 +27,6 @@ pub struct Validator {
     /// refilled by the next one: a call reads into these vectors instead of
     /// allocating its own (see [`crate::model::micromap::SpareInfos`]).
     pub(crate) spare_micromap_infos: crate::model::micromap::SpareInfos,
-    /// The triangle count of each info of the last micromap build call,
-    /// refilled by the next one (the pass over the usage counts sums them
-    /// once; the list keeps them until the builds are recorded).
-    pub(crate) spare_triangle_counts: Vec<u64>,
     /// Names the program gave objects ([`Validator::name_object`]).
     pub(crate) names: crate::report::names::ObjectNames,
 }
@@ -43,7 +39,6 @@ impl Validator {
             tier: Tier::default(),
             device_contents_later: false,
             spare_micromap_infos: Default::default(),
-            spare_triangle_counts: Vec::new(),
             names: Default::default(),
         }
     }
@@ -113,9 +108,20 @@ impl Validator {
     }
 
     pub(crate) fn ctx(&self, function: &'static str) -> Ctx<'_> {
+        self.ctx_reading(function, &[])
+    }
+
+    /// The context of a call for which an adaptor read `read_for_call` of
+    /// host memory (see [`crate::state::HostMemory`]).
+    pub(crate) fn ctx_reading<'a>(
+        &'a self,
+        function: &'static str,
+        read_for_call: &'a [HostRange],
+    ) -> Ctx<'a> {
         Ctx {
             device: &self.device,
             state: (self.tier >= Tier::State).then_some(&self.state),
+            host_memory: self.state.host_memory(read_for_call),
             contents: self.tier >= Tier::Content,
             hygiene: self.tier >= Tier::Simulate,
             function,
@@ -142,6 +148,9 @@ pub const FINDINGS_PER_RULE_PER_CALL: u32 = 256;
 pub(crate) struct Ctx<'a> {
     pub device: &'a Device,
     pub state: Option<&'a State>,
+    /// The host memory the call may read: what the application described
+    /// and what an adaptor read for this call (read through [`Self::host`]).
+    host_memory: HostMemory<'a>,
     pub contents: bool,
     /// Whether the hygiene information on micromap data
     /// (`OMMCHECK-hygiene-*`) is wanted: it reads every data block and is no
@@ -169,6 +178,12 @@ impl<'a> Ctx<'a> {
     /// go through this, so a lower tier never decodes a byte).
     pub fn contents(&self) -> Option<&'a State> {
         self.state.filter(|_| self.contents)
+    }
+
+    /// The host memory the call may read, from the state tier up (None
+    /// below it, like [`Self::state`]).
+    pub fn host(&self) -> Option<HostMemory<'a>> {
+        self.state.map(|_| self.host_memory)
     }
 
     /// Reports a finding of `severity`.

@@ -20,8 +20,9 @@ use std::path::Path;
 use crate::checks::Validator;
 use crate::inspect::simulate::{micromap_content, trace_attachment};
 use crate::model::names;
-use crate::scene::{CheckOptions, NamedObject, Scene, SceneError};
+use crate::scene::{CheckOptions, NamedObject, RayReport, Scene, SceneError};
 use crate::sim::decode::MicromapContent;
+use crate::sim::opacity::HitOutcome;
 
 pub use canvas::RenderError;
 
@@ -260,6 +261,79 @@ impl Drawable {
             &attachment,
             u64::from(range.primitive_count),
         ))
+    }
+}
+
+impl Drawable {
+    /// The micromap triangle a traced ray's hit read, with the hit drawn on
+    /// it (`ommcheck trace --draw`); an error says why a ray has none (a
+    /// miss, a special index, a geometry without a micromap).
+    pub fn ray(&self, ray: &RayReport) -> Result<Picture, DrawError> {
+        let label = match &ray.name {
+            Some(name) => format!("ray {} '{name}'", ray.ray),
+            None => format!("ray {}", ray.ray),
+        };
+        let why = ray.rule.unwrap_or("it was not simulated");
+        let (Some(m), Some(u), Some(v)) = (
+            ray.slot.as_ref().and_then(|s| s.micromap_triangle),
+            ray.u,
+            ray.v,
+        ) else {
+            return Err(DrawError::Pick(format!(
+                "{label} read no micromap triangle ({why})"
+            )));
+        };
+        let name = &ray.acceleration_structure;
+        let object = self.find(name, |o| o.kind == STRUCTURE, "acceleration structure")?;
+        let state = self.validator.state();
+        let opacity = state
+            .acceleration_structures
+            .get(&object.handle)
+            .and_then(|s| s.built.as_ref())
+            .and_then(|b| b.geometries.get(ray.geometry as usize))
+            .and_then(|g| g.as_ref())
+            .and_then(|g| g.opacity)
+            .ok_or_else(|| {
+                DrawError::Pick(format!(
+                    "geometry {} of '{name}' has no opacity micromap the checker built",
+                    ray.geometry
+                ))
+            })?;
+        let content = micromap_content(state, &opacity).0.ok_or_else(|| {
+            DrawError::Pick(format!(
+                "the checker could not read the micromap {label} hit"
+            ))
+        })?;
+        let kind = if opacity.khr { STRUCTURE } else { MICROMAP };
+        let micromap = self
+            .objects
+            .iter()
+            .find(|o| o.kind == kind && o.handle == opacity.micromap)
+            .map_or_else(|| format!("{:#x}", opacity.micromap), |o| o.name.clone());
+        let micro: Vec<u32> = ray.micro_triangles.iter().map(|t| t.index).collect();
+        let outcomes: Vec<&str> = ray
+            .outcomes
+            .iter()
+            .map(|o| match o {
+                HitOutcome::Ignored => "ignored",
+                HitOutcome::Opaque => "opaque",
+                HitOutcome::NonOpaque => "non-opaque",
+            })
+            .collect();
+        let hit = pictures::HitMarks {
+            ray: &label,
+            u,
+            v,
+            micro_triangles: &micro,
+            whole_triangle: ray.whole_triangle,
+            outcome: outcomes.join(" or "),
+        };
+        let canvas = pictures::micromap_triangle_marked(&micromap, content, m, Some(&hit))
+            .map_err(DrawError::Pick)?;
+        Ok(Picture {
+            title: format!("{label} on micromap '{micromap}' triangle {m}"),
+            svg: canvas.svg(),
+        })
     }
 }
 

@@ -10,7 +10,7 @@ use crate::sim::decode::MicromapContent;
 use crate::sim::opacity::{OpacityState, Slot, SpecialIndex};
 use crate::sim::trace::{fetch_slot, Attachment};
 
-use super::canvas::{fill, Canvas, Fill, EDGE, MISSING, PROBLEM, TEXT};
+use super::canvas::{fill, Canvas, Colour, Fill, EDGE, MISSING, PROBLEM, TEXT};
 use super::cells::{self, CellState, Problem, TriangleCells, READ_BUDGET};
 
 /// Margin around everything, in pixels.
@@ -292,6 +292,35 @@ fn describe_triangle(m: u64, t: &TriangleCells) -> String {
 /// One micromap triangle, numbered in the specification's order when it is
 /// drawn exactly at level 3 or below.
 pub fn micromap_triangle(name: &str, content: &MicromapContent, m: u64) -> Result<Canvas, String> {
+    micromap_triangle_marked(name, content, m, None)
+}
+
+/// Where a traced ray hit a micromap triangle, as `ommcheck trace` answers
+/// it: the barycentrics and the micro-triangles within their error bound.
+pub struct HitMarks<'a> {
+    /// Said in the title and captions (`ray 2 'grazing'`).
+    pub ray: &'a str,
+    pub u: f64,
+    pub v: f64,
+    /// The micro-triangles the hit may lie in (at the triangle's own level).
+    pub micro_triangles: &'a [u32],
+    /// The error bound spans the whole triangle.
+    pub whole_triangle: bool,
+    /// The answer in words (`opaque`, `opaque or non-opaque`).
+    pub outcome: String,
+}
+
+/// Marks of a hit: the micro-triangles it may lie in, outlined.
+pub const HIT: Colour = "#c2185b";
+
+/// [`micromap_triangle`] with a traced ray's hit drawn on it: a dot at the
+/// hit, and the micro-triangles within its error bound outlined.
+pub fn micromap_triangle_marked(
+    name: &str,
+    content: &MicromapContent,
+    m: u64,
+    hit: Option<&HitMarks<'_>>,
+) -> Result<Canvas, String> {
     let count = cells::triangle_count(content);
     let entry = cells::entry(content, m).ok_or_else(|| {
         format!("micromap '{name}' has {count} triangles; there is no triangle {m}")
@@ -319,11 +348,83 @@ pub fn micromap_triangle(name: &str, content: &MicromapContent, m: u64) -> Resul
             t.read_per_cell,
         )])));
     }
-    let title = format!("micromap '{name}', triangle {m} of {count}");
+    let mut title = format!("micromap '{name}', triangle {m} of {count}");
+    if let Some(hit) = hit {
+        title = format!("{}: {title}", hit.ray);
+        let within = if hit.whole_triangle {
+            "its error bound spans the whole triangle, so every micro-triangle is possible"
+                .to_string()
+        } else {
+            match hit.micro_triangles {
+                [one] => format!("micro-triangle {one} alone lies within its error bound"),
+                many => format!(
+                    "{} micro-triangles lie within its error bound (outlined): {}",
+                    many.len(),
+                    list_first(many, 8)
+                ),
+            }
+        };
+        captions.insert(
+            1,
+            format!(
+                "{} hits at u = {}, v = {} (the dot); {within}. Outcome: {}.",
+                hit.ray,
+                short(hit.u),
+                short(hit.v),
+                hit.outcome
+            ),
+        );
+    }
     let body = (side, side * 3f64.sqrt() / 2.0);
     let (mut canvas, (x, y)) = frame(&title, body, &captions, &legend(&[&t], &[]));
-    draw_triangle(&mut canvas, &t, upright(x, y, side), Style { numbers });
+    let at = upright(x, y, side);
+    draw_triangle(&mut canvas, &t, at, Style { numbers });
+    if let Some(hit) = hit {
+        mark_hit(&mut canvas, hit, at, level);
+    }
     Ok(canvas)
+}
+
+/// `x` to 6 decimal places, without trailing zeros.
+fn short(x: f64) -> String {
+    let text = format!("{x:.6}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// At most `n` of `items`, then how many more.
+fn list_first(items: &[u32], n: usize) -> String {
+    let shown: Vec<String> = items.iter().take(n).map(u32::to_string).collect();
+    match items.len().saturating_sub(n) {
+        0 => shown.join(", "),
+        more => format!("{} and {more} more", shown.join(", ")),
+    }
+}
+
+/// Draws `hit` on the triangle whose vertices are at `at`, its micro-
+/// triangles at `level`: each one within the error bound outlined (at most
+/// 4096, beyond which the outlines would fill the triangle), then the hit
+/// point as a dot in a white ring, at `(1 - u - v)·v0 + u·v1 + v·v2`.
+fn mark_hit(canvas: &mut Canvas, hit: &HitMarks<'_>, at: [(f64, f64); 3], level: u32) {
+    let outer = side(&at);
+    let width = (outer / f64::from(1u32 << level.min(12)) / 8.0).clamp(1.0, 3.0);
+    if hit.whole_triangle {
+        canvas.outline(&at, HIT, 3.0);
+    } else {
+        for index in hit.micro_triangles.iter().take(4096) {
+            if let Some(p) = cells::corners(*index, level, at) {
+                canvas.outline(&p, HIT, width);
+            }
+        }
+    }
+    let w = 1.0 - hit.u - hit.v;
+    let point = (
+        w * at[0].0 + hit.u * at[1].0 + hit.v * at[2].0,
+        w * at[0].1 + hit.u * at[1].1 + hit.v * at[2].1,
+    );
+    if point.0.is_finite() && point.1.is_finite() {
+        canvas.dot(point, 7.0, "#ffffff");
+        canvas.dot(point, 4.5, HIT);
+    }
 }
 
 /// A whole micromap: its triangles in a grid, in array order.

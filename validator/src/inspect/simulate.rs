@@ -495,7 +495,9 @@ pub(crate) fn trace_attachment<'a>(
     let index_bytes = if opacity.index_type == INDEX_TYPE_NONE {
         None
     } else if host {
-        state.host_bytes_from(opacity.index_buffer)
+        // After the build: only the host memory the application described
+        // is still known.
+        state.host_memory(&[]).bytes_from(opacity.index_buffer)
     } else {
         state.device_bytes_from(opacity.index_buffer)
     };
@@ -528,7 +530,7 @@ fn read<'a>(
     work: &mut WorkCounters,
 ) -> Result<&'a [u8], SimError> {
     let bytes = if host {
-        state.read_host(address, len)
+        state.host_memory(&[]).read(address, len)
     } else {
         state.read_device(address, len)
     };

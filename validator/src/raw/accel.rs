@@ -253,18 +253,21 @@ fn host_reads(
 }
 
 impl Validator {
-    /// Copies the host range `read` describes into the tracked host memory
-    /// (unless it is already there), so the checks can read it; a range
-    /// longer than [`MAX_HOST_BYTES`] is reported and not read.
+    /// Copies the host range `read` describes into `read_for_call`, the
+    /// host memory read for this call alone (unless the application
+    /// described it or it was read already), so the call's checks and
+    /// record can read it; a range longer than [`MAX_HOST_BYTES`] is
+    /// reported and not read.
     ///
     /// # Safety
     /// A non-zero `read.address` must be a host pointer readable for
     /// `read.extent` bytes.
-    pub(super) unsafe fn describe_host_range(
-        &mut self,
+    pub(super) unsafe fn read_host_range(
+        &self,
         read: &HostRead,
         function: &'static str,
         findings: &mut Vec<Finding>,
+        read_for_call: &mut Vec<HostRange>,
     ) {
         if read.address == 0 || read.extent == Some(0) {
             return;
@@ -288,7 +291,11 @@ impl Validator {
             return; // Not a pointer on this target.
         };
         if address.checked_add(len).is_none()
-            || self.state.read_host(read.address, extent).is_some()
+            || self
+                .state
+                .host_memory(read_for_call)
+                .read(read.address, extent)
+                .is_some()
         {
             return;
         }
@@ -297,7 +304,7 @@ impl Validator {
         let bytes = unsafe {
             std::slice::from_raw_parts(std::ptr::with_exposed_provenance::<u8>(address), len)
         };
-        self.state.host_memory.push(HostRange {
+        read_for_call.push(HostRange {
             address: read.address,
             // A copy: the application may change or free the memory after the call.
             bytes: crate::Bytes::copy_from_slice(bytes),
@@ -566,11 +573,9 @@ impl Validator {
                 &mut findings,
             )
         };
-        let described_before = self.state.host_memory.len();
-        let partial_before = self.state.host_memory_partial;
-        // What is read here is not all the memory the application described,
-        // unless it described memory to the validator before the call.
-        self.state.host_memory_partial = partial_before || described_before == 0;
+        // Host memory read for this call is this call's alone: the
+        // application may change or free it once the call returns.
+        let mut read_for_call = Vec::new();
         for (i, info) in model.iter_mut().enumerate() {
             let info_ranges = ranges.get(i).and_then(Option::as_ref);
             // SAFETY: forwarded from the caller (host instance addresses).
@@ -578,14 +583,14 @@ impl Validator {
             for read in host_reads(i, info, info_ranges) {
                 // SAFETY: the caller guarantees each described host range
                 // is readable for its extent.
-                unsafe { self.describe_host_range(&read, HOST_BUILD, &mut findings) };
+                unsafe {
+                    self.read_host_range(&read, HOST_BUILD, &mut findings, &mut read_for_call)
+                };
             }
         }
         let mut report = Report::from(findings);
-        report.extend(self.build_acceleration_structures(&model, &ranges));
-        // Host memory read for this call is forgotten after it.
-        self.state.host_memory.truncate(described_before);
-        self.state.host_memory_partial = partial_before;
+        report.extend(self.build_acceleration_structures_rules(&model, &ranges, &read_for_call));
+        self.record_acceleration_structures_built(&model, &ranges, &read_for_call);
         report
     }
 
@@ -1355,7 +1360,10 @@ mod tests {
             "{report}"
         );
         // Read during the call, forgotten after it.
-        assert_eq!(v.state.read_host(indices.as_ptr() as u64, 8), None);
+        assert_eq!(
+            v.state.host_memory(&[]).read(indices.as_ptr() as u64, 8),
+            None
+        );
 
         // The same build through the device command reads nothing at the
         // (host) address: it is no device address the checker knows.
@@ -1397,7 +1405,10 @@ mod tests {
         let mut v = validator();
         // SAFETY: the triangle array holds the 2 entries the counts describe.
         let report = unsafe { v.build_acceleration_structures_ash(&[info], &[]) };
-        assert_eq!(v.state.read_host(entries.as_ptr() as u64, 16), None);
+        assert_eq!(
+            v.state.host_memory(&[]).read(entries.as_ptr() as u64, 16),
+            None
+        );
         // The counts claim two level-1 triangles; the array read from host
         // memory holds a level-3 one.
         assert!(report.contains(&rules::HISTOGRAM_MISMATCH), "{report}");

@@ -28,6 +28,7 @@ use crate::model::micromap_objects::{
 use crate::model::CommandBuffer;
 use crate::model::Handle;
 use crate::report::{Finding, Report};
+use crate::state::HostRange;
 use crate::Validator;
 
 /// The bytes of serialized micromap data that say its version: the driver
@@ -206,8 +207,11 @@ impl Validator {
             });
             // SAFETY: the caller guarantees the version bytes are readable.
             unsafe {
-                self.with_host_read(read, function, findings, |v| {
-                    v.copy_memory_to_micromap(device, deferred, model)
+                self.with_host_read(read, function, findings, |v, read_for_call| {
+                    let report =
+                        v.copy_memory_to_micromap_rules(device, deferred, model, read_for_call);
+                    v.record_copy_memory_to_micromap(deferred, model);
+                    report
                 })
             }
         };
@@ -215,30 +219,24 @@ impl Validator {
         unsafe { read_then_check(info, function, copy_memory_to_micromap_info, check) }
     }
 
-    /// Runs `check` with `read` (where given) described as host memory for
-    /// it alone: the bytes are forgotten after it, and while it runs, host
-    /// memory the application never described stays of unknown extent.
+    /// Runs `check` with `read` (where given) read as host memory for this
+    /// call alone, handed to it beside the state, which never keeps it.
     ///
     /// # Safety
-    /// As [`Self::describe_host_range`] for `read`.
+    /// As [`Self::read_host_range`] for `read`.
     unsafe fn with_host_read(
         &mut self,
         read: Option<HostRead>,
         function: &'static str,
         findings: &mut Vec<Finding>,
-        check: impl FnOnce(&mut Self) -> Report,
+        check: impl FnOnce(&mut Self, &[HostRange]) -> Report,
     ) -> Report {
-        let described_before = self.state.host_memory.len();
-        let partial_before = self.state.host_memory_partial;
-        self.state.host_memory_partial = partial_before || described_before == 0;
+        let mut read_for_call = Vec::new();
         if let Some(read) = read {
             // SAFETY: forwarded from the caller.
-            unsafe { self.describe_host_range(&read, function, findings) };
+            unsafe { self.read_host_range(&read, function, findings, &mut read_for_call) };
         }
-        let report = check(self);
-        self.state.host_memory.truncate(described_before);
-        self.state.host_memory_partial = partial_before;
-        report
+        check(self, &read_for_call)
     }
 
     /// Checks `vkCmdWriteMicromapsPropertiesEXT(commandBuffer,
@@ -528,8 +526,11 @@ impl Validator {
             // SAFETY: the caller guarantees the header is readable for the
             // extent, which lies within the size it states.
             unsafe {
-                self.with_host_read(read, function, findings, |v| {
-                    v.copy_memory_to_acceleration_structure(model)
+                self.with_host_read(read, function, findings, |v, read_for_call| {
+                    let report =
+                        v.copy_memory_to_acceleration_structure_rules(model, read_for_call);
+                    v.record_copy_memory_to_acceleration_structure(model);
+                    report
                 })
             }
         };

@@ -601,6 +601,31 @@ impl Validator {
         infos: *const vk::MicromapBuildInfoEXT<'_>,
         readable: &[ReadableHost],
     ) -> Report {
+        // SAFETY: forwarded from the caller.
+        let build = unsafe {
+            self.read_build_micromaps_raw(device, deferred_operation, info_count, infos, readable)
+        };
+        let report = self.build_micromaps_read_rules(&build);
+        self.record_build_micromaps_read(build);
+        report
+    }
+
+    /// Reads `vkBuildMicromapsEXT(device, deferredOperation, infoCount,
+    /// pInfos)` as [`Self::build_micromaps_raw_reading`] does, for its rules
+    /// before the driver runs it ([`Self::build_micromaps_read_rules`]) and
+    /// its record after ([`Self::record_build_micromaps_read`]): the host
+    /// memory read stays with the call, never in the tracked state.
+    ///
+    /// # Safety
+    /// As [`Self::build_micromaps_raw_reading`].
+    pub unsafe fn read_build_micromaps_raw(
+        &mut self,
+        device: vk::Device,
+        deferred_operation: vk::DeferredOperationKHR,
+        info_count: u32,
+        infos: *const vk::MicromapBuildInfoEXT<'_>,
+        readable: &[ReadableHost],
+    ) -> HostMicromapBuild {
         let mut findings = Vec::new();
         // SAFETY: forwarded from the caller.
         let model = unsafe {
@@ -613,16 +638,23 @@ impl Validator {
                 vuid::vkBuildMicromapsEXT::pInfos_parameter,
             )
         };
+        let (device, deferred_operation) = (
+            vk::Handle::as_raw(device),
+            vk::Handle::as_raw(deferred_operation),
+        );
+        let mut build = HostMicromapBuild {
+            device,
+            deferred_operation,
+            infos: None,
+            read_for_call: Vec::new(),
+            findings,
+        };
         if infos.is_null() && info_count != 0 {
-            return Report::from(findings);
+            return build;
         }
-        // Host memory read for this call is forgotten after it: the
+        // Host memory read for this call is this call's alone: the
         // application may change or free it once the call returns.
-        let described_before = self.state.host_memory.len();
-        let partial_before = self.state.host_memory_partial;
-        // What is read here is not all the memory the application described,
-        // unless it described memory to the validator before the call.
-        self.state.host_memory_partial = partial_before || described_before == 0;
+        let (read_for_call, findings) = (&mut build.read_for_call, &mut build.findings);
         // Below the content tier no check reads a byte, so none is copied.
         let read_for = if self.tier >= Tier::Content {
             &model[..]
@@ -631,7 +663,7 @@ impl Validator {
         };
         for (i, info) in read_for.iter().enumerate() {
             // SAFETY: forwarded from the caller (`readable` is readable).
-            unsafe { self.read_data_in_readable(i, info.data, readable, &mut findings) };
+            unsafe { self.read_data_in_readable(i, info.data, readable, findings, read_for_call) };
             let triangles = info.usage_counts.total();
             let extent = triangles
                 .checked_sub(1)
@@ -650,7 +682,8 @@ impl Validator {
                 ));
                 continue;
             }
-            if self.state.read_host(info.triangle_array, extent).is_none() {
+            let host = self.state.host_memory(read_for_call);
+            if host.read(info.triangle_array, extent).is_none() {
                 // SAFETY: the caller guarantees the triangle array is readable
                 // for `extent` bytes; `extent` fits in memory (bounded above).
                 let bytes = unsafe {
@@ -659,36 +692,54 @@ impl Validator {
                         extent as usize,
                     )
                 };
-                self.state.host_memory.push(HostRange {
+                read_for_call.push(HostRange {
                     address: info.triangle_array,
                     // A copy: the application may change or free the memory after the call.
                     bytes: crate::Bytes::copy_from_slice(bytes),
                 });
             }
         }
-        let mut report = self.build_micromaps(
-            vk::Handle::as_raw(device),
-            vk::Handle::as_raw(deferred_operation),
-            &model,
+        build.infos = Some(model);
+        build
+    }
+
+    /// The findings of reading `build` and its rules; records nothing.
+    pub fn build_micromaps_read_rules(&self, build: &HostMicromapBuild) -> Report {
+        let Some(infos) = &build.infos else {
+            return Report::from(build.findings.clone());
+        };
+        let mut report = self.build_micromaps_rules(
+            build.device,
+            build.deferred_operation,
+            infos,
+            &build.read_for_call,
         );
-        report.prepend(findings);
-        self.state.host_memory.truncate(described_before);
-        self.state.host_memory_partial = partial_before;
-        self.spare_micromap_infos.keep(model);
+        report.prepend(build.findings.clone());
         report
     }
 
+    /// Records what the build `build` describes made, reading the host
+    /// memory read for it; then forgets that memory.
+    pub fn record_build_micromaps_read(&mut self, build: HostMicromapBuild) {
+        let Some(infos) = build.infos else {
+            return;
+        };
+        self.record_micromaps_built(build.deferred_operation, &infos, &build.read_for_call);
+        self.spare_micromap_infos.keep(infos);
+    }
+
     /// Copies the host memory from `data` to the end of the readable range
-    /// holding it into the tracked host memory, unless it is known already.
+    /// holding it into `read_for_call`, unless it is known already.
     ///
     /// # Safety
     /// Each of `readable` must be readable host memory.
     unsafe fn read_data_in_readable(
-        &mut self,
+        &self,
         info_index: usize,
         data: u64,
         readable: &[ReadableHost],
         findings: &mut Vec<Finding>,
+        read_for_call: &mut Vec<HostRange>,
     ) {
         let Some(end) = readable.iter().find_map(|range| {
             let end = range.address.checked_add(range.len)?;
@@ -707,7 +758,12 @@ impl Validator {
             ));
             return;
         }
-        if self.state.read_host(data, extent).is_some() {
+        if self
+            .state
+            .host_memory(read_for_call)
+            .read(data, extent)
+            .is_some()
+        {
             return;
         }
         let (Ok(address), Ok(len)) = (usize::try_from(data), usize::try_from(extent)) else {
@@ -718,12 +774,27 @@ impl Validator {
         let bytes = unsafe {
             std::slice::from_raw_parts(std::ptr::with_exposed_provenance::<u8>(address), len)
         };
-        self.state.host_memory.push(HostRange {
+        read_for_call.push(HostRange {
             address: data,
             // A copy: the application may change or free the memory after the call.
             bytes: crate::Bytes::copy_from_slice(bytes),
         });
     }
+}
+
+/// A `vkBuildMicromapsEXT` call as [`Validator::read_build_micromaps_raw`]
+/// read it: its infos and the host memory read for it alone, kept between
+/// the call's rules and its record.
+#[derive(Debug)]
+pub struct HostMicromapBuild {
+    device: crate::model::Handle,
+    deferred_operation: crate::model::Handle,
+    /// None where `pInfos` is NULL with a count: then nothing is checked
+    /// or recorded but that.
+    infos: Option<Vec<MicromapBuildInfo>>,
+    read_for_call: Vec<HostRange>,
+    /// What reading the call found (a bound reached, a NULL array).
+    findings: Vec<Finding>,
 }
 
 /// Host memory an adaptor knows the application may read during a call,
@@ -1031,7 +1102,7 @@ mod tests {
         // With one byte readable, the second triangle's data is past its end.
         let report = build(&mut v, &[ReadableHost { len: 1, ..whole }]);
         assert_eq!(report.ids(), [rules::TRIANGLE_DATA_RANGE.id], "{report}");
-        assert!(v.state.host_memory.is_empty() && !v.state.host_memory_partial);
+        assert!(v.state.host_memory.is_empty());
     }
 
     /// The bytes a host build's recorded content keeps are the checker's

@@ -201,8 +201,9 @@ impl Validator {
             });
         // SAFETY: forwarded from the caller.
         let callbacks = unsafe { allocation_callbacks(allocator) };
-        // Handle 0: checked as a call with a pMicromap, recorded by nothing.
-        let report = self.create_micromap(
+        // The rules alone: the layer records the handle the driver returns
+        // (`record_micromap_raw`).
+        let report = self.create_micromap_rules(
             vk::Handle::as_raw(device),
             model.as_ref(),
             callbacks.as_ref(),
@@ -244,8 +245,26 @@ impl Validator {
         allocator: *const vk::AllocationCallbacks<'_>,
     ) -> Report {
         // SAFETY: forwarded from the caller.
+        let report = unsafe { self.destroy_micromap_rules_raw(device, micromap, allocator) };
+        self.record_micromap_destroyed(vk::Handle::as_raw(micromap));
+        report
+    }
+
+    /// The rules of `vkDestroyMicromapEXT(device, micromap, pAllocator)`,
+    /// before the call; records nothing (a layer records the destruction
+    /// after the call with [`Validator::record_micromap_destroyed`]).
+    ///
+    /// # Safety
+    /// As [`Self::destroy_micromap_raw`].
+    pub unsafe fn destroy_micromap_rules_raw(
+        &self,
+        device: vk::Device,
+        micromap: vk::MicromapEXT,
+        allocator: *const vk::AllocationCallbacks<'_>,
+    ) -> Report {
+        // SAFETY: forwarded from the caller.
         let callbacks = unsafe { allocation_callbacks(allocator) };
-        self.destroy_micromap(
+        self.destroy_micromap_rules(
             vk::Handle::as_raw(device),
             vk::Handle::as_raw(micromap),
             callbacks.as_ref(),

@@ -1257,7 +1257,9 @@ impl Resolver<'_> {
             .enumerate()
             .map(|(i, d)| self.build_geometry_info(d, &format!("{at}.pInfos[{i}]")))
             .collect::<Result<Vec<_>>>()?;
-        read_instances(self.validator.state(), &mut resolved, ranges, host);
+        let state = self.validator.state();
+        let host = host.then(|| state.host_memory(&[]));
+        read_instances(state, &mut resolved, ranges, host);
         Ok(resolved)
     }
 

@@ -16,7 +16,7 @@ use crate::model::pipeline::*;
 use crate::model::CommandBuffer;
 use crate::report::not_checked::Cause;
 use crate::report::{ObjectRef, Report, RuleId};
-use crate::state::State;
+use crate::state::{HostMemory, HostRange, State};
 use crate::tier::Tier;
 
 const DESERIALIZED: &str = "needs the serialized bytes of the micromaps an acceleration structure was deserialized from and of those it was built with, which are device memory contents the application never hands over";
@@ -184,6 +184,18 @@ impl Validator {
         ranges: &[Option<Vec<BuildRangeInfo>>],
         index_mixes: &[IndexMix],
     ) {
+        self.record_micromap_geometry_reading(infos, ranges, index_mixes, &[]);
+    }
+
+    /// As [`Self::record_micromap_geometry_after_checks`], for a host build
+    /// for which an adaptor read `read_for_call` of host memory.
+    pub(crate) fn record_micromap_geometry_reading(
+        &mut self,
+        infos: &[BuildGeometryInfo],
+        ranges: &[Option<Vec<BuildRangeInfo>>],
+        index_mixes: &[IndexMix],
+        read_for_call: &[HostRange],
+    ) {
         for (i, info) in infos.iter().enumerate() {
             if info.dst_acceleration_structure == 0 {
                 continue; // VK_NULL_HANDLE: nothing to remember it by.
@@ -196,7 +208,8 @@ impl Validator {
                     .map_or(0, |r| r.primitive_count);
                 let found = match &entry.geometry {
                     GeometryData::Triangles(triangles) => {
-                        let read = (&self.state, index_mixes);
+                        let host = self.state.host_memory(read_for_call);
+                        let read = (&self.state, host, index_mixes);
                         triangles_geometry(read, self.tier, triangles, primitives)
                     }
                     GeometryData::Instances(instances) => instances
@@ -243,7 +256,7 @@ fn referenced(state: &State, reference: u64) -> Option<MicromapGeometry> {
 /// special indices are not known. An index buffer the checks read in full
 /// (in `index_mixes`) is not read again.
 fn triangles_geometry(
-    (state, index_mixes): (&State, &[IndexMix]),
+    (state, host, index_mixes): (&State, HostMemory<'_>, &[IndexMix]),
     tier: Tier,
     triangles: &TrianglesData,
     primitives: u32,
@@ -271,17 +284,32 @@ fn triangles_geometry(
                 });
                 let held = match read {
                     Some(mix) => Some(mix.held),
-                    None => index_mix(state, ty, address, stride, primitives),
+                    None => index_mix_reading((state, host), ty, address, stride, primitives),
                 };
                 held == Some((true, true))
             }),
     }
 }
 
-/// Whether the opacity index buffer holds (special indices, micromap
-/// indices), when the checker can read all `count` entries.
+/// [`index_mix_reading`] of device memory or the host memory the
+/// application described (the tests ask of a state alone).
+#[cfg(test)]
 pub(crate) fn index_mix(
     state: &State,
+    index_type: i32,
+    address: u64,
+    stride: u64,
+    count: u32,
+) -> Option<(bool, bool)> {
+    let host = state.host_memory(&[]);
+    index_mix_reading((state, host), index_type, address, stride, count)
+}
+
+/// Whether the opacity index buffer holds (special indices, micromap
+/// indices), when the checker can read all `count` entries, in device
+/// memory or else `host` memory.
+fn index_mix_reading(
+    (state, host): (&State, HostMemory<'_>),
     index_type: i32,
     address: u64,
     stride: u64,
@@ -301,7 +329,7 @@ pub(crate) fn index_mix(
     let span = stride.checked_mul(entries - 1)?.checked_add(size)?;
     let bytes = state
         .read_device(address, span)
-        .or_else(|| state.read_host(address, span))?;
+        .or_else(|| host.read(address, span))?;
     // One branch-free pass, a chunk of indices at a time (see index_scan):
     // special indices are -1..-4 cast to the index width; -5 (cluster
     // geometry's) is neither.
