@@ -146,8 +146,9 @@ impl Rule {
     fn expected(self) -> Vec<&'static str> {
         match self {
             Rule::DataPastEnd => vec![DATA_IN_RANGE],
-            // One per (level, format) whose count disagrees.
-            Rule::HistogramMismatch => vec![USAGE_MATCHES_TRIANGLES; 2],
+            // One: the level-1 count that is the level-2 triangle's, with
+            // a hint, the other level's mismatch folded into it.
+            Rule::HistogramMismatch => vec![USAGE_MATCHES_TRIANGLES],
             Rule::IndexPastMicromap => vec![INDEX_IN_RANGE],
             Rule::UsageAfterIndirection => vec![USAGE_MATCHES_INDICES],
             // One per index that is not special.

@@ -57,6 +57,8 @@
 //!         .ty(vk::MicromapTypeEXT::OPACITY_MICROMAP);
 //!     let device = vk::Device::from_raw(0xde);
 //!     v.create_micromap_from(device, &create, micromap).assert_fully_checked();
+//!     // Findings name it, as vkSetDebugUtilsObjectNameEXT names it for the Khronos layer.
+//!     v.name_object(micromap, "one-triangle");
 //!
 //!     let build = MicromapBuildInfo {
 //!         dst_micromap: micromap.as_raw(),
@@ -91,7 +93,16 @@
 //!       "severity": "error",
 //!       "function": "vkCmdBuildMicromapsEXT",
 //!       "location": "pInfos[0].triangleArray[0].dataOffset",
-//!       "objects": [],
+//!       "at": {
+//!         "parameter": "pInfos[0].triangleArray[0].dataOffset"
+//!       },
+//!       "objects": [
+//!         {
+//!           "type": "VkMicromapEXT",
+//!           "handle": 7,
+//!           "name": "one-triangle"
+//!         }
+//!       ],
 //!       "message": "[500, 516) is past the end of the memory data points into (512 bytes)",
 //!       "messageId": 3114820761,
 //!       "specText": "Each micromap triangle refers to one element in triangleArray which contains ... a dataOffset in bytes which is the location relative to data where that triangle's micromap data begins (the triangle's data, ceil(4^subdivisionLevel * bits per state / 8) bytes from dataOffset, must lie inside the memory data points to)",

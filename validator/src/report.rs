@@ -6,7 +6,10 @@ use ommcheck_vuids::Vuid;
 use serde::Serialize;
 
 pub mod location;
+pub mod names;
 pub mod not_checked;
+pub(crate) mod objects;
+pub mod quote;
 
 use crate::rules::OwnRule;
 use not_checked::{Cause, NotChecked, RuleSet};
@@ -121,28 +124,157 @@ pub struct ObjectRef {
     pub handle: u64,
 }
 
+/// Where a finding comes from, beyond its parameter path: the call of a
+/// scene, the scene file and the line that call starts on, and the names
+/// of the objects the finding involves.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct At {
+    /// The index of the call in the scene's `calls`.
+    pub call: Option<usize>,
+    /// The scene file, as the report names it.
+    pub scene: Option<String>,
+    /// The 1-based line of the scene file on which the call starts.
+    pub line: Option<usize>,
+    /// Names of objects of [`Finding::objects`], by handle: a scene's
+    /// names, or those a program gave with
+    /// [`Validator::name_object`](crate::Validator::name_object).
+    pub names: Vec<(u64, String)>,
+}
+
+impl At {
+    /// The name given to `handle`, if any.
+    pub fn name_of(&self, handle: u64) -> Option<&str> {
+        self.names
+            .iter()
+            .find(|(h, _)| *h == handle)
+            .map(|(_, name)| name.as_str())
+    }
+}
+
 /// One problem found.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+///
+/// In JSON (`ommcheck check --format json`, or serde) a finding is an
+/// object with, in this order: `id`, `severity`, `function`, `location`
+/// (the call and parameter path as one string, as the text shows it),
+/// `at` (the same place in parts: `call`, `parameter`, `scene`, `line`),
+/// `objects` (each with `type`, `handle` and, where known, `name`),
+/// `message`, `hint` (where a fix is clear), `folded` (how many findings
+/// this one stands for besides itself), `messageId`, `specText` (the
+/// rule's whole statement), `specQuote` (the one sentence of it the
+/// finding breaks, where the statement has more than one), `specUrl` and
+/// `notChecked`. Members that would be empty are left out, except
+/// `objects`.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Finding {
-    #[serde(rename = "id")]
     pub rule: RuleId,
     pub severity: Severity,
     /// The command or entry point checked, e.g. `vkCmdBuildMicromapsEXT`.
     pub function: &'static str,
-    /// The place inside its parameters, e.g. `pInfos[1].pUsageCounts[3].subdivisionLevel`.
+    /// The place inside its parameters, e.g. `pInfos[1].pUsageCounts[3].subdivisionLevel`
+    /// (in a scene's report prefixed with the call: `calls[2]: pInfos[1]...`).
     pub location: String,
+    /// The call, scene line and object names (see [`At`]).
+    pub at: At,
     pub objects: Vec<ObjectRef>,
     pub message: String,
-    #[serde(rename = "messageId")]
+    /// A likely fix, where one is clear (`Did you mean level 3?`): a
+    /// sentence, written after the message.
+    pub hint: Option<String>,
+    /// How many findings caused by this one (bytes decoded from a range
+    /// already in error, the other half of a misplaced usage count) were
+    /// folded into it instead of being listed; the message says what they were.
+    pub folded: u64,
     pub message_id: u32,
-    #[serde(rename = "specText")]
+    /// The rule's whole statement.
     pub spec_text: &'static str,
-    #[serde(rename = "specUrl")]
+    /// The sentence of `spec_text` this finding breaks (see [`quote`]);
+    /// the text form quotes it.
+    pub spec_quote: &'static str,
     pub spec_url: String,
     /// For a not-checked information (`OMMCHECK-not-checked-*`): the rules
     /// that could not be decided.
-    #[serde(rename = "notChecked", skip_serializing_if = "Vec::is_empty")]
     pub not_checked: Vec<RuleId>,
+}
+
+impl Serialize for Finding {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Object<'a> {
+            #[serde(rename = "type")]
+            ty: &'static str,
+            handle: u64,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            name: Option<&'a str>,
+        }
+        #[derive(Serialize)]
+        struct Place<'a> {
+            #[serde(skip_serializing_if = "Option::is_none")]
+            call: Option<usize>,
+            parameter: &'a str,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            scene: Option<&'a str>,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            line: Option<usize>,
+        }
+        #[derive(Serialize)]
+        #[serde(rename_all = "camelCase")]
+        struct Out<'a> {
+            id: RuleId,
+            severity: Severity,
+            function: &'static str,
+            location: &'a str,
+            at: Place<'a>,
+            objects: Vec<Object<'a>>,
+            message: &'a str,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            hint: Option<&'a str>,
+            #[serde(skip_serializing_if = "is_zero")]
+            folded: u64,
+            message_id: u32,
+            spec_text: &'static str,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            spec_quote: Option<&'static str>,
+            spec_url: &'a str,
+            #[serde(skip_serializing_if = "no_rules")]
+            not_checked: &'a [RuleId],
+        }
+        fn is_zero(n: &u64) -> bool {
+            *n == 0
+        }
+        fn no_rules(rules: &&[RuleId]) -> bool {
+            rules.is_empty()
+        }
+        Out {
+            id: self.rule,
+            severity: self.severity,
+            function: self.function,
+            location: &self.location,
+            at: Place {
+                call: self.at.call,
+                parameter: self.parameter(),
+                scene: self.at.scene.as_deref(),
+                line: self.at.line,
+            },
+            objects: self
+                .objects
+                .iter()
+                .map(|o| Object {
+                    ty: o.ty,
+                    handle: o.handle,
+                    name: self.at.name_of(o.handle),
+                })
+                .collect(),
+            message: &self.message,
+            hint: self.hint.as_deref(),
+            folded: self.folded,
+            message_id: self.message_id,
+            spec_text: self.spec_text,
+            spec_quote: (self.spec_quote != self.spec_text).then_some(self.spec_quote),
+            spec_url: &self.spec_url,
+            not_checked: &self.not_checked,
+        }
+        .serialize(serializer)
+    }
 }
 
 impl Finding {
@@ -154,18 +286,54 @@ impl Finding {
         message: impl Into<String>,
     ) -> Self {
         let rule = rule.into();
+        let location = location.into();
         Self {
             rule,
             severity,
             function,
-            location: location.into(),
+            spec_quote: quote::sentence(rule, &location),
+            location,
+            at: At::default(),
             objects: Vec::new(),
             message: message.into(),
+            hint: None,
+            folded: 0,
             message_id: rule.message_id(),
             spec_text: rule.statement(),
             spec_url: rule.link(),
             not_checked: Vec::new(),
         }
+    }
+
+    /// The parameter path alone: [`Self::location`] without the call a
+    /// scene puts in front of it (`calls[2]: `).
+    pub fn parameter(&self) -> &str {
+        match self.at.call {
+            Some(_) if self.location.starts_with("calls[") => self
+                .location
+                .split_once(": ")
+                .map_or("", |(_, parameter)| parameter),
+            _ => &self.location,
+        }
+    }
+
+    /// Folds `n` findings this one caused into it: they are not listed,
+    /// and the message ends with `; {what}` (`and 30 more triangles past
+    /// the triangles written: ...`).
+    pub fn fold(&mut self, n: u64, what: impl fmt::Display) {
+        if n == 0 {
+            return;
+        }
+        self.folded = self.folded.saturating_add(n);
+        let end = self.message.trim_end_matches('.').len();
+        self.message.truncate(end);
+        self.message.push_str(&format!("; {what}"));
+    }
+
+    /// Adds a hint (a sentence) to the finding.
+    pub fn with_hint(mut self, hint: impl Into<String>) -> Self {
+        self.hint = Some(hint.into());
+        self
     }
 
     /// The cause, if this is a not-checked information.
@@ -199,13 +367,18 @@ impl Finding {
             write!(f, "{}: ", self.location)?;
         }
         let message = self.message.trim_end_matches('.');
+        write!(f, "{message}.")?;
+        if let Some(hint) = &self.hint {
+            write!(f, " {hint}")?;
+        }
         write!(
             f,
-            "{message}. The Vulkan spec states: {} ({})",
-            self.spec_text, self.spec_url
+            " The Vulkan spec states: {} ({})",
+            self.spec_quote, self.spec_url
         )?;
         for (i, object) in self.objects.iter().enumerate() {
-            match name_of(object) {
+            let own = || self.at.name_of(object.handle).map(str::to_string);
+            match name_of(object).or_else(own) {
                 Some(name) => write!(
                     f,
                     "\n    Objects[{i}]: {} '{name}' ({:#x})",
@@ -213,6 +386,9 @@ impl Finding {
                 )?,
                 None => write!(f, "\n    Objects[{i}]: {} {:#x}", object.ty, object.handle)?,
             }
+        }
+        if let (Some(scene), Some(line)) = (&self.at.scene, self.at.line) {
+            write!(f, "\n    Scene: {scene}:{line}")?;
         }
         Ok(())
     }

@@ -56,7 +56,7 @@ fn failing_twins_report_their_rules() {
     assert_eq!(
         ids("ext-quad-mistakes.json"),
         [
-            "OMMCHECK-build-usage-counts-match-triangles",
+            // The usage counts' level 2 that is level 3: one finding, with a hint.
             "OMMCHECK-build-usage-counts-match-triangles",
             "OMMCHECK-attach-index-in-range",
         ]
@@ -279,7 +279,7 @@ fn cli_json_form() {
     assert_eq!(code, 1);
     let json: serde_json::Value = serde_json::from_str(&stdout).expect("JSON output");
     assert_eq!(json["summary"]["scenes"], 2);
-    assert_eq!(json["summary"]["errors"], 3);
+    assert_eq!(json["summary"]["errors"], 2);
     assert_eq!(json["summary"]["calls"], 8);
     // Both scenes give everything their calls read.
     assert_eq!(json["summary"]["rulesNotChecked"], 0);
@@ -287,7 +287,9 @@ fn cli_json_form() {
     let scenes = json["scenes"].as_array().unwrap();
     assert_eq!(scenes[0]["path"], "tests/scenes/ext-quad-valid.json");
     assert_eq!(scenes[0]["findings"], serde_json::json!([]));
-    let finding = &scenes[1]["findings"][2];
+    assert_eq!(scenes[1]["findings"][0]["hint"], "Did you mean level 3?");
+    assert_eq!(scenes[1]["findings"][0]["folded"], 1);
+    let finding = &scenes[1]["findings"][1];
     assert_eq!(finding["id"], "OMMCHECK-attach-index-in-range");
     assert_eq!(finding["severity"], "error");
     assert_eq!(finding["function"], "vkCmdBuildAccelerationStructuresKHR");
@@ -297,6 +299,18 @@ fn cli_json_form() {
         .starts_with("calls[3]: "));
     let objects = scenes[1]["objects"].as_array().unwrap();
     assert!(objects
+        .iter()
+        .any(|o| o["name"] == "foliage-omm" && o["type"] == "VkMicromapEXT"));
+    // The finding's place in parts, and the micromap it involves by name.
+    assert_eq!(finding["at"]["call"], 3);
+    assert_eq!(
+        finding["at"]["scene"],
+        "tests/scenes/ext-quad-mistakes.json"
+    );
+    assert!(finding["at"]["line"].as_u64().is_some_and(|line| line > 1));
+    assert!(finding["objects"]
+        .as_array()
+        .unwrap()
         .iter()
         .any(|o| o["name"] == "foliage-omm" && o["type"] == "VkMicromapEXT"));
 }

@@ -27,6 +27,7 @@ use crate::checks::index_scan::{
     special_and_micromap_indices, CleanIndices, IndexMix, ReferenceTally,
 };
 use crate::checks::usage_counts::{self, EntryVuids, PointerVuids};
+use crate::checks::usage_hints;
 use crate::checks::usage_keys::{self, UsageKeys};
 use crate::checks::Coverage;
 use crate::checks::{Ctx, Validator};
@@ -1305,18 +1306,34 @@ fn usage_counts_match_indices(
         _ => FormatKind::OpacityExt,
     };
     let mut tally = Tally::new();
+    let message = |(format, level): (u32, u32)| {
+        let said = declared.get(&(format, level)).map_or(0, |d| d.0);
+        let has = found.get(&(format, level)).copied().unwrap_or(0);
+        format!("{}: the usage counts say {said}, the {} reference micromap triangles of that format and level {}", names.key(format, level), count_of(count, "geometry triangle", "geometry triangles"), count_of(has, "time", "times"))
+    };
+    // A count under the wrong key: one finding, with a hint.
+    let sums: BTreeMap<(u32, u32), u64> = declared.iter().map(|(key, d)| (*key, d.0)).collect();
+    let limits = &ctx.device.limits;
+    let misplaced =
+        usage_hints::misplaced(&sums, &found, |k| usage_hints::valid_key(k, names, limits));
     for (format, level) in keys {
         let (said, first) = declared.get(&(format, level)).copied().unwrap_or((0, None));
         let has = found.get(&(format, level)).copied().unwrap_or(0);
-        if said == has {
+        if said == has || misplaced.iter().any(|m| m.meant == (format, level)) {
             continue;
         }
         let location = first.map_or_else(|| array.clone(), |k| format!("{array}[{k}]"));
+        if let Some(m) = misplaced.iter().find(|m| m.wrong == (format, level)) {
+            let finding = ctx.error(&rules::ATTACH_USAGE_COUNTS, location, message(m.wrong));
+            finding.fold(1, format!("and {}", message(m.meant)));
+            finding.hint = Some(usage_hints::hint(m, names));
+            continue;
+        }
         tally.error(
             ctx,
             &rules::ATTACH_USAGE_COUNTS,
             location,
-            || format!("{}: the usage counts say {said}, the {} reference micromap triangles of that format and level {}", names.key(format, level), count_of(count, "geometry triangle", "geometry triangles"), count_of(has, "time", "times")),
+            || message((format, level)),
             &array,
         );
     }

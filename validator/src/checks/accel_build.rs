@@ -201,6 +201,7 @@ impl Validator {
         let mut ctx = self.ctx(BuildCommand::Cmd.function());
         builds(&mut ctx, BuildCommand::Cmd, infos, Some(build_range_infos));
         let index_mixes = std::mem::take(&mut ctx.index_mixes);
+        crate::report::objects::acceleration_builds(&mut ctx.report, infos);
         (ctx.finish(), index_mixes)
     }
 
@@ -267,6 +268,7 @@ impl Validator {
         );
         let mut ctx = self.ctx(BuildCommand::Indirect.function());
         builds(&mut ctx, BuildCommand::Indirect, infos, None);
+        crate::report::objects::acceleration_builds(&mut ctx.report, infos);
         ctx.finish()
     }
 
@@ -313,6 +315,7 @@ impl Validator {
     ) -> Report {
         let mut ctx = self.ctx_reading(BuildCommand::Host.function(), read_for_call);
         builds(&mut ctx, BuildCommand::Host, infos, Some(build_range_infos));
+        crate::report::objects::acceleration_builds(&mut ctx.report, infos);
         ctx.finish()
     }
 

@@ -6,7 +6,7 @@ use std::fmt::Display;
 
 use ommcheck_vuids::Vuid;
 
-use crate::checks::Ctx;
+use crate::checks::{usage_hints, Ctx};
 use crate::model::command::queue;
 use crate::model::micromap::UsageCounts;
 use crate::model::values::FormatKind;
@@ -579,18 +579,49 @@ pub(crate) fn usage_counts_match_triangles(
 ) {
     let declared = declared_counts(counts);
     let keys: BTreeSet<(u32, u32)> = declared.keys().chain(found.keys()).copied().collect();
-    for (format, level) in keys {
+    let mismatch = |(format, level): (u32, u32)| {
         let said = declared.get(&(format, level)).copied().unwrap_or(0);
         let has = found.get(&(format, level)).copied().unwrap_or(0);
-        if said != has {
-            ctx.error(
-                &rules::HISTOGRAM_MISMATCH,
-                location.to_owned(),
-                format!(
-                    "{}: the usage counts say {said}, the triangle array holds {has}",
-                    names.key(format, level)
-                ),
-            );
+        (said != has).then(|| {
+            format!(
+                "{}: the usage counts say {said}, the triangle array holds {has}",
+                names.key(format, level)
+            )
+        })
+    };
+    // A count under the wrong key: one finding, with a hint.
+    // No hint where a triangle entry's format or level broke a rule of its
+    // own (a format the build's flags forbid): there the triangle is what
+    // is wrong.
+    let entries = location
+        .rsplit_once('.')
+        .map(|(at, _)| format!("{at}.triangleArray["));
+    let entry_failed = entries.is_some_and(|entries| {
+        ctx.report.findings.iter().any(|f| {
+            f.severity == Severity::Error
+                && f.location.starts_with(&entries)
+                && (f.location.ends_with(".format") || f.location.ends_with(".subdivisionLevel"))
+        })
+    });
+    let limits = &ctx.device.limits;
+    let misplaced = if entry_failed {
+        Vec::new()
+    } else {
+        usage_hints::misplaced(&declared, found, |k| {
+            usage_hints::valid_key(k, names, limits)
+        })
+    };
+    for key in keys {
+        if misplaced.iter().any(|m| m.meant == key) {
+            continue; // Folded into the finding of the key it was written under.
+        }
+        let Some(message) = mismatch(key) else {
+            continue;
+        };
+        let finding = ctx.error(&rules::HISTOGRAM_MISMATCH, location.to_owned(), message);
+        if let Some(m) = misplaced.iter().find(|m| m.wrong == key) {
+            finding.fold(1, format!("and {}", mismatch(m.meant).unwrap_or_default()));
+            finding.hint = Some(usage_hints::hint(m, names));
         }
     }
 }

@@ -124,6 +124,7 @@ impl Validator {
     ) -> Report {
         let mut ctx = self.ctx("vkCmdBuildMicromapsEXT");
         cmd_build_micromaps_rules(&mut ctx, command_buffer, infos);
+        crate::report::objects::micromap_builds(&mut ctx.report, infos);
         ctx.finish()
     }
 
@@ -278,6 +279,7 @@ impl Validator {
         overlaps(&mut ctx, infos, Side::Host);
         crate::checks::driver_sizes::build_sizes(&mut ctx, infos, Side::Host);
         crate::checks::driver_sizes::host_scratch_overlaps(&mut ctx, infos);
+        crate::report::objects::micromap_builds(&mut ctx.report, infos);
         ctx.finish()
     }
 
@@ -896,6 +898,19 @@ fn triangle_array(
     // opacity array; blocks that leave it go one by one to their end.
     let mut run: Option<CleanRun> = None;
     let mut one_by_one_until = 0u64;
+    // Where the usage counts ask for more entries than the array's memory
+    // holds (the range finding, reported before), entries of zero bytes
+    // are memory the counts overrun, not triangles written: they fold into
+    // that finding instead of each failing the format rule.
+    let range_finding = {
+        let array_at = format!("{at}.triangleArray");
+        let range = RuleId::from(&rules::TRIANGLE_ARRAY_RANGE);
+        ctx.report
+            .findings
+            .iter()
+            .rposition(|f| f.rule == range && f.location == array_at)
+    };
+    let mut zero_entries = 0u64;
     let mut next = 0u64;
     while next < entries_to_read {
         if let Some(clean) = run.filter(|_| next >= one_by_one_until) {
@@ -921,6 +936,11 @@ fn triangle_array(
             // its size) or was not given to the checker.
             break;
         };
+        if range_finding.is_some() && bytes.iter().all(|&b| b == 0) {
+            zero_entries += 1;
+            histogram.add(0, 0, weight);
+            continue;
+        }
         let triangle = MicromapTriangle::from_bytes(bytes.try_into().expect("8 bytes"));
         let (format, level) = (
             u32::from(triangle.format),
@@ -1017,6 +1037,15 @@ fn triangle_array(
         }
     }
     tally.finish(ctx);
+    if let Some(finding) = range_finding.and_then(|r| ctx.report.findings.get_mut(r)) {
+        finding.fold(
+            zero_entries,
+            format_args!(
+                "and {} past the triangles written: zero bytes inside the array's memory (format 0), not reported one by one",
+                crate::report::count(zero_entries, "more triangle", "more triangles")
+            ),
+        );
+    }
     // Information about the data blocks themselves reads every byte of
     // them; it is no validity rule, so it runs from the simulate tier up.
     if let (true, true, Some(data)) = (opacity, ctx.hygiene, data) {

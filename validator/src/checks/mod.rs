@@ -23,6 +23,7 @@ pub mod pipeline_sync;
 pub(crate) mod provenance;
 mod serialized;
 pub(crate) mod usage_counts;
+pub(crate) mod usage_hints;
 pub(crate) mod usage_keys;
 mod validator;
 

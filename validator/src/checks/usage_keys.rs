@@ -79,7 +79,7 @@ impl UsageKeys {
     /// One table lookup and a compare, without branches, so that a pass
     /// over many entries costs a few instructions each.
     #[inline]
-    fn allows(&self, format: u32, level: u32) -> bool {
+    pub(crate) fn allows(&self, format: u32, level: u32) -> bool {
         u64::from(level) < self.level_bound[Self::slot(format)]
     }
 

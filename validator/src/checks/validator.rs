@@ -27,6 +27,8 @@ pub struct Validator {
     /// refilled by the next one: a call reads into these vectors instead of
     /// allocating its own (see [`crate::model::micromap::SpareInfos`]).
     pub(crate) spare_micromap_infos: crate::model::micromap::SpareInfos,
+    /// Names the program gave objects ([`Validator::name_object`]).
+    pub(crate) names: crate::report::names::ObjectNames,
 }
 
 impl Validator {
@@ -37,7 +39,21 @@ impl Validator {
             tier: Tier::default(),
             device_contents_later: false,
             spare_micromap_infos: Default::default(),
+            names: Default::default(),
         }
+    }
+
+    /// Names the object `handle` `name` in findings from now on, as
+    /// `vkSetDebugUtilsObjectNameEXT` names it for the Khronos layer: the
+    /// text shows `VkMicromapEXT 'disc' (0x1000)` and the JSON
+    /// `"name": "disc"`. An empty name removes the name.
+    pub fn name_object(&mut self, handle: impl ash::vk::Handle, name: impl Into<String>) {
+        self.names.set(handle.as_raw(), name);
+    }
+
+    /// [`Self::name_object`] for a handle as a number.
+    pub fn name_raw_object(&mut self, handle: Handle, name: impl Into<String>) {
+        self.names.set(handle, name);
     }
 
     /// Checks from now on look as far as `tier` (default: content).
@@ -114,6 +130,7 @@ impl Validator {
             unlisted: None,
             device_contents_later: self.device_contents_later,
             index_mixes: Vec::new(),
+            names: &self.names,
         }
     }
 }
@@ -152,6 +169,8 @@ pub(crate) struct Ctx<'a> {
     /// The opacity index buffers this call's checks read in full, for the
     /// record of the build (which then need not read them again).
     pub index_mixes: Vec<IndexMix>,
+    /// The names to give the findings' objects (see [`Validator::name_object`]).
+    pub names: &'a crate::report::names::ObjectNames,
 }
 
 impl<'a> Ctx<'a> {
@@ -312,6 +331,7 @@ impl<'a> Ctx<'a> {
                 ));
             }
         }
+        self.names.name_all(&mut self.report);
         std::mem::take(&mut self.report)
     }
 }

@@ -427,11 +427,17 @@ impl<'a> Writer<'a> {
         if !finding.location.is_empty() {
             let _ = write!(out, " at <code>{}</code>", escape(&finding.location));
         }
+        if let Some(line) = finding.at.line {
+            let _ = write!(out, " <span class=\"note\">(line {line})</span>");
+        }
         let _ = write!(
             out,
             "\n<div class=\"message\">{}</div>\n",
             escape(&finding.message)
         );
+        if let Some(hint) = &finding.hint {
+            let _ = writeln!(out, "<div class=\"message\"><b>{}</b></div>", escape(hint));
+        }
         if !finding.objects.is_empty() {
             let objects: Vec<String> = finding
                 .objects
@@ -693,15 +699,19 @@ mod tests {
         let rules: std::collections::BTreeSet<&str> =
             report.findings.iter().map(|f| f.rule.as_str()).collect();
         assert_eq!(page.matches("<section class=\"rule\"").count(), rules.len());
-        // Three distinct things pointed at, each drawn once, as SVG; the
-        // second usage-count finding refers to the first one's picture.
+        // Three findings, each pointing at a thing of its own, each drawn
+        // once, as SVG (the usage counts' two mismatched keys are one
+        // finding, with its hint).
         let pictures = sources(&page);
         assert_eq!(pictures.len(), 3);
         assert!(pictures
             .iter()
             .all(|p| p.starts_with("data:image/svg+xml;base64,")));
         assert!(page.contains("Picture 1: micromap &#39;foliage-omm&#39; triangle 3"));
-        assert!(page.contains("Shown in <a href=\"#picture-2\">picture 2</a> above."));
+        assert!(!page.contains("Shown in <a href="));
+        assert!(page.contains(
+            "<b>Did you mean VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT for 1 of these 3 triangles?</b>"
+        ));
         assert!(page.contains("Picture 3: &#39;foliage-blas&#39; geometry 0"));
         assert!(page.contains(&*escape(&Summary::of(&[report]).line())));
         assert!(page.contains("Every rule the calls reached was decided"));
@@ -744,20 +754,20 @@ mod tests {
         let one = bounds(1, LIMITS.pictures.bytes);
         let page = render(std::slice::from_ref(&report), &one);
         assert_eq!(sources(&page).len(), 1);
-        // The grid (asked for by two findings) and the geometry left out.
+        // The grid and the geometry left out.
         assert_eq!(
             page.matches("Picture left out: the page holds at most 1 picture.")
                 .count(),
-            3
+            2
         );
         assert!(
-            page.contains(": 1 shown; 3 findings' pictures not drawn because the page was full")
+            page.contains(": 1 shown; 2 findings' pictures not drawn because the page was full")
         );
 
         let tiny = bounds(LIMITS.pictures.pictures, 1000);
         let page = render(std::slice::from_ref(&report), &tiny);
         assert!(sources(&page).is_empty());
-        assert_eq!(page.matches("No picture: it takes ").count(), 4);
+        assert_eq!(page.matches("No picture: it takes ").count(), 3);
         assert!(page.contains("; 3 pictures too large to hold"));
     }
 
@@ -771,11 +781,11 @@ mod tests {
         assert!(pictures
             .iter()
             .all(|p| p.len() <= prefix + LIMITS.pictures.bytes));
-        // 40 scenes of 4 findings, each pointing at something: 16 drawn,
+        // 40 scenes of 3 findings, each pointing at something: 16 drawn,
         // and (counted per finding) the rest not.
         let shown_findings = page.matches("<figure").count() + page.matches("Shown in <a").count();
         let left_out = page.matches("Picture left out").count();
-        assert_eq!(shown_findings + left_out, 40 * 4);
+        assert_eq!(shown_findings + left_out, 40 * 3);
         assert_eq!(page.matches("<section class=\"scene\"").count(), 40);
     }
 

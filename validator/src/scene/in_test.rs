@@ -32,11 +32,23 @@ impl Scene {
     /// Resolves the scene and checks its calls, keeping the validator and
     /// the resolved rays; a semantic problem is the scene's error.
     pub(super) fn run(&self, options: &CheckOptions) -> Result<resolve::Run, SceneError> {
-        resolve::run(&self.file, &self.base_dir, options).map_err(|p| SceneError::Semantic {
-            path: self.path.clone(),
-            json_path: p.path,
-            message: p.message,
-        })
+        let mut run = resolve::run(&self.file, &self.base_dir, options).map_err(|p| {
+            SceneError::Semantic {
+                path: self.path.clone(),
+                json_path: p.path,
+                message: p.message,
+            }
+        })?;
+        // Each finding points at the scene file and the line its call starts on.
+        for finding in &mut run.checked.report.findings {
+            finding.at.scene = Some(self.path.clone());
+            finding.at.line = finding
+                .at
+                .call
+                .and_then(|call| self.call_lines.get(call))
+                .copied();
+        }
+        Ok(run)
     }
 }
 

@@ -21,7 +21,10 @@
 pub mod args;
 pub mod format;
 mod in_test;
+mod lines;
 mod mapped;
+#[cfg(test)]
+mod precise_tests;
 mod resolve;
 pub mod stats;
 pub mod trace;
@@ -114,6 +117,9 @@ pub struct Scene {
     /// Where relative paths inside the scene are resolved from.
     pub base_dir: PathBuf,
     pub file: SceneFile,
+    /// The line of the scene text each call starts on, for the findings
+    /// of that call (empty for a scene not parsed from text).
+    pub call_lines: Vec<usize>,
 }
 
 /// The result of checking one scene.
@@ -162,6 +168,7 @@ impl Scene {
             path: path.to_string(),
             base_dir: base_dir.to_path_buf(),
             file,
+            call_lines: lines::call_lines(text),
         })
     }
 
@@ -190,6 +197,7 @@ impl Scene {
                     calls: Vec::new(),
                     rays: Vec::new(),
                 },
+                call_lines: Vec::new(),
             },
         }
     }

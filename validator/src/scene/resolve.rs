@@ -294,6 +294,7 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
         let call_report = resolver.call(call, &at)?;
         report.checked.union(&call_report.checked);
         for mut finding in call_report.findings {
+            finding.at.call = Some(i);
             finding.location = if finding.location.is_empty() {
                 at.clone()
             } else {
@@ -317,6 +318,13 @@ pub fn run(scene: &SceneFile, base_dir: &Path, options: &super::CheckOptions) ->
     for finding in &mut report.findings {
         finding.location = name_objects(&finding.location, &objects);
         finding.message = name_objects(&finding.message, &objects);
+        for object in &finding.objects {
+            if finding.at.name_of(object.handle).is_none() {
+                if let Some(name) = scene_name(&objects, object) {
+                    finding.at.names.push((object.handle, name));
+                }
+            }
+        }
     }
     let rays = scene
         .rays
