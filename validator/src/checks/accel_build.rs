@@ -549,7 +549,10 @@ impl Validator {
     /// The rules of `vkCmdCopyAccelerationStructureKHR`: its one micromap
     /// rule (11634) asks what a deserialized source's micromaps were
     /// deserialized from (`provenance`).
-    pub fn cmd_copy_acceleration_structure_rules(&self, info: &CopyAccelerationStructureInfo) -> Report {
+    pub fn cmd_copy_acceleration_structure_rules(
+        &self,
+        info: &CopyAccelerationStructureInfo,
+    ) -> Report {
         let mut ctx = self.ctx("vkCmdCopyAccelerationStructureKHR");
         provenance::deserialized_micromaps(&mut ctx, info.src, cmd_copy::src_11634, "pInfo->src");
         ctx.finish()
@@ -583,7 +586,10 @@ impl Validator {
 
     /// The rules of `vkCopyAccelerationStructureKHR` (11587, as
     /// [`Self::cmd_copy_acceleration_structure_rules`] for 11634).
-    pub fn copy_acceleration_structure_rules(&self, info: &CopyAccelerationStructureInfo) -> Report {
+    pub fn copy_acceleration_structure_rules(
+        &self,
+        info: &CopyAccelerationStructureInfo,
+    ) -> Report {
         let mut ctx = self.ctx("vkCopyAccelerationStructureKHR");
         provenance::deserialized_micromaps(&mut ctx, info.src, host_copy::src_11587, "pInfo->src");
         ctx.finish()
