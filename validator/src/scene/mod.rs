@@ -23,8 +23,6 @@ pub mod format;
 mod in_test;
 mod lines;
 mod mapped;
-#[cfg(test)]
-mod precise_tests;
 mod resolve;
 pub mod stats;
 pub mod trace;

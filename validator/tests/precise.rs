@@ -6,9 +6,9 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use super::{CheckOptions, Scene, SceneReport};
-use crate::rules;
-use crate::vuids::vuid::VkMicromapBuildInfoEXT as info_vuid;
+use ommcheck::rules;
+use ommcheck::scene::{CheckOptions, Scene, SceneReport};
+use ommcheck::vuids::vuid::VkMicromapBuildInfoEXT as info_vuid;
 
 const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes/corpus");
 
@@ -190,9 +190,9 @@ fn json_findings_give_the_call_the_scene_line_and_the_objects_by_name() {
 
 #[test]
 fn the_static_api_names_the_objects_a_test_names() {
-    use crate::fixture::Fixture;
-    use crate::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
     use ash::vk;
+    use ommcheck::fixture::Fixture;
+    use ommcheck::model::{CommandBuffer, MicromapBuildInfo, MicromapUsage, UsageCounts};
 
     let mut f = Fixture::new();
     let disc = f.micromap_unbuilt(4096);
