@@ -63,13 +63,24 @@ pub(crate) fn misplaced(
         .map(|k| (*k, has(k) - said(k)))
         .collect();
     let matches = |a: &(Key, u64), b: &(Key, u64)| a.1 == b.1 && neighbours(a.0, b.0);
+    // `over` holds valid keys only (a few dozen), `short` as many keys as
+    // the usage counts give: one pass over `short` counts the shorts
+    // matching each over-key, so the work stays linear in the counts.
+    let mut matched_by = vec![0usize; over.len()];
+    for s in &short {
+        for (k, o) in over.iter().enumerate() {
+            if matches(s, o) {
+                matched_by[k] += 1;
+            }
+        }
+    }
     let mut pairs = Vec::new();
     for s in &short {
-        let mut candidates = over.iter().filter(|o| matches(s, o));
-        let (Some(o), None) = (candidates.next(), candidates.next()) else {
+        let mut candidates = over.iter().enumerate().filter(|(_, o)| matches(s, o));
+        let (Some((k, o)), None) = (candidates.next(), candidates.next()) else {
             continue;
         };
-        if short.iter().filter(|t| matches(t, o)).count() == 1 {
+        if matched_by[k] == 1 {
             pairs.push(Misplaced {
                 wrong: s.0,
                 meant: o.0,
@@ -175,5 +186,9 @@ mod tests {
         assert!(misplaced_any(&map(&[(1, 2, 1)]), &map(&[(2, 3, 1)])).is_empty());
         // Two shortfalls could have gone to one key.
         assert!(misplaced_any(&map(&[(2, 2, 1), (2, 3, 1)]), &map(&[(2, 1, 1)])).is_empty());
+        // As many shortfalls as usage counts may hold, all neighbours of the
+        // one surplus: none is the one meant (and the pairing stays linear).
+        let many: BTreeMap<Key, u64> = (100..100 + (1u32 << 16)).map(|l| ((2, l), 1)).collect();
+        assert!(misplaced_any(&many, &map(&[(2, 1, 1)])).is_empty());
     }
 }
