@@ -17,6 +17,7 @@ use base64::Engine as _;
 use serde_json::Value;
 
 use crate::draw::{Drawable, Pick, Picture};
+use crate::report::location::{index_after, steps, Step};
 use crate::report::Finding;
 use crate::scene::{CheckOptions, NamedObject, Scene, SceneReport, EXAMPLE, EXAMPLE_PATH};
 
@@ -49,67 +50,13 @@ impl Source {
     }
 }
 
-/// One step of a location: `.name` (or a whole `pNext<...>`) or `[i]`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Step<'a> {
-    Member(&'a str),
-    Index(u64),
-}
-
-/// The call a scene finding's location is in, and the steps after it:
-/// `calls[1]: pInfos[0].triangleArray[3]` is call 1 with `pInfos`, `[0]`,
-/// `triangleArray`, `[3]`. Steps stop at the first that is neither a
-/// member, an index nor a `pNext<...>` (`->`, a space, a handle).
-fn steps(location: &str) -> Option<(usize, Vec<Step<'_>>)> {
-    let rest = location.strip_prefix("calls[")?;
-    let close = rest.find(']')?;
-    let call = rest[..close].parse().ok()?;
-    let mut path = rest[close + 1..].strip_prefix(": ").unwrap_or("");
-    let mut steps = Vec::new();
-    while !path.is_empty() {
-        path = path.strip_prefix('.').unwrap_or(path);
-        if let Some(inner) = path.strip_prefix('[') {
-            let Some(close) = inner.find(']') else { break };
-            let Ok(i) = inner[..close].parse() else { break };
-            steps.push(Step::Index(i));
-            path = &inner[close + 1..];
-            continue;
-        }
-        let name_end = path
-            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-            .unwrap_or(path.len());
-        if name_end == 0 {
-            break;
-        }
-        // `pNext<VkAccelerationStructureGeometryMicromapDataKHR>` is one step.
-        let end = match path[name_end..].strip_prefix('<') {
-            Some(inner) => match inner.find('>') {
-                Some(close) => name_end + close + 2,
-                None => break,
-            },
-            None => name_end,
-        };
-        steps.push(Step::Member(&path[..end]));
-        path = &path[end..];
-    }
-    Some((call, steps))
-}
-
-/// The index after member `name` among `steps`: `triangleArray[3]` is 3.
-fn index_after(steps: &[Step<'_>], name: &str) -> Option<u64> {
-    steps.windows(2).find_map(|pair| match pair {
-        [Step::Member(m), Step::Index(i)] if *m == name => Some(*i),
-        _ => None,
-    })
-}
-
 /// The picture of what `finding` points at in the scene `json` (whose
 /// named objects are `objects`), if it points at a micromap or a geometry.
 pub fn pick_for(finding: &Finding, objects: &[NamedObject], json: &Value) -> Option<Pick> {
     let mut micromap = None;
     let mut structure = None;
     let mut after = Vec::new();
-    if let Some((call, steps)) = steps(&finding.location) {
+    if let (Some(call), steps) = steps(&finding.location) {
         // Follow the steps through the JSON for as long as it mirrors them,
         // taking the innermost object each names.
         let mut at = json.get("calls").and_then(|calls| calls.get(call));
@@ -367,30 +314,6 @@ mod tests {
             location,
             "m",
         )
-    }
-
-    #[test]
-    fn locations_split_into_steps_up_to_what_is_no_step() {
-        let (call, s) = steps("calls[3]: pInfos[0].pGeometries[2].geometry.triangles.pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>.indexBuffer[4]").unwrap();
-        assert_eq!(call, 3);
-        assert_eq!(
-            s,
-            [
-                Step::Member("pInfos"),
-                Step::Index(0),
-                Step::Member("pGeometries"),
-                Step::Index(2),
-                Step::Member("geometry"),
-                Step::Member("triangles"),
-                Step::Member("pNext<VkAccelerationStructureTrianglesOpacityMicromapEXT>"),
-                Step::Member("indexBuffer"),
-                Step::Index(4),
-            ]
-        );
-        assert_eq!(steps("calls[2]").unwrap(), (2, Vec::new()));
-        let (_, s) = steps("calls[0]: pInfo->src").unwrap();
-        assert_eq!(s, [Step::Member("pInfo")]);
-        assert_eq!(steps("pInfos[0]"), None);
     }
 
     #[test]

@@ -6,31 +6,16 @@
 //! The checks list the objects they compare; these are added after them,
 //! so that every finding of a build names what it builds and attaches.
 
+use super::location::{index_after, steps};
 use super::{Finding, ObjectRef, Report};
 use crate::model::accel::{BuildGeometryInfo, GeometryData};
 use crate::model::MicromapBuildInfo;
 
-/// The index of the step `name[i]` of `path`, where `name` is a whole
-/// step (at the start, or after `.` or `: `).
+/// The index of the step `name[i]` of `path` (a whole step, not part of
+/// another name).
 pub(crate) fn step_index(path: &str, name: &str) -> Option<usize> {
-    let mut from = 0;
-    while let Some(found) = path[from..].find(name) {
-        let start = from + found;
-        let end = start + name.len();
-        from = end;
-        let whole = start == 0 || path[..start].ends_with(['.', ' ']);
-        let Some(rest) = path[end..].strip_prefix('[') else {
-            continue;
-        };
-        if !whole {
-            continue;
-        }
-        let digits = rest.find(']').map(|close| &rest[..close]);
-        if let Some(index) = digits.and_then(|d| d.parse().ok()) {
-            return Some(index);
-        }
-    }
-    None
+    let (_, steps) = steps(path);
+    index_after(&steps, name).and_then(|i| usize::try_from(i).ok())
 }
 
 /// Adds `handle` as a `ty` object of `finding`, unless it is NULL or
