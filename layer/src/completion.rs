@@ -343,6 +343,28 @@ pub unsafe extern "system" fn destroy_fence(
     })
 }
 
+/// `vkDestroySemaphore`: the core forgets the semaphore's signals, so one
+/// made later with the same handle is not taken as signalled by them and
+/// an application that makes and destroys semaphores does not grow the
+/// execution order.
+#[allow(dead_code)]
+pub unsafe extern "system" fn destroy_semaphore(
+    device: vk::Device,
+    semaphore: vk::Semaphore,
+    allocator: *const vk::AllocationCallbacks<'_>,
+) {
+    guarded("vkDestroySemaphore", (), || {
+        let Some((data, next)) = device_and(device, |f| f.memory.destroy_semaphore) else {
+            return;
+        };
+        track(&data, "vkDestroySemaphore", |state| {
+            state.validator.destroy_semaphore(semaphore.as_raw())
+        });
+        // SAFETY: the next layer's function, with the application's arguments.
+        unsafe { next(device, semaphore, allocator) };
+    })
+}
+
 pub unsafe extern "system" fn queue_wait_idle(queue: vk::Queue) -> vk::Result {
     wait_command(
         "vkQueueWaitIdle",

@@ -30,7 +30,7 @@ pub fn seed_micromap_geometry(
 /// how objects were constructed. Tests make and destroy such objects
 /// repeatedly and see these stay put. None for an unknown device.
 #[doc(hidden)]
-pub fn kept_per_object(device: ash::vk::Device) -> Option<[(&'static str, usize); 4]> {
+pub fn kept_per_object(device: ash::vk::Device) -> Option<[(&'static str, usize); 5]> {
     let data = crate::dispatch::DEVICES.get(device)?;
     let state = data.state();
     let tracked = state.validator.state();
@@ -39,5 +39,9 @@ pub fn kept_per_object(device: ash::vk::Device) -> Option<[(&'static str, usize)
         ("fences", tracked.execution.fences.len()),
         ("micromap_geometry", tracked.micromap_geometry.len()),
         ("constructed", tracked.execution.constructed.len()),
+        (
+            "semaphore_signals",
+            tracked.execution.timeline_signals.len() + tracked.execution.binary_signals.len(),
+        ),
     ])
 }

@@ -431,3 +431,34 @@ fn pools_fences_and_structures_destroyed_over_and_over_leave_nothing_behind() {
     let received = chain.collector.take();
     assert!(received.is_empty(), "{received:#?}");
 }
+
+#[test]
+fn semaphores_signalled_and_destroyed_over_and_over_leave_nothing_behind() {
+    let chain = Chain::new();
+    let signal: vk::PFN_vkSignalSemaphore = device_fn(chain.device, c"vkSignalSemaphore");
+    let destroy: vk::PFN_vkDestroySemaphore = device_fn(chain.device, c"vkDestroySemaphore");
+    let round = || {
+        let semaphore = chain.timeline(0);
+        let info = vk::SemaphoreSignalInfo::default()
+            .semaphore(semaphore)
+            .value(1);
+        // SAFETY: a timeline semaphore of this device, signalled once.
+        assert_eq!(unsafe { signal(chain.device, &info) }, vk::Result::SUCCESS);
+        // SAFETY: no submission refers to it.
+        unsafe { destroy(chain.device, semaphore, std::ptr::null()) };
+        fake::clear_calls();
+    };
+    round();
+    let after_one = layer::testing::kept_per_object(chain.device).expect("a known device");
+    for _ in 0..20 {
+        round();
+    }
+    let kept = layer::testing::kept_per_object(chain.device).expect("a known device");
+    assert_eq!(kept, after_one);
+    assert!(
+        kept.contains(&("semaphore_signals", 0)),
+        "a destroyed semaphore's signal is forgotten: {kept:?}"
+    );
+    let received = chain.collector.take();
+    assert!(received.is_empty(), "{received:#?}");
+}

@@ -584,6 +584,7 @@ macro_rules! memory_commands {
                 get_semaphore_counter_value_khr: vk::PFN_vkGetSemaphoreCounterValue = c"vkGetSemaphoreCounterValueKHR";
                 signal_semaphore: vk::PFN_vkSignalSemaphore = c"vkSignalSemaphore";
                 signal_semaphore_khr: vk::PFN_vkSignalSemaphore = c"vkSignalSemaphoreKHR";
+                destroy_semaphore: vk::PFN_vkDestroySemaphore = c"vkDestroySemaphore";
             }
             called {
                 get_buffer_memory_requirements: vk::PFN_vkGetBufferMemoryRequirements = c"vkGetBufferMemoryRequirements";

@@ -642,6 +642,14 @@ impl Validator {
         }
     }
 
+    /// `vkDestroySemaphore`: the semaphore's signals are forgotten, so a
+    /// semaphore that reuses the handle is not taken as signalled by them,
+    /// and an application that makes and destroys semaphores does not
+    /// grow the execution order.
+    pub fn destroy_semaphore(&mut self, semaphore: Handle) {
+        self.state.execution.forget_semaphore(semaphore);
+    }
+
     /// `vkQueueWaitIdle(queue)` returned `VK_SUCCESS`.
     pub fn queue_wait_idle(&mut self, queue: Handle) {
         let clock = self.state.execution.queue_clock(queue);
@@ -896,6 +904,29 @@ mod tests {
         // Signal 5 reaches the wait for 3, and the build is before it.
         let signal = batch(1, vec![], vec![timeline(0x5e, 5)]);
         decided_clean(&v.queue_submit("vkQueueSubmit", GRAPHICS, &[signal], 0));
+    }
+
+    #[test]
+    fn a_semaphore_reusing_a_destroyed_ones_handle_starts_unsignalled() {
+        let mut v = recorded();
+        let signal = batch(1, vec![], vec![timeline(0x5e, 5)]);
+        v.queue_submit("vkQueueSubmit", GRAPHICS, &[signal], 0);
+        v.destroy_semaphore(0x5e);
+        assert!(!v.state.execution.timeline_signals.contains_key(&0x5e));
+        // A new semaphore with the same handle: the old signal 5 does not
+        // reach its wait for 3, so the copy waits for a signal of its own.
+        let waited = batch(2, vec![timeline(0x5e, 3)], vec![]);
+        undecided(&v.queue_submit("vkQueueSubmit", COMPUTE, &[waited], 0));
+        // The host signals it without having seen the build complete.
+        let report = v.signal_semaphore(0x5e, 3);
+        assert_eq!(report.ids(), [cmd_copy::src_07532.id()]);
+
+        // Without the destroy, the same wait is reached by signal 5.
+        let mut v = recorded();
+        let signal = batch(1, vec![], vec![timeline(0x5e, 5)]);
+        v.queue_submit("vkQueueSubmit", GRAPHICS, &[signal], 0);
+        let waited = batch(2, vec![timeline(0x5e, 3)], vec![]);
+        decided_clean(&v.queue_submit("vkQueueSubmit", COMPUTE, &[waited], 0));
     }
 
     #[test]

@@ -266,6 +266,16 @@ impl Execution {
         recording.events.push((function, event));
     }
 
+    /// `vkDestroySemaphore`: its signals stand for nothing any more, and a
+    /// semaphore made later with the same handle starts without them.
+    /// Batches still held that signal it keep their signals (destroying a
+    /// semaphore a pending batch refers to is the application's error).
+    pub fn forget_semaphore(&mut self, semaphore: Handle) {
+        self.binary_signals.remove(&semaphore);
+        self.timeline_signals.remove(&semaphore);
+        self.held_binary_signals.remove(&semaphore);
+    }
+
     /// `vkBeginCommandBuffer` or a reset: the command buffer records anew.
     pub fn begin(&mut self, command_buffer: Handle) {
         self.recordings.remove(&command_buffer);

@@ -132,6 +132,13 @@ pub enum ExecutionCall {
         device: HandleArg,
         p_signal_info: SemaphoreSignalInfoDesc,
     },
+    /// `vkDestroySemaphore(device, semaphore, pAllocator)`.
+    #[serde(rename = "vkDestroySemaphore")]
+    DestroySemaphore {
+        #[serde(default)]
+        device: HandleArg,
+        semaphore: HandleArg,
+    },
     /// `vkCmdResetQueryPool(commandBuffer, queryPool, firstQuery, queryCount)`.
     #[serde(rename = "vkCmdResetQueryPool")]
     CmdResetQueryPool {
@@ -163,7 +170,7 @@ pub enum ExecutionCall {
 }
 
 /// The names of the calls of [`ExecutionCall`].
-pub const EXECUTION_CALL_NAMES: [&str; 13] = [
+pub const EXECUTION_CALL_NAMES: [&str; 14] = [
     "vkBeginCommandBuffer",
     "vkEndCommandBuffer",
     "vkCmdExecuteCommands",
@@ -174,6 +181,7 @@ pub const EXECUTION_CALL_NAMES: [&str; 13] = [
     "vkDeviceWaitIdle",
     "vkWaitSemaphores",
     "vkSignalSemaphore",
+    "vkDestroySemaphore",
     "vkCmdResetQueryPool",
     "vkResetQueryPool",
     "vkDeferredOperationJoinKHR",

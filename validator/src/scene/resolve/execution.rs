@@ -196,6 +196,14 @@ impl Resolver<'_> {
                     .validator
                     .signal_semaphore(semaphore, p_signal_info.value));
             }
+            ExecutionCall::DestroySemaphore { semaphore, .. } => {
+                let semaphore = self.loose_handle(
+                    semaphore,
+                    ObjectKind::Semaphore,
+                    &format!("{at}.semaphore"),
+                )?;
+                self.validator.destroy_semaphore(semaphore);
+            }
             ExecutionCall::CmdResetQueryPool {
                 command_buffer,
                 query_pool,
