@@ -17,14 +17,17 @@ use std::ffi::{c_char, c_void};
 use ash::vk;
 use ommcheck_vuids::khr;
 
+use super::generated::pipeline_library_create_info;
 use super::{bounded_len, chain, read_array, MAX_ELEMENTS};
 use crate::device::Limits;
+use crate::model::generated::PipelineCreateFlags2CreateInfo;
 use crate::model::pipeline::{
     Barrier, ChainedStruct, DependencyInfo, MemoryMarkerInfo, MicromapStruct, PipelineCreateFlags,
     PipelineCreateInfo, SemaphoreSubmitInfo, ShaderCreateInfo, ShaderStage, SpecializationValue,
     SubmitInfo2, SHADER_CODE_TYPE_SPIRV, STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR,
 };
 use crate::model::Handle;
+use crate::report::location::Locate;
 use crate::report::{Finding, Severity};
 use crate::rules;
 
@@ -322,32 +325,6 @@ unsafe fn shader_stages(
     }
 }
 
-/// The handles of a `VkPipelineLibraryCreateInfoKHR` (NULL reads as none).
-///
-/// # Safety
-/// A non-NULL `pLibraries` must hold `libraryCount` handles.
-unsafe fn libraries(
-    info: &vk::PipelineLibraryCreateInfoKHR<'_>,
-    function: &'static str,
-    location: &str,
-    findings: &mut Vec<Finding>,
-) -> Vec<Handle> {
-    // SAFETY: forwarded from the caller.
-    unsafe {
-        read_array(
-            info.p_libraries,
-            info.library_count,
-            function,
-            &format!("{location}.pLibraries"),
-            findings,
-        )
-    }
-    .unwrap_or_default()
-    .into_iter()
-    .map(vk::Handle::as_raw)
-    .collect()
-}
-
 /// `flags` with the `VkPipelineCreateFlags2CreateInfo` and the
 /// `VkPipelineLibraryCreateInfoKHR` of a pipeline create info's pNext chain.
 ///
@@ -371,15 +348,20 @@ unsafe fn flags_and_chained_libraries(
         let s_type = vk::StructureType::from_raw(link.s_type);
         if s_type == vk::StructureType::PIPELINE_CREATE_FLAGS_2_CREATE_INFO_KHR {
             // SAFETY: the sType names the structure.
-            let info: vk::PipelineCreateFlags2CreateInfoKHR<'_> =
-                unsafe { structure(link.address) };
-            create_flags.flags2 = Some(info.flags.as_raw());
+            let info = unsafe {
+                &*link
+                    .address
+                    .cast::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>()
+            };
+            create_flags.flags2 = Some(PipelineCreateFlags2CreateInfo::from_members(info).flags);
         } else if s_type == vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR {
-            // SAFETY: the sType names the structure.
-            let info: vk::PipelineLibraryCreateInfoKHR<'_> = unsafe { structure(link.address) };
-            let at = format!("{location}.pNext<VkPipelineLibraryCreateInfoKHR>");
-            // SAFETY: forwarded from the caller.
-            chained_libraries = Some(unsafe { libraries(&info, function, &at, findings) });
+            let at = location.text(".pNext<VkPipelineLibraryCreateInfoKHR>");
+            // SAFETY: the sType names the structure, whose array is valid
+            // for its count (the caller's guarantee).
+            let info = unsafe {
+                pipeline_library_create_info(&*link.address.cast(), function, at, findings)
+            };
+            chained_libraries = Some(info.libraries);
         }
     }
     (create_flags, chained_libraries)
@@ -491,9 +473,9 @@ pub unsafe fn ray_tracing_pipeline_info_khr(
     let read = unsafe { staged_pipeline_info(info, function, location, findings) };
     // SAFETY: a non-NULL pLibraryInfo points to a valid structure (the caller's guarantee).
     let libraries = unsafe { info.p_library_info.as_ref() }.map(|library_info| {
-        let at = format!("{location}.pLibraryInfo");
+        let at = location.text(".pLibraryInfo");
         // SAFETY: forwarded from the caller.
-        unsafe { libraries(library_info, function, &at, findings) }
+        unsafe { pipeline_library_create_info(library_info, function, at, findings) }.libraries
     });
     PipelineCreateInfo { libraries, ..read }
 }
