@@ -305,6 +305,13 @@ pub const STRUCTS: &[StructSpec] = &[
         chained: true,
         ..BASE
     },
+    // A semaphore operation of vkQueueSubmit2.
+    StructSpec {
+        vk: "VkSemaphoreSubmitInfo",
+        rust: "SemaphoreSubmitInfo",
+        doc: "",
+        ..BASE
+    },
 ];
 
 /// The objects scene names can denote, by the handle type vk.xml gives:
@@ -316,7 +323,20 @@ const HANDLE_KINDS: &[(&str, &str)] = &[
     ("VkQueryPool", "QueryPool"),
     ("VkDeferredOperationKHR", "DeferredOperation"),
     ("VkPipeline", "Pipeline"),
+    ("VkSemaphore", "Semaphore"),
 ];
+
+/// The kinds of [`HANDLE_KINDS`] whose objects carry no state ommcheck
+/// reads: a scene may name one it never created, and a new name denotes a
+/// new object (so their resolvers take the resolver mutably).
+const LOOSE_KINDS: &[&str] = &["Semaphore"];
+
+/// Whether `spec` has a handle of a [`LOOSE_KINDS`] kind.
+fn binds_names(vk: &VkXml, spec: &StructSpec) -> Result<bool, Error> {
+    Ok(fields(vk, spec)?
+        .iter()
+        .any(|f| matches!(f.form, Form::Handle(kind) if LOOSE_KINDS.contains(&kind))))
+}
 
 /// What a member is, which decides its form in every generated file.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -1273,6 +1293,9 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
                 Form::SType(_) => format!("s_type({d}, defaults.s_type)"),
                 Form::Next if !spec.extracts.is_empty() => "Vec::new()".to_string(),
                 Form::Next => format!("chain(&{d})"),
+                Form::Handle(kind) if LOOSE_KINDS.contains(kind) => {
+                    format!("self.loose_handle(&{d}, ObjectKind::{kind}, {at})?")
+                }
                 Form::Handle(kind) => format!("self.handle(&{d}, ObjectKind::{kind}, {at})?"),
                 Form::Address { .. } => format!("self.address(&{d}, {at})?"),
                 Form::Number {
@@ -1296,10 +1319,11 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
         }
         let _ = write!(
             out,
-            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}(&self, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
+            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}({}, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
              let defaults = model::{}::default();\n{lets}        {}model::{} {{\n{body}",
             doc(spec).trim_end_matches('.'),
             function(spec),
+            if binds_names(vk, spec)? { "&mut self" } else { "&self" },
             spec.rust,
             spec.rust,
             spec.rust,

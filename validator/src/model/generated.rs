@@ -700,6 +700,46 @@ impl Default for PipelineLibraryCreateInfo {
     }
 }
 
+/// `VkSemaphoreSubmitInfo`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SemaphoreSubmitInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub semaphore: Handle,
+    pub value: u64,
+    pub stage_mask: u64,
+    pub device_index: u32,
+}
+
+impl Default for SemaphoreSubmitInfo {
+    fn default() -> Self {
+        Self {
+            s_type: 1000314005,
+            next: Vec::new(),
+            semaphore: 0,
+            value: 0,
+            stage_mask: 0,
+            device_index: 0,
+        }
+    }
+}
+
+impl SemaphoreSubmitInfo {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &vk::SemaphoreSubmitInfo<'_>) -> Self {
+        Self {
+            s_type: info.s_type.as_raw(),
+            next: Vec::new(),
+            semaphore: vk::Handle::as_raw(info.semaphore),
+            value: info.value,
+            stage_mask: info.stage_mask.as_raw(),
+            device_index: info.device_index,
+        }
+    }
+}
+
 /// `VkAccelerationStructureGeometryDataKHR`: the member its selector selects.
 // Builds hold a handful of these; keeping the members inline keeps
 // every construction plain.

@@ -635,6 +635,27 @@ pub(crate) unsafe fn pipeline_library_create_info(
     }
 }
 
+/// Reads a `VkSemaphoreSubmitInfo` (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+pub(crate) unsafe fn semaphore_submit_info(
+    info: &vk::SemaphoreSubmitInfo<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::SemaphoreSubmitInfo {
+    model::SemaphoreSubmitInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, at, findings) },
+        semaphore: vk::Handle::as_raw(info.semaphore),
+        value: info.value,
+        stage_mask: info.stage_mask.as_raw(),
+        device_index: info.device_index,
+    }
+}
+
 /// Sets the features a structure of an application's pNext chain enables
 /// (a feature one structure enables stays enabled); false where `s_type`
 /// is no feature structure the checks read.

@@ -17,14 +17,14 @@ use std::ffi::{c_char, c_void};
 use ash::vk;
 use ommcheck_vuids::khr;
 
-use super::generated::pipeline_library_create_info;
+use super::generated::{pipeline_library_create_info, semaphore_submit_info};
 use super::{bounded_len, chain, read_array, MAX_ELEMENTS};
 use crate::device::Limits;
 use crate::model::generated::PipelineCreateFlags2CreateInfo;
 use crate::model::pipeline::{
     Barrier, ChainedStruct, DependencyInfo, MemoryMarkerInfo, MicromapStruct, PipelineCreateFlags,
-    PipelineCreateInfo, SemaphoreSubmitInfo, ShaderCreateInfo, ShaderStage, SpecializationValue,
-    SubmitInfo2, SHADER_CODE_TYPE_SPIRV, STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR,
+    PipelineCreateInfo, ShaderCreateInfo, ShaderStage, SpecializationValue, SubmitInfo2,
+    SHADER_CODE_TYPE_SPIRV, STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR,
 };
 use crate::model::Handle;
 use crate::report::location::Locate;
@@ -674,26 +674,29 @@ pub unsafe fn dependency_info(
 ///
 /// # Safety
 /// A non-NULL `submits` must point to `count` structures whose semaphore
-/// arrays are valid for their counts.
+/// arrays are valid for their counts, each structure's pNext chain well
+/// formed (cycles and length are tolerated).
 pub unsafe fn submit_infos(
     submits: *const vk::SubmitInfo2<'_>,
     count: u32,
     function: &'static str,
     findings: &mut Vec<Finding>,
 ) -> Vec<SubmitInfo2> {
-    let semaphores = |infos: Option<Vec<vk::SemaphoreSubmitInfo<'_>>>| -> Vec<SemaphoreSubmitInfo> {
-        infos
-            .unwrap_or_default()
-            .iter()
-            .map(|s| SemaphoreSubmitInfo {
-                semaphore: vk::Handle::as_raw(s.semaphore),
-                value: s.value,
-                stage_mask: s.stage_mask.as_raw(),
-                device_index: s.device_index,
-            })
-            .collect()
+    let semaphores = |infos, count, member: &str, findings: &mut Vec<Finding>| {
+        // SAFETY: called below with a submit's semaphore array and its
+        // count, which hold that many valid structures (the caller's guarantee).
+        unsafe {
+            each(
+                infos,
+                count,
+                function,
+                member,
+                findings,
+                |info, at, findings| semaphore_submit_info(info, function, at, findings),
+            )
+        }
     };
-    // SAFETY: forwarded from the caller; each semaphore array holds its count.
+    // SAFETY: forwarded from the caller.
     unsafe {
         each(
             submits,
@@ -701,25 +704,19 @@ pub unsafe fn submit_infos(
             function,
             "pSubmits",
             findings,
-            |submit, at, findings| {
-                let wait = read_array(
+            |submit, at, findings| SubmitInfo2 {
+                wait_semaphore_infos: semaphores(
                     submit.p_wait_semaphore_infos,
                     submit.wait_semaphore_info_count,
-                    function,
                     &format!("{at}.pWaitSemaphoreInfos"),
                     findings,
-                );
-                let signal = read_array(
+                ),
+                signal_semaphore_infos: semaphores(
                     submit.p_signal_semaphore_infos,
                     submit.signal_semaphore_info_count,
-                    function,
                     &format!("{at}.pSignalSemaphoreInfos"),
                     findings,
-                );
-                SubmitInfo2 {
-                    wait_semaphore_infos: semaphores(wait),
-                    signal_semaphore_infos: semaphores(signal),
-                }
+                ),
             },
         )
     }

@@ -463,6 +463,24 @@ pub struct PipelineLibraryCreateInfoDesc {
     pub p_libraries: Vec<HandleArg>,
 }
 
+/// `VkSemaphoreSubmitInfo`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct SemaphoreSubmitInfoDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub semaphore: HandleArg,
+    #[serde(default)]
+    pub value: u64,
+    #[serde(default)]
+    pub stage_mask: Value<names::PipelineStageFlags2>,
+    #[serde(default)]
+    pub device_index: u32,
+}
+
 /// `VkAccelerationStructureGeometryDataKHR`: at most one member.
 #[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]

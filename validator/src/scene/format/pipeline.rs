@@ -362,31 +362,17 @@ params!(
     }
 );
 
-/// `VkSemaphoreSubmitInfo`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct SemaphoreSubmitInfoDesc {
-    #[serde(default)]
-    pub semaphore: HandleArg,
-    #[serde(default)]
-    pub value: u64,
-    #[serde(default)]
-    pub stage_mask: Value<names::PipelineStageFlags2>,
-    #[serde(default)]
-    pub device_index: u32,
-}
-
 /// `VkSubmitInfo2`: its semaphore operations and the command buffers it
 /// runs (`docs/scene-format.md`, "Execution order").
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(rename_all = "camelCase")]
 pub struct SubmitInfo2Desc {
     #[serde(default)]
-    pub p_wait_semaphore_infos: Vec<SemaphoreSubmitInfoDesc>,
+    pub p_wait_semaphore_infos: Vec<super::SemaphoreSubmitInfoDesc>,
     #[serde(default)]
     pub p_command_buffer_infos: Vec<super::CommandBufferSubmitInfoDesc>,
     #[serde(default)]
-    pub p_signal_semaphore_infos: Vec<SemaphoreSubmitInfoDesc>,
+    pub p_signal_semaphore_infos: Vec<super::SemaphoreSubmitInfoDesc>,
 }
 
 params!(

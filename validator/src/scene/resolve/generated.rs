@@ -497,6 +497,27 @@ impl Resolver<'_> {
         })
     }
 
+    /// A `VkSemaphoreSubmitInfo` at `at`.
+    pub(in crate::scene) fn semaphore_submit_info(
+        &mut self,
+        d: &scene::SemaphoreSubmitInfoDesc,
+        at: &str,
+    ) -> Result<model::SemaphoreSubmitInfo> {
+        let defaults = model::SemaphoreSubmitInfo::default();
+        Ok(model::SemaphoreSubmitInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            semaphore: self.loose_handle(
+                &d.semaphore,
+                ObjectKind::Semaphore,
+                &format!("{at}.semaphore"),
+            )?,
+            value: d.value,
+            stage_mask: d.stage_mask.as_u64(),
+            device_index: d.device_index,
+        })
+    }
+
     /// A `VkAccelerationStructureGeometryDataKHR` at `at`: the one member given (the application's
     /// selector is its own member, checked by the rules).
     pub(in crate::scene) fn geometry_data(

@@ -113,18 +113,7 @@ fn semaphore_infos(
 ) -> Result<Vec<SemaphoreSubmitInfo>> {
     list.iter()
         .enumerate()
-        .map(|(k, d)| {
-            Ok(SemaphoreSubmitInfo {
-                semaphore: resolver.loose_handle(
-                    &d.semaphore,
-                    ObjectKind::Semaphore,
-                    &format!("{at}[{k}].semaphore"),
-                )?,
-                value: d.value,
-                stage_mask: d.stage_mask.as_u64(),
-                device_index: d.device_index,
-            })
-        })
+        .map(|(k, d)| resolver.semaphore_submit_info(d, &format!("{at}[{k}]")))
         .collect()
 }
 

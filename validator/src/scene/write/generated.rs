@@ -448,6 +448,21 @@ impl scene::PipelineLibraryCreateInfoDesc {
     }
 }
 
+impl scene::SemaphoreSubmitInfoDesc {
+    /// The scene form of a `VkSemaphoreSubmitInfo`, naming objects and addresses by `names`.
+    pub fn written(model: &model::SemaphoreSubmitInfo, names: &dyn Names) -> Self {
+        let defaults = model::SemaphoreSubmitInfo::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model.next.iter().copied().map(chain_entry).collect(),
+            semaphore: names.handle(ObjectKind::Semaphore, model.semaphore),
+            value: model.value,
+            stage_mask: Value::new(i64::from_ne_bytes(model.stage_mask.to_ne_bytes())),
+            device_index: model.device_index,
+        }
+    }
+}
+
 impl scene::GeometryDataDesc {
     /// The scene form of a `VkAccelerationStructureGeometryDataKHR`, naming objects and addresses by `names`.
     pub fn written(model: &model::GeometryData, names: &dyn Names) -> Self {
@@ -972,6 +987,27 @@ mod tests {
         let read: scene::PipelineLibraryCreateInfoDesc = serde_json::from_str(&json).unwrap();
         assert_eq!(
             crate::scene::resolve_alone(|r| r.pipeline_library_create_info(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn semaphore_submit_info_reads_back_as_written() {
+        let model = model::SemaphoreSubmitInfo {
+            next: vec![1_000_001_000],
+            semaphore: 0x1000 + 3,
+            value: 4,
+            stage_mask: 5,
+            device_index: 6,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::SemaphoreSubmitInfoDesc::written(&model, names)).unwrap();
+        let read: scene::SemaphoreSubmitInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.semaphore_submit_info(&read, "x")),
             Ok(model),
             "{json}"
         );
