@@ -287,6 +287,31 @@ pub const STRUCTS: &[StructSpec] = &[
         }],
         ..BASE
     },
+    // What a pipeline create info chains: the flags that replace its own
+    // and the libraries it links (also a ray-tracing pipeline's
+    // `pLibraryInfo`).
+    StructSpec {
+        vk: "VkPipelineCreateFlags2CreateInfo",
+        rust: "PipelineCreateFlags2CreateInfo",
+        doc: "its `flags` replace the create info's.",
+        ash: "vk::PipelineCreateFlags2CreateInfoKHR<'_>",
+        chained: true,
+        ..BASE
+    },
+    StructSpec {
+        vk: "VkPipelineLibraryCreateInfoKHR",
+        rust: "PipelineLibraryCreateInfo",
+        doc: "chained to a graphics pipeline, or a ray-tracing pipeline's `pLibraryInfo`.",
+        chained: true,
+        ..BASE
+    },
+    // A semaphore operation of vkQueueSubmit2.
+    StructSpec {
+        vk: "VkSemaphoreSubmitInfo",
+        rust: "SemaphoreSubmitInfo",
+        doc: "",
+        ..BASE
+    },
 ];
 
 /// The objects scene names can denote, by the handle type vk.xml gives:
@@ -297,7 +322,21 @@ const HANDLE_KINDS: &[(&str, &str)] = &[
     ("VkAccelerationStructureKHR", "AccelerationStructure"),
     ("VkQueryPool", "QueryPool"),
     ("VkDeferredOperationKHR", "DeferredOperation"),
+    ("VkPipeline", "Pipeline"),
+    ("VkSemaphore", "Semaphore"),
 ];
+
+/// The kinds of [`HANDLE_KINDS`] whose objects carry no state ommcheck
+/// reads: a scene may name one it never created, and a new name denotes a
+/// new object (so their resolvers take the resolver mutably).
+const LOOSE_KINDS: &[&str] = &["Semaphore"];
+
+/// Whether `spec` has a handle of a [`LOOSE_KINDS`] kind.
+fn binds_names(vk: &VkXml, spec: &StructSpec) -> Result<bool, Error> {
+    Ok(fields(vk, spec)?
+        .iter()
+        .any(|f| matches!(f.form, Form::Handle(kind) if LOOSE_KINDS.contains(&kind))))
+}
 
 /// What a member is, which decides its form in every generated file.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -345,6 +384,42 @@ pub enum Form {
         array: String,
         pointers: String,
     },
+    /// A count member with the array of handles it counts (`libraryCount`
+    /// with `pLibraries`): [`Handles`].
+    Handles(Handles),
+}
+
+/// An array of handles naming objects of one `ObjectKind` (`kind`), and
+/// the vk.xml names of its count and array members. The model holds the
+/// handles (a NULL array reads as none), a scene the names, whose number
+/// is the count.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Handles {
+    pub kind: &'static str,
+    pub count: String,
+    pub array: String,
+}
+
+/// The array of handles `count` counts in `members`, if one does: a
+/// `const VkX*` member with `len="count"` whose handle type is one of
+/// [`HANDLE_KINDS`].
+fn handle_array(members: &[Member], count: &str) -> Option<Handles> {
+    members.iter().find_map(|m| {
+        let kind = HANDLE_KINDS.iter().find(|(t, _)| *t == m.type_name)?.1;
+        (m.len.as_deref() == Some(count) && m.pointers == [true]).then(|| Handles {
+            kind,
+            count: count.to_string(),
+            array: m.name.clone(),
+        })
+    })
+}
+
+/// The model's name of an array member: `pLibraries` is `libraries`.
+fn array_rust(name: &str) -> String {
+    let name = name.strip_prefix('p').unwrap_or(name);
+    let mut chars = name.chars();
+    let first = chars.next().map(|c| c.to_ascii_lowercase());
+    crate::khr::snake_case(&first.into_iter().chain(chars).collect::<String>())
 }
 
 /// One member of a union: its vk.xml name, the model's variant and
@@ -561,7 +636,9 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
         .filter(|member| {
             member.len.as_deref().is_none_or(|len| {
                 let count = len.split(',').next().unwrap_or(len);
-                count != "usageCountsCount" && !spec.elements.iter().any(|e| e.count == count)
+                count != "usageCountsCount"
+                    && !spec.elements.iter().any(|e| e.count == count)
+                    && handle_array(&aggregate.members, count).is_none()
             })
         })
         .map(|member| {
@@ -570,6 +647,13 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
                     name: "usageCounts".to_string(),
                     rust: "usage_counts".to_string(),
                     form: Form::UsageCounts,
+                });
+            }
+            if let Some(handles) = handle_array(&aggregate.members, &member.name) {
+                return Ok(Field {
+                    name: handles.array.clone(),
+                    rust: array_rust(&handles.array),
+                    form: Form::Handles(handles),
                 });
             }
             if let Some(index) = spec.elements.iter().position(|e| e.count == member.name) {
@@ -665,6 +749,13 @@ fn ash_member(field: &Field) -> String {
         Form::Bool => format!("{member} != vk::FALSE"),
         // Read by `render_reader`, which knows the structure.
         Form::Union { .. } | Form::Elements { .. } => field.rust.clone(),
+        Form::Handles(h) => format!(
+            "unsafe {{ read_array(info.{}, info.{}, function, at.text(\".{}\"), findings) }}\n            \
+             .unwrap_or_default().into_iter().map(vk::Handle::as_raw).collect()",
+            crate::khr::snake_case(&h.array),
+            crate::khr::snake_case(&h.count),
+            h.array
+        ),
         // Both usage structures are three 32-bit members, so the EXT
         // reader reads the KHR one as well.
         Form::UsageCounts => "unsafe { usage_counts(spare_usages, info.usage_counts_count, \
@@ -702,7 +793,11 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
         let copy = fields.iter().all(|f| {
             !matches!(
                 f.form,
-                Form::Next | Form::UsageCounts | Form::Union { .. } | Form::Elements { .. }
+                Form::Next
+                    | Form::UsageCounts
+                    | Form::Union { .. }
+                    | Form::Elements { .. }
+                    | Form::Handles(_)
             )
         }) && spec.extracts.is_empty()
             && spec.model_only.is_empty();
@@ -775,6 +870,10 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                     ("u32", "0".to_string())
                 }
                 Form::UsageCounts => ("UsageCounts", "UsageCounts::default()".to_string()),
+                Form::Handles(h) => {
+                    let _ = writeln!(out, "    /// `{}` (a NULL array: none).", h.array);
+                    ("Vec<Handle>", "Vec::new()".to_string())
+                }
                 Form::Enum {
                     default: EnumDefault::Value(name, value),
                     ..
@@ -819,6 +918,7 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                     | Form::UsageCounts
                     | Form::Union { .. }
                     | Form::Elements { .. }
+                    | Form::Handles(_)
             )
         });
         if !unsafe_members && spec.extracts.is_empty() {
@@ -948,6 +1048,14 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
                     continue;
                 }
                 Form::Bool => ("    #[serde(default)]\n".to_string(), "bool".to_string()),
+                Form::Handles(h) => (
+                    format!(
+                        "    /// `{}`, by name; `{}` is their number.\n    \
+                         #[serde(default, skip_serializing_if = \"Vec::is_empty\")]\n",
+                        h.array, h.count
+                    ),
+                    "Vec<HandleArg>".to_string(),
+                ),
                 Form::Union { rust, .. } => (
                     "    #[serde(default)]\n".to_string(),
                     format!("{rust}Desc"),
@@ -1146,6 +1254,11 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
             let at = format!("&format!(\"{{at}}.{}\")", field.name);
             let value = match &field.form {
                 Form::Bool => d,
+                Form::Handles(h) => format!(
+                    "{d}.iter().enumerate().map(|(k, h)| self.handle(h, ObjectKind::{}, \
+                     &format!(\"{{at}}.{}[{{k}}]\"))).collect::<Result<Vec<_>>>()?",
+                    h.kind, h.array
+                ),
                 Form::Union { rust, .. } => {
                     format!("self.{}(&{d}, {at})?", crate::khr::snake_case(rust))
                 }
@@ -1180,6 +1293,9 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
                 Form::SType(_) => format!("s_type({d}, defaults.s_type)"),
                 Form::Next if !spec.extracts.is_empty() => "Vec::new()".to_string(),
                 Form::Next => format!("chain(&{d})"),
+                Form::Handle(kind) if LOOSE_KINDS.contains(kind) => {
+                    format!("self.loose_handle(&{d}, ObjectKind::{kind}, {at})?")
+                }
                 Form::Handle(kind) => format!("self.handle(&{d}, ObjectKind::{kind}, {at})?"),
                 Form::Address { .. } => format!("self.address(&{d}, {at})?"),
                 Form::Number {
@@ -1203,10 +1319,11 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
         }
         let _ = write!(
             out,
-            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}(&self, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
+            "    /// A {} at `at`.\n    pub(in crate::scene) fn {}({}, d: &scene::{}Desc, at: &str) -> Result<model::{}> {{\n        \
              let defaults = model::{}::default();\n{lets}        {}model::{} {{\n{body}",
             doc(spec).trim_end_matches('.'),
             function(spec),
+            if binds_names(vk, spec)? { "&mut self" } else { "&self" },
             spec.rust,
             spec.rust,
             spec.rust,
@@ -1283,7 +1400,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure with no pNext chain or arrays of its own reads no memory:\n// its `function`, `at` and `findings` go unused.\n#![allow(unused_imports, unused_variables, clippy::ptr_arg)]\n\nuse std::fmt::Display;\n\nuse ash::vk;\nuse ommcheck_vuids::khr;\n\n\
          use super::accel::{self, address, scratch_address};\n\
-         use super::{chain, chain_s_types, read_elements, usage_counts, ElementArrays};\n\
+         use super::{chain, chain_s_types, read_array, read_elements, usage_counts, ElementArrays};\n\
          use crate::model::generated as model;\nuse crate::model::micromap::MicromapUsage;\n\
          use crate::report::location::Locate;\nuse crate::report::Finding;\n\n",
     );
@@ -1310,6 +1427,9 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         {
             "\n/// Its arrays must be NULL or valid for their counts, and each element\n\
              /// valid as its own reader requires, as the API requires."
+        } else if fields.iter().any(|f| matches!(f.form, Form::Handles(_))) {
+            "\n/// Its arrays of handles must be NULL or valid for their counts, as the\n\
+             /// API requires."
         } else if fields.iter().any(|f| matches!(f.form, Form::Union { .. })) {
             "\n/// Its unions must hold the member their selector selects, valid as\n\
              /// that member's reader requires."
@@ -1423,7 +1543,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
                 _ => ash_member(field),
             };
             if matches!(field.form, Form::Next if !spec.chained && spec.extracts.is_empty())
-                || field.form == Form::UsageCounts
+                || matches!(field.form, Form::UsageCounts | Form::Handles(_))
             {
                 out.push_str("        // SAFETY: forwarded from the caller.\n");
             }
@@ -1495,7 +1615,8 @@ fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
             Form::UsageCounts
             | Form::Address { union: true, .. }
             | Form::Union { .. }
-            | Form::Elements { .. } => false,
+            | Form::Elements { .. }
+            | Form::Handles(_) => false,
             Form::Next => spec.chained,
             _ => true,
         })
@@ -1553,6 +1674,10 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                     continue;
                 }
                 Form::Bool => m,
+                Form::Handles(h) => format!(
+                    "{m}.iter().map(|h| names.handle(ObjectKind::{}, *h)).collect()",
+                    h.kind
+                ),
                 Form::Union { rust, .. } => format!("scene::{rust}Desc::written(&{m}, names)"),
                 Form::Elements {
                     index,
@@ -1673,6 +1798,7 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                 // An sType of no structure the scene form reads.
                 Form::Next => "vec![1_000_001_000]".to_string(),
                 Form::Handle(_) => format!("0x1000 + {i}"),
+                Form::Handles(_) => format!("vec![0x1000 + {i}, 0]"),
                 Form::Address { .. } => format!("0x2000_0000 + {i}"),
                 Form::Number { .. } | Form::Flags { .. } | Form::Enum { .. } => i.to_string(),
                 // A count beyond the arrays, a one-element array and a NULL

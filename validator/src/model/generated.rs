@@ -648,6 +648,98 @@ impl Default for BuildGeometryInfo {
     }
 }
 
+/// `VkPipelineCreateFlags2CreateInfo`; its `flags` replace the create info's.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct PipelineCreateFlags2CreateInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub flags: u64,
+}
+
+impl Default for PipelineCreateFlags2CreateInfo {
+    fn default() -> Self {
+        Self {
+            s_type: 1000470005,
+            next: Vec::new(),
+            flags: 0,
+        }
+    }
+}
+
+impl PipelineCreateFlags2CreateInfo {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &vk::PipelineCreateFlags2CreateInfoKHR<'_>) -> Self {
+        Self {
+            s_type: info.s_type.as_raw(),
+            next: Vec::new(),
+            flags: info.flags.as_raw(),
+        }
+    }
+}
+
+/// `VkPipelineLibraryCreateInfoKHR`; chained to a graphics pipeline, or a ray-tracing pipeline's `pLibraryInfo`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct PipelineLibraryCreateInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    /// `pLibraries` (a NULL array: none).
+    pub libraries: Vec<Handle>,
+}
+
+impl Default for PipelineLibraryCreateInfo {
+    fn default() -> Self {
+        Self {
+            s_type: 1000290000,
+            next: Vec::new(),
+            libraries: Vec::new(),
+        }
+    }
+}
+
+/// `VkSemaphoreSubmitInfo`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SemaphoreSubmitInfo {
+    pub s_type: i32,
+    /// sTypes of the structures in the pNext chain, in order.
+    pub next: Vec<i32>,
+    pub semaphore: Handle,
+    pub value: u64,
+    pub stage_mask: u64,
+    pub device_index: u32,
+}
+
+impl Default for SemaphoreSubmitInfo {
+    fn default() -> Self {
+        Self {
+            s_type: 1000314005,
+            next: Vec::new(),
+            semaphore: 0,
+            value: 0,
+            stage_mask: 0,
+            device_index: 0,
+        }
+    }
+}
+
+impl SemaphoreSubmitInfo {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &vk::SemaphoreSubmitInfo<'_>) -> Self {
+        Self {
+            s_type: info.s_type.as_raw(),
+            next: Vec::new(),
+            semaphore: vk::Handle::as_raw(info.semaphore),
+            value: info.value,
+            stage_mask: info.stage_mask.as_raw(),
+            device_index: info.device_index,
+        }
+    }
+}
+
 /// `VkAccelerationStructureGeometryDataKHR`: the member its selector selects.
 // Builds hold a handful of these; keeping the members inline keeps
 // every construction plain.

@@ -72,15 +72,7 @@ pub struct DependencyInfo {
     pub memory_range_barriers: Vec<Barrier>,
 }
 
-/// `VkSemaphoreSubmitInfo`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(default, rename_all = "camelCase")]
-pub struct SemaphoreSubmitInfo {
-    pub semaphore: Handle,
-    pub value: u64,
-    pub stage_mask: u64,
-    pub device_index: u32,
-}
+pub use super::generated::SemaphoreSubmitInfo;
 
 /// `VkSubmitInfo2`: the semaphore operations.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -13,7 +13,7 @@ use ash::vk;
 use ommcheck_vuids::khr;
 
 use super::accel::{self, address, scratch_address};
-use super::{chain, chain_s_types, read_elements, usage_counts, ElementArrays};
+use super::{chain, chain_s_types, read_array, read_elements, usage_counts, ElementArrays};
 use crate::model::generated as model;
 use crate::model::micromap::MicromapUsage;
 use crate::report::location::Locate;
@@ -600,6 +600,59 @@ pub(crate) unsafe fn build_geometry_info(
         geometries,
         geometry_pointers,
         scratch_data: scratch_address(&info.scratch_data),
+    }
+}
+
+/// Reads a `VkPipelineLibraryCreateInfoKHR`; chained to a graphics pipeline, or a ray-tracing pipeline's `pLibraryInfo` (at `at`, as findings name it).
+///
+/// # Safety
+/// Its own pNext chain is part of the chain the caller walks.
+/// Its arrays of handles must be NULL or valid for their counts, as the
+/// API requires.
+pub(crate) unsafe fn pipeline_library_create_info(
+    info: &vk::PipelineLibraryCreateInfoKHR<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::PipelineLibraryCreateInfo {
+    model::PipelineLibraryCreateInfo {
+        s_type: info.s_type.as_raw(),
+        next: Vec::new(),
+        // SAFETY: forwarded from the caller.
+        libraries: unsafe {
+            read_array(
+                info.p_libraries,
+                info.library_count,
+                function,
+                at.text(".pLibraries"),
+                findings,
+            )
+        }
+        .unwrap_or_default()
+        .into_iter()
+        .map(vk::Handle::as_raw)
+        .collect(),
+    }
+}
+
+/// Reads a `VkSemaphoreSubmitInfo` (at `at`, as findings name it).
+///
+/// # Safety
+/// `info`'s pNext chain must be well formed.
+pub(crate) unsafe fn semaphore_submit_info(
+    info: &vk::SemaphoreSubmitInfo<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::SemaphoreSubmitInfo {
+    model::SemaphoreSubmitInfo {
+        s_type: info.s_type.as_raw(),
+        // SAFETY: forwarded from the caller.
+        next: unsafe { chain_s_types(info.p_next, function, at, findings) },
+        semaphore: vk::Handle::as_raw(info.semaphore),
+        value: info.value,
+        stage_mask: info.stage_mask.as_raw(),
+        device_index: info.device_index,
     }
 }
 

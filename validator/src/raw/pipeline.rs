@@ -17,14 +17,17 @@ use std::ffi::{c_char, c_void};
 use ash::vk;
 use ommcheck_vuids::khr;
 
+use super::generated::{pipeline_library_create_info, semaphore_submit_info};
 use super::{bounded_len, chain, read_array, MAX_ELEMENTS};
 use crate::device::Limits;
+use crate::model::generated::PipelineCreateFlags2CreateInfo;
 use crate::model::pipeline::{
     Barrier, ChainedStruct, DependencyInfo, MemoryMarkerInfo, MicromapStruct, PipelineCreateFlags,
-    PipelineCreateInfo, SemaphoreSubmitInfo, ShaderCreateInfo, ShaderStage, SpecializationValue,
-    SubmitInfo2, SHADER_CODE_TYPE_SPIRV, STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR,
+    PipelineCreateInfo, ShaderCreateInfo, ShaderStage, SpecializationValue, SubmitInfo2,
+    SHADER_CODE_TYPE_SPIRV, STRUCTURE_TYPE_MEMORY_RANGE_BARRIERS_INFO_KHR,
 };
 use crate::model::Handle;
+use crate::report::location::Locate;
 use crate::report::{Finding, Severity};
 use crate::rules;
 
@@ -322,32 +325,6 @@ unsafe fn shader_stages(
     }
 }
 
-/// The handles of a `VkPipelineLibraryCreateInfoKHR` (NULL reads as none).
-///
-/// # Safety
-/// A non-NULL `pLibraries` must hold `libraryCount` handles.
-unsafe fn libraries(
-    info: &vk::PipelineLibraryCreateInfoKHR<'_>,
-    function: &'static str,
-    location: &str,
-    findings: &mut Vec<Finding>,
-) -> Vec<Handle> {
-    // SAFETY: forwarded from the caller.
-    unsafe {
-        read_array(
-            info.p_libraries,
-            info.library_count,
-            function,
-            &format!("{location}.pLibraries"),
-            findings,
-        )
-    }
-    .unwrap_or_default()
-    .into_iter()
-    .map(vk::Handle::as_raw)
-    .collect()
-}
-
 /// `flags` with the `VkPipelineCreateFlags2CreateInfo` and the
 /// `VkPipelineLibraryCreateInfoKHR` of a pipeline create info's pNext chain.
 ///
@@ -371,15 +348,20 @@ unsafe fn flags_and_chained_libraries(
         let s_type = vk::StructureType::from_raw(link.s_type);
         if s_type == vk::StructureType::PIPELINE_CREATE_FLAGS_2_CREATE_INFO_KHR {
             // SAFETY: the sType names the structure.
-            let info: vk::PipelineCreateFlags2CreateInfoKHR<'_> =
-                unsafe { structure(link.address) };
-            create_flags.flags2 = Some(info.flags.as_raw());
+            let info = unsafe {
+                &*link
+                    .address
+                    .cast::<vk::PipelineCreateFlags2CreateInfoKHR<'_>>()
+            };
+            create_flags.flags2 = Some(PipelineCreateFlags2CreateInfo::from_members(info).flags);
         } else if s_type == vk::StructureType::PIPELINE_LIBRARY_CREATE_INFO_KHR {
-            // SAFETY: the sType names the structure.
-            let info: vk::PipelineLibraryCreateInfoKHR<'_> = unsafe { structure(link.address) };
-            let at = format!("{location}.pNext<VkPipelineLibraryCreateInfoKHR>");
-            // SAFETY: forwarded from the caller.
-            chained_libraries = Some(unsafe { libraries(&info, function, &at, findings) });
+            let at = location.text(".pNext<VkPipelineLibraryCreateInfoKHR>");
+            // SAFETY: the sType names the structure, whose array is valid
+            // for its count (the caller's guarantee).
+            let info = unsafe {
+                pipeline_library_create_info(&*link.address.cast(), function, at, findings)
+            };
+            chained_libraries = Some(info.libraries);
         }
     }
     (create_flags, chained_libraries)
@@ -491,9 +473,9 @@ pub unsafe fn ray_tracing_pipeline_info_khr(
     let read = unsafe { staged_pipeline_info(info, function, location, findings) };
     // SAFETY: a non-NULL pLibraryInfo points to a valid structure (the caller's guarantee).
     let libraries = unsafe { info.p_library_info.as_ref() }.map(|library_info| {
-        let at = format!("{location}.pLibraryInfo");
+        let at = location.text(".pLibraryInfo");
         // SAFETY: forwarded from the caller.
-        unsafe { libraries(library_info, function, &at, findings) }
+        unsafe { pipeline_library_create_info(library_info, function, at, findings) }.libraries
     });
     PipelineCreateInfo { libraries, ..read }
 }
@@ -692,26 +674,29 @@ pub unsafe fn dependency_info(
 ///
 /// # Safety
 /// A non-NULL `submits` must point to `count` structures whose semaphore
-/// arrays are valid for their counts.
+/// arrays are valid for their counts, each structure's pNext chain well
+/// formed (cycles and length are tolerated).
 pub unsafe fn submit_infos(
     submits: *const vk::SubmitInfo2<'_>,
     count: u32,
     function: &'static str,
     findings: &mut Vec<Finding>,
 ) -> Vec<SubmitInfo2> {
-    let semaphores = |infos: Option<Vec<vk::SemaphoreSubmitInfo<'_>>>| -> Vec<SemaphoreSubmitInfo> {
-        infos
-            .unwrap_or_default()
-            .iter()
-            .map(|s| SemaphoreSubmitInfo {
-                semaphore: vk::Handle::as_raw(s.semaphore),
-                value: s.value,
-                stage_mask: s.stage_mask.as_raw(),
-                device_index: s.device_index,
-            })
-            .collect()
+    let semaphores = |infos, count, member: &str, findings: &mut Vec<Finding>| {
+        // SAFETY: called below with a submit's semaphore array and its
+        // count, which hold that many valid structures (the caller's guarantee).
+        unsafe {
+            each(
+                infos,
+                count,
+                function,
+                member,
+                findings,
+                |info, at, findings| semaphore_submit_info(info, function, at, findings),
+            )
+        }
     };
-    // SAFETY: forwarded from the caller; each semaphore array holds its count.
+    // SAFETY: forwarded from the caller.
     unsafe {
         each(
             submits,
@@ -719,25 +704,19 @@ pub unsafe fn submit_infos(
             function,
             "pSubmits",
             findings,
-            |submit, at, findings| {
-                let wait = read_array(
+            |submit, at, findings| SubmitInfo2 {
+                wait_semaphore_infos: semaphores(
                     submit.p_wait_semaphore_infos,
                     submit.wait_semaphore_info_count,
-                    function,
                     &format!("{at}.pWaitSemaphoreInfos"),
                     findings,
-                );
-                let signal = read_array(
+                ),
+                signal_semaphore_infos: semaphores(
                     submit.p_signal_semaphore_infos,
                     submit.signal_semaphore_info_count,
-                    function,
                     &format!("{at}.pSignalSemaphoreInfos"),
                     findings,
-                );
-                SubmitInfo2 {
-                    wait_semaphore_infos: semaphores(wait),
-                    signal_semaphore_infos: semaphores(signal),
-                }
+                ),
             },
         )
     }

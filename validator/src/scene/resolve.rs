@@ -254,10 +254,10 @@ impl<'a> Resolver<'a> {
 /// round-trip tests).
 #[cfg(test)]
 pub(in crate::scene) fn resolve_alone<T>(
-    resolve: impl FnOnce(&Resolver<'_>) -> Result<T>,
+    resolve: impl FnOnce(&mut Resolver<'_>) -> Result<T>,
 ) -> std::result::Result<T, String> {
     let validator = Validator::new(crate::Device::with_everything(crate::Profile::SpecMinimum));
-    resolve(&Resolver::new(Path::new("."), validator))
+    resolve(&mut Resolver::new(Path::new("."), validator))
         .map_err(|p| format!("{}: {}", p.path, p.message))
 }
 

@@ -436,6 +436,51 @@ pub struct BuildGeometryInfoDesc {
     pub scratch_data: AddressArg,
 }
 
+/// `VkPipelineCreateFlags2CreateInfo`; its `flags` replace the create info's.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct PipelineCreateFlags2CreateInfoDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
+    #[serde(default)]
+    pub flags: Value<names::PipelineCreateFlags2>,
+}
+
+/// `VkPipelineLibraryCreateInfoKHR`; chained to a graphics pipeline, or a ray-tracing pipeline's `pLibraryInfo`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct PipelineLibraryCreateInfoDesc {
+    /// The sType written, when it is not this structure's own: set only for
+    /// a chain entry that names the structure with `"structure"`.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub given_s_type: Option<i32>,
+    /// `pLibraries`, by name; `libraryCount` is their number.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_libraries: Vec<HandleArg>,
+}
+
+/// `VkSemaphoreSubmitInfo`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct SemaphoreSubmitInfoDesc {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_type: Option<Value<names::StructureType>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_next: Vec<ChainStruct>,
+    #[serde(default, skip_serializing_if = "HandleArg::is_omitted")]
+    pub semaphore: HandleArg,
+    #[serde(default)]
+    pub value: u64,
+    #[serde(default)]
+    pub stage_mask: Value<names::PipelineStageFlags2>,
+    #[serde(default)]
+    pub device_index: u32,
+}
+
 /// `VkAccelerationStructureGeometryDataKHR`: at most one member.
 #[derive(Debug, Default, Deserialize, Serialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
@@ -467,18 +512,24 @@ pub enum ChainStruct {
     TrianglesDisplacementMicromapNv(TrianglesDisplacementMicromapNvDesc),
     #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR")]
     GeometryMicromapData(GeometryMicromapDataDesc),
+    #[serde(rename = "VK_STRUCTURE_TYPE_PIPELINE_CREATE_FLAGS_2_CREATE_INFO")]
+    PipelineCreateFlags2CreateInfo(PipelineCreateFlags2CreateInfoDesc),
+    #[serde(rename = "VK_STRUCTURE_TYPE_PIPELINE_LIBRARY_CREATE_INFO_KHR")]
+    PipelineLibraryCreateInfo(PipelineLibraryCreateInfoDesc),
     /// Any other sType (by name or number); other members are ignored.
     #[serde(untagged)]
     Other(OtherStruct),
 }
 
 impl ChainStruct {
-    /// The structures with members of their own, by their spec names: `VkAccelerationStructureTrianglesOpacityMicromapEXT`, `VkAccelerationStructureTrianglesOpacityMicromapKHR`, `VkAccelerationStructureTrianglesDisplacementMicromapNV`, `VkAccelerationStructureGeometryMicromapDataKHR`.
+    /// The structures with members of their own, by their spec names: `VkAccelerationStructureTrianglesOpacityMicromapEXT`, `VkAccelerationStructureTrianglesOpacityMicromapKHR`, `VkAccelerationStructureTrianglesDisplacementMicromapNV`, `VkAccelerationStructureGeometryMicromapDataKHR`, `VkPipelineCreateFlags2CreateInfo`, `VkPipelineLibraryCreateInfoKHR`.
     pub const READ: &'static [&'static str] = &[
         "VkAccelerationStructureTrianglesOpacityMicromapEXT",
         "VkAccelerationStructureTrianglesOpacityMicromapKHR",
         "VkAccelerationStructureTrianglesDisplacementMicromapNV",
         "VkAccelerationStructureGeometryMicromapDataKHR",
+        "VkPipelineCreateFlags2CreateInfo",
+        "VkPipelineLibraryCreateInfoKHR",
     ];
 
     /// The entry whose sType is `tag`, from its other members; `other`
@@ -497,6 +548,10 @@ impl ChainStruct {
             1000397002 => Deserialize::deserialize(rest).map(Self::TrianglesDisplacementMicromapNv),
             // VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_MICROMAP_DATA_KHR
             1000623002 => Deserialize::deserialize(rest).map(Self::GeometryMicromapData),
+            // VK_STRUCTURE_TYPE_PIPELINE_CREATE_FLAGS_2_CREATE_INFO
+            1000470005 => Deserialize::deserialize(rest).map(Self::PipelineCreateFlags2CreateInfo),
+            // VK_STRUCTURE_TYPE_PIPELINE_LIBRARY_CREATE_INFO_KHR
+            1000290000 => Deserialize::deserialize(rest).map(Self::PipelineLibraryCreateInfo),
             _ => other(tag, rest),
         }
     }
@@ -539,6 +594,22 @@ impl ChainStruct {
                         ..d
                     })
                 }),
+            "VkPipelineCreateFlags2CreateInfo" => {
+                serde_json::from_value(members).map(|d: PipelineCreateFlags2CreateInfoDesc| {
+                    Self::PipelineCreateFlags2CreateInfo(PipelineCreateFlags2CreateInfoDesc {
+                        given_s_type: given,
+                        ..d
+                    })
+                })
+            }
+            "VkPipelineLibraryCreateInfoKHR" => {
+                serde_json::from_value(members).map(|d: PipelineLibraryCreateInfoDesc| {
+                    Self::PipelineLibraryCreateInfo(PipelineLibraryCreateInfoDesc {
+                        given_s_type: given,
+                        ..d
+                    })
+                })
+            }
             _ => return None,
         })
     }
@@ -550,6 +621,8 @@ impl ChainStruct {
             Self::TrianglesOpacityMicromapKhr(d) => d.given_s_type.unwrap_or(1000623003),
             Self::TrianglesDisplacementMicromapNv(d) => d.given_s_type.unwrap_or(1000397002),
             Self::GeometryMicromapData(d) => d.given_s_type.unwrap_or(1000623002),
+            Self::PipelineCreateFlags2CreateInfo(d) => d.given_s_type.unwrap_or(1000470005),
+            Self::PipelineLibraryCreateInfo(d) => d.given_s_type.unwrap_or(1000290000),
             Self::Other(other) => other.s_type.as_i32(),
         }
     }

@@ -122,28 +122,6 @@ fn main_entry() -> String {
     "main".into()
 }
 
-/// A structure chained to a pipeline create info:
-/// `VkPipelineCreateFlags2CreateInfo` (its `flags` replace the create
-/// info's) or `VkPipelineLibraryCreateInfoKHR` (graphics pipelines);
-/// any other sType is passed over.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(rename_all = "camelCase")]
-pub struct PipelineChainDesc {
-    pub s_type: Value<names::StructureType>,
-    /// `VkPipelineCreateFlags2CreateInfo::flags`.
-    pub flags: Option<Value<names::PipelineCreateFlags2>>,
-    /// `VkPipelineLibraryCreateInfoKHR::pLibraries`, pipelines by name.
-    pub p_libraries: Option<Vec<HandleArg>>,
-}
-
-/// `VkPipelineLibraryCreateInfoKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct PipelineLibraryDesc {
-    #[serde(default)]
-    pub p_libraries: Vec<HandleArg>,
-}
-
 /// `VkComputePipelineCreateInfo`, `VkGraphicsPipelineCreateInfo`,
 /// `VkRayTracingPipelineCreateInfoKHR` or `VkRayTracingPipelineCreateInfoNV`:
 /// the members the micromap rules read. Other members of the structures
@@ -151,8 +129,10 @@ pub struct PipelineLibraryDesc {
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(rename_all = "camelCase")]
 pub struct PipelineCreateInfoDesc {
+    /// `VkPipelineCreateFlags2CreateInfo` replaces `flags`;
+    /// `VkPipelineLibraryCreateInfoKHR` gives a graphics pipeline's libraries.
     #[serde(default)]
-    pub p_next: Vec<PipelineChainDesc>,
+    pub p_next: Vec<ChainStruct>,
     #[serde(default)]
     pub flags: Value<names::PipelineCreateFlags>,
     /// The one stage of a compute pipeline.
@@ -161,7 +141,7 @@ pub struct PipelineCreateInfoDesc {
     #[serde(default)]
     pub p_stages: Vec<ShaderStageDesc>,
     /// `VkRayTracingPipelineCreateInfoKHR::pLibraryInfo`.
-    pub p_library_info: Option<PipelineLibraryDesc>,
+    pub p_library_info: Option<super::PipelineLibraryCreateInfoDesc>,
 }
 
 macro_rules! create_pipelines {
@@ -382,31 +362,17 @@ params!(
     }
 );
 
-/// `VkSemaphoreSubmitInfo`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct SemaphoreSubmitInfoDesc {
-    #[serde(default)]
-    pub semaphore: HandleArg,
-    #[serde(default)]
-    pub value: u64,
-    #[serde(default)]
-    pub stage_mask: Value<names::PipelineStageFlags2>,
-    #[serde(default)]
-    pub device_index: u32,
-}
-
 /// `VkSubmitInfo2`: its semaphore operations and the command buffers it
 /// runs (`docs/scene-format.md`, "Execution order").
 #[derive(Debug, Deserialize, JsonSchema)]
 #[serde(rename_all = "camelCase")]
 pub struct SubmitInfo2Desc {
     #[serde(default)]
-    pub p_wait_semaphore_infos: Vec<SemaphoreSubmitInfoDesc>,
+    pub p_wait_semaphore_infos: Vec<super::SemaphoreSubmitInfoDesc>,
     #[serde(default)]
     pub p_command_buffer_infos: Vec<super::CommandBufferSubmitInfoDesc>,
     #[serde(default)]
-    pub p_signal_semaphore_infos: Vec<SemaphoreSubmitInfoDesc>,
+    pub p_signal_semaphore_infos: Vec<super::SemaphoreSubmitInfoDesc>,
 }
 
 params!(

@@ -462,6 +462,62 @@ impl Resolver<'_> {
         })
     }
 
+    /// A `VkPipelineCreateFlags2CreateInfo`; its `flags` replace the create info's at `at`.
+    pub(in crate::scene) fn pipeline_create_flags2_create_info(
+        &self,
+        d: &scene::PipelineCreateFlags2CreateInfoDesc,
+        at: &str,
+    ) -> Result<model::PipelineCreateFlags2CreateInfo> {
+        let defaults = model::PipelineCreateFlags2CreateInfo::default();
+        Ok(model::PipelineCreateFlags2CreateInfo {
+            s_type: d.given_s_type.unwrap_or(defaults.s_type),
+            next: Vec::new(),
+            flags: d.flags.as_u64(),
+        })
+    }
+
+    /// A `VkPipelineLibraryCreateInfoKHR`; chained to a graphics pipeline, or a ray-tracing pipeline's `pLibraryInfo` at `at`.
+    pub(in crate::scene) fn pipeline_library_create_info(
+        &self,
+        d: &scene::PipelineLibraryCreateInfoDesc,
+        at: &str,
+    ) -> Result<model::PipelineLibraryCreateInfo> {
+        let defaults = model::PipelineLibraryCreateInfo::default();
+        Ok(model::PipelineLibraryCreateInfo {
+            s_type: d.given_s_type.unwrap_or(defaults.s_type),
+            next: Vec::new(),
+            libraries: d
+                .p_libraries
+                .iter()
+                .enumerate()
+                .map(|(k, h)| {
+                    self.handle(h, ObjectKind::Pipeline, &format!("{at}.pLibraries[{k}]"))
+                })
+                .collect::<Result<Vec<_>>>()?,
+        })
+    }
+
+    /// A `VkSemaphoreSubmitInfo` at `at`.
+    pub(in crate::scene) fn semaphore_submit_info(
+        &mut self,
+        d: &scene::SemaphoreSubmitInfoDesc,
+        at: &str,
+    ) -> Result<model::SemaphoreSubmitInfo> {
+        let defaults = model::SemaphoreSubmitInfo::default();
+        Ok(model::SemaphoreSubmitInfo {
+            s_type: s_type(d.s_type, defaults.s_type),
+            next: chain(&d.p_next),
+            semaphore: self.loose_handle(
+                &d.semaphore,
+                ObjectKind::Semaphore,
+                &format!("{at}.semaphore"),
+            )?,
+            value: d.value,
+            stage_mask: d.stage_mask.as_u64(),
+            device_index: d.device_index,
+        })
+    }
+
     /// A `VkAccelerationStructureGeometryDataKHR` at `at`: the one member given (the application's
     /// selector is its own member, checked by the rules).
     pub(in crate::scene) fn geometry_data(

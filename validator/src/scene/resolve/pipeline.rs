@@ -113,18 +113,7 @@ fn semaphore_infos(
 ) -> Result<Vec<SemaphoreSubmitInfo>> {
     list.iter()
         .enumerate()
-        .map(|(k, d)| {
-            Ok(SemaphoreSubmitInfo {
-                semaphore: resolver.loose_handle(
-                    &d.semaphore,
-                    ObjectKind::Semaphore,
-                    &format!("{at}[{k}].semaphore"),
-                )?,
-                value: d.value,
-                stage_mask: d.stage_mask.as_u64(),
-                device_index: d.device_index,
-            })
-        })
+        .map(|(k, d)| resolver.semaphore_submit_info(d, &format!("{at}[{k}]")))
         .collect()
 }
 
@@ -270,27 +259,24 @@ impl Resolver<'_> {
         d: &PipelineCreateInfoDesc,
         at: &str,
     ) -> Result<PipelineCreateInfo> {
-        let flags2_info =
-            structure_type("VK_STRUCTURE_TYPE_PIPELINE_CREATE_FLAGS_2_CREATE_INFO_KHR");
-        let library_info = structure_type("VK_STRUCTURE_TYPE_PIPELINE_LIBRARY_CREATE_INFO_KHR");
+        // The last of each chained structure counts, as in the raw reader.
         let mut flags2 = None;
         let mut libraries = None;
         for (k, next) in d.p_next.iter().enumerate() {
             let next_at = format!("{at}.pNext[{k}]");
-            let s_type = next.s_type.as_i32();
-            if s_type == flags2_info {
-                flags2 = Some(next.flags.map_or(0, Value::as_u64));
-            } else if s_type == library_info {
-                libraries = Some(self.pipeline_handles(
-                    next.p_libraries.as_deref().unwrap_or_default(),
-                    &format!("{next_at}.pLibraries"),
-                )?);
+            match next {
+                ChainStruct::PipelineCreateFlags2CreateInfo(e) => {
+                    flags2 = Some(self.pipeline_create_flags2_create_info(e, &next_at)?.flags);
+                }
+                ChainStruct::PipelineLibraryCreateInfo(e) => {
+                    libraries = Some(self.pipeline_library_create_info(e, &next_at)?.libraries);
+                }
+                _ => {}
             }
         }
         if let Some(info) = &d.p_library_info {
-            libraries = Some(
-                self.pipeline_handles(&info.p_libraries, &format!("{at}.pLibraryInfo.pLibraries"))?,
-            );
+            let info_at = format!("{at}.pLibraryInfo");
+            libraries = Some(self.pipeline_library_create_info(info, &info_at)?.libraries);
         }
         let mut stages = Vec::new();
         if let Some(stage) = &d.stage {
@@ -307,13 +293,6 @@ impl Resolver<'_> {
             stages,
             libraries,
         })
-    }
-
-    fn pipeline_handles(&self, list: &[super::HandleArg], at: &str) -> Result<Vec<Handle>> {
-        list.iter()
-            .enumerate()
-            .map(|(k, h)| self.handle(h, ObjectKind::Pipeline, &format!("{at}[{k}]")))
-            .collect()
     }
 
     /// The create infos and the names of the new objects, one per info.

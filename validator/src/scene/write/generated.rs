@@ -422,6 +422,47 @@ impl scene::BuildGeometryInfoDesc {
     }
 }
 
+impl scene::PipelineCreateFlags2CreateInfoDesc {
+    /// The scene form of a `VkPipelineCreateFlags2CreateInfo`; its `flags` replace the create info's, naming objects and addresses by `names`.
+    pub fn written(model: &model::PipelineCreateFlags2CreateInfo, names: &dyn Names) -> Self {
+        let defaults = model::PipelineCreateFlags2CreateInfo::default();
+        Self {
+            given_s_type: (model.s_type != defaults.s_type).then_some(model.s_type),
+            flags: Value::new(i64::from_ne_bytes(model.flags.to_ne_bytes())),
+        }
+    }
+}
+
+impl scene::PipelineLibraryCreateInfoDesc {
+    /// The scene form of a `VkPipelineLibraryCreateInfoKHR`; chained to a graphics pipeline, or a ray-tracing pipeline's `pLibraryInfo`, naming objects and addresses by `names`.
+    pub fn written(model: &model::PipelineLibraryCreateInfo, names: &dyn Names) -> Self {
+        let defaults = model::PipelineLibraryCreateInfo::default();
+        Self {
+            given_s_type: (model.s_type != defaults.s_type).then_some(model.s_type),
+            p_libraries: model
+                .libraries
+                .iter()
+                .map(|h| names.handle(ObjectKind::Pipeline, *h))
+                .collect(),
+        }
+    }
+}
+
+impl scene::SemaphoreSubmitInfoDesc {
+    /// The scene form of a `VkSemaphoreSubmitInfo`, naming objects and addresses by `names`.
+    pub fn written(model: &model::SemaphoreSubmitInfo, names: &dyn Names) -> Self {
+        let defaults = model::SemaphoreSubmitInfo::default();
+        Self {
+            s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
+            p_next: model.next.iter().copied().map(chain_entry).collect(),
+            semaphore: names.handle(ObjectKind::Semaphore, model.semaphore),
+            value: model.value,
+            stage_mask: Value::new(i64::from_ne_bytes(model.stage_mask.to_ne_bytes())),
+            device_index: model.device_index,
+        }
+    }
+}
+
 impl scene::GeometryDataDesc {
     /// The scene form of a `VkAccelerationStructureGeometryDataKHR`, naming objects and addresses by `names`.
     pub fn written(model: &model::GeometryData, names: &dyn Names) -> Self {
@@ -908,6 +949,65 @@ mod tests {
         let read: scene::BuildGeometryInfoDesc = serde_json::from_str(&json).unwrap();
         assert_eq!(
             crate::scene::resolve_alone(|r| r.build_geometry_info(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn pipeline_create_flags2_create_info_reads_back_as_written() {
+        let model = model::PipelineCreateFlags2CreateInfo {
+            flags: 3,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::PipelineCreateFlags2CreateInfoDesc::written(
+            &model, names,
+        ))
+        .unwrap();
+        let read: scene::PipelineCreateFlags2CreateInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.pipeline_create_flags2_create_info(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn pipeline_library_create_info_reads_back_as_written() {
+        let model = model::PipelineLibraryCreateInfo {
+            libraries: vec![0x1000 + 3, 0],
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json = serde_json::to_string(&scene::PipelineLibraryCreateInfoDesc::written(
+            &model, names,
+        ))
+        .unwrap();
+        let read: scene::PipelineLibraryCreateInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.pipeline_library_create_info(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn semaphore_submit_info_reads_back_as_written() {
+        let model = model::SemaphoreSubmitInfo {
+            next: vec![1_000_001_000],
+            semaphore: 0x1000 + 3,
+            value: 4,
+            stage_mask: 5,
+            device_index: 6,
+            ..Default::default()
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::SemaphoreSubmitInfoDesc::written(&model, names)).unwrap();
+        let read: scene::SemaphoreSubmitInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.semaphore_submit_info(&read, "x")),
             Ok(model),
             "{json}"
         );
