@@ -291,7 +291,7 @@ pub const STRUCTS: &[StructSpec] = &[
 
 /// The objects scene names can denote, by the handle type vk.xml gives:
 /// the resolver's `ObjectKind` variant.
-const HANDLE_KINDS: &[(&str, &str)] = &[
+pub(crate) const HANDLE_KINDS: &[(&str, &str)] = &[
     ("VkBuffer", "Buffer"),
     ("VkMicromapEXT", "Micromap"),
     ("VkAccelerationStructureKHR", "AccelerationStructure"),
@@ -420,7 +420,7 @@ pub struct Field {
 }
 
 /// The `names` kind whose type is `type_name`, following type aliases.
-fn kind_of(vk: &VkXml, type_name: &str) -> Option<&'static str> {
+pub(crate) fn kind_of(vk: &VkXml, type_name: &str) -> Option<&'static str> {
     let same = |a: &str, b: &str| {
         a == b
             || vk.types.get(a).and_then(|t| t.alias.as_deref()) == Some(b)
