@@ -3,9 +3,10 @@
 //! dispatch from that model to the command's `Validator` method
 //! (`validator/src/checks/calls.rs`), the scene form of the call with the
 //! `Call` enum and its names (`validator/src/scene/format/calls.rs`), the
-//! scene → model resolver (`validator/src/scene/resolve/calls.rs`) and the
+//! scene → model resolver (`validator/src/scene/resolve/calls.rs`), the
 //! model → scene writer with a round-trip test per command
-//! (`validator/src/scene/write/calls.rs`).
+//! (`validator/src/scene/write/calls.rs`) and, where the parameters allow,
+//! the `*_raw` wrapper a layer calls (`validator/src/raw/calls.rs`).
 //!
 //! vk.xml gives each command's parameters, their types and which count
 //! counts which array; a parameter's type decides its form ([`Param`]) in
@@ -18,7 +19,7 @@
 use std::fmt::Write as _;
 
 use crate::registry::{Member, VkXml};
-use crate::structs::{kind_of, HANDLE_KINDS, STRUCTS};
+use crate::structs::{ash_type, fields, kind_of, read_by_members, HANDLE_KINDS, STRUCTS};
 use crate::Error;
 
 /// One command described for the generator.
@@ -46,6 +47,9 @@ pub struct CommandSpec {
     /// A hand-written step of the resolver after the parameters are
     /// resolved (`call` is the model call, mutable); empty: none.
     pub then: &'static str,
+    /// The command reads host memory its structures point to (a
+    /// deserialization's header): its raw wrapper is hand-written.
+    pub host_read: bool,
 }
 
 const BASE: CommandSpec = CommandSpec {
@@ -59,6 +63,7 @@ const BASE: CommandSpec = CommandSpec {
     skip: &[],
     args: "",
     then: "",
+    host_read: false,
 };
 
 /// A parameter whose scene and model forms are hand-written types, with
@@ -272,7 +277,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     micromap!(
         "vkCopyMemoryToMicromapEXT",
         "CopyMemoryToMicromap",
-        "copy_memory_to_micromap"
+        "copy_memory_to_micromap",
+        host_read: true,
     ),
     micromap!(
         "vkCmdWriteMicromapsPropertiesEXT",
@@ -373,6 +379,7 @@ pub const COMMANDS: &[CommandSpec] = &[
         "CopyMemoryToAccelerationStructure",
         "copy_memory_to_acceleration_structure",
         skip: HOST,
+        host_read: true,
     ),
     khr!(
         "vkWriteAccelerationStructuresPropertiesKHR",
@@ -1064,6 +1071,207 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
             let _ = writeln!(out, "            {}: {value},", arg.model);
         }
         out.push_str("        }));\n    }\n\n");
+    }
+    out.push_str("}\n");
+    Ok(out)
+}
+
+/// Whether the raw wrapper of `spec` is generated: every parameter is a
+/// value, a handle, the command buffer's model, a micromap list or an info
+/// structure with a raw reader; and the command reads no host memory
+/// beyond its structures (a deserialization reads its header: `host`).
+fn raw_generated(vk: &VkXml, spec: &CommandSpec) -> Result<bool, Error> {
+    if spec.host_read {
+        return Ok(false);
+    }
+    for arg in args(vk, spec)? {
+        let ok = match &arg.param {
+            Param::Device
+            | Param::CommandBuffer
+            | Param::Handle(_)
+            | Param::Enum(_)
+            | Param::Number { .. }
+            | Param::Address
+            | Param::MicromapList => true,
+            Param::Info { rust, .. } => {
+                let info = STRUCTS.iter().find(|s| s.rust == *rust);
+                match info {
+                    Some(info) => !read_by_members(info, &fields(vk, info)?),
+                    None => false,
+                }
+            }
+            _ => false,
+        };
+        if !ok {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+/// The vk.xml type of parameter `name` of `spec`.
+fn param_type<'a>(vk: &'a VkXml, spec: &CommandSpec, name: &str) -> &'a str {
+    vk.commands
+        .get(spec.vk)
+        .and_then(|params| params.iter().find(|p| p.name == name))
+        .map_or("", |p| p.type_name.as_str())
+}
+
+/// ash's name of the vk.xml type `ty` (`VkQueryPool` is `vk::QueryPool`).
+fn ash_name(ty: &str) -> String {
+    format!("vk::{}", ty.strip_prefix("Vk").unwrap_or(ty))
+}
+
+/// `validator/src/raw/calls.rs`.
+pub fn render_raw(vk: &VkXml) -> Result<String, Error> {
+    let mut out = String::new();
+    header(
+        &mut out,
+        "The `*_raw` entry points a layer calls for the calls\n\
+         `xtask/src/commands.rs` describes whose parameters are all values,\n\
+         handles, micromap lists and info structures with a raw reader: each\n\
+         reads the ash parameters into the model call (bounded as `raw`\n\
+         bounds every read) and checks it with `Validator::check_call`; the\n\
+         reading's findings come first.",
+    );
+    out.push_str(
+        "use ash::vk;\n\nuse super::commands::{micromap_list, with_findings};\n\
+         use super::generated as read;\nuse crate::model::calls::{self as model, Call};\n\
+         use crate::model::CommandBuffer;\nuse crate::report::Report;\nuse crate::Validator;\n\n\
+         impl Validator {\n",
+    );
+    for spec in COMMANDS {
+        if !raw_generated(vk, spec)? {
+            continue;
+        }
+        let args = args(vk, spec)?;
+        let mut params = Vec::new();
+        let mut safety = Vec::new();
+        let mut reads = String::new();
+        let mut fields_out = String::new();
+        for arg in &args {
+            let name = &arg.model;
+            let ty = param_type(vk, spec, &arg.name);
+            let value = match &arg.param {
+                Param::Device | Param::Handle(_) => {
+                    params.push(format!("{name}: {}", ash_name(ty)));
+                    format!("vk::Handle::as_raw({name})")
+                }
+                Param::CommandBuffer => {
+                    params.push(format!("{name}: &CommandBuffer"));
+                    format!("{name}.clone()")
+                }
+                Param::Enum(_) => {
+                    params.push(format!("{name}: {}", ash_name(ty)));
+                    format!("{name}.as_raw()")
+                }
+                Param::Number { .. } => {
+                    let (raw, value) = match ty {
+                        "uint32_t" => ("u32", name.to_string()),
+                        "size_t" => ("usize", format!("{name} as u64")),
+                        _ => ("u64", name.to_string()),
+                    };
+                    params.push(format!("{name}: {raw}"));
+                    value
+                }
+                Param::Address => {
+                    params.push(format!("{name}: *const std::ffi::c_void"));
+                    format!("{name}.addr() as u64")
+                }
+                Param::MicromapList => {
+                    let count = crate::khr::snake_case(arg.count.as_deref().unwrap_or_default());
+                    params.push(format!("{count}: u32"));
+                    params.push(format!("{name}: *const vk::MicromapEXT"));
+                    safety.push(format!(
+                        "a non-NULL `{name}` must point to `{count}` handles"
+                    ));
+                    let _ = writeln!(
+                        reads,
+                        "        // SAFETY: forwarded from the caller.\n        \
+                         let {name} = unsafe {{ micromap_list({count}, {name}, function, &mut findings) }};"
+                    );
+                    name.to_string()
+                }
+                Param::Info { rust, nullable } => {
+                    let info = STRUCTS
+                        .iter()
+                        .find(|s| s.rust == *rust)
+                        .ok_or_else(|| Error::Registry(format!("no structure {rust}")))?;
+                    params.push(format!("{name}: *const {}", ash_type(info)));
+                    safety.push(format!(
+                        "a non-NULL `{name}` must point to a `{}` with a well-formed pNext chain",
+                        info.vk
+                    ));
+                    let read = format!(
+                        "// SAFETY: forwarded from the caller.\n        \
+                         unsafe {{ read::{}(info, function, \"{}\", &mut findings) }}",
+                        snake(rust),
+                        arg.name
+                    );
+                    if *nullable {
+                        let _ = writeln!(
+                            reads,
+                            "        // SAFETY: forwarded from the caller.\n        \
+                             let {name} = unsafe {{ {name}.as_ref() }}.map(|info| {{\n        {read}\n        }});"
+                        );
+                    } else {
+                        let _ = writeln!(
+                            reads,
+                            "        // SAFETY: forwarded from the caller.\n        \
+                             let Some(info) = (unsafe {{ {name}.as_ref() }}) else {{\n            \
+                             // No micromap rule concerns a NULL `{}` of this command.\n            \
+                             return with_findings(findings, Report::default());\n        }};\n        \
+                             let {name} = {{\n        {read}\n        }};",
+                            arg.name
+                        );
+                    }
+                    name.to_string()
+                }
+                other => {
+                    return Err(Error::Registry(format!(
+                        "{}: no raw form for {other:?}",
+                        spec.vk
+                    )))
+                }
+            };
+            if value == arg.model {
+                let _ = writeln!(fields_out, "            {value},");
+            } else {
+                let _ = writeln!(fields_out, "            {}: {value},", arg.model);
+            }
+        }
+        let safety = if safety.is_empty() {
+            "Nothing beyond the handles' being what they say.".to_string()
+        } else {
+            let mut text = safety.join("; ");
+            text[..1].make_ascii_uppercase();
+            text + "."
+        };
+        let _ = writeln!(
+            out,
+            "    /// Checks {} as a layer receives it.\n    ///\n    /// # Safety",
+            signature(vk, spec)
+        );
+        let mut safety_doc = String::new();
+        doc_lines(&mut safety_doc, &safety);
+        for line in safety_doc.lines() {
+            let _ = writeln!(out, "    {line}");
+        }
+        if params.len() >= 7 {
+            out.push_str("    #[allow(clippy::too_many_arguments)]\n");
+        }
+        let _ = writeln!(
+            out,
+            "    pub unsafe fn {}_raw(&mut self, {}) -> Report {{\n        \
+             let function = \"{}\";\n        #[allow(unused_mut)]\n        let mut findings = Vec::new();\n{reads}        \
+             let call = model::{} {{\n{fields_out}        }};\n        \
+             with_findings(findings, self.check_call(&Call::{}(call)))\n    }}\n",
+            snake(spec.rust),
+            params.join(", "),
+            spec.vk,
+            spec.rust,
+            spec.rust
+        );
     }
     out.push_str("}\n");
     Ok(out)

@@ -218,6 +218,10 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
             PathBuf::from("validator/src/scene/write/calls.rs"),
             rustfmt(&commands::render_writer(&vk)?)?,
         ),
+        (
+            PathBuf::from("validator/src/raw/calls.rs"),
+            rustfmt(&commands::render_raw(&vk)?)?,
+        ),
     ])
 }
 

@@ -674,7 +674,7 @@ fn ash_member(field: &Field) -> String {
 }
 
 /// The Rust type of the structure the raw reader takes.
-fn ash_type(spec: &StructSpec) -> String {
+pub(crate) fn ash_type(spec: &StructSpec) -> String {
     if spec.ash.is_empty() {
         format!("vk::{}<'_>", spec.vk.strip_prefix("Vk").unwrap_or(spec.vk))
     } else {
@@ -1489,7 +1489,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
 
 /// Whether the model's `from_members` reads all of `spec` (no union, no
 /// arrays, no chain of its own to walk), so it has no raw reader.
-fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
+pub(crate) fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
     spec.extracts.is_empty()
         && fields.iter().all(|f| match f.form {
             Form::UsageCounts
