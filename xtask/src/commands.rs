@@ -52,7 +52,8 @@ pub struct CommandSpec {
     pub host_read: bool,
 }
 
-const BASE: CommandSpec = CommandSpec {
+/// A spec's fields that are empty in most entries.
+pub const BASE: CommandSpec = CommandSpec {
     vk: "",
     rust: "",
     method: "",
@@ -220,6 +221,7 @@ macro_rules! khr {
     };
 }
 
+/// The parameters of a host command that its method does not take.
 const HOST: &[&str] = &["device", "deferredOperation"];
 
 /// The generated commands.
@@ -564,8 +566,8 @@ fn header(out: &mut String, doc: &str) {
     out.push('\n');
 }
 
-/// `text` as doc comment lines, wrapped as the hand-written ones were (at
-/// 80 columns with four spaces of indent), so the schema's descriptions
+/// `text` as doc comment lines, wrapped at 80 columns as if indented four
+/// spaces, as most of the hand-written ones were: the schema's descriptions
 /// keep their line breaks.
 fn doc_lines(out: &mut String, text: &str) {
     let mut line = String::new();
@@ -729,7 +731,7 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
          use crate::scene::args::{AddressArg, HandleArg};\n\n",
     );
     for spec in COMMANDS {
-        let mut text = format!("{}", signature(vk, spec));
+        let mut text = signature(vk, spec);
         if spec.doc.is_empty() {
             text.push('.');
         } else {

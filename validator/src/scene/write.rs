@@ -254,6 +254,29 @@ mod tests {
     }
 
     #[test]
+    fn a_written_call_names_its_objects_and_leaves_the_scene_device_out() {
+        use crate::model::calls;
+        let call = calls::Call::DestroyMicromap(calls::DestroyMicromap {
+            device: DEVICE_HANDLE,
+            micromap: 0x33_0001,
+            allocator: None,
+        });
+        let json = crate::scene::format::Call::written(&call, &OneOfEach)
+            .json()
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!({"call": "vkDestroyMicromapEXT", "micromap": "omm", "pAllocator": null})
+        );
+        // A created object the run did not name gets a name from its handle.
+        assert_eq!(
+            OneOfEach.created(ObjectKind::AccelerationStructure, 0xa5_0002),
+            "VkAccelerationStructureKHR-0xa50002"
+        );
+    }
+
+    #[test]
     fn values_are_written_by_name_where_every_bit_has_one() {
         let two_bits = Value::<BufferUsageFlags>::new(0x20 | 0x20000);
         assert_eq!(
