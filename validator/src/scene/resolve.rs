@@ -1509,6 +1509,83 @@ fn with_suggestion(wanted: &str, names: &[&str], list: String) -> String {
 mod tests {
     use super::*;
 
+    /// The scene files under `dir`, recursively.
+    fn scene_files(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                scene_files(&path, out);
+            } else if path.extension().is_some_and(|e| e == "json") {
+                out.push(path);
+            }
+        }
+    }
+
+    /// Every generated call of the example and corpus scenes, resolved,
+    /// written back (objects and addresses as numbers) and resolved again,
+    /// is the same model call: the writer a capture uses keeps what real
+    /// scenes say. The creations are written too, but their names bind new
+    /// handles, so they are not compared.
+    #[test]
+    fn scene_calls_read_back_as_written() {
+        use crate::model::calls::Call as ModelCall;
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenes");
+        let mut files = Vec::new();
+        scene_files(&root, &mut files);
+        let mut compared = 0;
+        for path in &files {
+            let Ok(text) = std::fs::read_to_string(path) else {
+                continue;
+            };
+            let Ok(scene) = serde_json::from_str::<SceneFile>(&text) else {
+                continue;
+            };
+            let base_dir = path.parent().unwrap_or(Path::new("."));
+            let Ok(device) = device(scene.device.as_ref(), base_dir, None) else {
+                continue;
+            };
+            let mut resolver = Resolver::new(base_dir, Validator::new(device));
+            if resolver.declare(&scene).is_err()
+                || resolver
+                    .state_driver_answers(&scene.driver_answers)
+                    .is_err()
+            {
+                continue;
+            }
+            for (i, call) in scene.calls.iter().enumerate() {
+                let at = format!("calls[{i}]");
+                let model = match resolver.model_call(call, &at) {
+                    Some(Ok(model)) => model,
+                    Some(Err(_)) => break,
+                    None if resolver.call(call, &at).is_ok() => continue,
+                    None => break,
+                };
+                let written = Call::written(&model, &crate::scene::write::Numbers);
+                let json = written.json().unwrap().unwrap();
+                let creates = matches!(
+                    model,
+                    ModelCall::CreateMicromap(_)
+                        | ModelCall::CreateAccelerationStructure(_)
+                        | ModelCall::CreateAccelerationStructure2(_)
+                );
+                if !creates {
+                    let read: Call = serde_json::from_value(json.clone()).unwrap();
+                    let again = resolver.model_call(&read, &at).unwrap();
+                    assert_eq!(
+                        again.as_ref(),
+                        Ok(&model),
+                        "{}: {at}: {json}",
+                        path.display()
+                    );
+                    compared += 1;
+                }
+                resolver.validator.check_call(&model);
+            }
+        }
+        // Measured on 2026-11-29: 1,728 such calls in 1,001 scene files.
+        assert!(compared > 1000, "only {compared} calls compared");
+    }
+
     #[test]
     fn messages_name_the_scene_objects_they_mention() {
         let objects = [
