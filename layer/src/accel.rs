@@ -539,7 +539,7 @@ host_copy_commands! {
         deferred_operation,
         info: *const vk::CopyAccelerationStructureInfoKHR<'_>
     )
-        = "vkCopyAccelerationStructureKHR" => copy_acceleration_structure_raw(info);
+        = "vkCopyAccelerationStructureKHR" => copy_acceleration_structure_raw(device, deferred_operation, info);
     copy_memory_to_acceleration_structure(
         device,
         deferred_operation,

@@ -17,6 +17,8 @@ pub mod ash_names;
 pub mod bench;
 #[cfg(feature = "generate")]
 pub mod catalog;
+#[cfg(feature = "generate")]
+pub mod commands;
 #[cfg(feature = "driver")]
 mod drivers;
 #[cfg(feature = "driver")]
@@ -195,6 +197,30 @@ pub fn generate(registry: &Path, root: &Path) -> Result<Vec<(PathBuf, String)>, 
         (
             PathBuf::from("validator/src/scene/write/generated.rs"),
             rustfmt(&structs::render_writer(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/model/calls.rs"),
+            rustfmt(&commands::render_model(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/checks/calls.rs"),
+            rustfmt(&commands::render_checks(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/scene/format/calls.rs"),
+            rustfmt(&commands::render_scene_form(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/scene/resolve/calls.rs"),
+            rustfmt(&commands::render_resolver(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/scene/write/calls.rs"),
+            rustfmt(&commands::render_writer(&vk)?)?,
+        ),
+        (
+            PathBuf::from("validator/src/raw/calls.rs"),
+            rustfmt(&commands::render_raw(&vk)?)?,
         ),
     ])
 }

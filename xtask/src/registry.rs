@@ -96,6 +96,8 @@ pub struct VkXml {
     /// Every command name that vk.xml gives as an alias, with the command
     /// it aliases.
     pub command_aliases: BTreeMap<String, String>,
+    /// Each command's parameters, in order (Vulkan's, not Vulkan SC's).
+    pub commands: HashMap<String, Vec<Member>>,
     /// Every enumerated and bitmask-bits type with its values for Vulkan,
     /// in the order vk.xml adds them ([`EnumType`]).
     pub enum_types: HashMap<String, EnumType>,
@@ -178,6 +180,7 @@ impl VkXml {
         let mut header_version = String::new();
         let mut enum_aliases = BTreeMap::new();
         let mut command_aliases = BTreeMap::new();
+        let mut commands = HashMap::new();
         let mut enum_types: HashMap<String, EnumType> = HashMap::new();
         for child in registry.0 {
             match child {
@@ -229,8 +232,32 @@ impl VkXml {
                 }
                 RegistryChild::Commands(block) => {
                     for command in block.children {
-                        if let vk_parse::Command::Alias { name, alias } = command {
-                            command_aliases.insert(name, alias);
+                        match command {
+                            vk_parse::Command::Alias { name, alias } => {
+                                command_aliases.insert(name, alias);
+                            }
+                            vk_parse::Command::Definition(def) => {
+                                let params = def
+                                    .params
+                                    .iter()
+                                    .filter(|p| for_vulkan(p.api.as_deref()))
+                                    .map(|p| {
+                                        let type_name =
+                                            p.definition.type_name.clone().unwrap_or_default();
+                                        Member {
+                                            pointers: pointer_shape(&p.definition.code, &type_name),
+                                            name: p.definition.name.clone(),
+                                            type_name,
+                                            values: None,
+                                            len: p.len.clone(),
+                                            selector: None,
+                                            selection: None,
+                                        }
+                                    })
+                                    .collect();
+                                commands.insert(def.proto.name.clone(), params);
+                            }
+                            _ => {}
                         }
                     }
                 }
@@ -430,6 +457,7 @@ impl VkXml {
             first_required_by,
             enum_aliases,
             command_aliases,
+            commands,
             enum_types,
         })
     }

@@ -316,7 +316,7 @@ pub const STRUCTS: &[StructSpec] = &[
 
 /// The objects scene names can denote, by the handle type vk.xml gives:
 /// the resolver's `ObjectKind` variant.
-const HANDLE_KINDS: &[(&str, &str)] = &[
+pub(crate) const HANDLE_KINDS: &[(&str, &str)] = &[
     ("VkBuffer", "Buffer"),
     ("VkMicromapEXT", "Micromap"),
     ("VkAccelerationStructureKHR", "AccelerationStructure"),
@@ -495,7 +495,7 @@ pub struct Field {
 }
 
 /// The `names` kind whose type is `type_name`, following type aliases.
-fn kind_of(vk: &VkXml, type_name: &str) -> Option<&'static str> {
+pub(crate) fn kind_of(vk: &VkXml, type_name: &str) -> Option<&'static str> {
     let same = |a: &str, b: &str| {
         a == b
             || vk.types.get(a).and_then(|t| t.alias.as_deref()) == Some(b)
@@ -765,7 +765,7 @@ fn ash_member(field: &Field) -> String {
 }
 
 /// The Rust type of the structure the raw reader takes.
-fn ash_type(spec: &StructSpec) -> String {
+pub(crate) fn ash_type(spec: &StructSpec) -> String {
     if spec.ash.is_empty() {
         format!("vk::{}<'_>", spec.vk.strip_prefix("Vk").unwrap_or(spec.vk))
     } else {
@@ -1167,6 +1167,7 @@ fn render_chain_struct(vk: &VkXml, out: &mut String) -> Result<(), Error> {
     let mut by_tag = String::new();
     let mut by_name = String::new();
     let mut s_types = String::new();
+    let mut by_variant = String::new();
     for spec in &chained {
         let entry = fields(vk, spec)?;
         let value = entry
@@ -1197,6 +1198,11 @@ fn render_chain_struct(vk: &VkXml, out: &mut String) -> Result<(), Error> {
             "            Self::{}(d) => d.given_s_type.unwrap_or({value}),",
             spec.rust
         );
+        let _ = writeln!(
+            by_variant,
+            "            Self::{}(d) => (serde_json::to_value(d), \"{}\", d.given_s_type.is_some()),",
+            spec.rust, spec.vk
+        );
     }
     let names: Vec<String> = chained.iter().map(|s| format!("`{}`", s.vk)).collect();
     let _ = write!(
@@ -1204,7 +1210,7 @@ fn render_chain_struct(vk: &VkXml, out: &mut String) -> Result<(), Error> {
         "/// A structure of a pNext chain, named by its `sType`. The structures\n\
          /// ommcheck reads have their members; any other sType is recorded as chained\n\
          /// (its members are ignored).\n\
-         #[derive(Debug, JsonSchema, Serialize)]\n#[serde(tag = \"sType\")]\npub enum ChainStruct {{\n{variants}\
+         #[derive(Debug, JsonSchema)]\n#[serde(tag = \"sType\")]\npub enum ChainStruct {{\n{variants}\
          \x20   /// Any other sType (by name or number); other members are ignored.\n    \
          #[serde(untagged)]\n    Other(OtherStruct),\n}}\n\n\
          impl ChainStruct {{\n    \
@@ -1221,7 +1227,20 @@ fn render_chain_struct(vk: &VkXml, out: &mut String) -> Result<(), Error> {
          pub(super) fn named(structure: &str, members: serde_json::Value, given: Option<i32>) -> Option<Result<Self, serde_json::Error>> {{\n        \
          Some(match structure {{\n{by_name}            _ => return None,\n        }})\n    }}\n\n    \
          /// The sType the entry stands for.\n    pub fn s_type(&self) -> i32 {{\n        match self {{\n{s_types}\
-         \x20           Self::Other(other) => other.s_type.as_i32(),\n        }}\n    }}\n}}\n",
+         \x20           Self::Other(other) => other.s_type.as_i32(),\n        }}\n    }}\n}}\n\n\
+         // Written as it reads back: an entry with another structure's sType\n\
+         // names its structure with `structure`.\n\
+         impl Serialize for ChainStruct {{\n    \
+         fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {{\n        \
+         use serde::ser::Error as _;\n        \
+         let (members, structure, misnamed) = match self {{\n{by_variant}\
+         \x20           Self::Other(other) => return other.serialize(serializer),\n        }};\n        \
+         let mut members = members.map_err(S::Error::custom)?;\n        \
+         if let Some(map) = members.as_object_mut() {{\n            \
+         let s_type = Value::<names::StructureType>::new(i64::from(self.s_type()));\n            \
+         map.insert(\"sType\".into(), serde_json::to_value(s_type).map_err(S::Error::custom)?);\n            \
+         if misnamed {{\n                map.insert(\"structure\".into(), structure.into());\n            }}\n        }}\n        \
+         members.serialize(serializer)\n    }}\n}}\n",
         names.join(", "),
         chained.iter().map(|s| format!("\"{}\"", s.vk)).collect::<Vec<_>>().join(", ")
     );
@@ -1609,7 +1628,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
 
 /// Whether the model's `from_members` reads all of `spec` (no union, no
 /// arrays, no chain of its own to walk), so it has no raw reader.
-fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
+pub(crate) fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
     spec.extracts.is_empty()
         && fields.iter().all(|f| match f.form {
             Form::UsageCounts
@@ -1718,8 +1737,11 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                 Form::SType(_) => {
                     format!("({m} != defaults.s_type).then(|| Value::new(i64::from({m})))")
                 }
+                // The extracted structures first: the resolver extracts the
+                // first entry of each sType, and the chain's other entries
+                // of that sType are sTypes alone.
                 Form::Next if !spec.extracts.is_empty() => {
-                    let mut entries = format!("{m}.iter().copied().map(chain_entry)");
+                    let mut entries = "std::iter::empty()".to_string();
                     for (member, vk_name) in spec.extracts {
                         let entry = chained(vk_name)?;
                         let _ = write!(
@@ -1728,7 +1750,7 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                             entry.rust, entry.rust
                         );
                     }
-                    format!("{entries}.collect()")
+                    format!("{entries}.chain({m}.iter().copied().map(chain_entry)).collect()")
                 }
                 Form::Next => format!("{m}.iter().copied().map(chain_entry).collect()"),
                 Form::Handle(kind) => format!("names.handle(ObjectKind::{kind}, {m})"),

@@ -97,3 +97,36 @@ fn a_structure_with_an_array_is_refused_by_name() {
         assert!(xtask::structs::fields(&vk, spec).is_ok(), "{}", spec.vk);
     }
 }
+
+/// The command generator refuses, by name, a parameter whose type gives it
+/// no form (it must be given one in COMMANDS); a count that only gives an
+/// array's length goes with the array, while `dataSize`, the length of
+/// data the command only looks at as an address, stays.
+#[test]
+fn a_command_parameter_without_a_form_is_refused_by_name() {
+    let Some(registry) = registry() else { return };
+    let vk = xtask::registry::VkXml::load(&registry.join("vk.xml")).expect("vk.xml loads");
+    let spec = |vk_name| xtask::commands::CommandSpec {
+        vk: vk_name,
+        rust: "Test",
+        ..xtask::commands::BASE
+    };
+    let error = match xtask::commands::args(&vk, &spec("vkGetDeviceMicromapCompatibilityEXT")) {
+        Ok(_) => panic!("pVersionInfo has no generated form; it must not be generated"),
+        Err(e) => e.to_string(),
+    };
+    assert!(error.contains("pVersionInfo"), "{error}");
+    let names = |vk_name| -> Vec<String> {
+        xtask::commands::args(&vk, &spec(vk_name))
+            .expect("a command of plain parameters")
+            .into_iter()
+            .map(|a| a.name)
+            .collect()
+    };
+    assert_eq!(names("vkCmdBuildMicromapsEXT"), ["commandBuffer", "pInfos"]);
+    assert!(names("vkWriteAccelerationStructuresPropertiesKHR").contains(&"dataSize".to_string()));
+    // Every command COMMANDS lists has a form for each parameter.
+    for spec in xtask::commands::COMMANDS {
+        assert!(xtask::commands::args(&vk, spec).is_ok(), "{}", spec.vk);
+    }
+}

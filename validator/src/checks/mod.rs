@@ -11,6 +11,7 @@ use ommcheck_vuids::Vuid;
 
 pub mod accel_attach;
 pub mod accel_build;
+mod calls;
 pub(crate) mod common;
 pub mod device_contents;
 pub mod driver_sizes;

@@ -5,6 +5,7 @@
 
 pub mod accel;
 pub mod array_or_pointers;
+pub mod calls;
 pub mod command;
 pub mod generated;
 pub mod micromap;

@@ -1,6 +1,7 @@
-//! The `Validator` entry points a layer calls for the micromap and
-//! acceleration-structure commands that copy, serialize, query and size
-//! (the builds are in [`super`] and [`super::accel`]), and for the indirect
+//! The hand-written `Validator` entry points a layer calls for the micromap
+//! and acceleration-structure commands that deserialize, query and size
+//! (the builds are in [`super`] and [`super::accel`]; the plain copies and
+//! property writes are generated, in `calls.rs`), and for the indirect
 //! build as a layer receives it. Each reads the ash structure behind a
 //! pointer into the owned model and runs the check of the same name.
 //!
@@ -13,11 +14,7 @@ use ash::vk;
 use ash::vk::Handle as _;
 
 use super::accel::HostRead;
-use super::generated::{
-    copy_acceleration_structure_info, copy_acceleration_structure_to_memory_info,
-    copy_memory_to_acceleration_structure_info, copy_memory_to_micromap_info, copy_micromap_info,
-    copy_micromap_to_memory_info,
-};
+use super::generated::{copy_memory_to_acceleration_structure_info, copy_memory_to_micromap_info};
 use super::{
     bounded_len, chain_s_types, micromap_build_info, read_array, MAX_ELEMENTS, MAX_HOST_BYTES,
 };
@@ -71,7 +68,7 @@ unsafe fn read_then_check<T, M>(
 ///
 /// # Safety
 /// A non-NULL `micromaps` must point to `count` handles.
-unsafe fn micromap_list(
+pub(super) unsafe fn micromap_list(
     count: u32,
     micromaps: *const vk::MicromapEXT,
     function: &'static str,
@@ -86,102 +83,6 @@ unsafe fn micromap_list(
 }
 
 impl Validator {
-    /// Checks `vkCmdCopyMicromapEXT(commandBuffer, pInfo)` as a layer receives it.
-    ///
-    /// # Safety
-    /// A non-NULL `info` must point to a `VkCopyMicromapInfoEXT` with a
-    /// well-formed pNext chain.
-    pub unsafe fn cmd_copy_micromap_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        info: *const vk::CopyMicromapInfoEXT<'_>,
-    ) -> Report {
-        let function = "vkCmdCopyMicromapEXT";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(info, function, copy_micromap_info, |model, _| {
-                self.cmd_copy_micromap(command_buffer, model)
-            })
-        }
-    }
-
-    /// Checks `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
-    ///
-    /// # Safety
-    /// As [`Self::cmd_copy_micromap_raw`].
-    pub unsafe fn copy_micromap_raw(
-        &mut self,
-        device: vk::Device,
-        deferred_operation: vk::DeferredOperationKHR,
-        info: *const vk::CopyMicromapInfoEXT<'_>,
-    ) -> Report {
-        let (device, deferred) = (device.as_raw(), deferred_operation.as_raw());
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(info, "vkCopyMicromapEXT", copy_micromap_info, |model, _| {
-                self.copy_micromap(device, deferred, model)
-            })
-        }
-    }
-
-    /// Checks `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`.
-    ///
-    /// # Safety
-    /// A non-NULL `info` must point to a `VkCopyMicromapToMemoryInfoEXT`
-    /// with a well-formed pNext chain.
-    pub unsafe fn cmd_copy_micromap_to_memory_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
-    ) -> Report {
-        let function = "vkCmdCopyMicromapToMemoryEXT";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(info, function, copy_micromap_to_memory_info, |model, _| {
-                self.cmd_copy_micromap_to_memory(command_buffer, model)
-            })
-        }
-    }
-
-    /// Checks `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`.
-    ///
-    /// # Safety
-    /// As [`Self::cmd_copy_micromap_to_memory_raw`].
-    pub unsafe fn copy_micromap_to_memory_raw(
-        &mut self,
-        device: vk::Device,
-        deferred_operation: vk::DeferredOperationKHR,
-        info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
-    ) -> Report {
-        let (device, deferred) = (device.as_raw(), deferred_operation.as_raw());
-        let function = "vkCopyMicromapToMemoryEXT";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(info, function, copy_micromap_to_memory_info, |model, _| {
-                self.copy_micromap_to_memory(device, deferred, model)
-            })
-        }
-    }
-
-    /// Checks `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`.
-    ///
-    /// # Safety
-    /// A non-NULL `info` must point to a `VkCopyMemoryToMicromapInfoEXT`
-    /// with a well-formed pNext chain.
-    pub unsafe fn cmd_copy_memory_to_micromap_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
-    ) -> Report {
-        let function = "vkCmdCopyMemoryToMicromapEXT";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(info, function, copy_memory_to_micromap_info, |model, _| {
-                self.cmd_copy_memory_to_micromap(command_buffer, model)
-            })
-        }
-    }
-
     /// Checks `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`:
     /// the serialized data's version, its first `MICROMAP_VERSION_SIZE`
     /// bytes at `pInfo->src.hostAddress`, is read for this call.
@@ -237,66 +138,6 @@ impl Validator {
             unsafe { self.read_host_range(&read, function, findings, &mut read_for_call) };
         }
         check(self, &read_for_call)
-    }
-
-    /// Checks `vkCmdWriteMicromapsPropertiesEXT(commandBuffer,
-    /// micromapCount, pMicromaps, queryType, queryPool, firstQuery)`.
-    ///
-    /// # Safety
-    /// A non-NULL `micromaps` must point to `micromap_count` handles.
-    pub unsafe fn cmd_write_micromaps_properties_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        micromap_count: u32,
-        micromaps: *const vk::MicromapEXT,
-        query_type: vk::QueryType,
-        query_pool: vk::QueryPool,
-        first_query: u32,
-    ) -> Report {
-        let mut findings = Vec::new();
-        let function = "vkCmdWriteMicromapsPropertiesEXT";
-        // SAFETY: forwarded from the caller.
-        let list = unsafe { micromap_list(micromap_count, micromaps, function, &mut findings) };
-        let report = self.cmd_write_micromaps_properties(
-            command_buffer,
-            &list,
-            query_type.as_raw(),
-            vk::Handle::as_raw(query_pool),
-            first_query,
-        );
-        with_findings(findings, report)
-    }
-
-    /// Checks `vkWriteMicromapsPropertiesEXT(device, micromapCount,
-    /// pMicromaps, queryType, dataSize, pData, stride)`; `pData` is only
-    /// looked at as an address, never written or read.
-    ///
-    /// # Safety
-    /// A non-NULL `micromaps` must point to `micromap_count` handles.
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn write_micromaps_properties_raw(
-        &mut self,
-        device: vk::Device,
-        micromap_count: u32,
-        micromaps: *const vk::MicromapEXT,
-        query_type: vk::QueryType,
-        data_size: usize,
-        data: *const std::ffi::c_void,
-        stride: usize,
-    ) -> Report {
-        let mut findings = Vec::new();
-        let function = "vkWriteMicromapsPropertiesEXT";
-        // SAFETY: forwarded from the caller.
-        let list = unsafe { micromap_list(micromap_count, micromaps, function, &mut findings) };
-        let report = self.write_micromaps_properties(
-            vk::Handle::as_raw(device),
-            &list,
-            query_type.as_raw(),
-            data_size as u64,
-            data.addr() as u64,
-            stride as u64,
-        );
-        with_findings(findings, report)
     }
 
     /// Checks `vkGetMicromapBuildSizesEXT(device, buildType, pBuildInfo,
@@ -392,105 +233,6 @@ impl Validator {
     pub fn forget_query_pool(&mut self, query_pool: Handle) {
         self.state.query_pools.remove(&query_pool);
         self.state.execution.forget_query_pool(query_pool);
-    }
-
-    /// Checks `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`; a
-    /// NULL `pInfo` is not checked (no micromap rule concerns it).
-    ///
-    /// # Safety
-    /// A non-NULL `info` must point to a `VkCopyAccelerationStructureInfoKHR`
-    /// with a well-formed pNext chain.
-    pub unsafe fn cmd_copy_acceleration_structure_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
-    ) -> Report {
-        let function = "vkCmdCopyAccelerationStructureKHR";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(
-                info,
-                function,
-                copy_acceleration_structure_info,
-                |model, _| {
-                    unchecked_if_none(model, |m| {
-                        self.cmd_copy_acceleration_structure(command_buffer, m)
-                    })
-                },
-            )
-        }
-    }
-
-    /// Checks `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`.
-    ///
-    /// # Safety
-    /// As [`Self::cmd_copy_acceleration_structure_raw`].
-    pub unsafe fn copy_acceleration_structure_raw(
-        &mut self,
-        info: *const vk::CopyAccelerationStructureInfoKHR<'_>,
-    ) -> Report {
-        let function = "vkCopyAccelerationStructureKHR";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(
-                info,
-                function,
-                copy_acceleration_structure_info,
-                |model, _| unchecked_if_none(model, |m| self.copy_acceleration_structure(m)),
-            )
-        }
-    }
-
-    /// Checks `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`.
-    ///
-    /// # Safety
-    /// A non-NULL `info` must point to a
-    /// `VkCopyAccelerationStructureToMemoryInfoKHR` with a well-formed pNext chain.
-    pub unsafe fn cmd_copy_acceleration_structure_to_memory_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
-    ) -> Report {
-        let function = "vkCmdCopyAccelerationStructureToMemoryKHR";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(
-                info,
-                function,
-                copy_acceleration_structure_to_memory_info,
-                |model, _| {
-                    unchecked_if_none(model, |m| {
-                        self.cmd_copy_acceleration_structure_to_memory(command_buffer, m)
-                    })
-                },
-            )
-        }
-    }
-
-    /// Checks `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`.
-    ///
-    /// # Safety
-    /// A non-NULL `info` must point to a
-    /// `VkCopyMemoryToAccelerationStructureInfoKHR` with a well-formed pNext chain.
-    pub unsafe fn cmd_copy_memory_to_acceleration_structure_raw(
-        &mut self,
-        command_buffer: &CommandBuffer,
-        info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
-    ) -> Report {
-        let function = "vkCmdCopyMemoryToAccelerationStructureKHR";
-        // SAFETY: forwarded from the caller.
-        unsafe {
-            read_then_check(
-                info,
-                function,
-                copy_memory_to_acceleration_structure_info,
-                |model, _| {
-                    unchecked_if_none(model, |m| {
-                        self.cmd_copy_memory_to_acceleration_structure(command_buffer, m)
-                    })
-                },
-            )
-        }
     }
 
     /// Checks `vkCopyMemoryToAccelerationStructureKHR(device,
@@ -641,14 +383,8 @@ impl Validator {
     }
 }
 
-/// `check` of a model that was read; nothing for a NULL info (no micromap
-/// rule concerns these commands' NULL `pInfo`).
-fn unchecked_if_none<M>(model: Option<&M>, check: impl FnOnce(&M) -> Report) -> Report {
-    model.map_or_else(Report::default, check)
-}
-
 /// The reader's findings first, then the check's.
-fn with_findings(findings: Vec<Finding>, report: Report) -> Report {
+pub(super) fn with_findings(findings: Vec<Finding>, report: Report) -> Report {
     let mut out = Report::from(findings);
     out.extend(report);
     out

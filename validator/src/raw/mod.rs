@@ -11,6 +11,7 @@
 #![allow(unsafe_code)]
 
 pub mod accel;
+mod calls;
 pub mod commands;
 mod generated;
 pub mod objects;

@@ -8,7 +8,7 @@ use schemars::JsonSchema;
 use serde::de::{self, Deserializer};
 use serde::{Deserialize, Serialize};
 
-use super::args::{deserialize_tagged, AddressArg, HandleArg, Tagged};
+use super::args::{deserialize_tagged, AddressArg, Tagged};
 use crate::checks::pipeline_sync::WorkCommand;
 use crate::model::names::{self, Value};
 
@@ -377,6 +377,11 @@ fn yes() -> bool {
     true
 }
 
+/// `pSizeInfo` left out: a VkMicromapBuildSizesInfoEXT with its sType.
+fn some_sizes_info() -> Option<SizesInfoDesc> {
+    Some(SizesInfoDesc::default())
+}
+
 /// A chained structure ommcheck does not read, or (with `structure`) one
 /// of the structures it reads, written with another structure's sType.
 #[derive(Debug, Deserialize, JsonSchema, Serialize)]
@@ -470,7 +475,7 @@ pub struct UsageDesc {
 }
 
 /// `VkAllocationCallbacks`: each function pointer as a number (0: NULL).
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct AllocationCallbacksDesc {
     #[serde(default = "some_function")]
@@ -490,7 +495,7 @@ fn some_function() -> u64 {
 }
 
 /// `VkMicromapBuildSizesInfoEXT` as handed in (its sizes are outputs).
-#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[derive(Debug, Default, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct SizesInfoDesc {
     pub s_type: Option<Value<names::StructureType>>,
@@ -499,7 +504,7 @@ pub struct SizesInfoDesc {
 }
 
 /// `VkMicromapVersionInfoEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct MicromapVersionInfoDesc {
     pub s_type: Option<Value<names::StructureType>>,
@@ -512,7 +517,7 @@ pub struct MicromapVersionInfoDesc {
 }
 
 /// `VkDeviceAddressRangeKHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct AddressRangeDesc {
     #[serde(default)]
@@ -522,7 +527,7 @@ pub struct AddressRangeDesc {
 }
 
 /// `VkAccelerationStructureCreateInfo2KHR`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct AccelerationStructureCreateInfo2Desc {
     pub s_type: Option<Value<names::StructureType>>,
@@ -549,6 +554,23 @@ pub enum CommandBufferArg {
     Null,
     Name(String),
     Inline(InlineCommandBuffer),
+}
+
+impl CommandBufferArg {
+    /// Left out of the call (the default command buffer).
+    pub fn is_omitted(&self) -> bool {
+        matches!(self, CommandBufferArg::Omitted)
+    }
+}
+
+impl Serialize for CommandBufferArg {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            CommandBufferArg::Omitted | CommandBufferArg::Null => serializer.serialize_none(),
+            CommandBufferArg::Name(name) => serializer.serialize_str(name),
+            CommandBufferArg::Inline(inline) => inline.serialize(serializer),
+        }
+    }
 }
 
 impl<'de> Deserialize<'de> for CommandBufferArg {
@@ -583,7 +605,7 @@ impl<'de> Deserialize<'de> for CommandBufferArg {
 }
 
 /// A command buffer described where it is used.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct InlineCommandBuffer {
     /// The raw handle the command receives; absent: a valid command buffer
@@ -610,391 +632,6 @@ macro_rules! params {
             $($(#[$fdoc])* pub $field: $ty),*
         }
     };
-}
-
-params!(
-    /// `vkCreateMicromapEXT(device, pCreateInfo, pAllocator, pMicromap)`.
-    CreateMicromap {
-        #[serde(default)] device: HandleArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_create_info: Option<MicromapCreateInfoDesc>,
-        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
-        /// The name the new micromap gets; null: pMicromap is NULL.
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_micromap: Option<String>,
-    }
-);
-
-params!(
-    /// `vkDestroyMicromapEXT(device, micromap, pAllocator)`.
-    DestroyMicromap {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] micromap: HandleArg,
-        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
-    }
-);
-
-params!(
-    /// `vkCmdBuildMicromapsEXT(commandBuffer, infoCount, pInfos)`.
-    CmdBuildMicromaps {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        p_infos: Vec<MicromapBuildInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkBuildMicromapsEXT(device, deferredOperation, infoCount, pInfos)`;
-    /// addresses are host addresses.
-    BuildMicromaps {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        p_infos: Vec<MicromapBuildInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkGetMicromapBuildSizesEXT(device, buildType, pBuildInfo, pSizeInfo)`.
-    GetMicromapBuildSizes {
-        #[serde(default)] device: HandleArg,
-        build_type: Value<names::BuildType>,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_build_info: Option<MicromapBuildInfoDesc>,
-        /// Absent: a VkMicromapBuildSizesInfoEXT with its sType.
-        #[serde(default = "some_sizes_info", deserialize_with = "nullable")] p_size_info: Option<SizesInfoDesc>,
-    }
-);
-
-fn some_sizes_info() -> Option<SizesInfoDesc> {
-    Some(SizesInfoDesc::default())
-}
-
-params!(
-    /// `vkCmdCopyMicromapEXT(commandBuffer, pInfo)`.
-    CmdCopyMicromap {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCmdCopyMicromapToMemoryEXT(commandBuffer, pInfo)`.
-    CmdCopyMicromapToMemory {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapToMemoryInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCmdCopyMemoryToMicromapEXT(commandBuffer, pInfo)`.
-    CmdCopyMemoryToMicromap {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMemoryToMicromapInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCopyMicromapEXT(device, deferredOperation, pInfo)`.
-    CopyMicromap {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCopyMicromapToMemoryEXT(device, deferredOperation, pInfo)`.
-    CopyMicromapToMemory {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMicromapToMemoryInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCopyMemoryToMicromapEXT(device, deferredOperation, pInfo)`.
-    CopyMemoryToMicromap {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_info: Option<CopyMemoryToMicromapInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCmdWriteMicromapsPropertiesEXT(commandBuffer, micromapCount,
-    /// pMicromaps, queryType, queryPool, firstQuery)`.
-    CmdWriteMicromapsProperties {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        /// Default: the length of pMicromaps.
-        micromap_count: Option<u32>,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_micromaps: Option<Vec<HandleArg>>,
-        query_type: Value<names::QueryType>,
-        #[serde(default)] query_pool: HandleArg,
-        #[serde(default)] first_query: u32,
-    }
-);
-
-params!(
-    /// `vkWriteMicromapsPropertiesEXT(device, micromapCount, pMicromaps,
-    /// queryType, dataSize, pData, stride)`.
-    WriteMicromapsProperties {
-        #[serde(default)] device: HandleArg,
-        micromap_count: Option<u32>,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_micromaps: Option<Vec<HandleArg>>,
-        query_type: Value<names::QueryType>,
-        #[serde(default)] data_size: u64,
-        #[serde(default)] p_data: AddressArg,
-        #[serde(default)] stride: u64,
-    }
-);
-
-params!(
-    /// `vkGetDeviceMicromapCompatibilityEXT(device, pVersionInfo, pCompatibility)`.
-    GetDeviceMicromapCompatibility {
-        #[serde(default)] device: HandleArg,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_version_info: Option<MicromapVersionInfoDesc>,
-        /// false: pCompatibility is NULL.
-        #[serde(default = "yes")] p_compatibility: bool,
-    }
-);
-
-params!(
-    /// `vkCreateAccelerationStructureKHR(device, pCreateInfo, pAllocator,
-    /// pAccelerationStructure)`.
-    CreateAccelerationStructure {
-        #[serde(default)] device: HandleArg,
-        p_create_info: AccelerationStructureCreateInfoDesc,
-        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
-        /// The name the new acceleration structure gets.
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_acceleration_structure: Option<String>,
-    }
-);
-
-params!(
-    /// `vkCreateAccelerationStructure2KHR(device, pCreateInfo, pAllocator,
-    /// pAccelerationStructure)`.
-    CreateAccelerationStructure2 {
-        #[serde(default)] device: HandleArg,
-        p_create_info: AccelerationStructureCreateInfo2Desc,
-        #[serde(default)] p_allocator: Option<AllocationCallbacksDesc>,
-        #[serde(deserialize_with = "nullable")] #[schemars(required)] p_acceleration_structure: Option<String>,
-    }
-);
-
-params!(
-    /// `vkCmdBuildAccelerationStructuresKHR(commandBuffer, infoCount, pInfos,
-    /// ppBuildRangeInfos)`.
-    CmdBuildAccelerationStructures {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        p_infos: Vec<BuildGeometryInfoDesc>,
-        /// One array per info (null: a NULL element); absent: none.
-        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeInfoDesc>>>,
-    }
-);
-
-params!(
-    /// `vkCmdBuildAccelerationStructuresIndirectKHR(commandBuffer, infoCount,
-    /// pInfos, pIndirectDeviceAddresses, pIndirectStrides, ppMaxPrimitiveCounts)`.
-    CmdBuildAccelerationStructuresIndirect {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        p_infos: Vec<BuildGeometryInfoDesc>,
-        #[serde(default)] p_indirect_device_addresses: Vec<AddressArg>,
-        #[serde(default)] p_indirect_strides: Vec<u32>,
-        #[serde(default)] pp_max_primitive_counts: Vec<Option<Vec<u32>>>,
-    }
-);
-
-params!(
-    /// `vkBuildAccelerationStructuresKHR(device, deferredOperation,
-    /// infoCount, pInfos, ppBuildRangeInfos)`; addresses are host addresses.
-    BuildAccelerationStructures {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        p_infos: Vec<BuildGeometryInfoDesc>,
-        #[serde(default)] pp_build_range_infos: Vec<Option<Vec<BuildRangeInfoDesc>>>,
-    }
-);
-
-params!(
-    /// `vkGetAccelerationStructureBuildSizesKHR(device, buildType,
-    /// pBuildInfo, pMaxPrimitiveCounts, pSizeInfo)`.
-    GetAccelerationStructureBuildSizes {
-        #[serde(default)] device: HandleArg,
-        build_type: Value<names::BuildType>,
-        p_build_info: BuildGeometryInfoDesc,
-        /// null or absent: NULL.
-        #[serde(default)] p_max_primitive_counts: Option<Vec<u32>>,
-        #[serde(default)] p_size_info: Option<SizesInfoDesc>,
-    }
-);
-
-params!(
-    /// `vkCmdCopyAccelerationStructureKHR(commandBuffer, pInfo)`.
-    CmdCopyAccelerationStructure {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        p_info: CopyAccelerationStructureInfoDesc,
-    }
-);
-
-params!(
-    /// `vkCopyAccelerationStructureKHR(device, deferredOperation, pInfo)`.
-    CopyAccelerationStructure {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        p_info: CopyAccelerationStructureInfoDesc,
-    }
-);
-
-params!(
-    /// `vkCmdCopyAccelerationStructureToMemoryKHR(commandBuffer, pInfo)`.
-    CmdCopyAccelerationStructureToMemory {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        p_info: CopyAccelerationStructureToMemoryInfoDesc,
-    }
-);
-
-params!(
-    /// `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`.
-    CmdCopyMemoryToAccelerationStructure {
-        #[serde(default)] command_buffer: CommandBufferArg,
-        p_info: CopyMemoryToAccelerationStructureInfoDesc,
-    }
-);
-
-params!(
-    /// `vkCopyAccelerationStructureToMemoryKHR(device, deferredOperation, pInfo)`.
-    CopyAccelerationStructureToMemory {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        p_info: CopyAccelerationStructureToMemoryInfoDesc,
-    }
-);
-
-params!(
-    /// `vkCopyMemoryToAccelerationStructureKHR(device, deferredOperation, pInfo)`.
-    CopyMemoryToAccelerationStructure {
-        #[serde(default)] device: HandleArg,
-        #[serde(default)] deferred_operation: HandleArg,
-        p_info: CopyMemoryToAccelerationStructureInfoDesc,
-    }
-);
-
-params!(
-    /// `vkWriteAccelerationStructuresPropertiesKHR(device,
-    /// accelerationStructureCount, pAccelerationStructures, queryType,
-    /// dataSize, pData, stride)`.
-    WriteAccelerationStructuresProperties {
-        #[serde(default)] device: HandleArg,
-        p_acceleration_structures: Vec<HandleArg>,
-        query_type: Value<names::QueryType>,
-        #[serde(default)] data_size: u64,
-        #[serde(default)] p_data: AddressArg,
-        #[serde(default)] stride: u64,
-    }
-);
-
-/// One API call: `{"call": "vkCmdBuildMicromapsEXT", ...parameters}`.
-#[derive(Debug, JsonSchema)]
-#[serde(tag = "call")]
-pub enum Call {
-    #[serde(rename = "vkCreateMicromapEXT")]
-    CreateMicromap(CreateMicromap),
-    #[serde(rename = "vkDestroyMicromapEXT")]
-    DestroyMicromap(DestroyMicromap),
-    #[serde(rename = "vkCmdBuildMicromapsEXT")]
-    CmdBuildMicromaps(CmdBuildMicromaps),
-    #[serde(rename = "vkBuildMicromapsEXT")]
-    BuildMicromaps(BuildMicromaps),
-    #[serde(rename = "vkGetMicromapBuildSizesEXT")]
-    GetMicromapBuildSizes(GetMicromapBuildSizes),
-    #[serde(rename = "vkCmdCopyMicromapEXT")]
-    CmdCopyMicromap(CmdCopyMicromap),
-    #[serde(rename = "vkCmdCopyMicromapToMemoryEXT")]
-    CmdCopyMicromapToMemory(CmdCopyMicromapToMemory),
-    #[serde(rename = "vkCmdCopyMemoryToMicromapEXT")]
-    CmdCopyMemoryToMicromap(CmdCopyMemoryToMicromap),
-    #[serde(rename = "vkCopyMicromapEXT")]
-    CopyMicromap(CopyMicromap),
-    #[serde(rename = "vkCopyMicromapToMemoryEXT")]
-    CopyMicromapToMemory(CopyMicromapToMemory),
-    #[serde(rename = "vkCopyMemoryToMicromapEXT")]
-    CopyMemoryToMicromap(CopyMemoryToMicromap),
-    #[serde(rename = "vkCmdWriteMicromapsPropertiesEXT")]
-    CmdWriteMicromapsProperties(CmdWriteMicromapsProperties),
-    #[serde(rename = "vkWriteMicromapsPropertiesEXT")]
-    WriteMicromapsProperties(WriteMicromapsProperties),
-    #[serde(rename = "vkGetDeviceMicromapCompatibilityEXT")]
-    GetDeviceMicromapCompatibility(GetDeviceMicromapCompatibility),
-    #[serde(rename = "vkCreateAccelerationStructureKHR")]
-    CreateAccelerationStructure(CreateAccelerationStructure),
-    #[serde(rename = "vkCreateAccelerationStructure2KHR")]
-    CreateAccelerationStructure2(CreateAccelerationStructure2),
-    #[serde(rename = "vkCmdBuildAccelerationStructuresKHR")]
-    CmdBuildAccelerationStructures(CmdBuildAccelerationStructures),
-    #[serde(rename = "vkCmdBuildAccelerationStructuresIndirectKHR")]
-    CmdBuildAccelerationStructuresIndirect(CmdBuildAccelerationStructuresIndirect),
-    #[serde(rename = "vkBuildAccelerationStructuresKHR")]
-    BuildAccelerationStructures(BuildAccelerationStructures),
-    #[serde(rename = "vkGetAccelerationStructureBuildSizesKHR")]
-    GetAccelerationStructureBuildSizes(GetAccelerationStructureBuildSizes),
-    #[serde(rename = "vkCmdCopyAccelerationStructureKHR")]
-    CmdCopyAccelerationStructure(CmdCopyAccelerationStructure),
-    #[serde(rename = "vkCopyAccelerationStructureKHR")]
-    CopyAccelerationStructure(CopyAccelerationStructure),
-    #[serde(rename = "vkCmdCopyAccelerationStructureToMemoryKHR")]
-    CmdCopyAccelerationStructureToMemory(CmdCopyAccelerationStructureToMemory),
-    #[serde(rename = "vkCmdCopyMemoryToAccelerationStructureKHR")]
-    CmdCopyMemoryToAccelerationStructure(CmdCopyMemoryToAccelerationStructure),
-    #[serde(rename = "vkCopyAccelerationStructureToMemoryKHR")]
-    CopyAccelerationStructureToMemory(CopyAccelerationStructureToMemory),
-    #[serde(rename = "vkCopyMemoryToAccelerationStructureKHR")]
-    CopyMemoryToAccelerationStructure(CopyMemoryToAccelerationStructure),
-    #[serde(rename = "vkWriteAccelerationStructuresPropertiesKHR")]
-    WriteAccelerationStructuresProperties(WriteAccelerationStructuresProperties),
-    #[serde(rename = "vkCreateDevice")]
-    CreateDevice(CreateDevice),
-    #[serde(rename = "vkGetPhysicalDeviceProperties2")]
-    GetPhysicalDeviceProperties2(GetPhysicalDeviceProperties2),
-    #[serde(rename = "vkCreateShaderModule")]
-    CreateShaderModule(CreateShaderModule),
-    #[serde(rename = "vkCreateComputePipelines")]
-    CreateComputePipelines(CreateComputePipelines),
-    #[serde(rename = "vkCreateGraphicsPipelines")]
-    CreateGraphicsPipelines(CreateGraphicsPipelines),
-    #[serde(rename = "vkCreateRayTracingPipelinesKHR")]
-    CreateRayTracingPipelinesKhr(CreateRayTracingPipelinesKhr),
-    #[serde(rename = "vkCreateRayTracingPipelinesNV")]
-    CreateRayTracingPipelinesNv(CreateRayTracingPipelinesNv),
-    #[serde(rename = "vkCreateShadersEXT")]
-    CreateShaders(CreateShaders),
-    #[serde(rename = "vkCmdBindPipeline")]
-    CmdBindPipeline(CmdBindPipeline),
-    #[serde(rename = "vkCmdBindShadersEXT")]
-    CmdBindShaders(CmdBindShaders),
-    #[serde(rename = "vkCmdPipelineBarrier2")]
-    CmdPipelineBarrier2(CmdPipelineBarrier2),
-    #[serde(rename = "vkCmdSetEvent2")]
-    CmdSetEvent2(CmdSetEvent2),
-    #[serde(rename = "vkCmdWaitEvents2")]
-    CmdWaitEvents2(CmdWaitEvents2),
-    #[serde(rename = "vkCmdResetEvent2")]
-    CmdResetEvent2(CmdResetEvent2),
-    #[serde(rename = "vkCmdWriteTimestamp2")]
-    CmdWriteTimestamp2(CmdWriteTimestamp2),
-    #[serde(rename = "vkCmdWriteBufferMarker2AMD")]
-    CmdWriteBufferMarker2Amd(CmdWriteBufferMarker2Amd),
-    #[serde(rename = "vkCmdWriteMarkerToMemoryAMD")]
-    CmdWriteMarkerToMemoryAmd(CmdWriteMarkerToMemoryAmd),
-    #[serde(rename = "vkQueueSubmit2")]
-    QueueSubmit2(QueueSubmit2),
-    #[serde(rename = "vkCmdBeginQuery")]
-    CmdBeginQuery(CmdBeginQuery),
-    #[serde(rename = "vkCmdBeginQueryIndexedEXT")]
-    CmdBeginQueryIndexed(CmdBeginQueryIndexed),
-    #[serde(rename = "vkCmdBuildClusterAccelerationStructureIndirectNV")]
-    CmdBuildClusterAccelerationStructureIndirect(CmdBuildClusterAccelerationStructureIndirect),
-    /// A command that runs shaders (`WORK_CALL_NAMES`).
-    #[serde(untagged)]
-    RunShaders(RunShadersCall),
-    /// A call of execution order (`EXECUTION_CALL_NAMES`).
-    #[serde(untagged)]
-    Execution(ExecutionCall),
 }
 
 /// A command that runs shaders, by name, with its parameters.
@@ -1057,58 +694,6 @@ fn known_call_name(name: &str) -> &str {
 /// How many of the closest calls an unknown call name suggests.
 const CALL_SUGGESTIONS: usize = 3;
 
-/// Every call name a scene may use, for messages and docs.
-pub const CALL_NAMES: [&str; 48] = [
-    "vkCreateMicromapEXT",
-    "vkDestroyMicromapEXT",
-    "vkCmdBuildMicromapsEXT",
-    "vkBuildMicromapsEXT",
-    "vkGetMicromapBuildSizesEXT",
-    "vkCmdCopyMicromapEXT",
-    "vkCmdCopyMicromapToMemoryEXT",
-    "vkCmdCopyMemoryToMicromapEXT",
-    "vkCopyMicromapEXT",
-    "vkCopyMicromapToMemoryEXT",
-    "vkCopyMemoryToMicromapEXT",
-    "vkCmdWriteMicromapsPropertiesEXT",
-    "vkWriteMicromapsPropertiesEXT",
-    "vkGetDeviceMicromapCompatibilityEXT",
-    "vkCreateAccelerationStructureKHR",
-    "vkCreateAccelerationStructure2KHR",
-    "vkCmdBuildAccelerationStructuresKHR",
-    "vkCmdBuildAccelerationStructuresIndirectKHR",
-    "vkBuildAccelerationStructuresKHR",
-    "vkGetAccelerationStructureBuildSizesKHR",
-    "vkCmdCopyAccelerationStructureKHR",
-    "vkCopyAccelerationStructureKHR",
-    "vkCmdCopyAccelerationStructureToMemoryKHR",
-    "vkCmdCopyMemoryToAccelerationStructureKHR",
-    "vkCopyAccelerationStructureToMemoryKHR",
-    "vkCopyMemoryToAccelerationStructureKHR",
-    "vkWriteAccelerationStructuresPropertiesKHR",
-    "vkCreateDevice",
-    "vkGetPhysicalDeviceProperties2",
-    "vkCreateShaderModule",
-    "vkCreateComputePipelines",
-    "vkCreateGraphicsPipelines",
-    "vkCreateRayTracingPipelinesKHR",
-    "vkCreateRayTracingPipelinesNV",
-    "vkCreateShadersEXT",
-    "vkCmdBindPipeline",
-    "vkCmdBindShadersEXT",
-    "vkCmdPipelineBarrier2",
-    "vkCmdSetEvent2",
-    "vkCmdWaitEvents2",
-    "vkCmdResetEvent2",
-    "vkCmdWriteTimestamp2",
-    "vkCmdWriteBufferMarker2AMD",
-    "vkCmdWriteMarkerToMemoryAMD",
-    "vkQueueSubmit2",
-    "vkCmdBeginQuery",
-    "vkCmdBeginQueryIndexedEXT",
-    "vkCmdBuildClusterAccelerationStructureIndirectNV",
-];
-
 impl Tagged for Call {
     const TAG: &'static str = "call";
     const WHAT: &'static str = "a call";
@@ -1116,97 +701,12 @@ impl Tagged for Call {
 
     fn from_rest<'de, D: Deserializer<'de>>(name: String, rest: D) -> Result<Self, D::Error> {
         use Deserialize as De;
-        Ok(match known_call_name(&name) {
-            "vkCreateMicromapEXT" => Call::CreateMicromap(De::deserialize(rest)?),
-            "vkDestroyMicromapEXT" => Call::DestroyMicromap(De::deserialize(rest)?),
-            "vkCmdBuildMicromapsEXT" => Call::CmdBuildMicromaps(De::deserialize(rest)?),
-            "vkBuildMicromapsEXT" => Call::BuildMicromaps(De::deserialize(rest)?),
-            "vkGetMicromapBuildSizesEXT" => Call::GetMicromapBuildSizes(De::deserialize(rest)?),
-            "vkCmdCopyMicromapEXT" => Call::CmdCopyMicromap(De::deserialize(rest)?),
-            "vkCmdCopyMicromapToMemoryEXT" => Call::CmdCopyMicromapToMemory(De::deserialize(rest)?),
-            "vkCmdCopyMemoryToMicromapEXT" => Call::CmdCopyMemoryToMicromap(De::deserialize(rest)?),
-            "vkCopyMicromapEXT" => Call::CopyMicromap(De::deserialize(rest)?),
-            "vkCopyMicromapToMemoryEXT" => Call::CopyMicromapToMemory(De::deserialize(rest)?),
-            "vkCopyMemoryToMicromapEXT" => Call::CopyMemoryToMicromap(De::deserialize(rest)?),
-            "vkCmdWriteMicromapsPropertiesEXT" => {
-                Call::CmdWriteMicromapsProperties(De::deserialize(rest)?)
-            }
-            "vkWriteMicromapsPropertiesEXT" => {
-                Call::WriteMicromapsProperties(De::deserialize(rest)?)
-            }
-            "vkGetDeviceMicromapCompatibilityEXT" => {
-                Call::GetDeviceMicromapCompatibility(De::deserialize(rest)?)
-            }
-            "vkCreateAccelerationStructureKHR" => {
-                Call::CreateAccelerationStructure(De::deserialize(rest)?)
-            }
-            "vkCreateAccelerationStructure2KHR" => {
-                Call::CreateAccelerationStructure2(De::deserialize(rest)?)
-            }
-            "vkCmdBuildAccelerationStructuresKHR" => {
-                Call::CmdBuildAccelerationStructures(De::deserialize(rest)?)
-            }
-            "vkCmdBuildAccelerationStructuresIndirectKHR" => {
-                Call::CmdBuildAccelerationStructuresIndirect(De::deserialize(rest)?)
-            }
-            "vkBuildAccelerationStructuresKHR" => {
-                Call::BuildAccelerationStructures(De::deserialize(rest)?)
-            }
-            "vkGetAccelerationStructureBuildSizesKHR" => {
-                Call::GetAccelerationStructureBuildSizes(De::deserialize(rest)?)
-            }
-            "vkCmdCopyAccelerationStructureKHR" => {
-                Call::CmdCopyAccelerationStructure(De::deserialize(rest)?)
-            }
-            "vkCopyAccelerationStructureKHR" => {
-                Call::CopyAccelerationStructure(De::deserialize(rest)?)
-            }
-            "vkCmdCopyAccelerationStructureToMemoryKHR" => {
-                Call::CmdCopyAccelerationStructureToMemory(De::deserialize(rest)?)
-            }
-            "vkCmdCopyMemoryToAccelerationStructureKHR" => {
-                Call::CmdCopyMemoryToAccelerationStructure(De::deserialize(rest)?)
-            }
-            "vkCopyAccelerationStructureToMemoryKHR" => {
-                Call::CopyAccelerationStructureToMemory(De::deserialize(rest)?)
-            }
-            "vkCopyMemoryToAccelerationStructureKHR" => {
-                Call::CopyMemoryToAccelerationStructure(De::deserialize(rest)?)
-            }
-            "vkWriteAccelerationStructuresPropertiesKHR" => {
-                Call::WriteAccelerationStructuresProperties(De::deserialize(rest)?)
-            }
-            "vkCreateDevice" => Call::CreateDevice(De::deserialize(rest)?),
-            "vkGetPhysicalDeviceProperties2" => {
-                Call::GetPhysicalDeviceProperties2(De::deserialize(rest)?)
-            }
-            "vkCreateShaderModule" => Call::CreateShaderModule(De::deserialize(rest)?),
-            "vkCreateComputePipelines" => Call::CreateComputePipelines(De::deserialize(rest)?),
-            "vkCreateGraphicsPipelines" => Call::CreateGraphicsPipelines(De::deserialize(rest)?),
-            "vkCreateRayTracingPipelinesKHR" => {
-                Call::CreateRayTracingPipelinesKhr(De::deserialize(rest)?)
-            }
-            "vkCreateRayTracingPipelinesNV" => {
-                Call::CreateRayTracingPipelinesNv(De::deserialize(rest)?)
-            }
-            "vkCreateShadersEXT" => Call::CreateShaders(De::deserialize(rest)?),
-            "vkCmdBindPipeline" => Call::CmdBindPipeline(De::deserialize(rest)?),
-            "vkCmdBindShadersEXT" => Call::CmdBindShaders(De::deserialize(rest)?),
-            "vkCmdPipelineBarrier2" => Call::CmdPipelineBarrier2(De::deserialize(rest)?),
-            "vkCmdSetEvent2" => Call::CmdSetEvent2(De::deserialize(rest)?),
-            "vkCmdWaitEvents2" => Call::CmdWaitEvents2(De::deserialize(rest)?),
-            "vkCmdResetEvent2" => Call::CmdResetEvent2(De::deserialize(rest)?),
-            "vkCmdWriteTimestamp2" => Call::CmdWriteTimestamp2(De::deserialize(rest)?),
-            "vkCmdWriteBufferMarker2AMD" => Call::CmdWriteBufferMarker2Amd(De::deserialize(rest)?),
-            "vkCmdWriteMarkerToMemoryAMD" => {
-                Call::CmdWriteMarkerToMemoryAmd(De::deserialize(rest)?)
-            }
-            "vkQueueSubmit2" => Call::QueueSubmit2(De::deserialize(rest)?),
-            "vkCmdBeginQuery" => Call::CmdBeginQuery(De::deserialize(rest)?),
-            "vkCmdBeginQueryIndexedEXT" => Call::CmdBeginQueryIndexed(De::deserialize(rest)?),
-            "vkCmdBuildClusterAccelerationStructureIndirectNV" => {
-                Call::CmdBuildClusterAccelerationStructureIndirect(De::deserialize(rest)?)
-            }
+        let name = known_call_name(&name);
+        let rest = match calls::named_call(name, rest) {
+            Ok(call) => return call,
+            Err(rest) => rest,
+        };
+        Ok(match name {
             name if EXECUTION_CALL_NAMES.contains(&name) => {
                 Call::Execution(execution::execution_call(name, rest)?)
             }
@@ -1239,6 +739,9 @@ impl<'de> Deserialize<'de> for Call {
     }
 }
 
+// The calls xtask/src/commands.rs describes, and the `Call` enum.
+mod calls;
+pub use calls::*;
 // Device, pipeline, shader, synchronization, query and cluster calls.
 mod driver;
 pub mod generated;

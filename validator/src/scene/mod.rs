@@ -33,11 +33,11 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-#[cfg(test)]
-use resolve::resolve_alone;
 pub use resolve::{
     read_profile_file, LimitsOverride, NamedObject, ObjectKind, Problem, ResolvedRay, DEVICE_HANDLE,
 };
+#[cfg(test)]
+use resolve::{resolve_alone, resolve_alone_mut};
 pub use stats::{StatsReport, StatsSummary};
 pub use trace::{RayReport, TraceReport, TraceSummary};
 

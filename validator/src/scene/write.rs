@@ -5,13 +5,23 @@
 //! of the run, the names of its objects and memory, comes through
 //! [`Names`].
 
+use crate::model::accel::AccelerationStructureCreateInfo2;
+use crate::model::command::CommandBuffer;
 use crate::model::micromap::{MicromapUsage, UsageCounts};
-use crate::model::names::Value;
+use crate::model::micromap_objects::{
+    AllocationCallbacks, MicromapBuildSizesInfo, MicromapList, MicromapVersionInfo,
+};
+use crate::model::names::{StructureType, Value};
 use crate::model::Handle;
 use crate::scene::args::{AddressArg, HandleArg};
-use crate::scene::format::{ChainStruct, OtherStruct, UsageDesc};
-use crate::scene::ObjectKind;
+use crate::scene::format::{
+    AccelerationStructureCreateInfo2Desc, AddressRangeDesc, AllocationCallbacksDesc, ChainStruct,
+    CommandBufferArg, InlineCommandBuffer, MicromapVersionInfoDesc, OtherStruct, SizesInfoDesc,
+    UsageDesc,
+};
+use crate::scene::{ObjectKind, DEVICE_HANDLE};
 
+mod calls;
 mod generated;
 
 /// How a writer names what the model holds as numbers.
@@ -22,6 +32,14 @@ pub trait Names {
     /// The scene's form of `address`: in a named buffer or host block, or
     /// the number (0 is `null`).
     fn address(&self, address: u64) -> AddressArg;
+    /// The name of an object a call creates (`pMicromap`): its name where
+    /// the run named it, else one made from the handle.
+    fn created(&self, kind: ObjectKind, handle: Handle) -> String {
+        match self.handle(kind, handle) {
+            HandleArg::Name(name) => name,
+            _ => format!("{}-{handle:#x}", kind.type_name()),
+        }
+    }
 }
 
 /// Names nothing: handles and addresses are written as numbers.
@@ -83,6 +101,110 @@ pub(crate) fn usage_desc(usage: &MicromapUsage) -> UsageDesc {
     }
 }
 
+/// The scene's `device`: left out for the scene's own device.
+pub(crate) fn device_arg(device: Handle) -> HandleArg {
+    match device {
+        DEVICE_HANDLE => HandleArg::Omitted,
+        0 => HandleArg::Null,
+        raw => HandleArg::Raw(raw),
+    }
+}
+
+/// The scene's command buffer: by its name where the run named it (its
+/// state is then the one `commandBuffers` declares), else described inline.
+pub(crate) fn command_buffer_arg(
+    command_buffer: &CommandBuffer,
+    names: &dyn Names,
+) -> CommandBufferArg {
+    if let HandleArg::Name(name) = names.handle(ObjectKind::CommandBuffer, command_buffer.handle) {
+        return CommandBufferArg::Name(name);
+    }
+    CommandBufferArg::Inline(InlineCommandBuffer {
+        handle: Some(command_buffer.handle),
+        recording: command_buffer.recording,
+        queue_flags: Some(Value::new(i64::from(command_buffer.queue_flags))),
+        in_render_pass: command_buffer.in_render_pass,
+        in_video_coding: command_buffer.in_video_coding,
+        suspended: command_buffer.suspended,
+    })
+}
+
+/// The scene form of `VkAllocationCallbacks`.
+pub(crate) fn allocator_desc(callbacks: &AllocationCallbacks) -> AllocationCallbacksDesc {
+    AllocationCallbacksDesc {
+        pfn_allocation: callbacks.pfn_allocation,
+        pfn_reallocation: callbacks.pfn_reallocation,
+        pfn_free: callbacks.pfn_free,
+        pfn_internal_allocation: callbacks.pfn_internal_allocation,
+        pfn_internal_free: callbacks.pfn_internal_free,
+    }
+}
+
+/// `micromapCount` (where the resolver would not take it from the array's
+/// length) and `pMicromaps`.
+pub(crate) fn micromap_list_desc(
+    list: &MicromapList,
+    names: &dyn Names,
+) -> (Option<u32>, Option<Vec<HandleArg>>) {
+    let handles = list.handles.as_ref().map(|handles| {
+        handles
+            .iter()
+            .map(|&h| names.handle(ObjectKind::Micromap, h))
+            .collect()
+    });
+    let implied = list.handles.as_ref().map_or(0, Vec::len);
+    let count = (u32::try_from(implied) != Ok(list.count)).then_some(list.count);
+    (count, handles)
+}
+
+/// The scene's sType where it is not `default`.
+fn s_type_desc(s_type: i32, default: i32) -> Option<Value<StructureType>> {
+    (s_type != default).then(|| Value::new(i64::from(s_type)))
+}
+
+/// The scene form of a sizes info as handed in (its sType and chain).
+pub(crate) fn sizes_info_desc(info: &Option<MicromapBuildSizesInfo>) -> Option<SizesInfoDesc> {
+    info.as_ref().map(|info| SizesInfoDesc {
+        s_type: s_type_desc(info.s_type, MicromapBuildSizesInfo::default().s_type),
+        p_next: info.next.iter().copied().map(chain_entry).collect(),
+    })
+}
+
+/// The scene form of `VkMicromapVersionInfoEXT`, the version data as hex.
+pub(crate) fn version_info_desc(
+    info: &Option<MicromapVersionInfo>,
+) -> Option<MicromapVersionInfoDesc> {
+    info.as_ref().map(|info| MicromapVersionInfoDesc {
+        s_type: s_type_desc(info.s_type, MicromapVersionInfo::default().s_type),
+        p_next: info.next.iter().copied().map(chain_entry).collect(),
+        p_version_data: info
+            .version_data
+            .as_ref()
+            .map(|bytes| bytes.iter().map(|b| format!("{b:02x}")).collect()),
+    })
+}
+
+/// The scene form of `VkAccelerationStructureCreateInfo2KHR`.
+pub(crate) fn create_info2_desc(
+    info: &AccelerationStructureCreateInfo2,
+    names: &dyn Names,
+) -> AccelerationStructureCreateInfo2Desc {
+    AccelerationStructureCreateInfo2Desc {
+        s_type: s_type_desc(
+            info.s_type,
+            AccelerationStructureCreateInfo2::default().s_type,
+        ),
+        p_next: info.next.iter().copied().map(chain_entry).collect(),
+        create_flags: Value::new(i64::from(info.create_flags)),
+        address_range: AddressRangeDesc {
+            address: names.address(info.address),
+            size: info.size,
+        },
+        address_flags: Value::new(i64::from(info.address_flags)),
+        ty: Value::new(i64::from(info.ty)),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -129,6 +251,29 @@ mod tests {
         let json = serde_json::to_value(CopyMicromapToMemoryInfoDesc::written(&clone, &OneOfEach))
             .unwrap();
         assert_eq!(json["mode"], "VK_COPY_MICROMAP_MODE_CLONE_EXT");
+    }
+
+    #[test]
+    fn a_written_call_names_its_objects_and_leaves_the_scene_device_out() {
+        use crate::model::calls;
+        let call = calls::Call::DestroyMicromap(calls::DestroyMicromap {
+            device: DEVICE_HANDLE,
+            micromap: 0x33_0001,
+            allocator: None,
+        });
+        let json = crate::scene::format::Call::written(&call, &OneOfEach)
+            .json()
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!({"call": "vkDestroyMicromapEXT", "micromap": "omm", "pAllocator": null})
+        );
+        // A created object the run did not name gets a name from its handle.
+        assert_eq!(
+            OneOfEach.created(ObjectKind::AccelerationStructure, 0xa5_0002),
+            "VkAccelerationStructureKHR-0xa50002"
+        );
     }
 
     #[test]

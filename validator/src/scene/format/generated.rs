@@ -499,7 +499,7 @@ pub struct GeometryDataDesc {
 /// A structure of a pNext chain, named by its `sType`. The structures
 /// ommcheck reads have their members; any other sType is recorded as chained
 /// (its members are ignored).
-#[derive(Debug, JsonSchema, Serialize)]
+#[derive(Debug, JsonSchema)]
 #[serde(tag = "sType")]
 pub enum ChainStruct {
     #[serde(rename = "VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_TRIANGLES_OPACITY_MICROMAP_EXT")]
@@ -625,6 +625,59 @@ impl ChainStruct {
             Self::PipelineLibraryCreateInfo(d) => d.given_s_type.unwrap_or(1000290000),
             Self::Other(other) => other.s_type.as_i32(),
         }
+    }
+}
+
+// Written as it reads back: an entry with another structure's sType
+// names its structure with `structure`.
+impl Serialize for ChainStruct {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        let (members, structure, misnamed) = match self {
+            Self::TrianglesOpacityMicromapExt(d) => (
+                serde_json::to_value(d),
+                "VkAccelerationStructureTrianglesOpacityMicromapEXT",
+                d.given_s_type.is_some(),
+            ),
+            Self::TrianglesOpacityMicromapKhr(d) => (
+                serde_json::to_value(d),
+                "VkAccelerationStructureTrianglesOpacityMicromapKHR",
+                d.given_s_type.is_some(),
+            ),
+            Self::TrianglesDisplacementMicromapNv(d) => (
+                serde_json::to_value(d),
+                "VkAccelerationStructureTrianglesDisplacementMicromapNV",
+                d.given_s_type.is_some(),
+            ),
+            Self::GeometryMicromapData(d) => (
+                serde_json::to_value(d),
+                "VkAccelerationStructureGeometryMicromapDataKHR",
+                d.given_s_type.is_some(),
+            ),
+            Self::PipelineCreateFlags2CreateInfo(d) => (
+                serde_json::to_value(d),
+                "VkPipelineCreateFlags2CreateInfo",
+                d.given_s_type.is_some(),
+            ),
+            Self::PipelineLibraryCreateInfo(d) => (
+                serde_json::to_value(d),
+                "VkPipelineLibraryCreateInfoKHR",
+                d.given_s_type.is_some(),
+            ),
+            Self::Other(other) => return other.serialize(serializer),
+        };
+        let mut members = members.map_err(S::Error::custom)?;
+        if let Some(map) = members.as_object_mut() {
+            let s_type = Value::<names::StructureType>::new(i64::from(self.s_type()));
+            map.insert(
+                "sType".into(),
+                serde_json::to_value(s_type).map_err(S::Error::custom)?,
+            );
+            if misnamed {
+                map.insert("structure".into(), structure.into());
+            }
+        }
+        members.serialize(serializer)
     }
 }
 /// `VkPhysicalDeviceOpacityMicromapFeaturesEXT`: every feature it declares (absent: false).

@@ -312,11 +312,7 @@ impl scene::TrianglesDataDesc {
         let defaults = model::TrianglesData::default();
         Self {
             s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
-            p_next: model
-                .next
-                .iter()
-                .copied()
-                .map(chain_entry)
+            p_next: std::iter::empty()
                 .chain(model.opacity_ext.iter().map(|e| {
                     ChainStruct::TrianglesOpacityMicromapExt(
                         scene::TrianglesOpacityMicromapExtDesc::written(e, names),
@@ -332,6 +328,7 @@ impl scene::TrianglesDataDesc {
                         scene::TrianglesDisplacementMicromapNvDesc::written(e, names),
                     )
                 }))
+                .chain(model.next.iter().copied().map(chain_entry))
                 .collect(),
             vertex_format: (model.vertex_format != defaults.vertex_format)
                 .then(|| Value::new(i64::from(model.vertex_format))),
@@ -366,16 +363,13 @@ impl scene::GeometryDesc {
         let defaults = model::Geometry::default();
         Self {
             s_type: (model.s_type != defaults.s_type).then(|| Value::new(i64::from(model.s_type))),
-            p_next: model
-                .next
-                .iter()
-                .copied()
-                .map(chain_entry)
+            p_next: std::iter::empty()
                 .chain(model.micromap.iter().map(|e| {
                     ChainStruct::GeometryMicromapData(scene::GeometryMicromapDataDesc::written(
                         e, names,
                     ))
                 }))
+                .chain(model.next.iter().copied().map(chain_entry))
                 .collect(),
             geometry_type: Value::new(i64::from(model.geometry_type)),
             geometry: scene::GeometryDataDesc::written(&model.geometry, names),
