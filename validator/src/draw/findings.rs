@@ -246,6 +246,17 @@ pub fn marks_for(
     marks
 }
 
+/// The tooltip of one place's marks: the first few findings there, one a
+/// line, then how many more (a scene may have thousands at one place).
+pub fn tooltip(marks: &[&Mark]) -> String {
+    const LISTED: usize = 8;
+    let mut lines: Vec<String> = marks.iter().take(LISTED).map(|m| m.tooltip()).collect();
+    if marks.len() > LISTED {
+        lines.push(format!("and {} more findings", marks.len() - LISTED));
+    }
+    lines.join("\n")
+}
+
 /// The words a caption gives the marks of one kind: the first few, then
 /// how many more.
 pub fn caption(marks: &[&Mark], what: impl Fn(&Mark) -> String) -> Option<String> {
@@ -350,6 +361,21 @@ mod tests {
         );
         let unnamed = finding("calls[0]").with_object("VkMicromapEXT", 0x34);
         assert_eq!(pick_for(&unnamed, &objects, &Value::Null), None);
+    }
+
+    #[test]
+    fn a_tooltip_lists_eight_findings_and_counts_the_rest() {
+        let mark = Mark {
+            target: Target::GeometryTriangle(4),
+            rule: "OMMCHECK-x".into(),
+            location: "calls[3]: pInfos[0]".into(),
+            message: "m".into(),
+        };
+        let many = vec![&mark; 20];
+        let tip = tooltip(&many);
+        assert_eq!(tip.lines().count(), 9);
+        assert!(tip.starts_with("OMMCHECK-x at calls[3]: pInfos[0]: m\n"));
+        assert!(tip.ends_with("and 12 more findings"), "{tip}");
     }
 
     #[test]

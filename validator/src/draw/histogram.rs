@@ -221,12 +221,8 @@ pub fn usage_counts(
         let centre = gx + bar;
         canvas.text_centred((centre, base + 10.0), 1.0, &format!("L{}", key.1), ink);
         canvas.text_centred((centre, base + 22.0), 1.0, &short_format(names, key.0), ink);
-        let tips: Vec<String> = marks
-            .iter()
-            .filter(|m| about(m, *key))
-            .map(|m| m.tooltip())
-            .collect();
-        if !tips.is_empty() {
+        let here: Vec<&Mark> = marks.iter().copied().filter(|m| about(m, *key)).collect();
+        if !here.is_empty() {
             let top = base
                 - PLOT * count_of(stated, key).max(count_of(counted, key)) as f64 / most as f64
                 - 18.0;
@@ -235,9 +231,64 @@ pub fn usage_counts(
                 &[(l, top), (r, top), (r, base + 30.0), (l, base + 30.0)],
                 2.0,
                 &format!("usage counts {}", key_text(*key)),
-                &tips.join("\n"),
+                &findings::tooltip(&here),
             );
         }
     }
     canvas
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::MicromapTriangle;
+    use crate::Bytes;
+
+    fn entry(format: u16, level: u16) -> MicromapTriangle {
+        MicromapTriangle {
+            data_offset: 0,
+            subdivision_level: level,
+            format,
+        }
+    }
+
+    #[test]
+    fn the_array_is_counted_per_key_and_a_repeated_entry_once_per_triangle() {
+        let content = MicromapContent::new(
+            vec![entry(1, 3), entry(2, 3), entry(1, 3)],
+            Bytes::from(vec![0u8; 4]),
+        );
+        assert_eq!(
+            counted(&content),
+            BTreeMap::from([((1, 3), 2), ((2, 3), 1)])
+        );
+        let repeated =
+            MicromapContent::new(vec![entry(2, 5)], Bytes::from(vec![0u8; 4])).repeating(1 << 20);
+        assert_eq!(counted(&repeated), BTreeMap::from([((2, 5), 1 << 20)]));
+    }
+
+    #[test]
+    fn keys_that_disagree_are_drawn_first_and_past_the_bound_counted() {
+        // 100 keys agree, one (level 99) disagrees: it is among the 64 drawn.
+        let counted: BTreeMap<(u32, u32), u64> = (0..100).map(|l| ((1, l), 1)).collect();
+        let mut stated = counted.clone();
+        stated.insert((1, 99), 2);
+        let svg = usage_counts(
+            "m",
+            FormatKind::OpacityExt,
+            &stated,
+            &counted,
+            (100, 101),
+            &[],
+        )
+        .svg();
+        assert!(
+            svg.contains("100 keys (64 drawn, those that disagree first)"),
+            "{svg}"
+        );
+        assert!(
+            svg.contains("VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT level 99: stated 2, counted 1")
+        );
+        assert!(svg.contains("The checker read 100 of the 101 array entries"));
+    }
 }

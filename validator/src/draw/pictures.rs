@@ -330,17 +330,17 @@ pub(super) fn draw_marks(
     width: f64,
     at: impl Fn(&Target) -> Option<Vec<(f64, f64)>>,
 ) {
-    let mut targets: Vec<(&Target, Vec<String>)> = Vec::new();
+    let mut targets: Vec<(&Target, Vec<&Mark>)> = Vec::new();
     for mark in marks {
-        if let Some((_, tips)) = targets.iter_mut().find(|(t, _)| *t == &mark.target) {
-            tips.push(mark.tooltip());
+        if let Some((_, at)) = targets.iter_mut().find(|(t, _)| *t == &mark.target) {
+            at.push(mark);
         } else if targets.len() < MAX_MARKS {
-            targets.push((&mark.target, vec![mark.tooltip()]));
+            targets.push((&mark.target, vec![mark]));
         }
     }
-    for (target, tips) in targets {
+    for (target, here) in targets {
         if let Some(p) = at(target) {
-            canvas.finding_mark(&p, width, &target_text(target), &tips.join("\n"));
+            canvas.finding_mark(&p, width, &target_text(target), &findings::tooltip(&here));
         }
     }
 }
