@@ -595,6 +595,17 @@ fn a_geometry_is_drawn_over_its_alpha_texture() {
         "{}",
         picture.svg
     );
+    // A coordinate far outside the texture is one it cannot place either.
+    json["alphaTextures"][0]["uvs"][4] = serde_json::json!([1e300, 0.5]);
+    std::fs::write(&short, json.to_string()).unwrap();
+    let picture = draw::draw(&Scene::load(&short).unwrap(), &pick).unwrap();
+    assert!(
+        picture.svg.contains(
+            "Not drawn, without texture coordinates: 3 triangles (triangle 1: vertex 4's texture coordinate [1e300, 0.5] is outside [-64, 65])"
+        ),
+        "{}",
+        picture.svg
+    );
 }
 
 /// A PNG whose header claims more texels than the bound is refused before

@@ -388,6 +388,10 @@ impl Drawable {
     }
 }
 
+/// The texture coordinates a picture draws: the texture's square and 64
+/// repeats of it on every side.
+pub const UV_RANGE: std::ops::RangeInclusive<f64> = -64.0..=65.0;
+
 /// The texture coordinates of geometry triangle `t`'s vertices 0, 1, 2:
 /// `desc.uvs` at the vertex numbers the build reads.
 fn texture_coordinates(
@@ -426,8 +430,15 @@ fn texture_coordinates(
                     desc.uvs.len()
                 )
             })?;
-        if !(u.is_finite() && v.is_finite()) {
-            return Err(format!("vertex {n}'s texture coordinate is not a number"));
+        // Far outside the texture a triangle would shrink the texture to
+        // nothing (and an infinite extent would make the picture's size
+        // not a number).
+        if !(UV_RANGE.contains(&u) && UV_RANGE.contains(&v)) {
+            return Err(format!(
+                "vertex {n}'s texture coordinate [{u:?}, {v:?}] is outside [{}, {}]",
+                UV_RANGE.start(),
+                UV_RANGE.end()
+            ));
         }
         *corner = (u, v);
     }
