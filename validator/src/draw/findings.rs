@@ -15,6 +15,7 @@
 //! picture.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use serde_json::Value;
 
@@ -25,10 +26,12 @@ use crate::scene::{NamedObject, Scene, SceneError, SceneReport, EXAMPLE, EXAMPLE
 use super::Pick;
 
 /// A scene for drawing: parsed as the checker reads it, and as plain JSON,
-/// which the findings' locations are followed through.
+/// which the findings' locations are followed through (shared with the
+/// [`super::Drawable`] run from it: a scene of many thousand triangles
+/// written out is megabytes of JSON).
 pub struct Source {
     pub scene: Scene,
-    pub json: Value,
+    pub json: Arc<Value>,
 }
 
 impl Source {
@@ -36,7 +39,7 @@ impl Source {
     pub fn parse(text: &str, path: &str, base_dir: &Path) -> Result<Self, SceneError> {
         let scene = Scene::parse(text, path, base_dir)?;
         // The text parsed as a scene, so it is JSON.
-        let json = serde_json::from_str(text).unwrap_or(Value::Null);
+        let json = Arc::new(serde_json::from_str(text).unwrap_or(Value::Null));
         Ok(Self { scene, json })
     }
 
@@ -49,14 +52,17 @@ impl Source {
             .ok()
             .and_then(|text| serde_json::from_str(&text).ok())
             .unwrap_or(Value::Null);
-        Ok(Self { scene, json })
+        Ok(Self {
+            scene,
+            json: Arc::new(json),
+        })
     }
 
     /// The built-in example.
     pub fn example() -> Self {
         Self {
             scene: Scene::example(),
-            json: serde_json::from_str(EXAMPLE).unwrap_or(Value::Null),
+            json: Arc::new(serde_json::from_str(EXAMPLE).unwrap_or(Value::Null)),
         }
     }
 
@@ -257,25 +263,34 @@ pub fn tooltip(marks: &[&Mark]) -> String {
     lines.join("\n")
 }
 
-/// The words a caption gives the marks of one kind: the first few, then
-/// how many more.
-pub fn caption(marks: &[&Mark], what: impl Fn(&Mark) -> String) -> Option<String> {
+/// The captions of a picture's marks: the first few findings placed (with
+/// `what` they point at), then those about the whole picture, which no
+/// outline marks.
+pub fn caption(marks: &[&Mark], what: impl Fn(&Mark) -> String) -> Vec<String> {
     const LISTED: usize = 4;
-    if marks.is_empty() {
-        return None;
-    }
-    let mut listed: Vec<String> = marks
-        .iter()
-        .take(LISTED)
-        .map(|m| format!("{} ({})", what(m), m.rule))
-        .collect();
-    if marks.len() > LISTED {
-        listed.push(format!("and {} more", marks.len() - LISTED));
-    }
-    Some(format!(
-        "Findings marked (black dashed outline on white; the SVG's tooltip gives each message): {}.",
+    let list = |marks: Vec<&&Mark>, words: &dyn Fn(&Mark) -> String| {
+        let mut listed: Vec<String> = marks.iter().take(LISTED).map(|m| words(m)).collect();
+        if marks.len() > LISTED {
+            listed.push(format!("and {} more", marks.len() - LISTED));
+        }
         listed.join(", ")
-    ))
+    };
+    let (whole, placed): (Vec<&&Mark>, Vec<&&Mark>) =
+        marks.iter().partition(|m| m.target == Target::Whole);
+    let mut captions = Vec::new();
+    if !placed.is_empty() {
+        captions.push(format!(
+            "Findings, marked with a black dashed outline on white where drawn (the SVG's tooltip gives each message): {}.",
+            list(placed, &|m| format!("{} ({})", what(m), m.rule))
+        ));
+    }
+    if !whole.is_empty() {
+        captions.push(format!(
+            "Findings about all of it: {}.",
+            list(whole, &|m| format!("{} at {}", m.rule, m.location))
+        ));
+    }
+    captions
 }
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ pub mod states;
 pub mod texture;
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde_json::Value;
 
@@ -118,7 +119,7 @@ pub struct Drawable {
     pub marks: bool,
     /// The scene as JSON, which findings' locations are followed through
     /// (Null: a scene not read from text, whose findings cannot be placed).
-    json: Value,
+    json: Arc<Value>,
     textures: Vec<AlphaTextureDesc>,
     base_dir: PathBuf,
 }
@@ -145,7 +146,7 @@ impl Drawable {
             objects: report.objects,
             findings: report.findings,
             marks: false,
-            json: Value::Null,
+            json: Arc::new(Value::Null),
             textures: scene.file.alpha_textures.clone(),
             base_dir: scene.base_dir.clone(),
         })
@@ -155,7 +156,7 @@ impl Drawable {
     /// findings of its calls.
     pub fn run_source(source: &Source, options: &CheckOptions) -> Result<Self, SceneError> {
         let mut drawable = Self::run_with(&source.scene, options)?;
-        drawable.json = source.json.clone();
+        drawable.json = Arc::clone(&source.json);
         drawable.marks = true;
         Ok(drawable)
     }

@@ -66,11 +66,21 @@ fn reads_per_cell(cells: u64) -> u64 {
     (READ_BUDGET / cells.max(1)).max(1)
 }
 
-/// Words wrapped into lines of at most `width` characters.
+/// Words wrapped into lines of at most `width` characters; a word longer
+/// than a line (a VUID) is cut into pieces that fit.
 fn wrap(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
     let mut lines = Vec::new();
     let mut line = String::new();
-    for word in text.split_whitespace() {
+    let pieces = text.split_whitespace().flat_map(|word| {
+        let chars: Vec<char> = word.chars().collect();
+        chars
+            .chunks(width)
+            .map(|c| c.iter().collect::<String>())
+            .collect::<Vec<_>>()
+    });
+    for word in pieces {
+        let word = word.as_str();
         if !line.is_empty() && line.len() + 1 + word.len() > width {
             lines.push(std::mem::take(&mut line));
         }
@@ -975,6 +985,7 @@ mod tests {
     #[test]
     fn captions_wrap_at_words() {
         assert_eq!(wrap("aa bb cc", 5), ["aa bb", "cc"]);
+        assert_eq!(wrap("a VUID-long", 4), ["a", "VUID", "-lon", "g"]);
         assert_eq!(wrap("", 5), Vec::<String>::new());
     }
 }
