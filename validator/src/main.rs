@@ -123,13 +123,16 @@ enum Command {
     },
     /// Draw a micromap or a BLAS geometry as SVG or PNG.
     ///
-    /// --micromap NAME draws the micromap's triangles as a grid, or one of
-    /// them with --triangle; --acceleration-structure NAME draws one of its
-    /// geometries with the micromap triangle each geometry triangle selects.
-    /// Colours, the downsampling rule of deep levels and the marks of
-    /// problems: docs/pictures.md. Exit status: 0, or 2 when the scene
-    /// could not be read, nothing matches the names, or the file could not
-    /// be written.
+    /// --micromap NAME draws the micromap's triangles as a grid, one of
+    /// them with --triangle, or its build's usage counts against its
+    /// triangle array with --usage-counts; --acceleration-structure NAME
+    /// draws one of its geometries with the micromap triangle each geometry
+    /// triangle selects, over its alpha texture where the scene names one.
+    /// The findings of the scene's calls are marked where they point
+    /// (--no-findings leaves them out). Colours, the downsampling rule of
+    /// deep levels and the marks: docs/pictures.md. Exit status: 0, or 2
+    /// when the scene could not be read, nothing matches the names, or the
+    /// file could not be written.
     Draw {
         /// A scene file (JSON; see docs/scene-format.md).
         scene: std::path::PathBuf,
@@ -146,6 +149,13 @@ enum Command {
         /// Only this triangle of the micromap (its index in the triangle array).
         #[arg(long, requires = "micromap")]
         triangle: Option<u64>,
+        /// The micromap build's usage counts against its triangle array, a
+        /// histogram per (format, subdivision level).
+        #[arg(long, requires = "micromap", conflicts_with = "triangle")]
+        usage_counts: bool,
+        /// Draw the data alone, without marking the scene's findings.
+        #[arg(long)]
+        no_findings: bool,
         /// The bottom-level acceleration structure to draw, by its scene name.
         #[arg(long, value_name = "NAME")]
         acceleration_structure: Option<String>,
@@ -229,17 +239,20 @@ fn main() -> ExitCode {
             out,
             micromap,
             triangle,
+            usage_counts,
+            no_findings,
             acceleration_structure,
             geometry,
         } => {
             let pick = match (micromap, acceleration_structure) {
+                (Some(name), _) if usage_counts => ommcheck::draw::Pick::UsageCounts { name },
                 (Some(name), _) => ommcheck::draw::Pick::Micromap { name, triangle },
                 (None, Some(name)) => ommcheck::draw::Pick::Geometry { name, geometry },
                 (None, None) => {
                     unreachable!("clap requires --micromap or --acceleration-structure")
                 }
             };
-            draw_command(&scene, &out, &pick)
+            draw_command(&scene, &out, &pick, !no_findings)
         }
         Command::Index {
             level,
@@ -588,16 +601,23 @@ fn states_command(paths: &[std::path::PathBuf]) -> ExitCode {
     }
 }
 
-/// `ommcheck draw`: runs the scene's calls, draws what the pick names and
-/// writes it as the extension of `out` says.
+/// `ommcheck draw`: runs the scene's calls, draws what the pick names
+/// (with the marks of the findings when `marks`) and writes it as the
+/// extension of `out` says.
 fn draw_command(
     path: &std::path::Path,
     out: &std::path::Path,
     pick: &ommcheck::draw::Pick,
+    marks: bool,
 ) -> ExitCode {
-    let drawn = Scene::load(path)
-        .map_err(ommcheck::draw::DrawError::Scene)
-        .and_then(|scene| ommcheck::draw::draw(&scene, pick))
+    use ommcheck::draw::{DrawError, Drawable, Source};
+    let drawn = Source::load(path)
+        .and_then(|source| Drawable::run_source(&source, &Default::default()))
+        .map_err(DrawError::Scene)
+        .and_then(|mut drawable| {
+            drawable.marks = marks;
+            drawable.draw(pick)
+        })
         .and_then(|picture| picture.write(out));
     match drawn {
         Ok(()) => ExitCode::SUCCESS,

@@ -86,6 +86,11 @@ pub struct BuildRecord {
     pub geometries: Vec<Option<TriangleGeometryRecord>>,
     /// The build read host addresses (`vkBuildAccelerationStructuresKHR`).
     pub host: bool,
+    /// A micromap build's usage counts summed per (format, subdivision
+    /// level), keys in order, zero counts left out: kept from the content
+    /// tier up (with [`Self::content`]) so that a picture can set them
+    /// against the triangle array (`ommcheck draw --usage-counts`).
+    pub usage_counts: Vec<((u32, u32), u64)>,
 }
 
 /// A triangles geometry of a recorded bottom-level build: where its

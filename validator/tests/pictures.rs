@@ -174,6 +174,7 @@ fn a_level_12_triangle_is_downsampled_by_the_stated_rule() {
             level: 12,
             micromap_triangles: 1,
             geometry_triangles: 0,
+            texture: 0,
         },
     );
     let (svg, desc) = drawn(&scene, &micromap("disc", Some(0)), "level-12");
@@ -185,12 +186,19 @@ fn a_level_12_triangle_is_downsampled_by_the_stated_rule() {
     assert!(svg.len() < 1 << 20, "{} bytes of SVG", svg.len());
 }
 
-#[test]
-fn draw_writes_svg_or_png_by_the_extension_and_names_what_is_missing() {
+/// The built-in example written to `name` in the CLI tests' folder: the
+/// folder and the file.
+fn example_file(name: &str) -> (PathBuf, PathBuf) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/pictures-cli");
     std::fs::create_dir_all(&dir).unwrap();
-    let scene = dir.join("example.json");
+    let scene = dir.join(name);
     std::fs::write(&scene, ommcheck::scene::EXAMPLE).unwrap();
+    (dir, scene)
+}
+
+#[test]
+fn draw_writes_svg_or_png_by_the_extension_and_names_what_is_missing() {
+    let (dir, scene) = example_file("example.json");
     let run = |args: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_ommcheck"))
             .arg("draw")
@@ -220,10 +228,7 @@ fn draw_writes_svg_or_png_by_the_extension_and_names_what_is_missing() {
 
 #[test]
 fn the_states_dump_agrees_with_the_simulators_lookups() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/pictures-cli");
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("states-example.json");
-    std::fs::write(&path, ommcheck::scene::EXAMPLE).unwrap();
+    let (_, path) = example_file("states-example.json");
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_ommcheck"))
         .args(["stats", "--states"])
         .arg(&path)
@@ -373,4 +378,254 @@ fn trace_draw_writes_a_picture_per_micromap_ray() {
         stderr.contains("rays[10] not drawn: ray 10 'miss' read no micromap triangle"),
         "{stderr}"
     );
+}
+
+/// The `<g class="finding" data-target="TARGET">` marks of an SVG, with the
+/// centre of the first polygon in each.
+fn finding_marks(svg: &str) -> Vec<(String, (f64, f64))> {
+    svg.split("<g class=\"finding\" data-target=\"")
+        .skip(1)
+        .map(|rest| {
+            let (target, rest) = rest.split_once('"').unwrap();
+            let points = rest
+                .split_once("points=\"")
+                .and_then(|(_, p)| p.split_once('"'))
+                .map(|(p, _)| p)
+                .unwrap();
+            (target.to_string(), centre(points))
+        })
+        .collect()
+}
+
+/// The mean of a `points` attribute's points.
+fn centre(points: &str) -> (f64, f64) {
+    let xy: Vec<(f64, f64)> = points
+        .split(' ')
+        .map(|p| {
+            let (x, y) = p.split_once(',').unwrap();
+            (x.parse().unwrap(), y.parse().unwrap())
+        })
+        .collect();
+    let n = xy.len() as f64;
+    (
+        xy.iter().map(|p| p.0).sum::<f64>() / n,
+        xy.iter().map(|p| p.1).sum::<f64>() / n,
+    )
+}
+
+/// The centres of the polygons outlined in the data's red (a triangle whose
+/// data runs past the end, a geometry triangle selecting past the micromap).
+fn red_outlines(svg: &str) -> Vec<(f64, f64)> {
+    svg.lines()
+        .filter(|l| l.starts_with("<polygon") && l.contains("fill=\"none\" stroke=\"#d62828\""))
+        .map(|l| {
+            let points = l
+                .split_once("points=\"")
+                .unwrap()
+                .1
+                .split_once('"')
+                .unwrap()
+                .0;
+            centre(points)
+        })
+        .collect()
+}
+
+fn near(a: (f64, f64), b: (f64, f64)) -> bool {
+    (a.0 - b.0).abs() < 3.0 && (a.1 - b.1).abs() < 3.0
+}
+
+/// The example's three findings, each marked on its picture where it
+/// points: micromap triangle 3 (its data past the buffer), the usage
+/// counts' two disagreeing keys, geometry triangle 4 (its index past the
+/// micromap). The marks sit on the shapes the data's own red marks are.
+#[test]
+fn findings_are_marked_where_they_point() {
+    let source = draw::Source::example();
+    let picture = |pick: &Pick, reference: &str| {
+        let picture = draw::draw_source(&source, pick).unwrap_or_else(|e| panic!("{e}"));
+        assert_matches_reference(&picture, reference);
+        picture.svg
+    };
+
+    let grid = picture(&micromap("foliage-omm", None), "micromap-grid-findings");
+    let marks = finding_marks(&grid);
+    assert_eq!(marks.len(), 1, "{marks:?}");
+    assert_eq!(marks[0].0, "micromap triangle 3");
+    let red = red_outlines(&grid);
+    assert_eq!(red.len(), 1, "triangle 3 alone runs past the data");
+    assert!(near(marks[0].1, red[0]), "{marks:?} against {red:?}");
+    assert!(grid.contains(
+        "OMMCHECK-build-triangle-data-in-range at calls[1]: pInfos[0].triangleArray[3].dataOffset"
+    ));
+
+    // One triangle's picture carries the mark of its own findings only.
+    let three = picture(
+        &micromap("foliage-omm", Some(3)),
+        "micromap-triangle-findings",
+    );
+    assert_eq!(finding_marks(&three).len(), 1);
+    let none = draw::draw_source(&source, &micromap("foliage-omm", Some(0))).unwrap();
+    assert!(finding_marks(&none.svg).is_empty());
+
+    let geometry = picture(
+        &Pick::Geometry {
+            name: "foliage-blas".into(),
+            geometry: 0,
+        },
+        "geometry-findings",
+    );
+    let marks = finding_marks(&geometry);
+    assert_eq!(marks.len(), 1, "{marks:?}");
+    assert_eq!(marks[0].0, "geometry triangle 4");
+    let red = red_outlines(&geometry);
+    assert!(
+        red.iter().any(|r| near(*r, marks[0].1)),
+        "the mark is not on the red X's triangle: {marks:?} against {red:?}"
+    );
+
+    let histogram = picture(
+        &Pick::UsageCounts {
+            name: "foliage-omm".into(),
+        },
+        "usage-counts",
+    );
+    let targets: Vec<String> = finding_marks(&histogram)
+        .into_iter()
+        .map(|(t, _)| t)
+        .collect();
+    assert_eq!(
+        targets,
+        [
+            "usage counts VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT level 3",
+            "usage counts VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3"
+        ]
+    );
+    let desc = histogram
+        .split_once("<desc>")
+        .and_then(|(_, rest)| rest.split_once("</desc>"))
+        .unwrap()
+        .0;
+    assert!(
+        desc.contains("VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT level 3: stated 3, counted 2; VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT level 3: stated 1, counted 2"),
+        "{desc}"
+    );
+
+    // Without the scene's text, or told not to, nothing is marked.
+    let plain = draw::draw(&Scene::example(), &micromap("foliage-omm", None)).unwrap();
+    assert!(finding_marks(&plain.svg).is_empty());
+}
+
+/// `ommcheck draw` marks the findings unless told --no-findings, and draws
+/// the usage counts with --usage-counts.
+#[test]
+fn draw_marks_findings_unless_told_not_to() {
+    let (dir, scene) = example_file("marks-example.json");
+    let out = dir.join("marks.svg");
+    let run = |args: &[&str]| {
+        let _ = std::fs::remove_file(&out);
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_ommcheck"))
+            .arg("draw")
+            .arg(&scene)
+            .args(args)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{output:?}");
+        std::fs::read_to_string(&out).unwrap()
+    };
+    let marked = run(&["--acceleration-structure", "foliage-blas"]);
+    assert_eq!(finding_marks(&marked).len(), 1);
+    let plain = run(&["--acceleration-structure", "foliage-blas", "--no-findings"]);
+    assert!(finding_marks(&plain).is_empty());
+    let histogram = run(&["--micromap", "foliage-omm", "--usage-counts"]);
+    assert!(histogram.contains("usage counts against the triangle array"));
+    assert_eq!(finding_marks(&histogram).len(), 2);
+}
+
+fn textured(name: &str, texture: u32) -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../target/picture-scenes")
+        .join(name);
+    picture_scenes::write(
+        &dir,
+        name,
+        &picture_scenes::Spec {
+            level: 2,
+            micromap_triangles: 4,
+            geometry_triangles: 18,
+            texture,
+        },
+    )
+}
+
+/// A geometry over its alpha texture: the texture's greys under the
+/// states, each triangle at its texture coordinates.
+#[test]
+fn a_geometry_is_drawn_over_its_alpha_texture() {
+    let path = textured("textured", 96);
+    let scene = Scene::load(&path).unwrap();
+    let pick = Pick::Geometry {
+        name: "blas".into(),
+        geometry: 0,
+    };
+    let (svg, desc) = drawn(&scene, &pick, "geometry-texture");
+    assert!(
+        desc.contains("over the alpha texture textured.alpha.png (96 x 96 texels, its alpha channel drawn as 96 x 96 cells"),
+        "{desc}"
+    );
+    // Transparent and opaque texels, and the states at 55% over them.
+    assert!(svg.contains("fill=\"#ffffff\"/>") && svg.contains("fill=\"#2d2d2d\"/>"));
+    assert!(svg.contains("fill-opacity=\"0.55\""));
+    assert!(!desc.contains("Not drawn, without texture coordinates"));
+
+    // Triangles without texture coordinates are left out and counted.
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let uvs = json["alphaTextures"][0]["uvs"].as_array_mut().unwrap();
+    uvs.truncate(3 * 16 + 1);
+    let short = path.with_file_name("textured-short.json");
+    let caption_of = |json: &serde_json::Value| {
+        std::fs::write(&short, json.to_string()).unwrap();
+        let svg = draw::draw(&Scene::load(&short).unwrap(), &pick)
+            .unwrap()
+            .svg;
+        svg.lines()
+            .find(|l| l.starts_with("Not drawn, without texture coordinates"))
+            .unwrap_or_else(|| panic!("{svg}"))
+            .to_string()
+    };
+    assert_eq!(
+        caption_of(&json),
+        "Not drawn, without texture coordinates: 2 triangles (triangle 16: vertex 49 has no texture coordinate (uvs holds 49))."
+    );
+    // A coordinate far outside the texture is one it cannot place either.
+    json["alphaTextures"][0]["uvs"][4] = serde_json::json!([1e300, 0.5]);
+    assert_eq!(
+        caption_of(&json),
+        "Not drawn, without texture coordinates: 3 triangles (triangle 1: vertex 4's texture coordinate [1e300, 0.5] is outside [-64, 65])."
+    );
+}
+
+/// A PNG whose header claims more texels than the bound is refused before
+/// its image is allocated, and the picture says so.
+#[test]
+fn a_hostile_alpha_texture_is_refused() {
+    let path = textured("hostile-texture", 8);
+    let png = path.with_file_name("hostile-texture.alpha.png");
+    let mut bytes = std::fs::read(&png).unwrap();
+    bytes[16..24].copy_from_slice(&[0, 1, 0, 0, 0, 1, 0, 0]);
+    std::fs::write(&png, bytes).unwrap();
+    let error = match draw::draw(
+        &Scene::load(&path).unwrap(),
+        &Pick::Geometry {
+            name: "blas".into(),
+            geometry: 0,
+        },
+    ) {
+        Ok(_) => panic!("a 65536 x 65536 texture was drawn"),
+        Err(e) => e.to_string(),
+    };
+    assert!(error.contains("65536 x 65536 texels"), "{error}");
 }

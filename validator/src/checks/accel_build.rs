@@ -865,6 +865,9 @@ fn record_builds(
                 content,
                 geometries,
                 host: host.is_some(),
+                // A KHR micromap's usage counts are not kept: its pictures
+                // have no histogram (docs/pictures.md).
+                usage_counts: Vec::new(),
             });
         }
     }

@@ -311,6 +311,15 @@ impl Validator {
                     built_content(&self.state, host, info)
                 })
                 .flatten();
+            // Beside the content, for pictures only: one entry per key,
+            // bounded by the usage entries the reader already holds.
+            let usage_counts = if content.is_some() {
+                common::declared_counts(&info.usage_counts)
+                    .into_iter()
+                    .collect()
+            } else {
+                Vec::new()
+            };
             self.state.driver.forget_micromap(info.dst_micromap);
             self.state.provenance.constructed(info.dst_micromap);
             if let Some(micromap) = self.state.micromaps.get_mut(&info.dst_micromap) {
@@ -319,6 +328,7 @@ impl Validator {
                     ty: info.ty,
                     triangle_count: info.usage_counts.total(),
                     content: content.map(Arc::new),
+                    usage_counts,
                     ..Default::default()
                 });
             }

@@ -33,6 +33,16 @@ pub const PROBLEM: Colour = "#d62828";
 pub const MISSING: Colour = "#c8c8c8";
 pub const EDGE: Colour = "#5a5a5a";
 pub const TEXT: Colour = "#202020";
+/// A finding's mark: dashed, on white.
+pub const MARK: Colour = "#111111";
+
+/// An alpha texture's greys, by alpha in sixteenths: transparent white to
+/// opaque dark grey, so that a texture's opaque parts look as dark as the
+/// opaque state's blue.
+pub const TEXTURE_GREYS: [Colour; 16] = [
+    "#ffffff", "#f1f1f1", "#e3e3e3", "#d5d5d5", "#c7c7c7", "#b9b9b9", "#ababab", "#9d9d9d",
+    "#8f8f8f", "#818181", "#737373", "#656565", "#575757", "#494949", "#3b3b3b", "#2d2d2d",
+];
 
 /// How each cell state is filled.
 pub fn fill(state: CellState) -> Fill {
@@ -78,6 +88,10 @@ pub fn fill(state: CellState) -> Fill {
 pub struct Canvas {
     pub width: u32,
     pub height: u32,
+    /// Rectangles under the tiles (an alpha texture), one path per colour.
+    backdrop: BTreeMap<Colour, String>,
+    /// The tiles' fill opacity: below 1 where a backdrop shows through.
+    tile_opacity: f64,
     tiles: BTreeMap<(Colour, Option<&'static str>), String>,
     edges: BTreeMap<(Colour, String), String>,
     body: String,
@@ -101,6 +115,7 @@ fn escape(text: &str) -> String {
     text.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }
 
 impl Canvas {
@@ -108,6 +123,8 @@ impl Canvas {
         Self {
             width,
             height,
+            backdrop: BTreeMap::new(),
+            tile_opacity: 1.0,
             tiles: BTreeMap::new(),
             edges: BTreeMap::new(),
             body: String::new(),
@@ -120,6 +137,45 @@ impl Canvas {
     /// layouts that call it).
     pub fn describe(&mut self, line: &str) {
         self.desc.push(line.to_string());
+    }
+
+    /// A rectangle under every tile, in `colour`.
+    pub fn backdrop(&mut self, (x, y): (f64, f64), (w, h): (f64, f64), colour: Colour) {
+        let d = self.backdrop.entry(colour).or_default();
+        let _ = write!(
+            d,
+            "M{} {}h{}v{}h-{}z",
+            num(x),
+            num(y),
+            num(w),
+            num(h),
+            num(w)
+        );
+    }
+
+    /// Draws the tiles' colours at `opacity` (their hatching stays whole),
+    /// so that a backdrop shows through them.
+    pub fn set_tile_opacity(&mut self, opacity: f64) {
+        self.tile_opacity = opacity.clamp(0.0, 1.0);
+    }
+
+    /// A finding's mark around the polygon `p`: a dark dashed outline on a
+    /// white one, which stands out on every fill and on the red marks of
+    /// the data, grouped with the finding's words as its tooltip
+    /// (`<title>`) and `data-target` naming what it marks, for a browser and
+    /// for tests.
+    pub fn finding_mark(&mut self, p: &[(f64, f64)], width: f64, target: &str, tooltip: &str) {
+        let points = points(p);
+        let _ = writeln!(
+            self.body,
+            "<g class=\"finding\" data-target=\"{}\"><title>{}</title><polygon points=\"{points}\" fill=\"none\" stroke=\"#ffffff\" stroke-width=\"{}\" stroke-linejoin=\"round\"/><polygon points=\"{points}\" fill=\"none\" stroke=\"{MARK}\" stroke-width=\"{}\" stroke-dasharray=\"{} {}\" stroke-linejoin=\"round\"/></g>",
+            escape(target),
+            escape(tooltip),
+            num(width + 2.0),
+            num(width),
+            num(3.0 * width),
+            num(2.0 * width),
+        );
     }
 
     /// A tile: a triangle filled as `fill` says, under everything else.
@@ -267,8 +323,16 @@ impl Canvas {
             "<rect width=\"{}\" height=\"{}\" fill=\"#ffffff\"/>",
             self.width, self.height
         );
-        for ((colour, hatch), d) in &self.tiles {
+        for (colour, d) in &self.backdrop {
             let _ = writeln!(out, "<path d=\"{d}\" fill=\"{colour}\"/>");
+        }
+        let opacity = if self.tile_opacity < 1.0 {
+            format!(" fill-opacity=\"{}\"", self.tile_opacity)
+        } else {
+            String::new()
+        };
+        for ((colour, hatch), d) in &self.tiles {
+            let _ = writeln!(out, "<path d=\"{d}\" fill=\"{colour}\"{opacity}/>");
             if let Some(hatch) = hatch {
                 let _ = writeln!(out, "<path d=\"{d}\" fill=\"url(#{hatch})\"/>");
             }

@@ -10,8 +10,10 @@ use crate::sim::decode::MicromapContent;
 use crate::sim::opacity::{OpacityState, Slot, SpecialIndex};
 use crate::sim::trace::{fetch_slot, Attachment};
 
-use super::canvas::{fill, Canvas, Colour, Fill, EDGE, MISSING, PROBLEM, TEXT};
+use super::canvas::{fill, Canvas, Colour, Fill, EDGE, MISSING, PROBLEM, TEXT, TEXTURE_GREYS};
 use super::cells::{self, CellState, Problem, TriangleCells, READ_BUDGET};
+use super::findings::{self, Mark, Target, MAX_MARKS};
+use super::texture::AlphaGrid;
 
 /// Margin around everything, in pixels.
 const MARGIN: f64 = 24.0;
@@ -64,11 +66,21 @@ fn reads_per_cell(cells: u64) -> u64 {
     (READ_BUDGET / cells.max(1)).max(1)
 }
 
-/// Words wrapped into lines of at most `width` characters.
+/// Words wrapped into lines of at most `width` characters; a word longer
+/// than a line (a VUID) is cut into pieces that fit.
 fn wrap(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
     let mut lines = Vec::new();
     let mut line = String::new();
-    for word in text.split_whitespace() {
+    let pieces = text.split_whitespace().flat_map(|word| {
+        let chars: Vec<char> = word.chars().collect();
+        chars
+            .chunks(width)
+            .map(|c| c.iter().collect::<String>())
+            .collect::<Vec<_>>()
+    });
+    for word in pieces {
+        let word = word.as_str();
         if !line.is_empty() && line.len() + 1 + word.len() > width {
             lines.push(std::mem::take(&mut line));
         }
@@ -127,7 +139,7 @@ pub fn rule_caption(shown: &BTreeSet<(u32, u32, u64)>) -> Option<String> {
 
 /// A canvas with the title, the legend and the captions drawn, and where
 /// the body of `body` pixels goes.
-fn frame(
+pub(super) fn frame(
     title: &str,
     body: (f64, f64),
     captions: &[String],
@@ -195,6 +207,14 @@ fn centroid(p: &[(f64, f64); 3]) -> (f64, f64) {
         (p[0].0 + p[1].0 + p[2].0) / 3.0,
         (p[0].1 + p[1].1 + p[2].1) / 3.0,
     )
+}
+
+/// The triangle `p` scaled by `factor` about its centroid.
+fn grown(p: &[(f64, f64); 3], factor: f64) -> Vec<(f64, f64)> {
+    let c = centroid(p);
+    p.iter()
+        .map(|q| (c.0 + (q.0 - c.0) * factor, c.1 + (q.1 - c.1) * factor))
+        .collect()
 }
 
 /// The length of a triangle's longest side.
@@ -291,8 +311,48 @@ fn describe_triangle(m: u64, t: &TriangleCells) -> String {
 
 /// One micromap triangle, numbered in the specification's order when it is
 /// drawn exactly at level 3 or below.
-pub fn micromap_triangle(name: &str, content: &MicromapContent, m: u64) -> Result<Canvas, String> {
-    micromap_triangle_marked(name, content, m, None)
+pub fn micromap_triangle(
+    name: &str,
+    content: &MicromapContent,
+    m: u64,
+    marks: &[Mark],
+) -> Result<Canvas, String> {
+    micromap_triangle_marked(name, content, m, None, marks)
+}
+
+/// What a mark's target is called in captions and in `data-target`.
+pub(super) fn target_text(target: &Target) -> String {
+    match target {
+        Target::MicromapTriangle(m) => format!("micromap triangle {m}"),
+        Target::GeometryTriangle(t) => format!("geometry triangle {t}"),
+        Target::UsageCounts => "usage counts".into(),
+        Target::Whole => "the whole picture".into(),
+    }
+}
+
+/// Draws `marks` where `at` places their targets (those it cannot place,
+/// such as a triangle past the drawn ones, only the caption lists): one
+/// mark per target, its tooltip holding every finding there, at most
+/// [`MAX_MARKS`] targets.
+pub(super) fn draw_marks(
+    canvas: &mut Canvas,
+    marks: &[&Mark],
+    width: f64,
+    at: impl Fn(&Target) -> Option<Vec<(f64, f64)>>,
+) {
+    let mut targets: Vec<(&Target, Vec<&Mark>)> = Vec::new();
+    for mark in marks {
+        if let Some((_, at)) = targets.iter_mut().find(|(t, _)| *t == &mark.target) {
+            at.push(mark);
+        } else if targets.len() < MAX_MARKS {
+            targets.push((&mark.target, vec![mark]));
+        }
+    }
+    for (target, here) in targets {
+        if let Some(p) = at(target) {
+            canvas.finding_mark(&p, width, &target_text(target), &findings::tooltip(&here));
+        }
+    }
 }
 
 /// Where a traced ray hit a micromap triangle, as `ommcheck trace` answers
@@ -320,7 +380,12 @@ pub fn micromap_triangle_marked(
     content: &MicromapContent,
     m: u64,
     hit: Option<&HitMarks<'_>>,
+    marks: &[Mark],
 ) -> Result<Canvas, String> {
+    let marks: Vec<&Mark> = marks
+        .iter()
+        .filter(|k| matches!(k.target, Target::MicromapTriangle(t) if t == m))
+        .collect();
     let count = cells::triangle_count(content);
     let entry = cells::entry(content, m).ok_or_else(|| {
         format!("micromap '{name}' has {count} triangles; there is no triangle {m}")
@@ -375,6 +440,7 @@ pub fn micromap_triangle_marked(
             ),
         );
     }
+    captions.extend(findings::caption(&marks, |_| format!("triangle {m}")));
     let body = (side, side * 3f64.sqrt() / 2.0);
     let (mut canvas, (x, y)) = frame(&title, body, &captions, &legend(&[&t], &[]));
     let at = upright(x, y, side);
@@ -382,6 +448,9 @@ pub fn micromap_triangle_marked(
     if let Some(hit) = hit {
         mark_hit(&mut canvas, hit, at, level);
     }
+    // Just outside the triangle, so that its red outline stays in view.
+    let around = grown(&at, 1.025);
+    draw_marks(&mut canvas, &marks, 4.0, |_| Some(around.clone()));
     Ok(canvas)
 }
 
@@ -428,7 +497,8 @@ fn mark_hit(canvas: &mut Canvas, hit: &HitMarks<'_>, at: [(f64, f64); 3], level:
 }
 
 /// A whole micromap: its triangles in a grid, in array order.
-pub fn micromap_grid(name: &str, content: &MicromapContent) -> Canvas {
+pub fn micromap_grid(name: &str, content: &MicromapContent, marks: &[Mark]) -> Canvas {
+    let marks: Vec<&Mark> = marks.iter().collect();
     let count = cells::triangle_count(content);
     let drawn = count.min(MAX_GRID_TRIANGLES);
     let cols = (drawn as f64).sqrt().ceil().max(1.0);
@@ -478,6 +548,7 @@ pub fn micromap_grid(name: &str, content: &MicromapContent) -> Canvas {
         ));
     }
     captions.extend(rule_caption(&rules_of(&triangles)));
+    captions.extend(findings::caption(&marks, |k| target_text(&k.target)));
     let title = format!("micromap '{name}', {count} triangles");
     let refs: Vec<&TriangleCells> = triangles.iter().collect();
     let (mut canvas, (x0, y0)) = frame(
@@ -500,6 +571,20 @@ pub fn micromap_grid(name: &str, content: &MicromapContent) -> Canvas {
             );
         }
     }
+    let width = (pad / 2.0).clamp(1.5, 4.0);
+    draw_marks(&mut canvas, &marks, width, |target| match target {
+        Target::MicromapTriangle(m) if *m < drawn => {
+            let (col, row) = ((m % cols as u64) as f64, (m / cols as u64) as f64);
+            let (x, y) = (x0 + col * cell + pad, y0 + row * row_h + pad);
+            // Grown about its centroid so that its bottom edge moves down
+            // by half the padding (at most 5 px): clear of the red
+            // outline, above the label.
+            let at = upright(x, y, side);
+            let grow = 1.0 + 3.0 * (pad / 2.0).min(5.0) / (side * 3f64.sqrt() / 2.0);
+            Some(grown(&at, grow))
+        }
+        _ => None,
+    });
     canvas
 }
 
@@ -521,15 +606,51 @@ pub struct GeometryNames<'a> {
     pub index_type: &'a str,
 }
 
-/// A bottom-level geometry in a canonical layout (scenes give no UVs):
-/// geometry triangles `2q` and `2q + 1` share square `q`, in rows, each
-/// drawn with the micromap triangle its opacity index selects mapped onto
-/// it (its vertex 0 at the square's bottom-left or top-right corner).
+/// The alpha texture a geometry is drawn over, and where each drawn
+/// geometry triangle lies on it.
+pub struct Texture<'a> {
+    /// The PNG's path as the scene gives it.
+    pub png: &'a str,
+    pub grid: &'a AlphaGrid,
+    /// Each drawn geometry triangle's texture coordinates at its vertices
+    /// 0, 1, 2; None where they could not be found.
+    pub uvs: &'a [Option<[(f64, f64); 3]>],
+    /// Why the first triangle without coordinates has none.
+    pub missing: Option<String>,
+}
+
+/// Where each geometry triangle is drawn.
+enum Layout {
+    /// Two triangles to a square of `side` pixels, `cols` squares a row.
+    Squares { side: f64, cols: u64 },
+    /// At its texture coordinates: `(u, v)` is drawn at
+    /// `origin + scale·(u, v)`.
+    Texture { origin: (f64, f64), scale: f64 },
+}
+
+/// The corners of the squares layout's triangle `t`, its square's corner at `(x, y)`.
+fn square_triangle(t: u64, (x, y): (f64, f64), s: f64) -> [(f64, f64); 3] {
+    if t % 2 == 0 {
+        [(x, y + s), (x + s, y + s), (x, y)]
+    } else {
+        [(x + s, y), (x, y), (x + s, y + s)]
+    }
+}
+
+/// A bottom-level geometry, each of its triangles drawn with the micromap
+/// triangle its opacity index selects mapped onto it: over its alpha
+/// texture at its texture coordinates where `texture` is given, otherwise
+/// in a canonical layout (geometry triangles `2q` and `2q + 1` share
+/// square `q`, in rows, their vertex 0 at the square's bottom-left or
+/// top-right corner).
 pub fn geometry(
     names: &GeometryNames<'_>,
     attachment: &Attachment<'_>,
     primitive_count: u64,
+    texture: Option<&Texture<'_>>,
+    marks: &[Mark],
 ) -> Canvas {
+    let marks: Vec<&Mark> = marks.iter().collect();
     let content = attachment.micromap;
     let micromap_count = content.map_or(0, cells::triangle_count);
     let drawn = primitive_count.min(MAX_GEOMETRY_TRIANGLES);
@@ -544,10 +665,43 @@ pub fn geometry(
             Err(_) => Selected::Unread,
         })
         .collect();
-    let squares = drawn.div_ceil(2).max(1);
-    let cols = (squares as f64).sqrt().ceil();
-    let rows = (squares as f64 / cols).ceil();
-    let s = (1600.0 / cols).floor().clamp(3.0, 240.0);
+    // The layout, the body's size and the side a triangle typically has.
+    let (layout, body, typical) = match texture {
+        None => {
+            let squares = drawn.div_ceil(2).max(1);
+            let cols = (squares as f64).sqrt().ceil();
+            let rows = (squares as f64 / cols).ceil();
+            let s = (1600.0 / cols).floor().clamp(3.0, 240.0);
+            let layout = Layout::Squares {
+                side: s,
+                cols: cols as u64,
+            };
+            (layout, (cols * s, rows * s), s)
+        }
+        Some(texture) => {
+            // The texture's square and every triangle's coordinates, 720
+            // pixels on the longer side.
+            let (mut lo, mut hi) = ((0.0f64, 0.0f64), (1.0f64, 1.0f64));
+            for p in texture.uvs.iter().flatten().flatten() {
+                lo = (lo.0.min(p.0), lo.1.min(p.1));
+                hi = (hi.0.max(p.0), hi.1.max(p.1));
+            }
+            let scale = 720.0 / (hi.0 - lo.0).max(hi.1 - lo.1);
+            let body = ((hi.0 - lo.0) * scale, (hi.1 - lo.1) * scale);
+            let sides: Vec<f64> = texture
+                .uvs
+                .iter()
+                .flatten()
+                .map(|p| side(p) * scale)
+                .collect();
+            let typical = sides.iter().sum::<f64>() / sides.len().max(1) as f64;
+            let layout = Layout::Texture {
+                origin: (-lo.0 * scale, -lo.1 * scale),
+                scale,
+            };
+            (layout, body, typical)
+        }
+    };
     let distinct: BTreeSet<u64> = selected
         .iter()
         .filter_map(|s| match s {
@@ -555,7 +709,7 @@ pub fn geometry(
             _ => None,
         })
         .collect();
-    let shown = level_for(s, 12).min(level_within_polygons(drawn, 12));
+    let shown = level_for(typical, 12).min(level_within_polygons(drawn, 12));
     let reads = reads_per_cell((distinct.len() as u64).saturating_mul(1 << (2 * shown)));
     let mut decoded: HashMap<u64, TriangleCells> = HashMap::new();
     if let Some(content) = content {
@@ -566,8 +720,15 @@ pub fn geometry(
             }
         }
     }
+    let placement = match texture {
+        None => "two to a square (triangle 2q with vertex 0 bottom left, 2q+1 with vertex 0 top right)".to_string(),
+        Some(t) => format!(
+            "at their texture coordinates over the alpha texture {} ({} x {} texels, its {} drawn as {} x {} cells of the mean alpha in 16 greys, white transparent to dark grey opaque; the states over it at 55% opacity)",
+            t.png, t.grid.width, t.grid.height, t.grid.channel, t.grid.cols, t.grid.rows
+        ),
+    };
     let mut captions = vec![format!(
-        "Geometry {} of '{}': {primitive_count} triangles{}, two to a square (triangle 2q with vertex 0 bottom left, 2q+1 with vertex 0 top right), each showing the micromap triangle its opacity index selects. Opacity micromap {}, {micromap_count} triangles; index type {}.",
+        "Geometry {} of '{}': {primitive_count} triangles{}, {placement}, each showing the micromap triangle its opacity index selects. Opacity micromap {}, {micromap_count} triangles; index type {}.",
         names.geometry,
         names.structure,
         if drawn < primitive_count {
@@ -578,6 +739,18 @@ pub fn geometry(
         names.micromap.map_or("VK_NULL_HANDLE".to_string(), |n| format!("'{n}'")),
         names.index_type,
     )];
+    if let Some(texture) = texture {
+        let without = texture.uvs.iter().filter(|uv| uv.is_none()).count();
+        if without > 0 {
+            captions.push(format!(
+                "Not drawn, without texture coordinates: {without} triangles{}.",
+                texture
+                    .missing
+                    .as_ref()
+                    .map_or(String::new(), |why| format!(" ({why})"))
+            ));
+        }
+    }
     let mut counts = [0u64; 4];
     let mut specials = [0u64; 5];
     for s in &selected {
@@ -645,24 +818,41 @@ pub fn geometry(
         ));
     }
     captions.extend(rule_caption(&rules_of(decoded.values())));
+    captions.extend(findings::caption(&marks, |k| target_text(&k.target)));
     let title = format!("'{}' geometry {}", names.structure, names.geometry);
     let refs: Vec<&TriangleCells> = decoded.values().collect();
-    let (mut canvas, (x0, y0)) =
-        frame(&title, (cols * s, rows * s), &captions, &legend(&refs, &[]));
-    let labels = s >= 96.0;
+    let (mut canvas, (x0, y0)) = frame(&title, body, &captions, &legend(&refs, &[]));
+    // Where triangle t lies on the canvas.
+    let at = |t: u64| -> Option<[(f64, f64); 3]> {
+        match layout {
+            Layout::Squares { side, cols } => {
+                let q = t / 2;
+                let corner = (x0 + (q % cols) as f64 * side, y0 + (q / cols) as f64 * side);
+                Some(square_triangle(t, corner, side))
+            }
+            Layout::Texture { origin, scale } => {
+                let uv = (*texture?.uvs.get(usize::try_from(t).ok()?)?)?;
+                Some(uv.map(|(u, v)| (x0 + origin.0 + u * scale, y0 + origin.1 + v * scale)))
+            }
+        }
+    };
+    if let (Some(texture), Layout::Texture { origin, scale }) = (texture, &layout) {
+        draw_texture(
+            &mut canvas,
+            texture.grid,
+            (x0 + origin.0, y0 + origin.1),
+            *scale,
+        );
+        canvas.set_tile_opacity(0.55);
+    }
+    let (labels, s) = match layout {
+        Layout::Squares { side, .. } => (side >= 96.0, side),
+        Layout::Texture { .. } => (false, typical),
+    };
     // Red outlines are drawn last, so that no neighbour covers them.
     let mut marked: Vec<([(f64, f64); 3], f64)> = Vec::new();
     for (t, sel) in (0u64..).zip(&selected) {
-        let q = t / 2;
-        let (x, y) = (
-            x0 + (q % cols as u64) as f64 * s,
-            y0 + (q / cols as u64) as f64 * s,
-        );
-        let at = if t % 2 == 0 {
-            [(x, y + s), (x + s, y + s), (x, y)]
-        } else {
-            [(x + s, y), (x, y), (x + s, y + s)]
-        };
+        let Some(at) = at(t) else { continue };
         let label = match sel {
             Selected::Triangle(m) => {
                 if let Some(cells) = decoded.get(m) {
@@ -686,7 +876,8 @@ pub fn geometry(
             Selected::OutOfRange(m) => {
                 canvas.tile(at, &missing());
                 let c = centroid(&at);
-                let r = s / 6.0;
+                // s/6 on a square's half: its longest side is s·√2.
+                let r = side(&at) / (6.0 * std::f64::consts::SQRT_2);
                 let width = (s / 40.0).clamp(0.8, 3.0);
                 canvas.line((c.0 - r, c.1 - r), (c.0 + r, c.1 + r), PROBLEM, width);
                 canvas.line((c.0 - r, c.1 + r), (c.0 + r, c.1 - r), PROBLEM, width);
@@ -729,7 +920,38 @@ pub fn geometry(
     for (at, width) in &marked {
         canvas.outline(at, PROBLEM, *width);
     }
+    let width = (s / 40.0).clamp(1.5, 4.0);
+    draw_marks(&mut canvas, &marks, width, |target| match target {
+        Target::GeometryTriangle(t) if *t < drawn => at(*t).map(|p| p.to_vec()),
+        _ => None,
+    });
     canvas
+}
+
+/// The alpha grid as rectangles of 16 greys, the texture's square
+/// `scale` pixels wide with its top-left corner at `corner`; each row's
+/// runs of one grey make one rectangle.
+fn draw_texture(canvas: &mut Canvas, grid: &AlphaGrid, corner: (f64, f64), scale: f64) {
+    let (cw, ch) = (
+        scale / f64::from(grid.cols.max(1)),
+        scale / f64::from(grid.rows.max(1)),
+    );
+    let grey = |a: u8| TEXTURE_GREYS[usize::from(a >> 4)];
+    for (r, row) in grid.alpha.chunks(grid.cols.max(1) as usize).enumerate() {
+        let mut c = 0;
+        while c < row.len() {
+            let colour = grey(row[c]);
+            let start = c;
+            while c < row.len() && grey(row[c]) == colour {
+                c += 1;
+            }
+            canvas.backdrop(
+                (corner.0 + start as f64 * cw, corner.1 + r as f64 * ch),
+                ((c - start) as f64 * cw, ch),
+                colour,
+            );
+        }
+    }
 }
 
 #[cfg(test)]
@@ -763,6 +985,7 @@ mod tests {
     #[test]
     fn captions_wrap_at_words() {
         assert_eq!(wrap("aa bb cc", 5), ["aa bb", "cc"]);
+        assert_eq!(wrap("a VUID-long", 4), ["a", "VUID", "-lon", "g"]);
         assert_eq!(wrap("", 5), Vec::<String>::new());
     }
 }

@@ -596,10 +596,11 @@ mod tests {
     use crate::rules;
     use crate::scene::{Scene, EXAMPLE, EXAMPLE_PATH};
     use crate::vuids::Vuid;
+    use base64::Engine as _;
     use std::path::Path;
 
     fn example_source(_: &SceneReport) -> Result<Source, String> {
-        Source::parse(EXAMPLE, EXAMPLE_PATH, Path::new("."))
+        Source::parse(EXAMPLE, EXAMPLE_PATH, Path::new(".")).map_err(|e| e.to_string())
     }
 
     fn example_report() -> SceneReport {
@@ -712,7 +713,30 @@ mod tests {
         assert!(page.contains(
             "<b>Did you mean VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT for 1 of these 3 triangles?</b>"
         ));
+        assert!(page.contains("Picture 2: micromap &#39;foliage-omm&#39; usage counts"));
         assert!(page.contains("Picture 3: &#39;foliage-blas&#39; geometry 0"));
+        // Each picture marks the finding it is shown for, as `ommcheck
+        // draw` does (one code path: crate::draw::findings).
+        let svgs: Vec<String> = pictures
+            .iter()
+            .map(|p| {
+                let data = p.trim_start_matches("data:image/svg+xml;base64,");
+                let bytes = base64::engine::general_purpose::STANDARD
+                    .decode(data)
+                    .unwrap();
+                String::from_utf8(bytes).unwrap()
+            })
+            .collect();
+        for (svg, target) in svgs.iter().zip([
+            "micromap triangle 3",
+            "usage counts VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT level 3",
+            "geometry triangle 4",
+        ]) {
+            assert!(
+                svg.contains(&format!("<g class=\"finding\" data-target=\"{target}\">")),
+                "{target}"
+            );
+        }
         assert!(page.contains(&*escape(&Summary::of(&[report]).line())));
         assert!(page.contains("Every rule the calls reached was decided"));
     }
@@ -722,7 +746,8 @@ mod tests {
         let hostile = r#"x\"><script>alert('omm')</script>"#;
         let text = EXAMPLE.replace("foliage-omm", hostile);
         let path = "<scene & co>.json";
-        let load = |_: &SceneReport| Source::parse(&text, path, Path::new("."));
+        let load =
+            |_: &SceneReport| Source::parse(&text, path, Path::new(".")).map_err(|e| e.to_string());
         let report = load(&example_report())
             .unwrap()
             .scene

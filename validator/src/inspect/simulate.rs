@@ -544,10 +544,59 @@ fn f32_at(bytes: &[u8], i: usize) -> f64 {
     f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }
 
-/// The three vertices of geometry triangle `t` as the build reads them: with
-/// indices, `3t + k` indices from `indexData + primitiveOffset`, plus
-/// `firstVertex`; without, vertices from `vertexData + primitiveOffset +
-/// (firstVertex + 3t + k)·stride`; then `transformData + transformOffset`
+/// The vertex numbers of geometry triangle `t` as the build reads them:
+/// with indices, `firstVertex` plus the `3t + k`th index from `indexData +
+/// primitiveOffset`; without, `firstVertex + 3t + k`. Vertex `n` is at
+/// `vertexData + n·stride`, plus `primitiveOffset` without indices.
+pub(crate) fn vertex_numbers(
+    state: &State,
+    host: bool,
+    g: &TriangleGeometryRecord,
+    range: &BuildRangeInfo,
+    t: u64,
+    work: &mut WorkCounters,
+) -> Result<[u64; 3], SimError> {
+    let overflow = |what| SimError::Unreadable {
+        what,
+        address: u64::MAX,
+    };
+    let offset = u64::from(range.primitive_offset);
+    let first = u64::from(range.first_vertex);
+    let mut out = [0u64; 3];
+    for (k, number) in (0u64..).zip(out.iter_mut()) {
+        let corner = t
+            .checked_mul(3)
+            .and_then(|c| c.checked_add(k))
+            .ok_or(overflow("vertex index"))?;
+        let index = match g.index_type {
+            INDEX_TYPE_NONE => corner,
+            INDEX_TYPE_UINT16 | INDEX_TYPE_UINT32 => {
+                let size = if g.index_type == INDEX_TYPE_UINT16 {
+                    2
+                } else {
+                    4
+                };
+                let at = corner
+                    .checked_mul(size)
+                    .and_then(|o| o.checked_add(offset))
+                    .and_then(|o| o.checked_add(g.index_data))
+                    .ok_or(overflow("vertex index"))?;
+                let bytes = read(state, host, at, size, "vertex index", work)?;
+                work.indices_read = work.indices_read.saturating_add(1);
+                bytes
+                    .iter()
+                    .rev()
+                    .fold(0u64, |acc, b| (acc << 8) | u64::from(*b))
+            }
+            other => return Err(SimError::IndexType(other)),
+        };
+        *number = first.checked_add(index).ok_or(overflow("vertex"))?;
+    }
+    Ok(out)
+}
+
+/// The three vertices of geometry triangle `t` as the build reads them
+/// (at [`vertex_numbers`]), then moved by `transformData + transformOffset`
 /// (a row-major 3×4 matrix) where it is set.
 fn vertices(
     state: &State,
@@ -564,40 +613,20 @@ fn vertices(
         what,
         address: u64::MAX,
     };
-    let offset = u64::from(range.primitive_offset);
-    let first = u64::from(range.first_vertex);
+    // Without indices the vertices start at primitiveOffset.
+    let base = if g.index_type == INDEX_TYPE_NONE {
+        g.vertex_data
+            .checked_add(u64::from(range.primitive_offset))
+            .ok_or(overflow("vertex"))?
+    } else {
+        g.vertex_data
+    };
+    let numbers = vertex_numbers(state, host, g, range, t, work)?;
     let mut out = [DVec3::ZERO; 3];
-    for (k, vertex) in (0u64..).zip(out.iter_mut()) {
-        let corner = t
-            .checked_mul(3)
-            .and_then(|c| c.checked_add(k))
-            .ok_or(overflow("vertex index"))?;
-        let (base, number) = match g.index_type {
-            INDEX_TYPE_NONE => (g.vertex_data.checked_add(offset), first.checked_add(corner)),
-            INDEX_TYPE_UINT16 | INDEX_TYPE_UINT32 => {
-                let size = if g.index_type == INDEX_TYPE_UINT16 {
-                    2
-                } else {
-                    4
-                };
-                let at = corner
-                    .checked_mul(size)
-                    .and_then(|o| o.checked_add(offset))
-                    .and_then(|o| o.checked_add(g.index_data))
-                    .ok_or(overflow("vertex index"))?;
-                let bytes = read(state, host, at, size, "vertex index", work)?;
-                work.indices_read = work.indices_read.saturating_add(1);
-                let index = bytes
-                    .iter()
-                    .rev()
-                    .fold(0u64, |acc, b| (acc << 8) | u64::from(*b));
-                (Some(g.vertex_data), first.checked_add(index))
-            }
-            other => return Err(SimError::IndexType(other)),
-        };
+    for (number, vertex) in numbers.iter().zip(out.iter_mut()) {
         let at = number
-            .and_then(|n| n.checked_mul(g.vertex_stride))
-            .and_then(|o| o.checked_add(base?))
+            .checked_mul(g.vertex_stride)
+            .and_then(|o| o.checked_add(base))
             .ok_or(overflow("vertex"))?;
         let bytes = read(state, host, at, 12, "vertex", work)?;
         *vertex = DVec3::new(f32_at(bytes, 0), f32_at(bytes, 1), f32_at(bytes, 2));

@@ -71,6 +71,10 @@ pub struct SceneFile {
     /// triangle of a bottom-level acceleration structure a call built.
     #[serde(default)]
     pub rays: Vec<RayDesc>,
+    /// Alpha textures that pictures of BLAS geometries are drawn over
+    /// (`ommcheck draw`); the checks ignore them.
+    #[serde(default)]
+    pub alpha_textures: Vec<AlphaTextureDesc>,
 }
 
 /// One candidate hit to simulate (`ommcheck trace`): a triangle of a
@@ -752,3 +756,5 @@ pub use pipeline::*;
 // Command buffer, submission, wait and query-reset calls.
 mod execution;
 pub use execution::*;
+mod texture;
+pub use texture::AlphaTextureDesc;

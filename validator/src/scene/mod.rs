@@ -194,6 +194,7 @@ impl Scene {
                     driver_answers: Default::default(),
                     calls: Vec::new(),
                     rays: Vec::new(),
+                    alpha_textures: Vec::new(),
                 },
                 call_lines: Vec::new(),
             },
