@@ -62,6 +62,7 @@ pub mod own_calls;
 mod pipe;
 mod pipelines;
 mod properties;
+mod provenance;
 mod read;
 mod readback;
 pub mod report;

@@ -467,6 +467,29 @@ impl Validator {
         }
     }
 
+    /// Checks `vkCopyAccelerationStructureToMemoryKHR(device,
+    /// deferredOperation, pInfo)`.
+    ///
+    /// # Safety
+    /// As [`Self::cmd_copy_acceleration_structure_to_memory_raw`].
+    pub unsafe fn copy_acceleration_structure_to_memory_raw(
+        &mut self,
+        info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
+    ) -> Report {
+        let function = "vkCopyAccelerationStructureToMemoryKHR";
+        // SAFETY: forwarded from the caller.
+        unsafe {
+            read_then_check(
+                info,
+                function,
+                copy_acceleration_structure_to_memory_info,
+                |model, _| {
+                    unchecked_if_none(model, |m| self.copy_acceleration_structure_to_memory(m))
+                },
+            )
+        }
+    }
+
     /// Checks `vkCmdCopyMemoryToAccelerationStructureKHR(commandBuffer, pInfo)`.
     ///
     /// # Safety

@@ -172,7 +172,7 @@ impl Fingerprints {
             return Some(s.clone());
         }
         let entry = self.store.as_ref()?.find(fingerprint)?;
-        Some(Arc::new(self.from_entry(&entry)))
+        Some(Arc::new(self.serialization_of(&entry)))
     }
 
     /// Uses `store` from now on; this run gets a name of its own in it.
@@ -233,7 +233,7 @@ impl Fingerprints {
     }
 
     /// The store's entry for a serialization this run saw.
-    fn to_entry(
+    fn entry_of(
         &self,
         fingerprint: Fingerprint,
         s: &Serialization,
@@ -292,7 +292,7 @@ impl Fingerprints {
     }
 
     /// The serialization a store entry describes, in this run's terms.
-    fn from_entry(&self, entry: &Entry) -> Serialization {
+    fn serialization_of(&self, entry: &Entry) -> Serialization {
         let function = store::FUNCTIONS
             .get(usize::from(entry.function))
             .copied()
@@ -308,20 +308,25 @@ impl Fingerprints {
                 structure: 0,
                 ty: s.ty,
                 content,
-                original: s.original.as_ref().map(|(flags, list)| OriginalAttachments {
-                    flags: *flags,
-                    deserialized: false,
-                    geometries: list
-                        .iter()
-                        .map(|a| match a {
-                            StoredAttachment::Absent => KhrOpacityAttachment::Absent,
-                            StoredAttachment::NullMicromap => KhrOpacityAttachment::NullMicromap,
-                            // The handle is not kept; a deserialized
-                            // structure's rules never compare it.
-                            StoredAttachment::Micromap => KhrOpacityAttachment::Micromap(0),
-                        })
-                        .collect(),
-                }),
+                original: s
+                    .original
+                    .as_ref()
+                    .map(|(flags, list)| OriginalAttachments {
+                        flags: *flags,
+                        deserialized: false,
+                        geometries: list
+                            .iter()
+                            .map(|a| match a {
+                                StoredAttachment::Absent => KhrOpacityAttachment::Absent,
+                                StoredAttachment::NullMicromap => {
+                                    KhrOpacityAttachment::NullMicromap
+                                }
+                                // The handle is not kept; a deserialized
+                                // structure's rules never compare it.
+                                StoredAttachment::Micromap => KhrOpacityAttachment::Micromap(0),
+                            })
+                            .collect(),
+                    }),
                 micromaps: s.micromaps.as_ref().map(|list| {
                     list.iter()
                         .map(|e| match e {
@@ -498,10 +503,11 @@ impl Provenance {
         };
         let serialization = write.serialization.clone();
         if let Some(store) = self.fingerprints.store.clone() {
-            store.remember(
-                self.fingerprints
-                    .to_entry(fingerprint, &serialization, &self.before_run),
-            );
+            store.remember(self.fingerprints.entry_of(
+                fingerprint,
+                &serialization,
+                &self.before_run,
+            ));
         }
         self.fingerprints.remember(fingerprint, serialization);
         true

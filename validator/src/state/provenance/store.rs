@@ -205,7 +205,11 @@ impl Entry {
             return out;
         };
         out.extend_from_slice(&s.ty.to_le_bytes());
-        match s.original.as_ref().filter(|(_, g)| g.len() <= MAX_GEOMETRIES) {
+        match s
+            .original
+            .as_ref()
+            .filter(|(_, g)| g.len() <= MAX_GEOMETRIES)
+        {
             Some((flags, geometries)) => {
                 out.push(1);
                 out.extend_from_slice(&flags.to_le_bytes());
@@ -492,7 +496,7 @@ impl Inner {
     }
 
     /// Stops using the file: from now on the store is in memory only.
-    fn to_memory(&mut self, kind: &'static str, text: String) {
+    fn fall_back_to_memory(&mut self, kind: &'static str, text: String) {
         self.disk = None;
         self.warn(
             kind,
@@ -588,7 +592,7 @@ impl Store {
                     inner.disk = Some(disk);
                     Self::refresh(&mut inner);
                 }
-                Err(e) => inner.to_memory(
+                Err(e) => inner.fall_back_to_memory(
                     "open",
                     format!(
                         "the provenance store {} could not be opened ({e})",
@@ -680,7 +684,10 @@ impl Store {
                     inner.index.insert(entry, bound);
                 }
             }
-            Err(e) => inner.to_memory("read", format!("the provenance store could not be read ({e})")),
+            Err(e) => inner.fall_back_to_memory(
+                "read",
+                format!("the provenance store could not be read ({e})"),
+            ),
         }
     }
 
@@ -729,7 +736,7 @@ impl Store {
         };
         let tear = std::mem::take(&mut inner.tear_next);
         if let Err(e) = Self::append(&mut inner, &record, tear) {
-            inner.to_memory(
+            inner.fall_back_to_memory(
                 "write",
                 format!("the provenance store could not be written ({e})"),
             );
