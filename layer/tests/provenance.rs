@@ -21,7 +21,6 @@ use std::time::{Duration, Instant};
 use ash::vk;
 use fake::{device_fn, Chain, Serialized, DRIVER_UUID};
 use ommcheck::state::provenance::store::{self, ContentKey, Entry, Store};
-use VkLayer_ommcheck as layer;
 
 const SMALLER: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-dst-07550";
 const NOT_SERIALIZED: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-src-07547";
@@ -41,20 +40,10 @@ fn fresh_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// The chain with `provenance_store` set to `value` through
-/// VK_EXT_layer_settings (per instance, so parallel tests do not share it).
+/// The chain with `provenance_store` set to `value` (per instance, so
+/// parallel tests do not share it).
 fn chain_with_setting(value: &std::ffi::CStr) -> Chain {
-    let values = [value.as_ptr()];
-    let settings = [vk::LayerSettingEXT {
-        p_layer_name: layer::LAYER_NAME_C.as_ptr(),
-        p_setting_name: c"provenance_store".as_ptr(),
-        ty: vk::LayerSettingTypeEXT::STRING,
-        value_count: 1,
-        p_values: values.as_ptr().cast(),
-        ..Default::default()
-    }];
-    let info = vk::LayerSettingsCreateInfoEXT::default().settings(&settings);
-    Chain::with_instance_next((&info as *const vk::LayerSettingsCreateInfoEXT).cast())
+    Chain::with_settings(&[(c"provenance_store", value)])
 }
 
 /// The chain with its provenance store in `dir`.

@@ -581,6 +581,67 @@ mod tests {
     }
 
     #[test]
+    fn another_run_finds_a_serialization_through_a_shared_store() {
+        let dir =
+            std::env::temp_dir().join(format!("ommcheck-provenance-shared-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut first = Provenance::default();
+        first
+            .fingerprints
+            .use_store(Arc::new(Store::open(&dir, store::DEFAULT_MAX_BYTES)));
+        first.constructed(1);
+        let content = first.content(1);
+        let mut serialization = micromap(1);
+        serialization.what = Serialized::Micromap {
+            micromap: 1,
+            size: 4096,
+            content,
+        };
+        first.serialized_at(Space::Host, 0x100, serialization);
+        assert!(first.remember_fingerprint(Space::Host, 0x100, 0xF1));
+        // Another run (a fresh store handle stands for another process).
+        let mut second = Provenance::default();
+        second
+            .fingerprints
+            .use_store(Arc::new(Store::open(&dir, store::DEFAULT_MAX_BYTES)));
+        let found = second.fingerprints.find(0xF1).expect("in the store");
+        assert!(found.stored);
+        let Serialized::Micromap { size, content, .. } = found.what else {
+            panic!("a micromap");
+        };
+        assert_eq!(size, 4096);
+        let content = content.expect("a construction the first run saw");
+        assert!(second.seen_constructed(content));
+        let again = second.fingerprints.find(0xF1).expect("in the store");
+        assert!(
+            matches!(again.what, Serialized::Micromap { content: Some(c), .. } if c == content),
+            "the same key is the same content id"
+        );
+        // Contents from before the first run saw anything are stored as
+        // unknown, never as something to compare with.
+        let unseen = first.content_or_assign(2);
+        first.serialized_at(
+            Space::Host,
+            0x200,
+            Serialization {
+                what: Serialized::Micromap {
+                    micromap: 2,
+                    size: 64,
+                    content: Some(unseen),
+                },
+                ..micromap(2)
+            },
+        );
+        assert!(first.remember_fingerprint(Space::Host, 0x200, 0xF2));
+        let found = second.fingerprints.find(0xF2).expect("in the store");
+        assert!(matches!(
+            found.what,
+            Serialized::Micromap { content: None, .. }
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn a_build_gives_new_contents_and_a_copy_carries_them() {
         let mut p = Provenance::default();
         p.constructed(1);
