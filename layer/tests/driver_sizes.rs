@@ -344,7 +344,8 @@ fn serialize_then_deserialize(
 #[test]
 fn a_host_deserialization_is_linked_to_the_serialization_at_its_address() {
     const SMALLER: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-dst-07550";
-    let chain = Chain::new();
+    // In memory: a test leaves nothing in the user's cache directory.
+    let chain = Chain::with_settings(&[(c"provenance_store", c"off")]);
     let micromap = |size| {
         let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
         chain.micromap(storage, size)
