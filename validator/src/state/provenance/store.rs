@@ -707,8 +707,15 @@ impl Store {
         let window = max_bytes.saturating_mul(2);
         let from = disk.offset.max(len.saturating_sub(window));
         let bytes = read_from(&mut disk.file, from, window)?;
-        let parsed = parse(&bytes);
-        disk.offset = from.saturating_add(parsed.consumed as u64);
+        // Read from the middle of a large file: up to the first record is
+        // the tail of an older one, not damage.
+        let skip = if from > disk.offset {
+            next_magic(&bytes, 0).unwrap_or(bytes.len())
+        } else {
+            0
+        };
+        let parsed = parse(bytes.get(skip..).unwrap_or_default());
+        disk.offset = from.saturating_add((skip + parsed.consumed) as u64);
         Ok(parsed)
     }
 
