@@ -64,6 +64,9 @@ pub fn intercept(name: &CStr) -> vk::PFN_vkVoidFunction {
             cmd_copy_memory_to_acceleration_structure
                 as vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR,
         ),
+        b"vkCopyAccelerationStructureToMemoryKHR" => as_void(
+            copy_acceleration_structure_to_memory as vk::PFN_vkCopyAccelerationStructureToMemoryKHR,
+        ),
         b"vkCopyMemoryToAccelerationStructureKHR" => as_void(
             copy_memory_to_acceleration_structure as vk::PFN_vkCopyMemoryToAccelerationStructureKHR,
         ),
@@ -540,33 +543,203 @@ host_copy_commands! {
         info: *const vk::CopyAccelerationStructureInfoKHR<'_>
     )
         = "vkCopyAccelerationStructureKHR" => copy_acceleration_structure_raw(device, deferred_operation, info);
-    copy_memory_to_acceleration_structure(
-        device,
-        deferred_operation,
-        info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>
-    )
-        = "vkCopyMemoryToAccelerationStructureKHR"
-        => copy_memory_to_acceleration_structure_raw(info);
     copy_micromap(
         device,
         deferred_operation,
         info: *const vk::CopyMicromapInfoEXT<'_>
     )
         = "vkCopyMicromapEXT" => copy_micromap_raw(device, deferred_operation, info);
-    copy_micromap_to_memory(
+}
+
+/// What a host serialization wrote at `address`, read once the driver
+/// returned success without deferring it: its fingerprint is linked to the
+/// serialization and kept in the provenance store. A deferred one is not
+/// read (its bytes are written when the operation completes).
+fn host_serialization_done(
+    device: vk::Device,
+    function: &'static str,
+    result: vk::Result,
+    address: u64,
+) {
+    if !matches!(
+        result,
+        vk::Result::SUCCESS | vk::Result::OPERATION_NOT_DEFERRED_KHR
+    ) {
+        return;
+    }
+    guarded(function, (), || {
+        let Some(data) = crate::dispatch::DEVICES.get(device) else {
+            return;
+        };
+        let mut warnings = Vec::new();
+        track(&data, function, |state| {
+            // SAFETY: the serialization completed: the application's
+            // destination holds the serialized data, as large as the
+            // serialization size the header states.
+            unsafe { crate::provenance::host_serialization_done(&mut state.validator, address) };
+            warnings = state.validator.provenance_store_warnings();
+        });
+        crate::provenance::warn(&data.instance.reporter, function, &warnings);
+    });
+}
+
+/// The store's warnings a host deserialization's lookup gave.
+fn store_warnings(device: vk::Device, function: &'static str) {
+    guarded(function, (), || {
+        let Some(data) = crate::dispatch::DEVICES.get(device) else {
+            return;
+        };
+        let warnings = data.state().validator.provenance_store_warnings();
+        crate::provenance::warn(&data.instance.reporter, function, &warnings);
+    });
+}
+
+/// A host serialization: checked, passed on, and what it wrote at `dst`
+/// fingerprinted ([`host_serialization_done`]).
+fn host_serialization<F: Copy>(
+    function: &'static str,
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    pick: fn(&DeviceFns) -> Option<F>,
+    checks: impl FnOnce(&mut DeviceState) -> Report,
+    call_down: impl FnOnce(F) -> vk::Result,
+    dst: Option<vk::DeviceOrHostAddressKHR>,
+) -> vk::Result {
+    let result = host_command(function, device, pick, checks, |next| {
+        deferrable(device, deferred_operation, || call_down(next))
+    });
+    if let Some(dst) = dst {
+        // SAFETY: a host command's dst is a host address.
+        let address = unsafe { dst.host_address }.expose_provenance() as u64;
+        host_serialization_done(device, function, result, address);
+    }
+    result
+}
+
+/// A host deserialization: its source bytes at `src` are fingerprinted
+/// before the check, which links what it constructs to what they were
+/// serialized from; then checked and passed on.
+fn host_deserialization<F: Copy>(
+    function: &'static str,
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    pick: fn(&DeviceFns) -> Option<F>,
+    src: Option<vk::DeviceOrHostAddressConstKHR>,
+    checks: impl FnOnce(&mut DeviceState) -> Report,
+    call_down: impl FnOnce(F) -> vk::Result,
+) -> vk::Result {
+    let checks = |state: &mut DeviceState| {
+        if let Some(src) = src {
+            // SAFETY: a host command's src is a host address holding
+            // serialized data, its header first (the API's requirement).
+            unsafe {
+                let address = src.host_address.expose_provenance() as u64;
+                crate::provenance::host_deserialization_source(&mut state.validator, address);
+            }
+        }
+        checks(state)
+    };
+    let result = host_command(function, device, pick, checks, |next| {
+        deferrable(device, deferred_operation, || call_down(next))
+    });
+    store_warnings(device, function);
+    result
+}
+
+/// `vkCopyMicromapToMemoryEXT`.
+unsafe extern "system" fn copy_micromap_to_memory(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+) -> vk::Result {
+    host_serialization(
+        "vkCopyMicromapToMemoryEXT",
         device,
         deferred_operation,
-        info: *const vk::CopyMicromapToMemoryInfoEXT<'_>
+        |f| f.accel.copy_micromap_to_memory,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_micromap_to_memory_raw(device, deferred_operation, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+        // SAFETY: the info is valid (the API's requirement).
+        unsafe { info.as_ref() }.map(|i| i.dst),
     )
-        = "vkCopyMicromapToMemoryEXT"
-        => copy_micromap_to_memory_raw(device, deferred_operation, info);
-    copy_memory_to_micromap(
+}
+
+/// `vkCopyAccelerationStructureToMemoryKHR`.
+unsafe extern "system" fn copy_acceleration_structure_to_memory(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
+) -> vk::Result {
+    host_serialization(
+        "vkCopyAccelerationStructureToMemoryKHR",
         device,
         deferred_operation,
-        info: *const vk::CopyMemoryToMicromapInfoEXT<'_>
+        |f| f.accel.copy_acceleration_structure_to_memory,
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_acceleration_structure_to_memory_raw(device, deferred_operation, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+        // SAFETY: the info is valid (the API's requirement).
+        unsafe { info.as_ref() }.map(|i| i.dst),
     )
-        = "vkCopyMemoryToMicromapEXT"
-        => copy_memory_to_micromap_raw(device, deferred_operation, info);
+}
+
+/// `vkCopyMemoryToMicromapEXT`.
+unsafe extern "system" fn copy_memory_to_micromap(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMemoryToMicromapInfoEXT<'_>,
+) -> vk::Result {
+    host_deserialization(
+        "vkCopyMemoryToMicromapEXT",
+        device,
+        deferred_operation,
+        |f| f.accel.copy_memory_to_micromap,
+        // SAFETY: the info is valid (the API's requirement).
+        unsafe { info.as_ref() }.map(|i| i.src),
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_memory_to_micromap_raw(device, deferred_operation, info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
+}
+
+/// `vkCopyMemoryToAccelerationStructureKHR`.
+unsafe extern "system" fn copy_memory_to_acceleration_structure(
+    device: vk::Device,
+    deferred_operation: vk::DeferredOperationKHR,
+    info: *const vk::CopyMemoryToAccelerationStructureInfoKHR<'_>,
+) -> vk::Result {
+    host_deserialization(
+        "vkCopyMemoryToAccelerationStructureKHR",
+        device,
+        deferred_operation,
+        |f| f.accel.copy_memory_to_acceleration_structure,
+        // SAFETY: the info is valid (the API's requirement).
+        unsafe { info.as_ref() }.map(|i| i.src),
+        // SAFETY: the application's arguments, valid as the API requires.
+        |state| unsafe {
+            state
+                .validator
+                .copy_memory_to_acceleration_structure_raw(info)
+        },
+        // SAFETY: the next layer's function, with the application's arguments.
+        |next| unsafe { next(device, deferred_operation, info) },
+    )
 }
 
 /// `vkCmdBeginQuery`: the micromap rule only (the pool must not be a

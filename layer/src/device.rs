@@ -147,6 +147,11 @@ pub unsafe extern "system" fn create_device(
             let physical_device_count = device.physical_device_count;
             let mut validator = Validator::new(device);
             validator.set_tier(tier);
+            if let Some(store) =
+                crate::provenance::open(&settings, &instance.reporter, "vkCreateDevice")
+            {
+                validator.use_provenance_store(store);
+            }
             let data = Arc::new(DeviceData {
                 handle,
                 next_gdpa,

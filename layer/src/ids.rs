@@ -17,13 +17,19 @@ pub const EFFECTIVE_SETTINGS: &str = "OMMCHECK-layer-effective-settings";
 /// the layer. A warning once per device and cause, naming the first such
 /// build and why, and a count at `vkDestroyDevice` where more followed.
 pub const CONTENTS_NOT_CHECKED: &str = "OMMCHECK-layer-contents-not-checked";
+/// The provenance store cannot serve as it should (cannot be created or
+/// written, is not a store, holds damaged records, stays locked, or reached
+/// its bound): a warning once per process and kind; the layer goes on with
+/// provenance in memory.
+pub const PROVENANCE_STORE: &str = "OMMCHECK-layer-provenance-store";
 
 /// Every id above: what `message_id_filter` may name besides the rules.
-pub const ALL: [&str; 4] = [
+pub const ALL: [&str; 5] = [
     INTERNAL_ERROR,
     SETTINGS_PROBLEM,
     EFFECTIVE_SETTINGS,
     CONTENTS_NOT_CHECKED,
+    PROVENANCE_STORE,
 ];
 
 #[cfg(test)]

@@ -23,6 +23,9 @@
 //!   bound shaders reach (`pipe_state`), the layer's readback memory
 //!   (`readback_memory`), and kept builds and pending submissions
 //!   (`submissions`);
+//! - `provenance`: the persistent provenance store, opened once per
+//!   process and directory, and the serialized bytes host copies write and
+//!   read;
 //! - `intercept`: what every intercept uses: the panic guard, finding a
 //!   device and the next layer's function, running a check and delivering
 //!   its findings;
@@ -62,6 +65,7 @@ pub mod own_calls;
 mod pipe;
 mod pipelines;
 mod properties;
+mod provenance;
 mod read;
 mod readback;
 pub mod report;

@@ -27,6 +27,8 @@ pub const BREAK_ON_ERROR: &str = "OMMCHECK_BREAK_ON_ERROR";
 pub const GPU_READBACK: &str = "OMMCHECK_GPU_READBACK";
 pub const GPU_READBACK_MAX_BYTES: &str = "OMMCHECK_GPU_READBACK_MAX_BYTES";
 pub const GPU_READBACK_INDIRECT_MAX_BYTES: &str = "OMMCHECK_GPU_READBACK_INDIRECT_MAX_BYTES";
+pub const PROVENANCE_STORE: &str = "OMMCHECK_PROVENANCE_STORE";
+pub const PROVENANCE_STORE_MAX_BYTES: &str = "OMMCHECK_PROVENANCE_STORE_MAX_BYTES";
 
 /// A setting as the layer manifest's `features.settings` describes it
 /// (the format the Khronos layers use and vkconfig reads).
@@ -48,7 +50,7 @@ pub struct SettingDoc {
 }
 
 /// Every setting, in the order the manifest lists them.
-pub const DOCUMENTED: [SettingDoc; 11] = [
+pub const DOCUMENTED: [SettingDoc; 13] = [
     SettingDoc {
         key: "report_flags",
         env: REPORT,
@@ -158,6 +160,24 @@ pub const DOCUMENTED: [SettingDoc; 11] = [
         env: GPU_READBACK_INDIRECT_MAX_BYTES,
         label: "Indirect Build Input Window",
         description: "The most bytes read of each input whose extent an indirect build's range infos decide (opacity index buffers, instances), from its start towards the end of its buffer; what the ranges place past it is reported as not checked.",
+        kind: "INT",
+        default_json: "16777216",
+        flags: &[],
+    },
+    SettingDoc {
+        key: "provenance_store",
+        env: PROVENANCE_STORE,
+        label: "Provenance Store",
+        description: "The directory of the store that links serialized micromaps and acceleration structures to what they were serialized from, across runs and processes: empty for $XDG_CACHE_HOME/ommcheck (or $HOME/.cache/ommcheck), a path, or off to keep provenance in memory only. It holds fingerprints, sizes and object kinds, never application data.",
+        kind: "STRING",
+        default_json: r#""""#,
+        flags: &[],
+    },
+    SettingDoc {
+        key: "provenance_store_max_bytes",
+        env: PROVENANCE_STORE_MAX_BYTES,
+        label: "Provenance Store Size",
+        description: "The most bytes the provenance store's file holds; past it the oldest entries are dropped (said once). At least 65536.",
         kind: "INT",
         default_json: "16777216",
         flags: &[],

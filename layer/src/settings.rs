@@ -246,6 +246,21 @@ pub struct Settings {
     /// The most bytes read of each input of an indirect build whose extent
     /// its range infos decide (from its start towards its buffer's end).
     pub gpu_readback_indirect_max_bytes: u64,
+    /// Where the provenance store lives.
+    pub provenance_store: ProvenanceStore,
+    /// The most bytes the provenance store's file holds.
+    pub provenance_store_max_bytes: u64,
+}
+
+/// The `provenance_store` setting.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ProvenanceStore {
+    /// `$XDG_CACHE_HOME/ommcheck`, else `$HOME/.cache/ommcheck`.
+    Default,
+    /// A directory the setting named.
+    Dir(PathBuf),
+    /// `off`: provenance in memory only.
+    Off,
 }
 
 /// The default of `gpu_readback_max_bytes`: 256 MiB.
@@ -272,6 +287,8 @@ impl Default for Settings {
             gpu_readback: true,
             gpu_readback_max_bytes: DEFAULT_GPU_READBACK_MAX_BYTES,
             gpu_readback_indirect_max_bytes: DEFAULT_GPU_READBACK_INDIRECT_MAX_BYTES,
+            provenance_store: ProvenanceStore::Default,
+            provenance_store_max_bytes: ommcheck::state::provenance::store::DEFAULT_MAX_BYTES,
         }
     }
 }
@@ -635,6 +652,22 @@ pub fn parse_explained(
         let bytes = whole_number::<u64>(v)?;
         Ok(Box::new(move |s| s.gpu_readback_indirect_max_bytes = bytes))
     });
+    get(PROVENANCE_STORE, &|v| {
+        let store = match v.trim() {
+            "" => ProvenanceStore::Default,
+            off if off.eq_ignore_ascii_case("off") => ProvenanceStore::Off,
+            dir => ProvenanceStore::Dir(PathBuf::from(dir)),
+        };
+        Ok(Box::new(move |s| s.provenance_store = store))
+    });
+    get(PROVENANCE_STORE_MAX_BYTES, &|v| {
+        let bytes = whole_number::<u64>(v)?;
+        let least = ommcheck::state::provenance::store::MIN_MAX_BYTES;
+        if bytes < least {
+            return Err(format!("less than the least bound, {least}"));
+        }
+        Ok(Box::new(move |s| s.provenance_store_max_bytes = bytes))
+    });
     // In manifest order, as vkconfig lists them.
     effective.sort_by_key(|e| DOCUMENTED.iter().position(|d| d.key == e.key));
     if let Some(filter) = effective
@@ -937,6 +970,8 @@ mod tests {
                 (GPU_READBACK, "false"),
                 (GPU_READBACK_MAX_BYTES, "4096"),
                 (GPU_READBACK_INDIRECT_MAX_BYTES, "512"),
+                (PROVENANCE_STORE, "/tmp/omm-store"),
+                (PROVENANCE_STORE_MAX_BYTES, "1048576"),
             ],
             None,
         );
@@ -959,6 +994,26 @@ mod tests {
         assert!(!settings.gpu_readback);
         assert_eq!(settings.gpu_readback_max_bytes, 4096);
         assert_eq!(settings.gpu_readback_indirect_max_bytes, 512);
+        assert_eq!(
+            settings.provenance_store,
+            ProvenanceStore::Dir(PathBuf::from("/tmp/omm-store"))
+        );
+        assert_eq!(settings.provenance_store_max_bytes, 1 << 20);
+    }
+
+    #[test]
+    fn the_provenance_store_is_on_by_default_and_off_turns_it_off() {
+        let (settings, problems) = parse_with(&[], None);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(settings.provenance_store, ProvenanceStore::Default);
+        let (settings, _) = parse_with(&[(PROVENANCE_STORE, "OFF")], None);
+        assert_eq!(settings.provenance_store, ProvenanceStore::Off);
+        let (settings, problems) = parse_with(&[(PROVENANCE_STORE_MAX_BYTES, "100")], None);
+        assert_eq!(problems.len(), 1, "{problems:?}");
+        assert_eq!(
+            settings.provenance_store_max_bytes,
+            ommcheck::state::provenance::store::DEFAULT_MAX_BYTES
+        );
     }
 
     /// No documented setting is left unread: a value for each either
@@ -1240,6 +1295,8 @@ ommcheck_validation.break_on_error = false
 ommcheck_validation.gpu_readback = true
 ommcheck_validation.gpu_readback_max_bytes = 1048576
 ommcheck_validation.gpu_readback_indirect_max_bytes = 65536
+ommcheck_validation.provenance_store = off
+ommcheck_validation.provenance_store_max_bytes = 131072
 khronos_validation.report_flags = error
 khronos_validation.tier = nonsense
 ";
@@ -1261,6 +1318,8 @@ khronos_validation.tier = nonsense
         assert_eq!(settings.tier, Tier::Simulate);
         assert_eq!(settings.gpu_readback_max_bytes, 1 << 20);
         assert_eq!(settings.gpu_readback_indirect_max_bytes, 1 << 16);
+        assert_eq!(settings.provenance_store, ProvenanceStore::Off);
+        assert_eq!(settings.provenance_store_max_bytes, 1 << 17);
         assert_eq!(settings.log_file, None);
         assert!(settings.actions.log);
         assert!(

@@ -313,7 +313,7 @@ fn a_version_the_application_asked_about_costs_no_call() {
 /// `data` into `into`; the ids the deserialization drew.
 fn serialize_then_deserialize(
     chain: &Chain,
-    data: &Serialized,
+    data: &mut Serialized,
     from: vk::MicromapEXT,
     into: vk::MicromapEXT,
 ) -> Vec<String> {
@@ -322,13 +322,13 @@ fn serialize_then_deserialize(
     let to = vk::CopyMicromapToMemoryInfoEXT {
         src: from,
         dst: vk::DeviceOrHostAddressKHR {
-            host_address: data.0.as_ptr().cast_mut().cast(),
+            host_address: data.0.as_mut_ptr().cast(),
         },
         mode: vk::CopyMicromapModeEXT::SERIALIZE,
         ..Default::default()
     };
     // SAFETY: a valid info whose destination is 64 bytes the test owns (the
-    // fake driver writes nothing).
+    // fake driver writes 64).
     let result = unsafe { serialize(chain.device, vk::DeferredOperationKHR::null(), &to) };
     assert_eq!(result, vk::Result::SUCCESS);
     chain.collector.take();
@@ -344,15 +344,16 @@ fn serialize_then_deserialize(
 #[test]
 fn a_host_deserialization_is_linked_to_the_serialization_at_its_address() {
     const SMALLER: &str = "VUID-VkCopyMemoryToMicromapInfoEXT-dst-07550";
-    let chain = Chain::new();
+    // In memory: a test leaves nothing in the user's cache directory.
+    let chain = Chain::with_settings(&[(c"provenance_store", c"off")]);
     let micromap = |size| {
         let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
         chain.micromap(storage, size)
     };
     let (large, small) = (micromap(4096), micromap(2048));
-    let data = Serialized::new(DRIVER_UUID, 0);
-    let ids = serialize_then_deserialize(&chain, &data, large, small);
+    let mut data = Serialized::new(DRIVER_UUID, 0);
+    let ids = serialize_then_deserialize(&chain, &mut data, large, small);
     assert!(ids.iter().any(|id| id == SMALLER), "{ids:?}");
-    let ids = serialize_then_deserialize(&chain, &data, small, large);
+    let ids = serialize_then_deserialize(&chain, &mut data, small, large);
     assert!(!ids.iter().any(|id| id == SMALLER), "{ids:?}");
 }

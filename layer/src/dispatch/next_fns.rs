@@ -257,6 +257,8 @@ pub struct AccelFns {
     pub copy_acceleration_structure: Option<vk::PFN_vkCopyAccelerationStructureKHR>,
     pub cmd_copy_acceleration_structure_to_memory:
         Option<vk::PFN_vkCmdCopyAccelerationStructureToMemoryKHR>,
+    pub copy_acceleration_structure_to_memory:
+        Option<vk::PFN_vkCopyAccelerationStructureToMemoryKHR>,
     pub cmd_copy_memory_to_acceleration_structure:
         Option<vk::PFN_vkCmdCopyMemoryToAccelerationStructureKHR>,
     pub copy_memory_to_acceleration_structure:
@@ -324,6 +326,10 @@ impl AccelFns {
             cmd_copy_acceleration_structure_to_memory: load!(
                 c"vkCmdCopyAccelerationStructureToMemoryKHR",
                 vk::PFN_vkCmdCopyAccelerationStructureToMemoryKHR
+            ),
+            copy_acceleration_structure_to_memory: load!(
+                c"vkCopyAccelerationStructureToMemoryKHR",
+                vk::PFN_vkCopyAccelerationStructureToMemoryKHR
             ),
             cmd_copy_memory_to_acceleration_structure: load!(
                 c"vkCmdCopyMemoryToAccelerationStructureKHR",

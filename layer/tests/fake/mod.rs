@@ -1402,12 +1402,53 @@ unsafe extern "system" fn get_device_micromap_compatibility(
     );
 }
 
+/// The serialized data the fake driver writes on the host, 64 bytes: the
+/// header ([`DRIVER_UUID`], 16 zero bytes of compatibility data, the
+/// serialized size 64, the deserialized size, a count of 0), then the
+/// serialized object's handle, so that each object's bytes differ.
+pub const HOST_SERIALIZED_SIZE: usize = 64;
+
+/// Writes [`HOST_SERIALIZED_SIZE`] bytes of serialized `object` at `dst`.
+///
+/// # Safety
+/// `dst` must be writable for [`HOST_SERIALIZED_SIZE`] bytes.
+unsafe fn write_serialization(dst: *mut u8, object: u64) {
+    let mut data = [0u8; HOST_SERIALIZED_SIZE];
+    data[..16].copy_from_slice(&DRIVER_UUID);
+    data[32..40].copy_from_slice(&(HOST_SERIALIZED_SIZE as u64).to_le_bytes());
+    data[40..48].copy_from_slice(&1024u64.to_le_bytes());
+    data[56..64].copy_from_slice(&object.to_le_bytes());
+    unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), dst, data.len()) };
+}
+
 unsafe extern "system" fn copy_micromap_to_memory(
     d: vk::Device,
     op: vk::DeferredOperationKHR,
-    _: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
+    info: *const vk::CopyMicromapToMemoryInfoEXT<'_>,
 ) -> vk::Result {
     record("vkCopyMicromapToMemoryEXT", vec![d.as_raw(), op.as_raw()]);
+    let i = unsafe { &*info };
+    let dst = unsafe { i.dst.host_address }.cast::<u8>();
+    if !dst.is_null() {
+        unsafe { write_serialization(dst, i.src.as_raw()) };
+    }
+    vk::Result::SUCCESS
+}
+
+unsafe extern "system" fn copy_acceleration_structure_to_memory(
+    d: vk::Device,
+    op: vk::DeferredOperationKHR,
+    info: *const vk::CopyAccelerationStructureToMemoryInfoKHR<'_>,
+) -> vk::Result {
+    record(
+        "vkCopyAccelerationStructureToMemoryKHR",
+        vec![d.as_raw(), op.as_raw()],
+    );
+    let i = unsafe { &*info };
+    let dst = unsafe { i.dst.host_address }.cast::<u8>();
+    if !dst.is_null() {
+        unsafe { write_serialization(dst, i.src.as_raw()) };
+    }
     vk::Result::SUCCESS
 }
 
@@ -1621,6 +1662,9 @@ fn device_command(name: &CStr) -> vk::PFN_vkVoidFunction {
         }
         b"vkCopyMemoryToAccelerationStructureKHR" => void(
             copy_memory_to_acceleration_structure as vk::PFN_vkCopyMemoryToAccelerationStructureKHR,
+        ),
+        b"vkCopyAccelerationStructureToMemoryKHR" => void(
+            copy_acceleration_structure_to_memory as vk::PFN_vkCopyAccelerationStructureToMemoryKHR,
         ),
         b"vkFreeCommandBuffers" => void(free_command_buffers as vk::PFN_vkFreeCommandBuffers),
         b"vkDestroyCommandPool" => void(destroy_command_pool as vk::PFN_vkDestroyCommandPool),

@@ -36,6 +36,7 @@ use crate::model::accel::{
 use crate::model::Handle;
 use crate::report::not_checked::Cause;
 use crate::report::{ObjectRef, RuleId};
+use crate::state::provenance::store::Store;
 use crate::state::provenance::{Deserialized, Expected, Serialization, Serialized, Space, Write};
 use crate::state::State;
 
@@ -92,10 +93,13 @@ pub(crate) fn source_of(state: &State, host: bool, address: u64, contents: bool)
     } else {
         state.device_bytes_from(address)
     };
-    if let Some(found) = bytes
-        .and_then(serialized::fingerprint)
-        .and_then(|f| state.provenance.fingerprints.find(f))
-    {
+    // Bytes the state does not hold may have been read by the adaptor.
+    let fingerprint = bytes.and_then(serialized::fingerprint).or_else(|| {
+        contents
+            .then(|| state.provenance.fingerprint_given(Space::of(host), address))
+            .flatten()
+    });
+    if let Some(found) = fingerprint.and_then(|f| state.provenance.fingerprints.find(f)) {
         return Source::Serialized(found, "the fingerprint of the bytes");
     }
     let written = state.provenance.written_at(Space::of(host), address);
@@ -112,6 +116,16 @@ pub(crate) fn source_of(state: &State, host: bool, address: u64, contents: bool)
 }
 
 fn serialized_what(s: &Serialization) -> String {
+    if s.stored {
+        let ty = match &s.what {
+            Serialized::Micromap { .. } => "VkMicromapEXT",
+            Serialized::AccelerationStructure { .. } => "VkAccelerationStructureKHR",
+        };
+        return format!(
+            "{} of a {ty} in another run or process (found in the provenance store)",
+            s.function
+        );
+    }
     match &s.what {
         Serialized::Micromap { micromap, .. } => {
             format!("{} of VkMicromapEXT {micromap:#x}", s.function)
@@ -184,7 +198,14 @@ pub(crate) fn micromap_source(ctx: &mut Ctx<'_>, host: bool, src: u64, dst: Hand
                     dst_size >= *size,
                     from_memory_info::dst_07550,
                     || "pInfo->dst".to_string(),
-                    || format!("dst was created with size {dst_size}, smaller than the size {size} of VkMicromapEXT {micromap:#x} that {} serialized into the bytes at {location} (found by {how})", s.function),
+                    || {
+                        let what = if s.stored {
+                            serialized_what(&s)
+                        } else {
+                            format!("VkMicromapEXT {micromap:#x} that {} serialized", s.function)
+                        };
+                        format!("dst was created with size {dst_size}, smaller than the size {size} of {what} into the bytes at {location} (found by {how})")
+                    },
                 );
             }
         },
@@ -210,6 +231,7 @@ pub(crate) fn record_micromap_serialization(
             size,
             content,
         },
+        stored: false,
     };
     state
         .provenance
@@ -305,6 +327,7 @@ pub(crate) fn record_structure_serialization(
             original: state.original_attachments.get(&src).cloned(),
             micromaps,
         },
+        stored: false,
     };
     state
         .provenance
@@ -683,6 +706,52 @@ impl crate::checks::Validator {
         } else {
             record_micromap_deserialization(state, host, src, dst, contents);
         }
+        state.provenance.source_read();
+    }
+
+    /// The bytes the next deserialization reads at `address` (host memory
+    /// when `host`), as an adaptor read them before the call: bytes the
+    /// state does not hold (a host source, or device bytes read back). Their
+    /// fingerprint decides what they hold, from this run or the
+    /// provenance store. False when they hold no serialized header whose
+    /// size they cover.
+    pub fn deserialization_source(&mut self, host: bool, address: u64, bytes: &[u8]) -> bool {
+        let Some(fingerprint) = serialized::fingerprint(bytes) else {
+            self.state.provenance.source_read();
+            return false;
+        };
+        self.state
+            .provenance
+            .source_fingerprint(Space::of(host), address, fingerprint);
+        true
+    }
+
+    /// Uses `store` for the fingerprints of serialized bytes from now on:
+    /// what this validator links is kept there, and bytes it has not seen
+    /// serialized are looked up there. One store may serve several
+    /// validators.
+    pub fn use_provenance_store(&mut self, store: Arc<Store>) {
+        self.state.provenance.fingerprints.use_store(store);
+    }
+
+    /// Opens the provenance store in `dir` (bounded to `max_bytes`) and
+    /// uses it, as [`Self::use_provenance_store`]; returns the warnings
+    /// opening it gave (a store that cannot be used on disk is in memory).
+    pub fn open_provenance_store(&mut self, dir: &std::path::Path, max_bytes: u64) -> Vec<String> {
+        let store = Arc::new(Store::open(dir, max_bytes));
+        let warnings = store.take_warnings();
+        self.use_provenance_store(store);
+        warnings
+    }
+
+    /// The provenance store's warnings not yet handed out (each said once).
+    pub fn provenance_store_warnings(&self) -> Vec<String> {
+        self.state
+            .provenance
+            .fingerprints
+            .store()
+            .map(|s| s.take_warnings())
+            .unwrap_or_default()
     }
 
     /// A serialization of acceleration structure `src` writing at `dst`.

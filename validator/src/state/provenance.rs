@@ -21,15 +21,21 @@
 //! the oldest are forgotten, which turns a decision into a not-checked
 //! information, never into a finding.
 //!
-//! The fingerprints live in one type, [`Fingerprints`], whose two methods
-//! (`remember`, `find`) are all a persistent store shared by processes
-//! would need to provide; the content ids are per run.
+//! The fingerprints live in one type, [`Fingerprints`], which can be given
+//! a persistent [`store::Store`] shared by runs and processes: what it
+//! remembers is appended there (with the content ids turned into keys that
+//! name this run, [`store::ContentKey`]), and a fingerprint it does not
+//! know is looked up there, the keys of other runs turned into content ids
+//! of this one (the same key always into the same id).
+
+pub mod store;
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 
-use crate::model::accel::OriginalAttachments;
+use crate::model::accel::{KhrOpacityAttachment, OriginalAttachments};
 use crate::model::Handle;
+use store::{ContentKey, Entry, Store, StoredAttachment, StoredExpected, StoredStructure};
 
 /// xxh3-64 of serialized bytes, the addresses an application rewrites
 /// before deserializing left out (see `checks::serialized::fingerprint`).
@@ -90,6 +96,9 @@ pub enum Serialized {
 pub struct Serialization {
     pub function: &'static str,
     pub what: Serialized,
+    /// Found in the provenance store: serialized by another run or
+    /// process (its handles are then 0: the store keeps none).
+    pub stored: bool,
 }
 
 /// What the micromap one geometry of a serialized (or deserialized)
@@ -123,12 +132,26 @@ pub struct Deserialized {
     pub addresses: Option<Vec<u64>>,
 }
 
+/// Content ids of this run that stand for contents of other runs (from
+/// store entries), and the keys they stand for; at most this many.
+const FOREIGN_AT_MOST: usize = 1 << 16;
+/// The bit that sets the content ids standing for other runs' contents
+/// apart from this run's (sequence numbers, far below it).
+const FOREIGN_BIT: u64 = 1 << 63;
+
 /// The fingerprints of serialized bytes the checker saw written; the part of
-/// the provenance a store shared between processes could keep.
+/// the provenance a store shared between processes keeps.
 #[derive(Clone, Debug, Default)]
 pub struct Fingerprints {
     by_fingerprint: BTreeMap<Fingerprint, (u64, Arc<Serialization>)>,
     next: u64,
+    /// The persistent store, where one is used.
+    store: Option<Arc<Store>>,
+    /// This run's name in store keys (nonzero once a store is used).
+    run: u64,
+    /// The keys of other runs' contents met in the store, by the content
+    /// id that stands for each in this run.
+    foreign: Arc<Mutex<BTreeMap<ContentId, ContentKey>>>,
 }
 
 impl Fingerprints {
@@ -142,12 +165,199 @@ impl Fingerprints {
         }
     }
 
-    /// What bytes with `fingerprint` hold, if a serialization wrote them.
+    /// What bytes with `fingerprint` hold, if a serialization wrote them:
+    /// one this run saw, else one the store holds.
     pub fn find(&self, fingerprint: Fingerprint) -> Option<Arc<Serialization>> {
-        self.by_fingerprint
-            .get(&fingerprint)
-            .map(|(_, s)| s.clone())
+        if let Some((_, s)) = self.by_fingerprint.get(&fingerprint) {
+            return Some(s.clone());
+        }
+        let entry = self.store.as_ref()?.find(fingerprint)?;
+        Some(Arc::new(self.serialization_of(&entry)))
     }
+
+    /// Uses `store` from now on; this run gets a name of its own in it.
+    pub fn use_store(&mut self, store: Arc<Store>) {
+        self.store = Some(store);
+        if self.run == 0 {
+            self.run = run_name();
+        }
+    }
+
+    /// The store in use, if any.
+    pub fn store(&self) -> Option<&Arc<Store>> {
+        self.store.as_ref()
+    }
+
+    /// The store key of `content` (unknown: contents from before the
+    /// checker saw anything, in `before_run`).
+    fn key(&self, content: Option<ContentId>, before_run: &BTreeSet<ContentId>) -> ContentKey {
+        let Some(c) = content.filter(|c| !before_run.contains(c)) else {
+            return ContentKey::UNKNOWN;
+        };
+        if c & FOREIGN_BIT != 0 {
+            return self
+                .foreign
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .get(&c)
+                .copied()
+                .unwrap_or(ContentKey::UNKNOWN);
+        }
+        ContentKey {
+            run: self.run,
+            content: c,
+        }
+    }
+
+    /// The content id of `key` in this run: this run's own, or one that
+    /// stands for another run's (always the same for the same key).
+    fn local(&self, key: ContentKey) -> Option<ContentId> {
+        if !key.is_known() {
+            return None;
+        }
+        if key.run == self.run {
+            return Some(key.content);
+        }
+        let mut bytes = [0u8; 16];
+        bytes[..8].copy_from_slice(&key.run.to_le_bytes());
+        bytes[8..].copy_from_slice(&key.content.to_le_bytes());
+        let id = FOREIGN_BIT | xxhash_rust::xxh3::xxh3_64(&bytes);
+        let mut foreign = self.foreign.lock().unwrap_or_else(PoisonError::into_inner);
+        if foreign.len() >= FOREIGN_AT_MOST {
+            // Forgetting makes a later serialization of such contents
+            // store them as unknown: a not-checked, never a finding.
+            foreign.clear();
+        }
+        foreign.insert(id, key);
+        Some(id)
+    }
+
+    /// The store's entry for a serialization this run saw.
+    fn entry_of(
+        &self,
+        fingerprint: Fingerprint,
+        s: &Serialization,
+        before_run: &BTreeSet<ContentId>,
+    ) -> Entry {
+        let function = store::function_index(s.function);
+        match &s.what {
+            Serialized::Micromap { size, content, .. } => Entry {
+                fingerprint,
+                function,
+                size: *size,
+                content: self.key(*content, before_run),
+                structure: None,
+            },
+            Serialized::AccelerationStructure {
+                ty,
+                content,
+                original,
+                micromaps,
+                ..
+            } => Entry {
+                fingerprint,
+                function,
+                size: 0,
+                content: self.key(*content, before_run),
+                structure: Some(StoredStructure {
+                    ty: *ty,
+                    original: original.as_ref().map(|o| {
+                        let list = o.geometries.iter().map(|a| match a {
+                            KhrOpacityAttachment::Absent => StoredAttachment::Absent,
+                            KhrOpacityAttachment::NullMicromap => StoredAttachment::NullMicromap,
+                            KhrOpacityAttachment::Micromap(_) => StoredAttachment::Micromap,
+                        });
+                        (o.flags, list.collect())
+                    }),
+                    micromaps: micromaps.as_ref().map(|list| {
+                        list.iter()
+                            .map(|e| match e {
+                                Expected::None => StoredExpected::None,
+                                Expected::Content(c) => {
+                                    let key = self.key(Some(*c), before_run);
+                                    if key.is_known() {
+                                        StoredExpected::Content(key)
+                                    } else {
+                                        StoredExpected::Unknown
+                                    }
+                                }
+                                Expected::Unknown => StoredExpected::Unknown,
+                                Expected::Replaced => StoredExpected::Replaced,
+                            })
+                            .collect()
+                    }),
+                }),
+            },
+        }
+    }
+
+    /// The serialization a store entry describes, in this run's terms.
+    fn serialization_of(&self, entry: &Entry) -> Serialization {
+        let function = store::FUNCTIONS
+            .get(usize::from(entry.function))
+            .copied()
+            .unwrap_or(store::FUNCTIONS[0]);
+        let content = self.local(entry.content);
+        let what = match &entry.structure {
+            None => Serialized::Micromap {
+                micromap: 0,
+                size: entry.size,
+                content,
+            },
+            Some(s) => Serialized::AccelerationStructure {
+                structure: 0,
+                ty: s.ty,
+                content,
+                original: s
+                    .original
+                    .as_ref()
+                    .map(|(flags, list)| OriginalAttachments {
+                        flags: *flags,
+                        deserialized: false,
+                        geometries: list
+                            .iter()
+                            .map(|a| match a {
+                                StoredAttachment::Absent => KhrOpacityAttachment::Absent,
+                                StoredAttachment::NullMicromap => {
+                                    KhrOpacityAttachment::NullMicromap
+                                }
+                                // The handle is not kept; a deserialized
+                                // structure's rules never compare it.
+                                StoredAttachment::Micromap => KhrOpacityAttachment::Micromap(0),
+                            })
+                            .collect(),
+                    }),
+                micromaps: s.micromaps.as_ref().map(|list| {
+                    list.iter()
+                        .map(|e| match e {
+                            StoredExpected::None => Expected::None,
+                            StoredExpected::Content(k) => {
+                                self.local(*k).map_or(Expected::Unknown, Expected::Content)
+                            }
+                            StoredExpected::Unknown => Expected::Unknown,
+                            StoredExpected::Replaced => Expected::Replaced,
+                        })
+                        .collect()
+                }),
+            },
+        };
+        Serialization {
+            function,
+            what,
+            stored: true,
+        }
+    }
+}
+
+/// A name for this run in the store: random per call (std's hasher keys are
+/// random per process and per `RandomState`), never 0.
+fn run_name() -> u64 {
+    use std::hash::BuildHasher;
+    let state = std::collections::hash_map::RandomState::new();
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    state.hash_one((std::process::id(), now)) | 1
 }
 
 /// Removes the entry of `map` with the smallest sequence number.
@@ -190,6 +400,9 @@ pub struct Provenance {
     /// (built before it saw anything): they stand for whatever the object
     /// held, which may itself have been deserialized from anything.
     before_run: BTreeSet<ContentId>,
+    /// The fingerprint of a deserialization's source an adaptor read, and
+    /// where (see [`Self::source_fingerprint`]).
+    source: Option<(Space, u64, Fingerprint)>,
 }
 
 impl Provenance {
@@ -289,8 +502,35 @@ impl Provenance {
             return false;
         };
         let serialization = write.serialization.clone();
+        if let Some(store) = self.fingerprints.store.clone() {
+            store.remember(self.fingerprints.entry_of(
+                fingerprint,
+                &serialization,
+                &self.before_run,
+            ));
+        }
         self.fingerprints.remember(fingerprint, serialization);
         true
+    }
+
+    /// The fingerprint of the bytes a deserialization is about to read at
+    /// `address`, as an adaptor read them (bytes the core's state does not
+    /// hold: a host source, or device bytes read back); consulted for
+    /// that address until [`Self::source_read`] clears it.
+    pub fn source_fingerprint(&mut self, space: Space, address: u64, fingerprint: Fingerprint) {
+        self.source = Some((space, address, fingerprint));
+    }
+
+    /// The deserialization whose source fingerprint was given is done.
+    pub fn source_read(&mut self) {
+        self.source = None;
+    }
+
+    /// The fingerprint an adaptor gave for the bytes at `address`.
+    pub fn fingerprint_given(&self, space: Space, address: u64) -> Option<Fingerprint> {
+        self.source
+            .filter(|(s, a, _)| *s == space && *a == address)
+            .map(|(_, _, f)| f)
     }
 }
 
@@ -306,6 +546,7 @@ mod tests {
                 size: 64,
                 content: None,
             },
+            stored: false,
         }
     }
 
@@ -337,6 +578,67 @@ mod tests {
             !p.remember_fingerprint(Space::Device, 8, 1),
             "never written"
         );
+    }
+
+    #[test]
+    fn another_run_finds_a_serialization_through_a_shared_store() {
+        let dir =
+            std::env::temp_dir().join(format!("ommcheck-provenance-shared-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let mut first = Provenance::default();
+        first
+            .fingerprints
+            .use_store(Arc::new(Store::open(&dir, store::DEFAULT_MAX_BYTES)));
+        first.constructed(1);
+        let content = first.content(1);
+        let mut serialization = micromap(1);
+        serialization.what = Serialized::Micromap {
+            micromap: 1,
+            size: 4096,
+            content,
+        };
+        first.serialized_at(Space::Host, 0x100, serialization);
+        assert!(first.remember_fingerprint(Space::Host, 0x100, 0xF1));
+        // Another run (a fresh store handle stands for another process).
+        let mut second = Provenance::default();
+        second
+            .fingerprints
+            .use_store(Arc::new(Store::open(&dir, store::DEFAULT_MAX_BYTES)));
+        let found = second.fingerprints.find(0xF1).expect("in the store");
+        assert!(found.stored);
+        let Serialized::Micromap { size, content, .. } = found.what else {
+            panic!("a micromap");
+        };
+        assert_eq!(size, 4096);
+        let content = content.expect("a construction the first run saw");
+        assert!(second.seen_constructed(content));
+        let again = second.fingerprints.find(0xF1).expect("in the store");
+        assert!(
+            matches!(again.what, Serialized::Micromap { content: Some(c), .. } if c == content),
+            "the same key is the same content id"
+        );
+        // Contents from before the first run saw anything are stored as
+        // unknown, never as something to compare with.
+        let unseen = first.content_or_assign(2);
+        first.serialized_at(
+            Space::Host,
+            0x200,
+            Serialization {
+                what: Serialized::Micromap {
+                    micromap: 2,
+                    size: 64,
+                    content: Some(unseen),
+                },
+                ..micromap(2)
+            },
+        );
+        assert!(first.remember_fingerprint(Space::Host, 0x200, 0xF2));
+        let found = second.fingerprints.find(0xF2).expect("in the store");
+        assert!(matches!(
+            found.what,
+            Serialized::Micromap { content: None, .. }
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
