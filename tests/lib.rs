@@ -49,15 +49,19 @@ pub const LOADER_VARS: &[&str] = &[
     "VK_LOADER_LAYERS_DISABLE",
 ];
 
-/// `program` with none of [`LOADER_VARS`] inherited and Mesa's implicit
+/// `program` with none of [`LOADER_VARS`] inherited, Mesa's implicit
 /// device-select layer (installed with lavapipe; it has nothing to select
-/// here) kept out.
+/// here) kept out, and the layer's provenance store off.
 pub fn loader_command(program: &str) -> Command {
     let mut command = Command::new(program);
     for var in LOADER_VARS {
         command.env_remove(var);
     }
     command.env("NODEVICE_SELECT", "1");
+    // The layer's provenance store is on by default, under the home
+    // directory: it would link one test's serializations to another's and
+    // to earlier runs'. A test that wants a store sets its own.
+    command.env("OMMCHECK_PROVENANCE_STORE", "off");
     command
 }
 

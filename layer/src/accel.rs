@@ -683,9 +683,11 @@ unsafe extern "system" fn copy_acceleration_structure_to_memory(
         |f| f.accel.copy_acceleration_structure_to_memory,
         // SAFETY: the application's arguments, valid as the API requires.
         |state| unsafe {
-            state
-                .validator
-                .copy_acceleration_structure_to_memory_raw(device, deferred_operation, info)
+            state.validator.copy_acceleration_structure_to_memory_raw(
+                device,
+                deferred_operation,
+                info,
+            )
         },
         // SAFETY: the next layer's function, with the application's arguments.
         |next| unsafe { next(device, deferred_operation, info) },

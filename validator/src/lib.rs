@@ -123,10 +123,6 @@
 //! [`raw`] takes the ash structures with their pointers, as a layer does.
 
 #![deny(unsafe_code)]
-// The MSRV rose to 1.89 for std's `File::lock` (the provenance store), which
-// turns this lint on for the `% n == 0` tests written before it; moving them
-// to `is_multiple_of` is a change of its own, across modules others edit.
-#![allow(clippy::manual_is_multiple_of)]
 
 /// Shared, immutable bytes: buffer contents, host ranges and what builds
 /// keep of them are views of one memory, never copies.

@@ -87,10 +87,21 @@ impl Calls {
 
 /// The layer's settings as VK_EXT_layer_settings strings, kept alive while
 /// the instance is created.
+///
+/// The provenance store is off unless `settings` name it: on by default,
+/// under the home directory, it would link one test's serializations to
+/// another's and to earlier runs'.
 pub fn with_settings<T>(
     settings: &[(&CStr, &CStr)],
     create: impl FnOnce(*const std::ffi::c_void) -> T,
 ) -> T {
+    let mut settings = settings.to_vec();
+    if !settings
+        .iter()
+        .any(|(name, _)| *name == c"provenance_store")
+    {
+        settings.push((c"provenance_store", c"off"));
+    }
     let values: Vec<*const std::ffi::c_char> = settings.iter().map(|(_, v)| v.as_ptr()).collect();
     let settings: Vec<vk::LayerSettingEXT<'_>> = settings
         .iter()

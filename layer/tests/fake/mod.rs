@@ -1913,7 +1913,7 @@ impl Chain {
     /// The chain, with `VK_EXT_opacity_micromap` and its `micromap` and
     /// `micromapHostCommands` features and `bufferDeviceAddress` enabled.
     pub fn new() -> Self {
-        Self::with_instance_next(std::ptr::null())
+        Self::with_settings(&[])
     }
 
     /// As [`Chain::new`], with `next` (the application's structures, such
@@ -1928,7 +1928,7 @@ impl Chain {
     /// pNext) chained to the device create info too; returns what
     /// vkCreateDevice returned.
     pub fn with_device_chain(extra: *mut vk::BaseOutStructure<'_>) -> (Self, vk::Result) {
-        Self::with_chains(std::ptr::null(), extra, true)
+        app::with_settings(&[], |next| Self::with_chains(next, extra, true))
     }
 
     /// The chain with `next` after the instance's link info and `extra` in

@@ -505,7 +505,7 @@ fn shared_members(ctx: &mut Ctx<'_>, a: &Attachment<'_>) {
 /// A misaligned index buffer, or (where no VUID states it) a misaligned
 /// stride: legal for EXT and NV as far as any VUID says, but it crashes drivers.
 fn index_alignment(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, stride_too: bool) {
-    if a.index_buffer % size != 0 {
+    if !a.index_buffer.is_multiple_of(size) {
         ctx.report(
             &rules::INDEX_ALIGNMENT,
             Severity::Warning,
@@ -516,7 +516,7 @@ fn index_alignment(ctx: &mut Ctx<'_>, a: &Attachment<'_>, size: u64, stride_too:
             ),
         );
     }
-    if stride_too && a.index_stride % size != 0 {
+    if stride_too && !a.index_stride.is_multiple_of(size) {
         ctx.report(
             &rules::INDEX_ALIGNMENT,
             Severity::Warning,

@@ -883,7 +883,7 @@ pub(crate) fn micromap_content(
 ) -> Option<MicromapContent> {
     let total = data.usage_counts.total();
     let stride = data.triangle_array_stride;
-    if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
+    if total == 0 || stride < MicromapTriangle::SIZE || !stride.is_multiple_of(4) {
         return None;
     }
     let (memory, array_start) = contents_from(state, host, data.triangle_array)?;
@@ -1277,7 +1277,7 @@ fn micromap_data(ctx: &mut Ctx<'_>, at: MicromapAt, data: &GeometryMicromapData,
         || format!("{stride} is less than 8"),
     );
     ctx.require(
-        stride % 4 == 0,
+        stride.is_multiple_of(4),
         micromap_vuid::triangleArrayStride_11647,
         || format!("{at}.triangleArrayStride"),
         || format!("{stride} is not a multiple of 4"),
@@ -1542,7 +1542,7 @@ impl TriangleArrayCheck {
         let stride = data.triangle_array_stride;
         // A stride that breaks 11646/11647 is reported there; its entries
         // overlap, so reading them would only repeat that finding.
-        if total == 0 || stride < MicromapTriangle::SIZE || stride % 4 != 0 {
+        if total == 0 || stride < MicromapTriangle::SIZE || !stride.is_multiple_of(4) {
             return;
         }
         let host = ctx.host().filter(|_| self.command.reads_host_memory());

@@ -470,7 +470,7 @@ pub(crate) fn aligned(
     location: impl Display,
 ) {
     ctx.checked(&[vuid.into()]);
-    if alignment != 0 && value % alignment != 0 {
+    if alignment != 0 && !value.is_multiple_of(alignment) {
         ctx.error(
             vuid,
             location.to_string(),

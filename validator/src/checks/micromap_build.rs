@@ -767,7 +767,7 @@ fn triangle_array_stride(
     triangles: u64,
 ) {
     let stride = info.triangle_array_stride;
-    if stride >= MicromapTriangle::SIZE && stride % 4 == 0 {
+    if stride >= MicromapTriangle::SIZE && stride.is_multiple_of(4) {
         return;
     }
     if triangles > 1 {

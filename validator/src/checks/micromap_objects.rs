@@ -1674,7 +1674,7 @@ fn written_data(ctx: &mut Ctx<'_>, count: u32, data_size: u64, data: u64, stride
 /// Size queries write `VkDeviceSize` values: stride and `pData` must fit them.
 fn device_size_results(ctx: &mut Ctx<'_>, data_size: u64, data: u64, stride: u64) {
     ctx.require(
-        stride % DEVICE_SIZE_BYTES == 0,
+        stride.is_multiple_of(DEVICE_SIZE_BYTES),
         host_write::queryType_10071,
         || "stride".into(),
         || format!("{stride} is not a multiple of sizeof(VkDeviceSize) = 8"),
@@ -1685,7 +1685,7 @@ fn device_size_results(ctx: &mut Ctx<'_>, data_size: u64, data: u64, stride: u64
             "dataSize",
             format!("{data_size} bytes cannot hold a VkDeviceSize"),
         );
-    } else if data % DEVICE_SIZE_BYTES != 0 {
+    } else if !data.is_multiple_of(DEVICE_SIZE_BYTES) {
         ctx.error(
             host_write::queryType_10072,
             "pData",

@@ -630,7 +630,7 @@ enum Layout {
 
 /// The corners of the squares layout's triangle `t`, its square's corner at `(x, y)`.
 fn square_triangle(t: u64, (x, y): (f64, f64), s: f64) -> [(f64, f64); 3] {
-    if t % 2 == 0 {
+    if t.is_multiple_of(2) {
         [(x, y + s), (x + s, y + s), (x, y)]
     } else {
         [(x + s, y), (x, y), (x + s, y + s)]

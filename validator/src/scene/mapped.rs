@@ -62,7 +62,7 @@ impl Zeroed {
     /// Whether [`Self::map_file_at`] can place a file at `at`: a page
     /// boundary, on a system where it is implemented.
     pub fn can_map_at(at: u64) -> bool {
-        page_size().is_some_and(|page| at % page as u64 == 0)
+        page_size().is_some_and(|page| at.is_multiple_of(page as u64))
     }
 
     /// Maps `file`'s first `len` bytes over `[at, at + len)`, copy-on-write:
@@ -80,7 +80,7 @@ impl Zeroed {
         let page = page_size().ok_or_else(invalid)?;
         let end = at
             .checked_add(len)
-            .filter(|end| *end <= self.0.len() && at % page == 0)
+            .filter(|end| *end <= self.0.len() && at.is_multiple_of(page))
             .ok_or_else(invalid)?;
         if len == 0 {
             return Ok(self);

@@ -576,7 +576,7 @@ fn decode_hex(text: &str, at: &str) -> Result<Vec<u8>> {
         .bytes()
         .filter(|b| !b.is_ascii_whitespace() && *b != b'_')
         .collect();
-    if digits.len() % 2 != 0 {
+    if !digits.len().is_multiple_of(2) {
         return problem(at, format!("{} hex digits: an odd count", digits.len()));
     }
     digits

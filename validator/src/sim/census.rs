@@ -195,7 +195,7 @@ impl Shape {
     /// 0 and 1 and 4-state 0), so that the data of triangles laid one after
     /// the other reads as one stream of states.
     pub fn fills_bytes(self) -> bool {
-        self.used_bits % 8 == 0
+        self.used_bits.is_multiple_of(8)
     }
 
     /// The state counts of `triangles` triangles of this shape whose data

@@ -283,7 +283,7 @@ pub mod build {
     pub fn string(text: &str) -> Vec<u32> {
         let mut bytes = text.as_bytes().to_vec();
         bytes.push(0);
-        while bytes.len() % 4 != 0 {
+        while !bytes.len().is_multiple_of(4) {
             bytes.push(0);
         }
         bytes
