@@ -9,7 +9,7 @@ use crate::model::micromap::{MicromapUsage, UsageCounts};
 use crate::model::names::Value;
 use crate::model::Handle;
 use crate::scene::args::{AddressArg, HandleArg};
-use crate::scene::format::{ChainStruct, OtherStruct, UsageDesc};
+use crate::scene::format::{ChainStruct, Contents, OtherStruct, Piece, UsageDesc};
 use crate::scene::ObjectKind;
 
 mod generated;
@@ -66,6 +66,14 @@ pub(crate) fn elements_count<T>(
         (None, None) => 0,
     };
     (u32::try_from(implied) != Ok(count)).then_some(count)
+}
+
+/// Bytes as scene contents: one piece of bytes at 0.
+pub(crate) fn contents(bytes: &[u8]) -> Contents {
+    Contents::One(Piece {
+        u8: Some(bytes.to_vec()),
+        ..Piece::default()
+    })
 }
 
 /// `usageCountsCount` where the resolver would not take it from the
