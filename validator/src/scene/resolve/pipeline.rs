@@ -667,3 +667,34 @@ impl Resolver<'_> {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn specialization(json: &str) -> std::result::Result<Vec<SpecializationValue>, String> {
+        let desc: SpecializationInfoDesc = serde_json::from_str(json).unwrap();
+        crate::scene::resolve_alone(|r| r.specialization(&Some(desc), "x"))
+    }
+
+    #[test]
+    fn specialization_values_are_read_from_the_data_and_bad_entries_rejected() {
+        let data = r#""pData": {"u8": [9, 0, 0, 0, 1, 2, 0, 0]}"#;
+        let values = specialization(&format!(
+            r#"{{"pMapEntries": [{{"constantID": 3, "offset": 4}}, {{"constantID": 5, "size": 1}}], {data}}}"#
+        ));
+        let value = |constant_id, value| SpecializationValue { constant_id, value };
+        assert_eq!(values, Ok(vec![value(3, 0x0201), value(5, 9)]));
+        let past_the_end = specialization(&format!(
+            r#"{{"pMapEntries": [{{"constantID": 3, "offset": 6}}], {data}}}"#
+        ));
+        assert_eq!(
+            past_the_end,
+            Err("x.pMapEntries[0]: offset 6 and size 4 do not select 1 to 8 bytes of the 8 bytes of pData".to_string())
+        );
+        let empty = specialization(&format!(
+            r#"{{"pMapEntries": [{{"constantID": 3, "size": 0}}], {data}}}"#
+        ));
+        assert!(empty.is_err(), "{empty:?}");
+    }
+}
