@@ -305,6 +305,23 @@ pub const STRUCTS: &[StructSpec] = &[
         chained: true,
         ..BASE
     },
+    // A shader stage's specialization constants.
+    StructSpec {
+        vk: "VkSpecializationMapEntry",
+        rust: "SpecializationMapEntry",
+        doc: "",
+        defaults: &[("size", "4")],
+        required: &["constantID"],
+        ash: "vk::SpecializationMapEntry",
+        ..BASE
+    },
+    StructSpec {
+        vk: "VkSpecializationInfo",
+        rust: "SpecializationInfo",
+        doc: "",
+        required: &["pData"],
+        ..BASE
+    },
     // A semaphore operation of vkQueueSubmit2.
     StructSpec {
         vk: "VkSemaphoreSubmitInfo",
@@ -338,6 +355,25 @@ fn binds_names(vk: &VkXml, spec: &StructSpec) -> Result<bool, Error> {
         .any(|f| matches!(f.form, Form::Handle(kind) if LOOSE_KINDS.contains(&kind))))
 }
 
+/// Whether `spec`'s resolver takes the resolver mutably: it names loose
+/// objects ([`binds_names`]) or reads contents (which map files), or a
+/// structure it holds in a plain array does.
+fn resolves_mutably(vk: &VkXml, spec: &StructSpec) -> Result<bool, Error> {
+    if binds_names(vk, spec)? {
+        return Ok(true);
+    }
+    for field in fields(vk, spec)? {
+        match &field.form {
+            Form::Blob(_) => return Ok(true),
+            Form::Structs(structs) if resolves_mutably(vk, by_rust(structs.element))? => {
+                return Ok(true)
+            }
+            _ => {}
+        }
+    }
+    Ok(false)
+}
+
 /// What a member is, which decides its form in every generated file.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Form {
@@ -361,7 +397,12 @@ pub enum Form {
     Flags { kind: &'static str, wide: bool },
     /// A plain number; `wide`: 64-bit; `default`: its value when left out
     /// (else 0).
-    Number { wide: bool, default: Option<u64> },
+    /// `size`: a `size_t`, 64-bit in the model.
+    Number {
+        wide: bool,
+        default: Option<u64>,
+        size: bool,
+    },
     /// `usageCountsCount` with `pUsageCounts` and `ppUsageCounts`: one
     /// `UsageCounts` in the model, three members in a scene.
     UsageCounts,
@@ -387,6 +428,12 @@ pub enum Form {
     /// A count member with the array of handles it counts (`libraryCount`
     /// with `pLibraries`): [`Handles`].
     Handles(Handles),
+    /// A count member with the plain array of described structures it
+    /// counts (`mapEntryCount` with `pMapEntries`): [`Structs`].
+    Structs(Structs),
+    /// A byte count with the bytes it counts (`dataSize` with `pData`):
+    /// [`Blob`].
+    Blob(Blob),
 }
 
 /// An array of handles naming objects of one `ObjectKind` (`kind`), and
@@ -408,6 +455,56 @@ fn handle_array(members: &[Member], count: &str) -> Option<Handles> {
         let kind = HANDLE_KINDS.iter().find(|(t, _)| *t == m.type_name)?.1;
         (m.len.as_deref() == Some(count) && m.pointers == [true]).then(|| Handles {
             kind,
+            count: count.to_string(),
+            array: m.name.clone(),
+        })
+    })
+}
+
+/// A plain array of described structures (`element`, a [`STRUCTS`] Rust
+/// name) and the vk.xml names of its count and array members. The model
+/// holds the elements (a NULL array reads as none), a scene the list,
+/// whose length is the count.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Structs {
+    pub element: &'static str,
+    pub count: String,
+    pub array: String,
+}
+
+/// The plain array of described structures `count` counts in `members`,
+/// if one does: a `const VkX*` member with `len="count"` whose type is a
+/// structure of [`STRUCTS`] read on its own (not from a chain).
+fn struct_array(members: &[Member], count: &str) -> Option<Structs> {
+    members.iter().find_map(|m| {
+        let element = STRUCTS.iter().find(|s| s.vk == m.type_name && !s.chained)?;
+        (m.len.as_deref() == Some(count) && m.pointers == [true]).then(|| Structs {
+            element: element.rust,
+            count: count.to_string(),
+            array: m.name.clone(),
+        })
+    })
+}
+
+/// Bytes an application hands in, and the vk.xml names of their byte
+/// count and pointer. The model holds the bytes (a NULL pointer reads as
+/// none), a scene contents, whose length is the count.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Blob {
+    pub count: String,
+    pub array: String,
+}
+
+/// The bytes `count` counts in `members`, if it counts any: a `const void*`
+/// member with `len="count"`, counted by a `size_t`.
+fn blob(members: &[Member], count: &str) -> Option<Blob> {
+    let counter = members.iter().find(|m| m.name == count)?;
+    members.iter().find_map(|m| {
+        (counter.type_name == "size_t"
+            && m.type_name == "void"
+            && m.len.as_deref() == Some(count)
+            && m.pointers == [true])
+        .then(|| Blob {
             count: count.to_string(),
             array: m.name.clone(),
         })
@@ -576,7 +673,7 @@ fn form(vk: &VkXml, spec: &StructSpec, member: &Member) -> Result<Form, Error> {
                 const_: true,
             })
         }
-        "uint32_t" | "uint64_t" | "VkDeviceSize" => {
+        "uint32_t" | "uint64_t" | "VkDeviceSize" | "size_t" => {
             let default = match spec.defaults.iter().find(|(m, _)| *m == member.name) {
                 Some((_, value)) => Some(value.parse().map_err(|_| {
                     Error::Registry(format!(
@@ -589,6 +686,7 @@ fn form(vk: &VkXml, spec: &StructSpec, member: &Member) -> Result<Form, Error> {
             return Ok(Form::Number {
                 wide: ty != "uint32_t",
                 default,
+                size: ty == "size_t",
             });
         }
         _ => {}
@@ -639,6 +737,8 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
                 count != "usageCountsCount"
                     && !spec.elements.iter().any(|e| e.count == count)
                     && handle_array(&aggregate.members, count).is_none()
+                    && struct_array(&aggregate.members, count).is_none()
+                    && blob(&aggregate.members, count).is_none()
             })
         })
         .map(|member| {
@@ -655,6 +755,9 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
                     rust: array_rust(&handles.array),
                     form: Form::Handles(handles),
                 });
+            }
+            if let Some(form) = counted_form(spec, &aggregate.members, &member.name) {
+                return Ok(form);
             }
             if let Some(index) = spec.elements.iter().position(|e| e.count == member.name) {
                 let counted = |len: String| {
@@ -699,6 +802,26 @@ pub fn fields(vk: &VkXml, spec: &StructSpec) -> Result<Vec<Field>, Error> {
         .collect()
 }
 
+/// The field a count member stands for when it counts a plain array of
+/// structures or bytes (not an `elements` entry of `spec`).
+fn counted_form(spec: &StructSpec, members: &[Member], count: &str) -> Option<Field> {
+    if spec.elements.iter().any(|e| e.count == count) {
+        return None;
+    }
+    if let Some(structs) = struct_array(members, count) {
+        return Some(Field {
+            name: structs.array.clone(),
+            rust: array_rust(&structs.array),
+            form: Form::Structs(structs),
+        });
+    }
+    blob(members, count).map(|blob| Field {
+        name: blob.array.clone(),
+        rust: array_rust(&blob.array),
+        form: Form::Blob(blob),
+    })
+}
+
 fn header(out: &mut String, doc: &str) {
     out.push_str(
         "// @generated by `cargo xtask generate` from vk.xml and xtask/src/structs.rs; do not edit.\n",
@@ -721,11 +844,28 @@ fn function(spec: &StructSpec) -> String {
     crate::khr::snake_case(spec.rust)
 }
 
-fn rename(field: &Field) -> &'static str {
-    if field.rust == "ty" {
-        "    #[serde(rename = \"type\")]\n"
+fn rename(field: &Field) -> String {
+    // serde's camelCase of the scene's Rust name, where it is not the
+    // vk.xml name (`constantID`).
+    let ident = crate::khr::snake_case(&field.name);
+    let mut camel = String::new();
+    let mut upper = false;
+    for c in ident.chars() {
+        match c {
+            '_' => upper = true,
+            c if upper => {
+                camel.push(c.to_ascii_uppercase());
+                upper = false;
+            }
+            c => camel.push(c),
+        }
+    }
+    if ident == "ty" {
+        "    #[serde(rename = \"type\")]\n".to_string()
+    } else if camel != field.name {
+        format!("    #[serde(rename = \"{}\")]\n", field.name)
     } else {
-        ""
+        String::new()
     }
 }
 
@@ -745,10 +885,14 @@ fn ash_member(field: &Field) -> String {
             union: true,
             const_: false,
         } => format!("scratch_address(&{member})"),
+        // `size_t` is 64 bits on every target ommcheck builds for.
+        Form::Number { size: true, .. } => format!("{member} as u64"),
         Form::Address { union: false, .. } | Form::Number { .. } | Form::Next => member,
         Form::Bool => format!("{member} != vk::FALSE"),
         // Read by `render_reader`, which knows the structure.
-        Form::Union { .. } | Form::Elements { .. } => field.rust.clone(),
+        Form::Union { .. } | Form::Elements { .. } | Form::Structs(_) | Form::Blob(_) => {
+            field.rust.clone()
+        }
         Form::Handles(h) => format!(
             "unsafe {{ read_array(info.{}, info.{}, function, at.text(\".{}\"), findings) }}\n            \
              .unwrap_or_default().into_iter().map(vk::Handle::as_raw).collect()",
@@ -798,6 +942,8 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                     | Form::Union { .. }
                     | Form::Elements { .. }
                     | Form::Handles(_)
+                    | Form::Structs(_)
+                    | Form::Blob(_)
             )
         }) && spec.extracts.is_empty()
             && spec.model_only.is_empty();
@@ -862,6 +1008,7 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                 Form::Number {
                     wide,
                     default: Some(value),
+                    ..
                 } => (if *wide { "u64" } else { "u32" }, value.to_string()),
                 Form::Address { .. }
                 | Form::Number { wide: true, .. }
@@ -873,6 +1020,19 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                 Form::Handles(h) => {
                     let _ = writeln!(out, "    /// `{}` (a NULL array: none).", h.array);
                     ("Vec<Handle>", "Vec::new()".to_string())
+                }
+                Form::Structs(structs) => {
+                    let _ = writeln!(out, "    /// `{}` (a NULL array: none).", structs.array);
+                    union_type = format!("Vec<{}>", structs.element);
+                    (union_type.as_str(), "Vec::new()".to_string())
+                }
+                Form::Blob(blob) => {
+                    let _ = writeln!(
+                        out,
+                        "    /// The `{}` bytes at `{}` (NULL: none).",
+                        blob.count, blob.array
+                    );
+                    ("Vec<u8>", "Vec::new()".to_string())
                 }
                 Form::Enum {
                     default: EnumDefault::Value(name, value),
@@ -919,6 +1079,8 @@ pub fn render_model(vk: &VkXml) -> Result<String, Error> {
                     | Form::Union { .. }
                     | Form::Elements { .. }
                     | Form::Handles(_)
+                    | Form::Structs(_)
+                    | Form::Blob(_)
             )
         });
         if !unsafe_members && spec.extracts.is_empty() {
@@ -984,6 +1146,7 @@ fn is_eq(vk: &VkXml, spec: &StructSpec) -> Result<bool, Error> {
         let held: Vec<&str> = match &field.form {
             Form::Union { members, .. } => members.iter().map(|m| m.element).collect(),
             Form::Elements { element, .. } => vec![element],
+            Form::Structs(structs) => vec![structs.element],
             _ => Vec::new(),
         };
         for element in held {
@@ -1012,7 +1175,7 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "use schemars::JsonSchema;\nuse serde::{Deserialize, Serialize};\n\n\
          use serde::Deserializer;\n\n\
-         use super::{OtherStruct, UsageDesc};\nuse crate::model::names::{self, Value};\n\
+         use super::{Contents, OtherStruct, UsageDesc};\nuse crate::model::names::{self, Value};\n\
          use crate::scene::args::{AddressArg, HandleArg};\n\n",
     );
     for spec in STRUCTS {
@@ -1048,6 +1211,30 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
                     continue;
                 }
                 Form::Bool => ("    #[serde(default)]\n".to_string(), "bool".to_string()),
+                Form::Structs(structs) => (
+                    format!(
+                        "    /// `{}`; `{}` is their number.\n    \
+                         #[serde(default, skip_serializing_if = \"Vec::is_empty\")]\n",
+                        structs.array, structs.count
+                    ),
+                    format!("Vec<{}Desc>", structs.element),
+                ),
+                Form::Blob(blob) if spec.required.contains(&blob.array.as_str()) => (
+                    format!("    /// The bytes; `{}` is their length.\n", blob.count),
+                    "Contents".to_string(),
+                ),
+                Form::Blob(blob) => (
+                    format!(
+                        "    /// The bytes; `{}` is their length.\n    \
+                         #[serde(default, skip_serializing_if = \"Option::is_none\")]\n",
+                        blob.count
+                    ),
+                    "Option<Contents>".to_string(),
+                ),
+                Form::Number { wide, .. } if spec.required.contains(&field.name.as_str()) => (
+                    String::new(),
+                    if *wide { "u64" } else { "u32" }.to_string(),
+                ),
                 Form::Handles(h) => (
                     format!(
                         "    /// `{}`, by name; `{}` is their number.\n    \
@@ -1082,6 +1269,7 @@ pub fn render_scene_form(vk: &VkXml) -> Result<String, Error> {
                 Form::Number {
                     wide,
                     default: Some(value),
+                    ..
                 } => (
                     format!(
                         "    /// Default {value}.\n    #[serde(skip_serializing_if = \"Option::is_none\")]\n"
@@ -1281,6 +1469,18 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
                 Form::Union { rust, .. } => {
                     format!("self.{}(&{d}, {at})?", crate::khr::snake_case(rust))
                 }
+                Form::Structs(structs) => format!(
+                    "{d}.iter().enumerate().map(|(k, e)| self.{}(e, \
+                     &format!(\"{{at}}.{}[{{k}}]\"))).collect::<Result<Vec<_>>>()?",
+                    function(by_rust(structs.element)),
+                    structs.array
+                ),
+                Form::Blob(blob) if spec.required.contains(&blob.array.as_str()) => {
+                    format!("self.sized_contents(&{d}, {at})?.to_vec()")
+                }
+                Form::Blob(_) => format!(
+                    "match &{d} {{ Some(c) => self.sized_contents(c, {at})?.to_vec(), None => Vec::new() }}"
+                ),
                 Form::Elements {
                     index,
                     element,
@@ -1342,7 +1542,7 @@ pub fn render_resolver(vk: &VkXml) -> Result<String, Error> {
              let defaults = model::{}::default();\n{lets}        {}model::{} {{\n{body}",
             doc(spec).trim_end_matches('.'),
             function(spec),
-            if binds_names(vk, spec)? { "&mut self" } else { "&self" },
+            if resolves_mutably(vk, spec)? { "&mut self" } else { "&self" },
             spec.rust,
             spec.rust,
             spec.rust,
@@ -1419,7 +1619,7 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure with no pNext chain or arrays of its own reads no memory:\n// its `function`, `at` and `findings` go unused.\n#![allow(unused_imports, unused_variables, clippy::ptr_arg)]\n\nuse std::fmt::Display;\n\nuse ash::vk;\nuse ommcheck_vuids::khr;\n\n\
          use super::accel::{self, address, scratch_address};\n\
-         use super::{chain, chain_s_types, read_array, read_elements, usage_counts, ElementArrays};\n\
+         use super::{array_slice, chain, chain_s_types, read_array, read_bytes, read_elements, usage_counts, ElementArrays};\n\
          use crate::model::generated as model;\nuse crate::model::micromap::MicromapUsage;\n\
          use crate::report::location::Locate;\nuse crate::report::Finding;\n\n",
     );
@@ -1430,6 +1630,8 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         }
         let safety = if spec.chained {
             "/// Its own pNext chain is part of the chain the caller walks."
+        } else if !fields.iter().any(|f| f.form == Form::Next) {
+            "/// `info` must be valid as the API requires."
         } else {
             "/// `info`'s pNext chain must be well formed."
         };
@@ -1449,6 +1651,12 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
         } else if fields.iter().any(|f| matches!(f.form, Form::Handles(_))) {
             "\n/// Its arrays of handles must be NULL or valid for their counts, as the\n\
              /// API requires."
+        } else if fields
+            .iter()
+            .any(|f| matches!(f.form, Form::Structs(_) | Form::Blob(_)))
+        {
+            "\n/// Its arrays and bytes must be NULL or valid for their counts, each\n\
+             /// element valid as its own reader requires, as the API requires."
         } else if fields.iter().any(|f| matches!(f.form, Form::Union { .. })) {
             "\n/// Its unions must hold the member their selector selects, valid as\n\
              /// that member's reader requires."
@@ -1555,6 +1763,14 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
                          _ => model::{rust}::None,\n        }}"
                     )
                 }
+                Form::Structs(structs) => struct_array_reader(vk, structs)?,
+                Form::Blob(blob) => format!(
+                    "unsafe {{ read_bytes(info.{}.cast(), info.{}, function, at.text(\".{}\"), findings) }}\n            \
+                     .unwrap_or_default()",
+                    crate::khr::snake_case(&blob.array),
+                    crate::khr::snake_case(&blob.count),
+                    blob.array
+                ),
                 Form::Next if spec.chained || !spec.extracts.is_empty() => "Vec::new()".to_string(),
                 Form::Next => {
                     "unsafe { chain_s_types(info.p_next, function, at, findings) }".to_string()
@@ -1562,7 +1778,10 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
                 _ => ash_member(field),
             };
             if matches!(field.form, Form::Next if !spec.chained && spec.extracts.is_empty())
-                || matches!(field.form, Form::UsageCounts | Form::Handles(_))
+                || matches!(
+                    field.form,
+                    Form::UsageCounts | Form::Handles(_) | Form::Structs(_) | Form::Blob(_)
+                )
             {
                 out.push_str("        // SAFETY: forwarded from the caller.\n");
             }
@@ -1626,6 +1845,32 @@ pub fn render_reader(vk: &VkXml) -> Result<String, Error> {
     Ok(out)
 }
 
+/// The raw reader's expression for a plain array of structures: bounded
+/// by `read_array`'s bound before anything is read, each element read as
+/// its own reader reads it.
+fn struct_array_reader(vk: &VkXml, structs: &Structs) -> Result<String, Error> {
+    let element = by_rust(structs.element);
+    let array = crate::khr::snake_case(&structs.array);
+    let count = crate::khr::snake_case(&structs.count);
+    Ok(if read_by_members(element, &fields(vk, element)?) {
+        format!(
+            "unsafe {{ read_array(info.{array}, info.{count}, function, at.text(\".{}\"), findings) }}\n            \
+             .unwrap_or_default().iter().map(model::{}::from_members).collect()",
+            structs.array, element.rust
+        )
+    } else {
+        format!(
+            "unsafe {{ array_slice(info.{array}, info.{count}, function, at.text(\".{}\"), findings) }}\n            \
+             .unwrap_or_default().iter().enumerate().map(|(i, e)| {{\n                \
+             // SAFETY: each element is one the caller guarantees valid.\n                \
+             unsafe {{ {}(e, function, at.text(\".{}\").index(i), findings) }}\n            }}).collect()",
+            structs.array,
+            function(element),
+            structs.array
+        )
+    })
+}
+
 /// Whether the model's `from_members` reads all of `spec` (no union, no
 /// arrays, no chain of its own to walk), so it has no raw reader.
 pub(crate) fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
@@ -1635,7 +1880,9 @@ pub(crate) fn read_by_members(spec: &StructSpec, fields: &[Field]) -> bool {
             | Form::Address { union: true, .. }
             | Form::Union { .. }
             | Form::Elements { .. }
-            | Form::Handles(_) => false,
+            | Form::Handles(_)
+            | Form::Structs(_)
+            | Form::Blob(_) => false,
             Form::Next => spec.chained,
             _ => true,
         })
@@ -1665,7 +1912,7 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
     out.push_str(
         "// A structure of plain numbers names no objects or addresses.\n\
          #![allow(unused_variables)]\n\n\
-         use super::{chain_entry, elements_count, usage_counts_count, usage_desc, Names};\n\
+         use super::{chain_entry, contents, elements_count, usage_counts_count, usage_desc, Names};\n\
          use crate::model::generated as model;\n\
          use crate::model::names::Value;\nuse crate::scene::format::generated as scene;\n\
          use crate::scene::format::ChainStruct;\nuse crate::scene::ObjectKind;\n\n",
@@ -1698,6 +1945,14 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                     h.kind
                 ),
                 Form::Union { rust, .. } => format!("scene::{rust}Desc::written(&{m}, names)"),
+                Form::Structs(structs) => format!(
+                    "{m}.iter().map(|e| scene::{}Desc::written(e, names)).collect()",
+                    structs.element
+                ),
+                Form::Blob(blob) if spec.required.contains(&blob.array.as_str()) => {
+                    format!("contents(&{m})")
+                }
+                Form::Blob(_) => format!("(!{m}.is_empty()).then(|| contents(&{m}))"),
                 Form::Elements {
                     index,
                     element,
@@ -1821,6 +2076,8 @@ pub fn render_writer(vk: &VkXml) -> Result<String, Error> {
                 Form::Next => "vec![1_000_001_000]".to_string(),
                 Form::Handle(_) => format!("0x1000 + {i}"),
                 Form::Handles(_) => format!("vec![0x1000 + {i}, 0]"),
+                Form::Structs(_) => "vec![Default::default()]".to_string(),
+                Form::Blob(_) => format!("vec![{i}, 0, 0xff]"),
                 Form::Address { .. } => format!("0x2000_0000 + {i}"),
                 Form::Number { .. } | Form::Flags { .. } | Form::Enum { .. } => i.to_string(),
                 // A count beyond the arrays, a one-element array and a NULL

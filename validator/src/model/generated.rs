@@ -700,6 +700,56 @@ impl Default for PipelineLibraryCreateInfo {
     }
 }
 
+/// `VkSpecializationMapEntry`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SpecializationMapEntry {
+    #[serde(rename = "constantID")]
+    pub constant_id: u32,
+    pub offset: u32,
+    pub size: u64,
+}
+
+impl Default for SpecializationMapEntry {
+    fn default() -> Self {
+        Self {
+            constant_id: 0,
+            offset: 0,
+            size: 4,
+        }
+    }
+}
+
+impl SpecializationMapEntry {
+    /// The members of `info`, with no pNext chain (its pointer is not read).
+    pub fn from_members(info: &vk::SpecializationMapEntry) -> Self {
+        Self {
+            constant_id: info.constant_id,
+            offset: info.offset,
+            size: info.size as u64,
+        }
+    }
+}
+
+/// `VkSpecializationInfo`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SpecializationInfo {
+    /// `pMapEntries` (a NULL array: none).
+    pub map_entries: Vec<SpecializationMapEntry>,
+    /// The `dataSize` bytes at `pData` (NULL: none).
+    pub data: Vec<u8>,
+}
+
+impl Default for SpecializationInfo {
+    fn default() -> Self {
+        Self {
+            map_entries: Vec::new(),
+            data: Vec::new(),
+        }
+    }
+}
+
 /// `VkSemaphoreSubmitInfo`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, rename_all = "camelCase")]

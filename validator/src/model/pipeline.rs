@@ -72,7 +72,7 @@ pub struct DependencyInfo {
     pub memory_range_barriers: Vec<Barrier>,
 }
 
-pub use super::generated::SemaphoreSubmitInfo;
+pub use super::generated::{SemaphoreSubmitInfo, SpecializationInfo, SpecializationMapEntry};
 
 /// `VkSubmitInfo2`: the semaphore operations.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -98,6 +98,32 @@ pub struct SpecializationValue {
     pub constant_id: u32,
     /// The bytes of the value, little-endian (a `VkBool32` is 4 bytes).
     pub value: u64,
+}
+
+impl SpecializationValue {
+    /// The value `entry` maps its constant to in `data`, where
+    /// `[offset, offset + size)` lies inside `data` and holds at most 8
+    /// bytes. Other entries break rules that are not micromap rules.
+    pub fn of(entry: &SpecializationMapEntry, data: &[u8]) -> Option<Self> {
+        let start = usize::try_from(entry.offset).ok()?;
+        let size = usize::try_from(entry.size).ok().filter(|size| *size <= 8)?;
+        let bytes = data.get(start..start.checked_add(size)?)?;
+        Some(Self {
+            constant_id: entry.constant_id,
+            value: bytes
+                .iter()
+                .rev()
+                .fold(0u64, |acc, byte| acc << 8 | u64::from(*byte)),
+        })
+    }
+
+    /// The values of the entries of `info` that [`Self::of`] reads.
+    pub fn all(info: &SpecializationInfo) -> Vec<Self> {
+        info.map_entries
+            .iter()
+            .filter_map(|entry| Self::of(entry, &info.data))
+            .collect()
+    }
 }
 
 /// `VkPipelineShaderStageCreateInfo`.

@@ -13,7 +13,10 @@ use ash::vk;
 use ommcheck_vuids::khr;
 
 use super::accel::{self, address, scratch_address};
-use super::{chain, chain_s_types, read_array, read_elements, usage_counts, ElementArrays};
+use super::{
+    array_slice, chain, chain_s_types, read_array, read_bytes, read_elements, usage_counts,
+    ElementArrays,
+};
 use crate::model::generated as model;
 use crate::model::micromap::MicromapUsage;
 use crate::report::location::Locate;
@@ -632,6 +635,47 @@ pub(crate) unsafe fn pipeline_library_create_info(
         .into_iter()
         .map(vk::Handle::as_raw)
         .collect(),
+    }
+}
+
+/// Reads a `VkSpecializationInfo` (at `at`, as findings name it).
+///
+/// # Safety
+/// `info` must be valid as the API requires.
+/// Its arrays and bytes must be NULL or valid for their counts, each
+/// element valid as its own reader requires, as the API requires.
+pub(crate) unsafe fn specialization_info(
+    info: &vk::SpecializationInfo<'_>,
+    function: &'static str,
+    at: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> model::SpecializationInfo {
+    model::SpecializationInfo {
+        // SAFETY: forwarded from the caller.
+        map_entries: unsafe {
+            read_array(
+                info.p_map_entries,
+                info.map_entry_count,
+                function,
+                at.text(".pMapEntries"),
+                findings,
+            )
+        }
+        .unwrap_or_default()
+        .iter()
+        .map(model::SpecializationMapEntry::from_members)
+        .collect(),
+        // SAFETY: forwarded from the caller.
+        data: unsafe {
+            read_bytes(
+                info.p_data.cast(),
+                info.data_size,
+                function,
+                at.text(".pData"),
+                findings,
+            )
+        }
+        .unwrap_or_default(),
     }
 }
 

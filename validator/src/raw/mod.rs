@@ -207,6 +207,51 @@ fn count_cut(
     ));
 }
 
+/// `len` bytes as whole `unit`s (a `u32` word is 4 bytes) bounded by
+/// [`MAX_ELEMENTS`], with a warning naming the bytes (`what`, "bytes of
+/// code") and the unit (`unit_name`, " words") when they are cut.
+pub(crate) fn bounded_units(
+    len: usize,
+    (unit, unit_name): (usize, &str),
+    what: &str,
+    function: &'static str,
+    location: impl Display,
+    findings: &mut Vec<Finding>,
+) -> usize {
+    let units = len / unit.max(1);
+    if units > MAX_ELEMENTS {
+        findings.push(Finding::new(
+            &rules::READ_BOUND,
+            Severity::Warning,
+            function,
+            location.to_string(),
+            format!("{len} {what} exceed what ommcheck reads ({MAX_ELEMENTS}{unit_name}); the rest is not checked"),
+        ));
+    }
+    units.min(MAX_ELEMENTS)
+}
+
+/// Up to [`MAX_ELEMENTS`] of the `len` bytes an application hands in
+/// (`dataSize` with `pData`), with a warning when they are cut; `None` for
+/// a NULL pointer. The bound comes before the allocation.
+///
+/// # Safety
+/// A non-NULL `pointer` must be readable for `len` bytes.
+pub(crate) unsafe fn read_bytes(
+    pointer: *const u8,
+    len: usize,
+    function: &'static str,
+    location: impl Display + Copy,
+    findings: &mut Vec<Finding>,
+) -> Option<Vec<u8>> {
+    if pointer.is_null() {
+        return None;
+    }
+    let read = bounded_units(len, (1, ""), "bytes", function, location, findings);
+    // SAFETY: the caller guarantees `len` bytes are readable, and `read <= len`.
+    Some(unsafe { std::slice::from_raw_parts(pointer, read) }.to_vec())
+}
+
 /// `count` bounded by `bound`, with a warning at `location` when it is cut;
 /// `names`: the count member and what it counts (`["geometryCount",
 /// "geometries"]`).
@@ -993,6 +1038,26 @@ mod tests {
         assert_eq!(findings[0].rule.as_str(), rules::READ_BOUND.id);
         assert_eq!(bounded_len(7, "f", "x", &mut findings), 7);
         assert_eq!(findings.len(), 1);
+    }
+
+    #[test]
+    fn bytes_are_read_up_to_their_bound() {
+        let mut findings = Vec::new();
+        let bytes = [1u8, 2, 3];
+        // SAFETY: `bytes` holds the 3 bytes read; NULL is not read.
+        let (read, null) = unsafe {
+            (
+                read_bytes(bytes.as_ptr(), 3, "f", "x", &mut findings),
+                read_bytes(std::ptr::null(), 3, "f", "x", &mut findings),
+            )
+        };
+        assert_eq!((read, null), (Some(vec![1, 2, 3]), None));
+        assert!(findings.is_empty());
+        let large = vec![7u8; MAX_ELEMENTS];
+        // SAFETY: `read_bytes` reads at most MAX_ELEMENTS bytes, which `large` holds.
+        let read = unsafe { read_bytes(large.as_ptr(), usize::MAX, "f", "x", &mut findings) };
+        assert_eq!(read.map(|r| r.len()), Some(MAX_ELEMENTS));
+        assert_eq!(findings[0].rule.as_str(), rules::READ_BOUND.id);
     }
 
     /// A valid host build: two 2-state level-1 triangles whose data sits in

@@ -9,16 +9,17 @@
 //! properties report).
 //!
 //! The bounds of the rest of [`crate::raw`] hold: arrays up to
-//! [`MAX_ELEMENTS`] elements, chains up to [`super::MAX_CHAIN`] structures
-//! with each address visited once, strings up to [`MAX_NAME_BYTES`] bytes.
+//! [`MAX_ELEMENTS`](super::MAX_ELEMENTS) elements, chains up to
+//! [`super::MAX_CHAIN`] structures with each address visited once, strings
+//! up to [`MAX_NAME_BYTES`] bytes.
 
 use std::ffi::{c_char, c_void};
 
 use ash::vk;
 use ommcheck_vuids::khr;
 
-use super::generated::{pipeline_library_create_info, semaphore_submit_info};
-use super::{bounded_len, chain, read_array, MAX_ELEMENTS};
+use super::generated::{pipeline_library_create_info, semaphore_submit_info, specialization_info};
+use super::{bounded_len, bounded_units, chain, read_array};
 use crate::device::Limits;
 use crate::model::generated::PipelineCreateFlags2CreateInfo;
 use crate::model::pipeline::{
@@ -125,25 +126,8 @@ unsafe fn name(
     String::from_utf8_lossy(&bytes).into_owned()
 }
 
-/// `byte_len / 4` words bounded by [`MAX_ELEMENTS`], with a warning when cut.
-fn bounded_words(
-    byte_len: usize,
-    function: &'static str,
-    location: &str,
-    findings: &mut Vec<Finding>,
-) -> usize {
-    let words = byte_len / 4;
-    if words > MAX_ELEMENTS {
-        findings.push(Finding::new(
-            &rules::READ_BOUND,
-            Severity::Warning,
-            function,
-            location.to_string(),
-            format!("{byte_len} bytes of code exceed what ommcheck reads ({MAX_ELEMENTS} words); the rest is not checked"),
-        ));
-    }
-    words.min(MAX_ELEMENTS)
-}
+/// SPIR-V code counts in 4-byte words (for [`bounded_units`]).
+const WORDS: (usize, &str) = (4, " words");
 
 /// The SPIR-V words of a `VkShaderModuleCreateInfo` (`codeSize` bytes at
 /// `pCode`; empty for NULL).
@@ -159,10 +143,12 @@ pub unsafe fn shader_module_code(
     if info.p_code.is_null() {
         return Vec::new();
     }
-    let words = bounded_words(
+    let words = bounded_units(
         info.code_size,
+        WORDS,
+        "bytes of code",
         function,
-        &format!("{location}.codeSize"),
+        format!("{location}.codeSize"),
         findings,
     );
     // SAFETY: `pCode` is a `uint32_t*` readable for `codeSize` bytes (the
@@ -170,10 +156,8 @@ pub unsafe fn shader_module_code(
     unsafe { std::slice::from_raw_parts(info.p_code, words) }.to_vec()
 }
 
-/// The values a `VkSpecializationInfo` maps its constants to: for each map
-/// entry whose `[offset, offset + size)` lies inside `dataSize` and whose
-/// size is at most 8 bytes, the bytes little-endian. Other entries break
-/// rules that are not micromap rules and are left out.
+/// The values a `VkSpecializationInfo` maps its constants to
+/// ([`SpecializationValue::all`]).
 ///
 /// # Safety
 /// A non-NULL `info` must point to a `VkSpecializationInfo` whose arrays are
@@ -188,42 +172,9 @@ unsafe fn specialization(
     let Some(info) = (unsafe { info.as_ref() }) else {
         return Vec::new();
     };
-    // SAFETY: `pMapEntries` holds `mapEntryCount` entries (the caller's guarantee).
-    let entries = unsafe {
-        read_array(
-            info.p_map_entries,
-            info.map_entry_count,
-            function,
-            &format!("{location}.pMapEntries"),
-            findings,
-        )
-    }
-    .unwrap_or_default();
-    let data = info.p_data.cast::<u8>();
-    if data.is_null() {
-        return Vec::new();
-    }
-    entries
-        .iter()
-        .filter_map(|entry| {
-            let offset = usize::try_from(entry.offset).ok()?;
-            let end = offset.checked_add(entry.size)?;
-            if entry.size > 8 || end > info.data_size {
-                return None;
-            }
-            // SAFETY: `pData` is readable for `dataSize` bytes (the caller's
-            // guarantee) and `[offset, end)` lies inside them.
-            let bytes = unsafe { std::slice::from_raw_parts(data.add(offset), entry.size) };
-            let value = bytes
-                .iter()
-                .rev()
-                .fold(0u64, |acc, byte| acc << 8 | u64::from(*byte));
-            Some(SpecializationValue {
-                constant_id: entry.constant_id,
-                value,
-            })
-        })
-        .collect()
+    // SAFETY: forwarded from the caller.
+    let info = unsafe { specialization_info(info, function, location, findings) };
+    SpecializationValue::all(&info)
 }
 
 /// Reads a `VkPipelineShaderStageCreateInfo`, with the code of a
@@ -535,10 +486,12 @@ pub unsafe fn shader_create_infos(
             |info, at, findings| {
                 let code_type = info.code_type.as_raw();
                 let code = if code_type == SHADER_CODE_TYPE_SPIRV && !info.p_code.is_null() {
-                    let words = bounded_words(
+                    let words = bounded_units(
                         info.code_size,
+                        WORDS,
+                        "bytes of code",
                         function,
-                        &format!("{at}.codeSize"),
+                        format!("{at}.codeSize"),
                         findings,
                     );
                     // SAFETY: `pCode` is readable for `codeSize` bytes (the caller's
@@ -1065,6 +1018,7 @@ mod tests {
     use crate::model::pipeline::{
         ACCESS_MICROMAP_WRITE, CREATE_RAY_TRACING_OPACITY_MICROMAP, STAGE_MICROMAP_BUILD,
     };
+    use crate::raw::MAX_ELEMENTS;
     use crate::{Device, Profile, Validator};
 
     /// Offsets and sizes from vk.xml's member lists with C layout on a
@@ -1221,7 +1175,7 @@ mod tests {
         let read = unsafe { staged_pipeline_info(&graphics, "f", "x", &mut findings) };
         assert!(read.stages.is_empty());
         assert_eq!(
-            bounded_words(usize::MAX, "f", "x", &mut findings),
+            bounded_units(usize::MAX, WORDS, "bytes of code", "f", "x", &mut findings),
             MAX_ELEMENTS
         );
         assert_eq!(findings[0].rule.as_str(), rules::READ_BOUND.id);

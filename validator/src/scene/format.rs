@@ -226,12 +226,11 @@ pub struct HostMemoryDesc {
     pub size: Option<u64>,
     /// The host address; absent: assigned.
     pub address: Option<u64>,
-    #[serde(default)]
     pub contents: Option<Contents>,
 }
 
 /// One piece or a list of pieces of contents.
-#[derive(Debug, JsonSchema)]
+#[derive(Debug, JsonSchema, Serialize)]
 #[serde(untagged)]
 pub enum Contents {
     One(Piece),
@@ -268,31 +267,39 @@ impl Contents {
 }
 
 /// Bytes placed at `at` (default 0): exactly one of the forms.
-#[derive(Debug, Default, Deserialize, JsonSchema)]
+#[derive(Debug, Default, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct Piece {
     #[serde(default)]
     pub at: u64,
     /// Hex digits; spaces, newlines and `_` are ignored.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub hex: Option<String>,
     /// Standard base64.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub base64: Option<String>,
     /// A binary file, relative to the scene's directory.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<String>,
     /// Bytes.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub u8: Option<Vec<u8>>,
     /// Little-endian 16-bit values (an index buffer of VK_INDEX_TYPE_UINT16).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub u16: Option<Vec<u16>>,
     /// Little-endian 32-bit values.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub u32: Option<Vec<u32>>,
     /// Little-endian 64-bit values.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub u64: Option<Vec<u64>>,
     /// `VkMicromapTriangleEXT` entries, 8 bytes each.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub triangles: Option<Vec<TriangleDesc>>,
 }
 
 /// `VkMicromapTriangleEXT`.
-#[derive(Debug, Deserialize, JsonSchema)]
+#[derive(Debug, Deserialize, JsonSchema, Serialize)]
 #[serde(deny_unknown_fields, rename_all = "camelCase")]
 pub struct TriangleDesc {
     pub data_offset: u32,

@@ -16,8 +16,8 @@ use crate::model::Handle;
 use crate::scene::args::{AddressArg, HandleArg};
 use crate::scene::format::{
     AccelerationStructureCreateInfo2Desc, AddressRangeDesc, AllocationCallbacksDesc, ChainStruct,
-    CommandBufferArg, InlineCommandBuffer, MicromapVersionInfoDesc, OtherStruct, SizesInfoDesc,
-    UsageDesc,
+    CommandBufferArg, Contents, InlineCommandBuffer, MicromapVersionInfoDesc, OtherStruct, Piece,
+    SizesInfoDesc, UsageDesc,
 };
 use crate::scene::{ObjectKind, DEVICE_HANDLE};
 
@@ -84,6 +84,14 @@ pub(crate) fn elements_count<T>(
         (None, None) => 0,
     };
     (u32::try_from(implied) != Ok(count)).then_some(count)
+}
+
+/// Bytes as scene contents: one piece of bytes at 0.
+pub(crate) fn contents(bytes: &[u8]) -> Contents {
+    Contents::One(Piece {
+        u8: Some(bytes.to_vec()),
+        ..Piece::default()
+    })
 }
 
 /// `usageCountsCount` where the resolver would not take it from the

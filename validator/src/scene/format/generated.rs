@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use serde::Deserializer;
 
-use super::{OtherStruct, UsageDesc};
+use super::{Contents, OtherStruct, UsageDesc};
 use crate::model::names::{self, Value};
 use crate::scene::args::{AddressArg, HandleArg};
 
@@ -461,6 +461,30 @@ pub struct PipelineLibraryCreateInfoDesc {
     /// `pLibraries`, by name; `libraryCount` is their number.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub p_libraries: Vec<HandleArg>,
+}
+
+/// `VkSpecializationMapEntry`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct SpecializationMapEntryDesc {
+    #[serde(rename = "constantID")]
+    pub constant_id: u32,
+    #[serde(default)]
+    pub offset: u32,
+    /// Default 4.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub size: Option<u64>,
+}
+
+/// `VkSpecializationInfo`.
+#[derive(Debug, Deserialize, Serialize, JsonSchema)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct SpecializationInfoDesc {
+    /// `pMapEntries`; `mapEntryCount` is their number.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub p_map_entries: Vec<SpecializationMapEntryDesc>,
+    /// The bytes; `dataSize` is their length.
+    pub p_data: Contents,
 }
 
 /// `VkSemaphoreSubmitInfo`.

@@ -8,7 +8,7 @@
 use schemars::JsonSchema;
 use serde::Deserialize;
 
-use super::{ChainStruct, CommandBufferArg, Contents};
+use super::{ChainStruct, CommandBufferArg, Contents, SpecializationInfoDesc};
 use crate::model::names::{self, Value};
 use crate::scene::args::{AddressArg, HandleArg};
 
@@ -63,33 +63,6 @@ params!(
     }
 );
 
-/// `VkSpecializationMapEntry`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct SpecializationMapEntryDesc {
-    #[serde(rename = "constantID")]
-    pub constant_id: u32,
-    #[serde(default)]
-    pub offset: u32,
-    /// Bytes (1 to 8); default 4, a `VkBool32` or 32-bit integer.
-    #[serde(default = "four")]
-    pub size: u64,
-}
-
-fn four() -> u64 {
-    4
-}
-
-/// `VkSpecializationInfo`.
-#[derive(Debug, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct SpecializationInfoDesc {
-    #[serde(default)]
-    pub p_map_entries: Vec<SpecializationMapEntryDesc>,
-    /// The data the entries point into.
-    pub p_data: Contents,
-}
-
 /// A structure chained to `VkPipelineShaderStageCreateInfo`: a
 /// `VkShaderModuleCreateInfo` with the code inline (module is then
 /// VK_NULL_HANDLE); any other sType is passed over.
@@ -114,7 +87,6 @@ pub struct ShaderStageDesc {
     /// The entry point (default "main").
     #[serde(default = "main_entry")]
     pub p_name: String,
-    #[serde(default)]
     pub p_specialization_info: Option<SpecializationInfoDesc>,
 }
 
@@ -183,7 +155,6 @@ pub struct ShaderCreateInfoDesc {
     pub p_code: Contents,
     #[serde(default = "main_entry")]
     pub p_name: String,
-    #[serde(default)]
     pub p_specialization_info: Option<SpecializationInfoDesc>,
 }
 

@@ -497,6 +497,40 @@ impl Resolver<'_> {
         })
     }
 
+    /// A `VkSpecializationMapEntry` at `at`.
+    pub(in crate::scene) fn specialization_map_entry(
+        &self,
+        d: &scene::SpecializationMapEntryDesc,
+        at: &str,
+    ) -> Result<model::SpecializationMapEntry> {
+        let defaults = model::SpecializationMapEntry::default();
+        Ok(model::SpecializationMapEntry {
+            constant_id: d.constant_id,
+            offset: d.offset,
+            size: d.size.unwrap_or(defaults.size),
+        })
+    }
+
+    /// A `VkSpecializationInfo` at `at`.
+    pub(in crate::scene) fn specialization_info(
+        &mut self,
+        d: &scene::SpecializationInfoDesc,
+        at: &str,
+    ) -> Result<model::SpecializationInfo> {
+        let defaults = model::SpecializationInfo::default();
+        Ok(model::SpecializationInfo {
+            map_entries: d
+                .p_map_entries
+                .iter()
+                .enumerate()
+                .map(|(k, e)| self.specialization_map_entry(e, &format!("{at}.pMapEntries[{k}]")))
+                .collect::<Result<Vec<_>>>()?,
+            data: self
+                .sized_contents(&d.p_data, &format!("{at}.pData"))?
+                .to_vec(),
+        })
+    }
+
     /// A `VkSemaphoreSubmitInfo` at `at`.
     pub(in crate::scene) fn semaphore_submit_info(
         &mut self,

@@ -154,7 +154,7 @@ impl Resolver<'_> {
     }
 
     /// The bytes `contents` describes, as long as its pieces reach.
-    fn sized_contents(&mut self, contents: &Contents, at: &str) -> Result<Bytes> {
+    pub(super) fn sized_contents(&mut self, contents: &Contents, at: &str) -> Result<Bytes> {
         let mut end = 0u64;
         for (k, piece) in contents.pieces().iter().enumerate() {
             let len = match (piece_len_hint(piece), &piece.file) {
@@ -191,6 +191,8 @@ impl Resolver<'_> {
             .collect())
     }
 
+    /// The values of a `VkSpecializationInfo`: every map entry must select
+    /// 1 to 8 bytes of pData.
     fn specialization(
         &mut self,
         d: &Option<SpecializationInfoDesc>,
@@ -199,38 +201,21 @@ impl Resolver<'_> {
         let Some(d) = d else {
             return Ok(Vec::new());
         };
-        let data = self.sized_contents(&d.p_data, &format!("{at}.pData"))?;
-        d.p_map_entries
-            .iter()
-            .enumerate()
-            .map(|(k, entry)| {
-                let start = u64::from(entry.offset);
-                let bytes = start
-                    .checked_add(entry.size)
-                    .filter(|_| (1..=8).contains(&entry.size))
-                    .and_then(|end| {
-                        data.get(usize::try_from(start).ok()?..usize::try_from(end).ok()?)
-                    });
-                let Some(bytes) = bytes else {
-                    return problem(
-                        format!("{at}.pMapEntries[{k}]"),
-                        format!(
-                            "offset {} and size {} do not select 1 to 8 bytes of the {} bytes of pData",
-                            entry.offset,
-                            entry.size,
-                            data.len()
-                        ),
-                    );
-                };
-                Ok(SpecializationValue {
-                    constant_id: entry.constant_id,
-                    value: bytes
-                        .iter()
-                        .rev()
-                        .fold(0u64, |acc, byte| acc << 8 | u64::from(*byte)),
-                })
-            })
-            .collect()
+        let info = self.specialization_info(d, at)?;
+        for (k, entry) in info.map_entries.iter().enumerate() {
+            if entry.size == 0 || SpecializationValue::of(entry, &info.data).is_none() {
+                return problem(
+                    format!("{at}.pMapEntries[{k}]"),
+                    format!(
+                        "offset {} and size {} do not select 1 to 8 bytes of the {} bytes of pData",
+                        entry.offset,
+                        entry.size,
+                        info.data.len()
+                    ),
+                );
+            }
+        }
+        Ok(SpecializationValue::all(&info))
     }
 
     fn shader_stage(&mut self, d: &ShaderStageDesc, at: &str) -> Result<ShaderStage> {
@@ -680,5 +665,36 @@ impl Resolver<'_> {
             Call::Execution(c) => self.execution_call(c, at),
             _ => return None,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn specialization(json: &str) -> std::result::Result<Vec<SpecializationValue>, String> {
+        let desc: SpecializationInfoDesc = serde_json::from_str(json).unwrap();
+        crate::scene::resolve_alone(|r| r.specialization(&Some(desc), "x"))
+    }
+
+    #[test]
+    fn specialization_values_are_read_from_the_data_and_bad_entries_rejected() {
+        let data = r#""pData": {"u8": [9, 0, 0, 0, 1, 2, 0, 0]}"#;
+        let values = specialization(&format!(
+            r#"{{"pMapEntries": [{{"constantID": 3, "offset": 4}}, {{"constantID": 5, "size": 1}}], {data}}}"#
+        ));
+        let value = |constant_id, value| SpecializationValue { constant_id, value };
+        assert_eq!(values, Ok(vec![value(3, 0x0201), value(5, 9)]));
+        let past_the_end = specialization(&format!(
+            r#"{{"pMapEntries": [{{"constantID": 3, "offset": 6}}], {data}}}"#
+        ));
+        assert_eq!(
+            past_the_end,
+            Err("x.pMapEntries[0]: offset 6 and size 4 do not select 1 to 8 bytes of the 8 bytes of pData".to_string())
+        );
+        let empty = specialization(&format!(
+            r#"{{"pMapEntries": [{{"constantID": 3, "size": 0}}], {data}}}"#
+        ));
+        assert!(empty.is_err(), "{empty:?}");
     }
 }

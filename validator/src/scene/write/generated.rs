@@ -6,7 +6,7 @@
 // A structure of plain numbers names no objects or addresses.
 #![allow(unused_variables)]
 
-use super::{chain_entry, elements_count, usage_counts_count, usage_desc, Names};
+use super::{chain_entry, contents, elements_count, usage_counts_count, usage_desc, Names};
 use crate::model::generated as model;
 use crate::model::names::Value;
 use crate::scene::format::generated as scene;
@@ -438,6 +438,33 @@ impl scene::PipelineLibraryCreateInfoDesc {
                 .iter()
                 .map(|h| names.handle(ObjectKind::Pipeline, *h))
                 .collect(),
+        }
+    }
+}
+
+impl scene::SpecializationMapEntryDesc {
+    /// The scene form of a `VkSpecializationMapEntry`, naming objects and addresses by `names`.
+    pub fn written(model: &model::SpecializationMapEntry, names: &dyn Names) -> Self {
+        let defaults = model::SpecializationMapEntry::default();
+        Self {
+            constant_id: model.constant_id,
+            offset: model.offset,
+            size: (model.size != defaults.size).then_some(model.size),
+        }
+    }
+}
+
+impl scene::SpecializationInfoDesc {
+    /// The scene form of a `VkSpecializationInfo`, naming objects and addresses by `names`.
+    pub fn written(model: &model::SpecializationInfo, names: &dyn Names) -> Self {
+        let defaults = model::SpecializationInfo::default();
+        Self {
+            p_map_entries: model
+                .map_entries
+                .iter()
+                .map(|e| scene::SpecializationMapEntryDesc::written(e, names))
+                .collect(),
+            p_data: contents(&model.data),
         }
     }
 }
@@ -981,6 +1008,42 @@ mod tests {
         let read: scene::PipelineLibraryCreateInfoDesc = serde_json::from_str(&json).unwrap();
         assert_eq!(
             crate::scene::resolve_alone(|r| r.pipeline_library_create_info(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn specialization_map_entry_reads_back_as_written() {
+        let model = model::SpecializationMapEntry {
+            constant_id: 1,
+            offset: 2,
+            size: 3,
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::SpecializationMapEntryDesc::written(&model, names))
+                .unwrap();
+        let read: scene::SpecializationMapEntryDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.specialization_map_entry(&read, "x")),
+            Ok(model),
+            "{json}"
+        );
+    }
+
+    #[test]
+    fn specialization_info_reads_back_as_written() {
+        let model = model::SpecializationInfo {
+            map_entries: vec![Default::default()],
+            data: vec![2, 0, 0xff],
+        };
+        let names: &dyn Names = &Numbers;
+        let json =
+            serde_json::to_string(&scene::SpecializationInfoDesc::written(&model, names)).unwrap();
+        let read: scene::SpecializationInfoDesc = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            crate::scene::resolve_alone(|r| r.specialization_info(&read, "x")),
             Ok(model),
             "{json}"
         );
