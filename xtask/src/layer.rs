@@ -314,6 +314,8 @@ mod tests {
                 "OMMCHECK_GPU_READBACK",
                 "OMMCHECK_GPU_READBACK_MAX_BYTES",
                 "OMMCHECK_GPU_READBACK_INDIRECT_MAX_BYTES",
+                "OMMCHECK_PROVENANCE_STORE",
+                "OMMCHECK_PROVENANCE_STORE_MAX_BYTES",
             ]
         );
         assert_eq!(settings[0]["default"], json!(["error", "warning"]));

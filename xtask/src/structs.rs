@@ -474,8 +474,19 @@ pub struct Structs {
 
 /// The plain array of described structures `count` counts in `members`,
 /// if one does: a `const VkX*` member with `len="count"` whose type is a
-/// structure of [`STRUCTS`] read on its own (not from a chain).
+/// structure of [`STRUCTS`] read on its own (not from a chain), and the
+/// only member `count` counts. A count that also counts an array of
+/// pointers (`geometryCount` with `pGeometries` and `ppGeometries`) is an
+/// `elements` entry's to describe, never a plain array.
 fn struct_array(members: &[Member], count: &str) -> Option<Structs> {
+    let counted = |m: &&Member| {
+        m.len
+            .as_deref()
+            .is_some_and(|len| len.split(',').next() == Some(count))
+    };
+    if members.iter().filter(counted).count() != 1 {
+        return None;
+    }
     members.iter().find_map(|m| {
         let element = STRUCTS.iter().find(|s| s.vk == m.type_name && !s.chained)?;
         (m.len.as_deref() == Some(count) && m.pointers == [true]).then(|| Structs {
