@@ -629,3 +629,29 @@ fn a_hostile_alpha_texture_is_refused() {
     };
     assert!(error.contains("65536 x 65536 texels"), "{error}");
 }
+
+/// An alpha texture that names no acceleration structure of the scene is
+/// refused with the name it meant, not skipped in silence.
+#[test]
+fn an_alpha_texture_of_a_misspelt_structure_is_refused() {
+    let path = textured("misspelt-texture", 8);
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    json["alphaTextures"][0]["accelerationStructure"] = serde_json::json!("blsa");
+    let misspelt = path.with_file_name("misspelt-texture-name.json");
+    std::fs::write(&misspelt, json.to_string()).unwrap();
+    let pick = Pick::Geometry {
+        name: "blas".into(),
+        geometry: 0,
+    };
+    let error = match draw::draw(&Scene::load(&misspelt).unwrap(), &pick) {
+        Ok(_) => panic!("a texture of no structure was skipped"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        error.contains("alphaTextures[0].accelerationStructure")
+            && error.contains("did you mean `blas`?"),
+        "{error}"
+    );
+    assert!(draw::draw(&Scene::load(&path).unwrap(), &pick).is_ok());
+}

@@ -200,6 +200,20 @@ impl Drawable {
             })
     }
 
+    /// Each of `alphaTextures` names an acceleration structure of the
+    /// scene: a misspelt name would otherwise draw a geometry without its
+    /// texture and say nothing.
+    fn textures_name_structures(&self) -> Result<(), DrawError> {
+        for (i, texture) in self.textures.iter().enumerate() {
+            let name = &texture.acceleration_structure;
+            self.find(name, |o| o.kind == STRUCTURE, "acceleration structure")
+                .map_err(|e| {
+                    DrawError::Pick(format!("alphaTextures[{i}].accelerationStructure: {e}"))
+                })?;
+        }
+        Ok(())
+    }
+
     /// The build of the micromap the scene names `name`.
     fn micromap_build(&self, name: &str) -> Result<(&NamedObject, &BuildRecord), DrawError> {
         // A KHR opacity micromap is an acceleration structure built from
@@ -292,6 +306,7 @@ impl Drawable {
         marks: &[Mark],
     ) -> Result<canvas::Canvas, DrawError> {
         let object = self.find(name, |o| o.kind == STRUCTURE, "acceleration structure")?;
+        self.textures_name_structures()?;
         let state = self.validator.state();
         let built = state
             .acceleration_structures
