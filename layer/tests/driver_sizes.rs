@@ -249,14 +249,7 @@ const COMPATIBILITY: &str = "vkGetDeviceMicromapCompatibilityEXT";
 fn deserialize(chain: &Chain, driver_uuid: [u8; 16], compatibility: u8) -> Vec<String> {
     let storage = chain.buffer(4096, vk::BufferUsageFlags::MICROMAP_STORAGE_EXT, 1);
     let micromap = chain.micromap(storage, 4096);
-    let data = Serialized::new(driver_uuid, compatibility);
-    let info = data.deserialize_into(micromap);
-    let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
-        device_fn(chain.device, c"vkCopyMemoryToMicromapEXT");
-    // SAFETY: a valid info whose source holds a 64-byte serialized header.
-    let result = unsafe { copy(chain.device, vk::DeferredOperationKHR::null(), &info) };
-    assert_eq!(result, vk::Result::SUCCESS);
-    chain.collector.take().into_iter().map(|m| m.id).collect()
+    chain.deserialize_micromap_on_host(&Serialized::new(driver_uuid, compatibility), micromap)
 }
 
 #[test]
@@ -317,28 +310,8 @@ fn serialize_then_deserialize(
     from: vk::MicromapEXT,
     into: vk::MicromapEXT,
 ) -> Vec<String> {
-    let serialize: vk::PFN_vkCopyMicromapToMemoryEXT =
-        device_fn(chain.device, c"vkCopyMicromapToMemoryEXT");
-    let to = vk::CopyMicromapToMemoryInfoEXT {
-        src: from,
-        dst: vk::DeviceOrHostAddressKHR {
-            host_address: data.0.as_mut_ptr().cast(),
-        },
-        mode: vk::CopyMicromapModeEXT::SERIALIZE,
-        ..Default::default()
-    };
-    // SAFETY: a valid info whose destination is 64 bytes the test owns (the
-    // fake driver writes 64).
-    let result = unsafe { serialize(chain.device, vk::DeferredOperationKHR::null(), &to) };
-    assert_eq!(result, vk::Result::SUCCESS);
-    chain.collector.take();
-    let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
-        device_fn(chain.device, c"vkCopyMemoryToMicromapEXT");
-    let info = data.deserialize_into(into);
-    // SAFETY: a valid info whose source holds a 64-byte serialized header.
-    let result = unsafe { copy(chain.device, vk::DeferredOperationKHR::null(), &info) };
-    assert_eq!(result, vk::Result::SUCCESS);
-    chain.collector.take().into_iter().map(|m| m.id).collect()
+    chain.serialize_micromap_on_host(from, data);
+    chain.deserialize_micromap_on_host(data, into)
 }
 
 #[test]

@@ -81,17 +81,7 @@ fn structure(chain: &Chain) -> vk::AccelerationStructureKHR {
 
 /// Serializes micromap `from` on the host into `data`.
 fn serialize(chain: &Chain, from: vk::MicromapEXT, data: &mut Serialized) {
-    let serialize: vk::PFN_vkCopyMicromapToMemoryEXT =
-        device_fn(chain.device, c"vkCopyMicromapToMemoryEXT");
-    let info = vk::CopyMicromapToMemoryInfoEXT {
-        src: from,
-        dst: host(data),
-        mode: vk::CopyMicromapModeEXT::SERIALIZE,
-        ..Default::default()
-    };
-    // SAFETY: a valid info whose destination is 64 bytes the test owns.
-    let result = unsafe { serialize(chain.device, vk::DeferredOperationKHR::null(), &info) };
-    assert_eq!(result, vk::Result::SUCCESS);
+    chain.serialize_micromap_on_host(from, data);
 }
 
 fn host(data: &mut Serialized) -> vk::DeviceOrHostAddressKHR {
@@ -117,14 +107,7 @@ fn serialize_structure(chain: &Chain, from: vk::AccelerationStructureKHR, data: 
 
 /// Deserializes `data` into micromap `into` on the host; the ids drawn.
 fn deserialize(chain: &Chain, data: &Serialized, into: vk::MicromapEXT) -> Vec<String> {
-    chain.collector.take();
-    let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
-        device_fn(chain.device, c"vkCopyMemoryToMicromapEXT");
-    let info = data.deserialize_into(into);
-    // SAFETY: a valid info whose source holds 64 bytes of serialized data.
-    let result = unsafe { copy(chain.device, vk::DeferredOperationKHR::null(), &info) };
-    assert_eq!(result, vk::Result::SUCCESS);
-    chain.collector.take().into_iter().map(|m| m.id).collect()
+    chain.deserialize_micromap_on_host(data, into)
 }
 
 /// The bytes copied to another place, as an application caching them would

@@ -6,7 +6,7 @@ use std::ffi::CStr;
 
 use ash::vk;
 
-use super::{add_messenger, device_fn, fake_gdpa, Chain, Collector};
+use super::{add_messenger, device_fn, fake_gdpa, Chain, Collector, Serialized};
 
 /// Whom an application's calls go to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -126,6 +126,43 @@ pub const REPORT_EVERYTHING: [(&CStr, &CStr); 2] = [
 ];
 
 impl Chain {
+    /// Serializes micromap `from` on the host (vkCopyMicromapToMemoryEXT)
+    /// into `data`.
+    pub fn serialize_micromap_on_host(&self, from: vk::MicromapEXT, data: &mut Serialized) {
+        let serialize: vk::PFN_vkCopyMicromapToMemoryEXT =
+            device_fn(self.device, c"vkCopyMicromapToMemoryEXT");
+        let info = vk::CopyMicromapToMemoryInfoEXT {
+            src: from,
+            dst: vk::DeviceOrHostAddressKHR {
+                host_address: data.0.as_mut_ptr().cast(),
+            },
+            mode: vk::CopyMicromapModeEXT::SERIALIZE,
+            ..Default::default()
+        };
+        // SAFETY: a valid info whose destination is the 64 bytes of `data`
+        // (the fake driver writes 64).
+        let result = unsafe { serialize(self.device, vk::DeferredOperationKHR::null(), &info) };
+        assert_eq!(result, vk::Result::SUCCESS);
+    }
+
+    /// Deserializes `data` into micromap `into` on the host
+    /// (vkCopyMemoryToMicromapEXT); the ids of the messages the
+    /// deserialization drew (those before it are dropped).
+    pub fn deserialize_micromap_on_host(
+        &self,
+        data: &Serialized,
+        into: vk::MicromapEXT,
+    ) -> Vec<String> {
+        self.collector.take();
+        let copy: vk::PFN_vkCopyMemoryToMicromapEXT =
+            device_fn(self.device, c"vkCopyMemoryToMicromapEXT");
+        let info = data.deserialize_into(into);
+        // SAFETY: a valid info whose source holds 64 bytes of serialized data.
+        let result = unsafe { copy(self.device, vk::DeferredOperationKHR::null(), &info) };
+        assert_eq!(result, vk::Result::SUCCESS);
+        self.collector.take().into_iter().map(|m| m.id).collect()
+    }
+
     /// A messenger collecting the information messages (the chain's own
     /// collects errors and warnings).
     pub fn info_collector(&self) -> Box<Collector> {
