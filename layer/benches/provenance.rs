@@ -75,20 +75,8 @@ fn deserialize(c: &mut Criterion) {
     let mut group = c.benchmark_group("provenance/deserialize");
     for (name, value) in [("store off", c"off"), ("store on", dir.as_c_str())] {
         let (chain, from, into) = setup(value);
-        let serialize: vk::PFN_vkCopyMicromapToMemoryEXT =
-            device_fn(chain.device, c"vkCopyMicromapToMemoryEXT");
         let mut written = Box::new(Serialized::new(DRIVER_UUID, 0));
-        let info = vk::CopyMicromapToMemoryInfoEXT {
-            src: from,
-            dst: vk::DeviceOrHostAddressKHR {
-                host_address: written.0.as_mut_ptr().cast(),
-            },
-            mode: vk::CopyMicromapModeEXT::SERIALIZE,
-            ..Default::default()
-        };
-        // SAFETY: a valid info whose destination is 64 bytes.
-        let result = unsafe { serialize(chain.device, vk::DeferredOperationKHR::null(), &info) };
-        assert_eq!(result, vk::Result::SUCCESS);
+        chain.serialize_micromap_on_host(from, &mut written);
         chain.collector.take();
         let elsewhere = Box::new(Serialized(written.0));
         let call: vk::PFN_vkCopyMemoryToMicromapEXT =
